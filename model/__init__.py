@@ -1,0 +1,1 @@
+"""Model: planar constraint-based kinematics and inverse dynamics."""

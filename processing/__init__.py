@@ -1,0 +1,1 @@
+"""Processing: raw channels to physical, aligned and angle-domain signals."""

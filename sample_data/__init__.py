@@ -1,0 +1,1 @@
+"""Sample data: a virtual test rig and the sample runs it writes."""

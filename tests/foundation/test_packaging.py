@@ -1,0 +1,67 @@
+"""The wheel contains every subpackage, and the folders import only under the rigval namespace."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import tomllib
+import zipfile
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _declared() -> tuple[list[str], dict[str, str]]:
+    config = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
+    return config["packages"], config["package-dir"]
+
+
+def _on_disk(package_dir: dict[str, str]) -> set[str]:
+    found = set()
+    for name, folder in package_dir.items():
+        for init in (REPO / folder).rglob("__init__.py"):
+            rel = init.parent.relative_to(REPO / folder)
+            found.add(".".join([name, *rel.parts]))
+    return found
+
+
+def test_packages_list_matches_folders_on_disk() -> None:
+    packages, package_dir = _declared()
+    assert set(packages) == _on_disk(package_dir)
+
+
+def test_every_package_folder_has_py_typed() -> None:
+    _, package_dir = _declared()
+    for folder in package_dir.values():
+        assert (REPO / folder / "py.typed").is_file(), folder
+
+
+def test_bare_folder_names_do_not_import_from_outside(tmp_path: Path) -> None:
+    code = "import importlib.util as u; print(u.find_spec('model') is None)"
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                         text=True, check=True)
+    assert out.stdout.strip() == "True"
+    code = "import rigval.model, rigval.validation.cli; print('ok')"
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                         text=True, check=True)
+    assert out.stdout.strip() == "ok"
+
+
+@pytest.mark.slow
+def test_built_wheel_contains_every_package(tmp_path: Path) -> None:
+    pytest.importorskip("setuptools")
+    result = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-w",
+         str(tmp_path), str(REPO)],
+        capture_output=True, text=True,
+    )
+    assert result.returncode == 0, result.stderr[-2000:]
+    wheel = next(tmp_path.glob("rigval-*.whl"))
+    names = zipfile.ZipFile(wheel).namelist()
+    packages, _ = _declared()
+    for package in packages:
+        path = package.replace(".", "/") + "/__init__.py"
+        assert path in names, f"{path} missing from {wheel.name}"
+        assert package.replace(".", "/") + "/py.typed" in names

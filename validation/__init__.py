@@ -1,0 +1,1 @@
+"""Validation: compare measurement and model, metrics, pass/fail, reports and the CLI."""
