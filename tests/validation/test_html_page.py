@@ -1,0 +1,54 @@
+"""The shared HTML page builder: escaping, tables, embedded figures, self-contained output."""
+
+from __future__ import annotations
+
+import base64
+import re
+
+from matplotlib.figure import Figure
+
+from rigval.validation.html import Page, figure_data_uri, format_value
+
+
+def _figure() -> Figure:
+    fig = Figure(figsize=(2, 1.5))
+    fig.add_subplot().plot([0, 1, 2], [1, 0, 1])
+    return fig
+
+
+def test_figure_is_embedded_as_a_decodable_png() -> None:
+    uri = figure_data_uri(_figure(), dpi=50)
+    assert uri.startswith("data:image/png;base64,")
+    png = base64.b64decode(uri.split(",", 1)[1])
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    width = int.from_bytes(png[16:20], "big")
+    assert width == 100  # 2 in x 50 dpi
+
+
+def test_page_escapes_text_and_links_sections() -> None:
+    page = Page("a <b> & c")
+    anchor = page.section("Channel <acc1>")
+    page.paragraph("x < y")
+    page.table([{"name": "acc1", "rating": 0.91234567, "status": "pass"},
+                {"name": "tor1", "rating": float("nan"), "status": "fail"}], caption="metrics")
+    page.figure(_figure(), caption="overlay", fmt="svg")
+    text = page.render()
+    assert "<b>" not in text.split("<body>")[1].split("</header>")[0]
+    assert "Channel &lt;acc1&gt;" in text and "x &lt; y" in text
+    assert f'href="#{anchor}"' in text and f'id="{anchor}"' in text
+    assert ">0.9123<" in text and '"text ok">pass<' in text and '"text bad">fail<' in text
+    assert "<svg" in text and "<?xml" not in text
+    assert not re.search(r'(src|href)="(https?:|file:|/)', text)  # nothing outside the file
+
+
+def test_duplicate_headings_get_unique_ids() -> None:
+    page = Page("t")
+    assert page.section("Result") != page.section("Result")
+
+
+def test_format_value() -> None:
+    assert format_value(None) == "–"
+    assert format_value(True) == "yes"
+    assert format_value(3) == "3"
+    assert format_value(1234567.0, 3) == "1.23e+06"
+    assert format_value(float("nan")) == "–"

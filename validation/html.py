@@ -1,0 +1,266 @@
+"""A small builder for self-contained HTML report pages.
+
+A :class:`Page` collects sections, paragraphs, key-value lists, tables and matplotlib figures and
+renders them into one HTML file that opens offline: the style sheet is inline and every figure is
+embedded as a base64 PNG (``data:`` URI) or as inline SVG. Text is always escaped; only
+:meth:`Page.raw` inserts markup verbatim.
+
+Example
+-------
+>>> from matplotlib.figure import Figure
+>>> page = Page("rigval report", subtitle="run 3")
+>>> page.section("Summary")
+>>> page.facts({"scene": "run3.toml", "result": "passed"})
+>>> fig = Figure(figsize=(4, 3)); _ = fig.add_subplot().plot([0, 1], [0, 1])
+>>> page.figure(fig, caption="a line")
+>>> html_text = page.render()
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html
+import io
+import math
+import numbers
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any, Literal
+
+from matplotlib.figure import Figure
+
+__all__ = ["STATUS_CLASSES", "Page", "escape", "figure_data_uri", "figure_svg", "format_value"]
+
+#: CSS class per status word; :meth:`Page.table` colours cells whose text is one of these.
+STATUS_CLASSES = {"pass": "ok", "passed": "ok", "ok": "ok", "fail": "bad", "failed": "bad",
+                  "inconclusive": "warn", "warning": "warn"}
+
+_STYLE = """
+body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;margin:0;color:#1b1f24;
+background:#fff;line-height:1.45}
+main{max-width:1100px;margin:0 auto;padding:1.5rem 2rem 4rem}
+header{border-bottom:2px solid #1b1f24;margin-bottom:1rem}
+h1{font-size:1.7rem;margin:.2rem 0}
+.subtitle{color:#57606a;margin:.2rem 0 .8rem}
+h2{font-size:1.3rem;margin-top:2.2rem;border-bottom:1px solid #d0d7de;padding-bottom:.2rem}
+h3{font-size:1.08rem;margin-top:1.6rem}
+nav ol{columns:2;font-size:.92rem}
+table{border-collapse:collapse;margin:.6rem 0 1rem;font-size:.86rem}
+caption{caption-side:top;text-align:left;font-weight:600;padding:.2rem 0}
+th,td{border:1px solid #d0d7de;padding:.22rem .5rem;text-align:right;vertical-align:top}
+th{background:#f6f8fa}
+td.text,th.text{text-align:left}
+dl{display:grid;grid-template-columns:max-content auto;gap:.15rem 1rem;font-size:.92rem}
+dt{font-weight:600}
+dd{margin:0;word-break:break-all}
+figure{margin:1rem 0}
+figure img,figure svg{max-width:100%;height:auto}
+figcaption{font-size:.86rem;color:#57606a}
+.ok{background:#dafbe1;color:#116329;font-weight:600}
+.bad{background:#ffebe9;color:#a40e26;font-weight:600}
+.warn{background:#fff8c5;color:#7d4e00;font-weight:600}
+pre{background:#f6f8fa;padding:.6rem;overflow-x:auto;font-size:.8rem}
+footer{margin-top:3rem;color:#57606a;font-size:.8rem}
+"""
+
+
+def escape(text: Any) -> str:
+    """Return ``str(text)`` with ``&``, ``<``, ``>`` and quotes escaped for HTML."""
+    return html.escape(str(text), quote=True)
+
+
+def format_value(value: Any, digits: int = 4) -> str:
+    """Return a table cell's text: floats with ``digits`` significant digits, NaN as a dash.
+
+    Parameters
+    ----------
+    value : object
+        The value; bools print as ``yes``/``no``, None as a dash.
+    digits : int
+        Significant digits for real numbers.
+    """
+    if value is None:
+        return "–"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        number = float(value)
+        if math.isnan(number):
+            return "–"
+        return f"{number:.{digits}g}"
+    return str(value)
+
+
+def figure_data_uri(fig: Figure, *, dpi: float = 110) -> str:
+    """Return a figure as a ``data:image/png;base64,...`` URI.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure (built without pyplot).
+    dpi : float
+        Resolution in dots per inch.
+    """
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi)
+    return "data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode("ascii")
+
+
+def figure_svg(fig: Figure) -> str:
+    """Return a figure as an inline ``<svg>`` element (XML prolog and DOCTYPE removed)."""
+    buffer = io.StringIO()
+    fig.savefig(buffer, format="svg")
+    text = buffer.getvalue()
+    return text[text.index("<svg"):]
+
+
+def _slug(text: str, taken: set[str]) -> str:
+    """Return a unique HTML id made from ``text``."""
+    base = re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-") or "section"
+    slug, n = base, 2
+    while slug in taken:
+        slug, n = f"{base}-{n}", n + 1
+    taken.add(slug)
+    return slug
+
+
+class Page:
+    """A self-contained HTML page built from sections, text, tables and figures.
+
+    Parameters
+    ----------
+    title : str
+        Page title (``<title>`` and the ``<h1>`` heading).
+    subtitle : str, optional
+        One line under the heading (run, date, status).
+    contents : bool
+        Whether to render a table of contents of the level-2 sections under the header.
+    """
+
+    def __init__(self, title: str, *, subtitle: str | None = None, contents: bool = True) -> None:
+        self.title = title
+        self.subtitle = subtitle
+        self.contents = contents
+        self._parts: list[str] = []
+        self._toc: list[tuple[str, str]] = []
+        self._ids: set[str] = set()
+
+    def section(self, heading: str, *, level: Literal[2, 3, 4] = 2) -> str:
+        """Start a section with a heading and return its HTML id (for links).
+
+        Level-2 sections are listed in the table of contents.
+        """
+        anchor = _slug(heading, self._ids)
+        self._parts.append(f'<h{level} id="{anchor}">{escape(heading)}</h{level}>')
+        if level == 2:
+            self._toc.append((anchor, heading))
+        return anchor
+
+    def paragraph(self, text: str, *, css_class: str | None = None) -> None:
+        """Add a paragraph of plain (escaped) text, optionally with a CSS class (``ok``, ...)."""
+        attr = f' class="{escape(css_class)}"' if css_class else ""
+        self._parts.append(f"<p{attr}>{escape(text)}</p>")
+
+    def facts(self, items: Mapping[str, Any]) -> None:
+        """Add a key-value list (a ``<dl>``), values formatted by :func:`format_value`."""
+        rows = "".join(f"<dt>{escape(k)}</dt><dd>{escape(format_value(v))}</dd>"
+                       for k, v in items.items())
+        self._parts.append(f"<dl>{rows}</dl>")
+
+    def table(self, rows: Iterable[Mapping[str, Any]], *, columns: Sequence[str] | None = None,
+              caption: str | None = None, digits: int = 4) -> None:
+        """Add a table with one row per mapping.
+
+        Parameters
+        ----------
+        rows : iterable of mapping
+            Row values by column name; missing entries print as a dash.
+        columns : sequence of str, optional
+            Column order; default the keys of the first row, then any new keys in order.
+        caption : str, optional
+            Table caption.
+        digits : int
+            Significant digits for real numbers.
+        """
+        rows = list(rows)
+        if columns is None:
+            columns = list(dict.fromkeys(key for row in rows for key in row))
+        head = "".join(f'<th class="text">{escape(c)}</th>' for c in columns)
+        body = []
+        for row in rows:
+            cells = []
+            for column in columns:
+                value = row.get(column)
+                text = format_value(value, digits)
+                classes = []
+                if not isinstance(value, numbers.Real) or isinstance(value, bool):
+                    classes.append("text")
+                status = STATUS_CLASSES.get(text.lower())
+                if status:
+                    classes.append(status)
+                attr = f' class="{" ".join(classes)}"' if classes else ""
+                cells.append(f"<td{attr}>{escape(text)}</td>")
+            body.append("<tr>" + "".join(cells) + "</tr>")
+        cap = f"<caption>{escape(caption)}</caption>" if caption else ""
+        self._parts.append(f"<table>{cap}<thead><tr>{head}</tr></thead>"
+                           f"<tbody>{''.join(body)}</tbody></table>")
+
+    def figure(self, fig: Figure, *, caption: str | None = None, alt: str | None = None,
+               fmt: Literal["png", "svg"] = "png", dpi: float = 110) -> None:
+        """Embed a matplotlib figure (base64 PNG or inline SVG) with an optional caption.
+
+        Parameters
+        ----------
+        fig : matplotlib.figure.Figure
+            The figure; it is rendered now, so it may be discarded afterwards.
+        caption : str, optional
+            Caption under the figure.
+        alt : str, optional
+            Alternative text of the image; default the caption.
+        fmt : {"png", "svg"}
+            Embedding format.
+        dpi : float
+            Resolution of PNG figures in dots per inch.
+        """
+        if fmt == "svg":
+            body = figure_svg(fig)
+        else:
+            alt_text = escape(alt or caption or "figure")
+            body = f'<img src="{figure_data_uri(fig, dpi=dpi)}" alt="{alt_text}">'
+        cap = f"<figcaption>{escape(caption)}</figcaption>" if caption else ""
+        self._parts.append(f"<figure>{body}{cap}</figure>")
+
+    def preformatted(self, text: str) -> None:
+        """Add a block of preformatted text (a scene file, a log), escaped."""
+        self._parts.append(f"<pre>{escape(text)}</pre>")
+
+    def raw(self, markup: str) -> None:
+        """Add trusted HTML markup verbatim (never pass user text here unescaped)."""
+        self._parts.append(markup)
+
+    def render(self) -> str:
+        """Return the whole page as an HTML5 document."""
+        sub = f'<p class="subtitle">{escape(self.subtitle)}</p>' if self.subtitle else ""
+        toc = ""
+        if self.contents and self._toc:
+            items = "".join(f'<li><a href="#{a}">{escape(t)}</a></li>' for a, t in self._toc)
+            toc = f"<nav><ol>{items}</ol></nav>"
+        stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
+        return (
+            '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+            '<meta name="viewport" content="width=device-width, initial-scale=1">'
+            f"<title>{escape(self.title)}</title><style>{_STYLE}</style></head>"
+            f"<body><main><header><h1>{escape(self.title)}</h1>{sub}</header>{toc}"
+            + "\n".join(self._parts)
+            + f"<footer>Written by rigval on {stamp}.</footer></main></body></html>\n"
+        )
+
+    def write(self, path: str | Path) -> Path:
+        """Render the page and write it to ``path`` (UTF-8); return the path."""
+        path = Path(path)
+        path.write_text(self.render(), encoding="utf-8")
+        return path
