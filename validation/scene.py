@@ -1,0 +1,947 @@
+"""Scene files: one validation case as TOML, parsed into frozen dataclasses.
+
+A scene names the run's data files and their channel maps, how the clocks are aligned, how the
+model's drives are excited and what is compared with what (format ``rigval-scene/1``, every key in
+``docs/scene.md``). :func:`load_scene` reads and checks a scene; every problem is a
+:class:`~rigval.acquisition.errors.SceneError` whose ``where["key"]`` is the key path, e.g.
+``comparisons[2].model.item``. Paths in a scene are relative to the scene file.
+
+Checks made here, before any data is read: files exist; every ``stream.channel`` reference names a
+declared channel of the right sensor kind; each sensor has its required calibration keys and no
+unknown ones; each comparison's model output exists in the mechanism (quantity, item, axis); the
+unit of the converted measured channel equals the unit of the model quantity times
+``scale_units``; thresholds parse. Whether each channel exists in its file is checked when the file
+is read (:func:`rigval.validation.pipeline.run_scene`), also as a :class:`SceneError`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import math
+import operator
+import re
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Literal
+
+from rigval.acquisition.errors import SceneError, UnitError
+from rigval.validation.units import dimension, multiply
+
+__all__ = [
+    "MODEL_QUANTITIES",
+    "SCHEMA",
+    "SENSORS",
+    "AlignmentSpec",
+    "AngleSpec",
+    "ChannelRef",
+    "ChannelSpec",
+    "ComparisonSpec",
+    "DriverSpec",
+    "MechanismNames",
+    "ModelOutput",
+    "ModelSpec",
+    "PredictionSpec",
+    "PulseSpec",
+    "Scene",
+    "StreamSpec",
+    "Threshold",
+    "check_mechanism_names",
+    "load_scene",
+    "mechanism_names",
+    "parse_scene",
+]
+
+logger = logging.getLogger(__name__)
+
+SCHEMA = "rigval-scene/1"
+
+
+@dataclass(frozen=True)
+class SensorKind:
+    """What a sensor kind needs and yields.
+
+    Parameters
+    ----------
+    required : tuple of str
+        Calibration keys that must be given.
+    optional : mapping of str to object
+        Optional keys and their defaults.
+    units : callable
+        Unit of the converted channel, from its calibration parameters.
+    """
+
+    required: tuple[str, ...]
+    optional: Mapping[str, Any]
+    units: Callable[[Mapping[str, Any]], str]
+
+
+#: Sensor kinds a channel may declare (``sensor = ...``), their keys and their converted unit.
+SENSORS: Mapping[str, SensorKind] = MappingProxyType({
+    "charge_accelerometer": SensorKind(
+        ("charge_sensitivity", "amplifier_gain"),
+        {"highpass_hz": None, "correct_highpass": False},
+        lambda p: "m s-2"),
+    "strain_bridge": SensorKind(
+        ("bridge", "gauge_factor", "excitation"),
+        {"gauge_resistance": 120.0, "lead_resistance": 0.0, "poisson": 0.3,
+         "youngs_modulus": None, "null_offset": "none"},
+        lambda p: "Pa" if p.get("youngs_modulus") is not None else "1"),
+    "torsion_bridge": SensorKind(
+        ("bridge", "gauge_factor", "excitation", "outer_diameter", "shear_modulus"),
+        {"inner_diameter": 0.0, "null_offset": "none"},
+        lambda p: "N m"),
+    "encoder": SensorKind(("counts_per_rev",), {}, lambda p: "rad"),
+    "reference_pulse": SensorKind((), {}, lambda p: "V"),
+    "physical": SensorKind(("units",), {}, lambda p: str(p["units"])),
+})
+
+_CHOICES: Mapping[str, tuple[str, ...]] = {
+    "strain_bridge.bridge": ("quarter_I", "quarter_II", "half_I", "half_II", "full_I", "full_II",
+                             "full_III"),
+    "strain_bridge.null_offset": ("none", "first_second"),
+    "torsion_bridge.bridge": ("full", "half"),
+    "torsion_bridge.null_offset": ("none", "first_second"),
+}
+_POSITIVE = ("charge_sensitivity", "amplifier_gain", "gauge_factor", "excitation",
+             "gauge_resistance", "outer_diameter", "shear_modulus", "youngs_modulus",
+             "counts_per_rev", "highpass_hz")
+
+#: Model quantities a comparison may name (design section 3.3): item kind, axes, unit per axis.
+MODEL_QUANTITIES: Mapping[str, tuple[str, tuple[str, ...] | None, Mapping[str, str]]] = (
+    MappingProxyType({
+        "position": ("body", ("x", "y", "theta"), {"x": "m", "y": "m", "theta": "rad"}),
+        "velocity": ("body", ("x", "y", "theta"),
+                     {"x": "m s-1", "y": "m s-1", "theta": "rad s-1"}),
+        "acceleration": ("body", ("x", "y", "theta"),
+                         {"x": "m s-2", "y": "m s-2", "theta": "rad s-2"}),
+        "point_position": ("point", ("x", "y"), {"x": "m", "y": "m"}),
+        "point_velocity": ("point", ("x", "y"), {"x": "m s-1", "y": "m s-1"}),
+        "point_acceleration": ("point", ("x", "y"), {"x": "m s-2", "y": "m s-2"}),
+        "joint_force": ("joint", ("x", "y"), {"x": "N", "y": "N"}),
+        "driver_torque": ("driver", None, {"": "N m"}),
+    }))
+
+_OPERATORS: Mapping[str, Callable[[float, float], bool]] = {
+    ">=": operator.ge, "<=": operator.le, ">": operator.gt, "<": operator.lt}
+_THRESHOLD = re.compile(r"^\s*(abs\s+)?(>=|<=|>|<)\s*([-+0-9.eE]+)\s*$")
+
+
+@dataclass(frozen=True)
+class ChannelRef:
+    """A ``"stream.channel"`` reference.
+
+    Parameters
+    ----------
+    stream : str
+        Stream name (a ``[streams.X]`` table).
+    channel : str
+        Channel name within it.
+    """
+
+    stream: str
+    channel: str
+
+    def __str__(self) -> str:
+        return f"{self.stream}.{self.channel}"
+
+
+@dataclass(frozen=True)
+class ChannelSpec:
+    """One channel of a stream: where it is in the file and how it becomes physical.
+
+    Parameters
+    ----------
+    name : str
+        Channel name in the scene (the table key).
+    source : str
+        Channel name in the file (TDMS channel or CSV column).
+    sensor : str
+        Sensor kind, one of :data:`SENSORS`.
+    params : mapping
+        Calibration parameters with defaults filled in (SI units, see ``docs/scene.md``).
+    units : str
+        Unit of the channel after conversion.
+    key : str
+        Key path of the table, e.g. ``streams.cdaq.channels.acc1``.
+    """
+
+    name: str
+    source: str
+    sensor: str
+    params: Mapping[str, Any]
+    units: str
+    key: str
+
+
+@dataclass(frozen=True)
+class StreamSpec:
+    """One device's file and the channels used from it.
+
+    Parameters
+    ----------
+    name : str
+        Stream name (the table key).
+    file : pathlib.Path
+        Data file, absolute.
+    device : str
+        Device profile, e.g. ``"cDAQ-9172"`` or ``"WLS-9163"``.
+    reader : mapping
+        Reader options passed to :func:`rigval.acquisition.read`.
+    channels : mapping of str to ChannelSpec
+        The channels used, by scene name.
+    table : mapping
+        The stream's TOML table as written (for the acquisition channel-map parser).
+    """
+
+    name: str
+    file: Path
+    device: str
+    reader: Mapping[str, Any]
+    channels: Mapping[str, ChannelSpec]
+    table: Mapping[str, Any] = field(repr=False)
+
+
+@dataclass(frozen=True)
+class PulseSpec:
+    """A non-reference stream's reference pulse channel.
+
+    Parameters
+    ----------
+    channel : ChannelRef
+        The pulse channel.
+    per_revolution : int
+        Pulses per main-shaft revolution (2 for a lifting shaft turning twice as fast).
+    """
+
+    channel: ChannelRef
+    per_revolution: int
+
+
+@dataclass(frozen=True)
+class AlignmentSpec:
+    """How the streams' clocks are brought onto the reference stream's timeline.
+
+    Parameters
+    ----------
+    reference : str
+        Stream whose clock is the timeline.
+    main_encoder : ChannelRef
+        Main-shaft encoder: phi_F(t).
+    main_reference_pulse : ChannelRef
+        Once-per-revolution pulse on the reference stream: phi_F = 0 at its rising edge.
+    pulses : mapping of str to PulseSpec
+        Per other stream, its pulse channel.
+    """
+
+    reference: str
+    main_encoder: ChannelRef
+    main_reference_pulse: ChannelRef
+    pulses: Mapping[str, PulseSpec]
+
+
+@dataclass(frozen=True)
+class AngleSpec:
+    """The uniform phi_F grid on which measurement and model are compared.
+
+    Parameters
+    ----------
+    points_per_revolution : int
+        Grid points per revolution (360 is 1 degree).
+    interpolation : {"linear", "cubic"}
+        Interpolation of amplitudes when resampling onto the grid.
+    min_cycles : int
+        Fewest whole revolutions a run must contain.
+    """
+
+    points_per_revolution: int = 360
+    interpolation: Literal["linear", "cubic"] = "cubic"
+    min_cycles: int = 3
+
+
+@dataclass(frozen=True)
+class DriverSpec:
+    """How a model driver follows a measured encoder (``drives = "measured"``).
+
+    Parameters
+    ----------
+    name : str
+        Driver name in the mechanism file.
+    encoder : ChannelRef
+        Encoder channel measuring the driven shaft.
+    angle_at_reference : float
+        Driver angle in rad when the main reference pulse fires (phi_F = 0).
+    direction : {1, -1}
+        +1 when the driver angle grows with the encoder count.
+    """
+
+    name: str
+    encoder: ChannelRef
+    angle_at_reference: float
+    direction: int = 1
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """The model side: which mechanism and how its drives are excited.
+
+    Parameters
+    ----------
+    drives : {"measured", "analytic"}
+        ``"measured"``: drive angles identified from the encoders; ``"analytic"``: the mechanism
+        file's drive laws.
+    drivers : mapping of str to DriverSpec
+        Per driver (``drives = "measured"`` only).
+    """
+
+    drives: Literal["measured", "analytic"]
+    drivers: Mapping[str, DriverSpec]
+
+
+@dataclass(frozen=True)
+class ModelOutput:
+    """One model quantity (design section 3.3).
+
+    Parameters
+    ----------
+    quantity : str
+        One of :data:`MODEL_QUANTITIES`.
+    item : str
+        The body, point, joint or driver.
+    axis : str or None
+        ``x``, ``y`` or ``theta``; None for ``driver_torque``.
+    """
+
+    quantity: str
+    item: str
+    axis: str | None = None
+
+    @property
+    def units(self) -> str:
+        """Unit of the model value (UDUNITS)."""
+        return MODEL_QUANTITIES[self.quantity][2][self.axis or ""]
+
+    def __str__(self) -> str:
+        suffix = f".{self.axis}" if self.axis else ""
+        return f"{self.quantity}[{self.item}]{suffix}"
+
+
+@dataclass(frozen=True)
+class Threshold:
+    """A pass/fail criterion on one metric, e.g. ``iso18571.rating >= 0.8``.
+
+    Parameters
+    ----------
+    metric : str
+        Metric name as :func:`rigval.validation.metrics.compare` reports it.
+    operator : {">=", "<=", ">", "<"}
+        Comparison.
+    limit : float
+        The limit.
+    absolute : bool
+        Compare the magnitude of the metric (``"abs <= 0.1"``).
+    """
+
+    metric: str
+    operator: str
+    limit: float
+    absolute: bool = False
+
+    def passes(self, value: float) -> bool:
+        """Whether ``value`` meets the criterion (NaN never does)."""
+        if not math.isfinite(value):
+            return False
+        return _OPERATORS[self.operator](abs(value) if self.absolute else value, self.limit)
+
+    def __str__(self) -> str:
+        return f"{'abs ' if self.absolute else ''}{self.operator} {self.limit:g}"
+
+
+@dataclass(frozen=True)
+class ComparisonSpec:
+    """One measured channel against one model quantity.
+
+    Parameters
+    ----------
+    name : str
+        Unique name; titles the report section.
+    measured : ChannelRef
+        The measured channel, in its converted unit.
+    model : ModelOutput
+        The model quantity.
+    scale : float
+        The model value times ``scale`` is compared (sign, share of a torque, 1/area).
+    scale_units : str
+        Unit of ``scale`` (``"1"`` unless it changes the unit, e.g. ``"m-2"``).
+    lowpass_hz : float or None
+        Zero-phase low-pass cut-off for the measured signal in Hz (None: unfiltered).
+    remove_offset : bool
+        Subtract the measured cycle mean's average before comparing (for sensors with an
+        unknown zero, such as AC-coupled accelerometers); the offset is reported.
+    thresholds : tuple of Threshold
+        Pass/fail criteria.
+    key : str
+        Key path, e.g. ``comparisons[0]``.
+    """
+
+    name: str
+    measured: ChannelRef
+    model: ModelOutput
+    scale: float
+    scale_units: str
+    lowpass_hz: float | None
+    remove_offset: bool
+    thresholds: tuple[Threshold, ...]
+    key: str
+
+
+@dataclass(frozen=True)
+class PredictionSpec:
+    """Model outputs reported without a measured counterpart (the paper's figs. 15-17).
+
+    Parameters
+    ----------
+    points : tuple of str
+        Points whose position, speed and acceleration are shown.
+    supports : tuple of str or None
+        Ground joints whose support force (force on the frame) is shown; None: every ground pin.
+    """
+
+    points: tuple[str, ...] = ()
+    supports: tuple[str, ...] | None = None
+
+
+@dataclass(frozen=True)
+class MechanismNames:
+    """The names in a mechanism that scene keys may refer to.
+
+    Parameters
+    ----------
+    bodies, points, joints, drivers : tuple of str
+        Names of bodies, points, joints and drivers.
+    ground_joints : tuple of str
+        Joints that pin a body to the frame.
+    """
+
+    bodies: tuple[str, ...]
+    points: tuple[str, ...]
+    joints: tuple[str, ...]
+    drivers: tuple[str, ...]
+    ground_joints: tuple[str, ...]
+
+    def of_kind(self, kind: str) -> tuple[str, ...]:
+        """Names of a kind: ``"body"``, ``"point"``, ``"joint"`` or ``"driver"``."""
+        return {"body": self.bodies, "point": self.points, "joint": self.joints,
+                "driver": self.drivers}[kind]
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A parsed, checked scene.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The scene file.
+    text : str
+        Its text as read (copied into the netCDF file and the report).
+    sha256 : str
+        SHA-256 of the text (UTF-8).
+    title : str
+        Human-readable title.
+    mechanism : pathlib.Path
+        The mechanism file (``builtin:NAME`` resolved).
+    note : pathlib.Path or None
+        The operator's note for the run.
+    streams : mapping of str to StreamSpec
+        Streams by name.
+    alignment : AlignmentSpec
+        Clock alignment.
+    angle : AngleSpec
+        The comparison grid.
+    model : ModelSpec
+        Drive excitation.
+    comparisons : tuple of ComparisonSpec
+        What is compared.
+    predictions : PredictionSpec
+        What is predicted beyond the comparisons.
+    """
+
+    path: Path
+    text: str = field(repr=False)
+    sha256: str
+    title: str
+    mechanism: Path
+    note: Path | None
+    streams: Mapping[str, StreamSpec]
+    alignment: AlignmentSpec
+    angle: AngleSpec
+    model: ModelSpec
+    comparisons: tuple[ComparisonSpec, ...]
+    predictions: PredictionSpec
+
+    @property
+    def input_files(self) -> tuple[Path, ...]:
+        """Every file the validation reads: data files, mechanism, note."""
+        files = [spec.file for spec in self.streams.values()] + [self.mechanism]
+        return tuple(files + ([self.note] if self.note else []))
+
+    def channel(self, ref: ChannelRef) -> ChannelSpec:
+        """Return the channel a reference names."""
+        return self.streams[ref.stream].channels[ref.channel]
+
+    def model_outputs(self) -> tuple[ModelOutput, ...]:
+        """Distinct model outputs the comparisons need, in order of first use."""
+        return tuple(dict.fromkeys(c.model for c in self.comparisons))
+
+
+# ---------------------------------------------------------------------------------------------
+# Parsing helpers: each takes the key path for its error messages.
+
+
+def _error(key: str, message: str, hint: str | None = None, **extra: Any) -> SceneError:
+    return SceneError(f"{key}: {message}", where={"key": key}, hint=hint, **extra)
+
+
+def _table(value: Any, key: str) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise _error(key, f"expected a table, got {type(value).__name__} {value!r}")
+    return value
+
+
+def _check_keys(table: Mapping[str, Any], key: str, allowed: set[str] | tuple[str, ...]) -> None:
+    unknown = sorted(set(table) - set(allowed))
+    if unknown:
+        raise _error(f"{key}.{unknown[0]}" if key else unknown[0], "unknown key",
+                     hint=f"allowed keys here: {', '.join(sorted(allowed))} (docs/scene.md)")
+
+
+def _get(table: Mapping[str, Any], name: str, key: str, kind: type | tuple[type, ...],
+         default: Any = ..., choices: tuple[Any, ...] | None = None) -> Any:
+    path = f"{key}.{name}" if key else name
+    if name not in table:
+        if default is ...:
+            raise _error(path, "missing required key", hint="see docs/scene.md for this table")
+        return default
+    value = table[name]
+    if kind is float and isinstance(value, int) and not isinstance(value, bool):
+        value = float(value)
+    if isinstance(value, bool) and kind is not bool:
+        raise _error(path, f"expected {_kind_name(kind)}, got {value!r}")
+    if not isinstance(value, kind):
+        raise _error(path, f"expected {_kind_name(kind)}, got {type(value).__name__} {value!r}")
+    if choices is not None and value not in choices:
+        raise _error(path, f"expected one of {', '.join(map(repr, choices))}, got {value!r}")
+    return value
+
+
+def _kind_name(kind: type | tuple[type, ...]) -> str:
+    names = {str: "a string", float: "a number", int: "an integer", bool: "true or false"}
+    kinds = kind if isinstance(kind, tuple) else (kind,)
+    return " or ".join(names.get(k, k.__name__) for k in kinds)
+
+
+def _file(scene_dir: Path, value: str, key: str) -> Path:
+    path = (scene_dir / value).resolve()
+    if not path.is_file():
+        raise _error(key, f"file not found: {path}",
+                     hint="paths in a scene are relative to the scene file; check the name")
+    return path
+
+
+def _mechanism_path(scene_dir: Path, value: str, key: str) -> Path:
+    if not value.startswith("builtin:"):
+        return _file(scene_dir, value, key)
+    name = value.removeprefix("builtin:")
+    folder = resources.files("rigval.model") / "mechanisms"
+    candidate = folder / f"{name}.toml"
+    if not candidate.is_file():
+        shipped = sorted(p.name.removesuffix(".toml") for p in folder.iterdir()
+                         if p.name.endswith(".toml")) if folder.is_dir() else []
+        raise _error(key, f"no built-in mechanism {name!r}",
+                     hint=f"built-in mechanisms: {', '.join(shipped) or 'none'}; or give a path")
+    return Path(str(candidate))
+
+
+def _ref(value: Any, key: str, streams: Mapping[str, StreamSpec],
+         sensors: tuple[str, ...] | None = None) -> ChannelRef:
+    if not isinstance(value, str) or value.count(".") != 1:
+        raise _error(key, f"expected 'stream.channel', got {value!r}")
+    stream, channel = value.split(".")
+    if stream not in streams:
+        raise _error(key, f"unknown stream {stream!r}", hint=f"streams: {', '.join(streams)}")
+    if channel not in streams[stream].channels:
+        raise _error(key, f"unknown channel {channel!r} of stream {stream!r}",
+                     hint=f"channels of {stream}: {', '.join(streams[stream].channels)}; "
+                          f"declare it as [streams.{stream}.channels.{channel}]")
+    sensor = streams[stream].channels[channel].sensor
+    if sensors is not None and sensor not in sensors:
+        raise _error(key, f"{value} is a {sensor!r} channel, expected {' or '.join(sensors)}")
+    return ChannelRef(stream, channel)
+
+
+def _channel(name: str, table: Mapping[str, Any], key: str) -> ChannelSpec:
+    sensor = _get(table, "sensor", key, str, choices=tuple(SENSORS))
+    kind = SENSORS[sensor]
+    _check_keys(table, key, {"source", "sensor", "long_name", *kind.required, *kind.optional})
+    params: dict[str, Any] = {}
+    for name_ in kind.required:
+        params[name_] = _get(table, name_, key, str if name_ in ("bridge", "units") else
+                             int if name_ == "counts_per_rev" else float)
+    for name_, default in kind.optional.items():
+        expected: type | tuple[type, ...] = (
+            bool if isinstance(default, bool) else str if isinstance(default, str) else float)
+        params[name_] = _get(table, name_, key, expected, default)
+    for name_, value in params.items():
+        choices = _CHOICES.get(f"{sensor}.{name_}")
+        if choices and value not in choices:
+            raise _error(f"{key}.{name_}", f"expected one of {', '.join(choices)}, got {value!r}")
+        if name_ in _POSITIVE and value is not None and not value > 0:
+            raise _error(f"{key}.{name_}", f"must be positive, got {value!r}")
+    if sensor == "torsion_bridge" and not 0 <= params["inner_diameter"] < params["outer_diameter"]:
+        raise _error(f"{key}.inner_diameter", f"must lie in [0, outer_diameter = "
+                     f"{params['outer_diameter']}), got {params['inner_diameter']}")
+    if "long_name" in table:
+        params["long_name"] = _get(table, "long_name", key, str)
+    units = kind.units(params)
+    try:
+        dimension(units)
+    except UnitError as error:
+        raise _error(f"{key}.units", error.message, hint=error.hint) from None
+    return ChannelSpec(name=name, source=_get(table, "source", key, str, name), sensor=sensor,
+                       params=MappingProxyType(params), units=units, key=key)
+
+
+def _streams(doc: Mapping[str, Any], scene_dir: Path) -> dict[str, StreamSpec]:
+    tables = _table(_get(doc, "streams", "", dict), "streams")
+    if not tables:
+        raise _error("streams", "no streams declared", hint="add a [streams.NAME] table per file")
+    streams = {}
+    for name, raw in tables.items():
+        key = f"streams.{name}"
+        table = _table(raw, key)
+        _check_keys(table, key, {"file", "device", "reader", "channels"})
+        file = _file(scene_dir, _get(table, "file", key, str), f"{key}.file")
+        channels_table = _table(_get(table, "channels", key, dict), f"{key}.channels")
+        channels = {ch: _channel(ch, _table(t, f"{key}.channels.{ch}"), f"{key}.channels.{ch}")
+                    for ch, t in channels_table.items()}
+        if not channels:
+            raise _error(f"{key}.channels", "no channels declared")
+        streams[name] = StreamSpec(
+            name=name, file=file, device=_get(table, "device", key, str),
+            reader=MappingProxyType(dict(_get(table, "reader", key, dict, {}))),
+            channels=MappingProxyType(channels), table=MappingProxyType(dict(table)))
+    return streams
+
+
+def _alignment(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> AlignmentSpec:
+    key = "alignment"
+    table = _table(_get(doc, key, "", dict), key)
+    _check_keys(table, key, {"reference", "main_encoder", "main_reference_pulse", "pulses"})
+    reference = _get(table, "reference", key, str, choices=tuple(streams))
+    encoder = _ref(_get(table, "main_encoder", key, str), f"{key}.main_encoder", streams,
+                   ("encoder",))
+    pulse = _ref(_get(table, "main_reference_pulse", key, str), f"{key}.main_reference_pulse",
+                 streams, ("reference_pulse",))
+    for name, ref in (("main_encoder", encoder), ("main_reference_pulse", pulse)):
+        if ref.stream != reference:
+            raise _error(f"{key}.{name}", f"must be on the reference stream {reference!r}, "
+                         f"got {ref}")
+    pulses_table = _table(_get(table, "pulses", key, dict, {}), f"{key}.pulses")
+    pulses = {}
+    for stream, raw in pulses_table.items():
+        pkey = f"{key}.pulses.{stream}"
+        if stream not in streams or stream == reference:
+            raise _error(pkey, f"expected a non-reference stream, got {stream!r}",
+                         hint=f"streams: {', '.join(streams)}; reference: {reference}")
+        entry = _table(raw, pkey)
+        _check_keys(entry, pkey, {"channel", "per_revolution"})
+        channel = _ref(f"{stream}.{_get(entry, 'channel', pkey, str)}", f"{pkey}.channel",
+                       streams, ("reference_pulse",))
+        per_rev = _get(entry, "per_revolution", pkey, int, 1)
+        if per_rev < 1:
+            raise _error(f"{pkey}.per_revolution", f"must be at least 1, got {per_rev}")
+        pulses[stream] = PulseSpec(channel, per_rev)
+    missing = [s for s in streams if s != reference and s not in pulses]
+    if missing:
+        raise _error(f"{key}.pulses.{missing[0]}", "missing: every stream other than the "
+                     "reference needs a reference pulse channel to be aligned",
+                     hint=f'add {missing[0]} = {{ channel = "...", per_revolution = 1 }}')
+    return AlignmentSpec(reference, encoder, pulse, MappingProxyType(pulses))
+
+
+def _angle(doc: Mapping[str, Any]) -> AngleSpec:
+    key = "angle"
+    table = _table(_get(doc, key, "", dict, {}), key)
+    _check_keys(table, key, {"points_per_revolution", "interpolation", "min_cycles"})
+    points = _get(table, "points_per_revolution", key, int, 360)
+    if not 8 <= points <= 1_000_000:
+        raise _error(f"{key}.points_per_revolution", f"expected 8 to 1000000, got {points}")
+    cycles = _get(table, "min_cycles", key, int, 3)
+    if cycles < 1:
+        raise _error(f"{key}.min_cycles", f"must be at least 1, got {cycles}")
+    return AngleSpec(points, _get(table, "interpolation", key, str, "cubic",
+                                  ("linear", "cubic")), cycles)
+
+
+def _model(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> ModelSpec:
+    key = "model"
+    table = _table(_get(doc, key, "", dict, {}), key)
+    _check_keys(table, key, {"drives", "drivers"})
+    drives = _get(table, "drives", key, str, "analytic", ("measured", "analytic"))
+    drivers_table = _table(_get(table, "drivers", key, dict, {}), f"{key}.drivers")
+    drivers = {}
+    for name, raw in drivers_table.items():
+        dkey = f"{key}.drivers.{name}"
+        entry = _table(raw, dkey)
+        _check_keys(entry, dkey, {"encoder", "angle_at_reference", "direction"})
+        direction = _get(entry, "direction", dkey, int, 1, (1, -1))
+        drivers[name] = DriverSpec(
+            name, _ref(_get(entry, "encoder", dkey, str), f"{dkey}.encoder", streams,
+                       ("encoder",)),
+            _get(entry, "angle_at_reference", dkey, float), direction)
+    if drives == "analytic" and drivers:
+        raise _error(f"{key}.drivers", 'driver tables apply only to drives = "measured"',
+                     hint='remove them or set drives = "measured"')
+    return ModelSpec(drives, MappingProxyType(drivers))
+
+
+def _threshold(metric: str, value: Any, key: str) -> Threshold:
+    if isinstance(value, bool) or not isinstance(value, str):
+        raise _error(key, f"expected a string such as '>= 0.8' or 'abs <= 0.1', got {value!r}")
+    match = _THRESHOLD.match(value)
+    try:
+        limit = float(match.group(3)) if match else math.nan
+    except ValueError:
+        limit = math.nan
+    if not match or not math.isfinite(limit):
+        raise _error(key, f"cannot read threshold {value!r}",
+                     hint="write an operator (>=, <=, >, <), optionally after 'abs', then a "
+                          "number: '>= 0.8', 'abs <= 0.1'")
+    return Threshold(metric, match.group(2), limit, bool(match.group(1)))
+
+
+def _model_output(value: Any, key: str) -> ModelOutput:
+    table = _table(value, key)
+    _check_keys(table, key, {"quantity", "item", "axis"})
+    quantity = _get(table, "quantity", key, str, choices=tuple(MODEL_QUANTITIES))
+    item = _get(table, "item", key, str)
+    _, axes, _ = MODEL_QUANTITIES[quantity]
+    if axes is None:
+        if "axis" in table:
+            raise _error(f"{key}.axis", f"{quantity} has no axis; remove the key")
+        return ModelOutput(quantity, item, None)
+    return ModelOutput(quantity, item, _get(table, "axis", key, str, choices=axes))
+
+
+def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
+                 ) -> tuple[ComparisonSpec, ...]:
+    items = _get(doc, "comparisons", "", list)
+    if not items:
+        raise _error("comparisons", "no comparisons", hint="add a [[comparisons]] table")
+    specs: list[ComparisonSpec] = []
+    for index, raw in enumerate(items):
+        key = f"comparisons[{index}]"
+        table = _table(raw, key)
+        _check_keys(table, key, {"name", "measured", "model", "scale", "scale_units",
+                                 "lowpass_hz", "remove_offset", "thresholds"})
+        name = _get(table, "name", key, str)
+        if name in {s.name for s in specs}:
+            raise _error(f"{key}.name", f"duplicate comparison name {name!r}")
+        measured = _ref(_get(table, "measured", key, str), f"{key}.measured", streams,
+                        ("charge_accelerometer", "strain_bridge", "torsion_bridge", "physical"))
+        output = _model_output(_get(table, "model", key, dict), f"{key}.model")
+        scale = _get(table, "scale", key, float, 1.0)
+        if not math.isfinite(scale) or scale == 0:
+            raise _error(f"{key}.scale", f"must be finite and non-zero, got {scale}")
+        scale_units = _get(table, "scale_units", key, str, "1")
+        lowpass = _get(table, "lowpass_hz", key, float, None)
+        if lowpass is not None and not lowpass > 0:
+            raise _error(f"{key}.lowpass_hz", f"must be positive, got {lowpass}")
+        thresholds_table = _table(_get(table, "thresholds", key, dict, {}), f"{key}.thresholds")
+        thresholds = tuple(_threshold(metric, value, f'{key}.thresholds."{metric}"')
+                           for metric, value in thresholds_table.items())
+        measured_units = streams[measured.stream].channels[measured.channel].units
+        try:
+            model_dim = multiply(output.units, scale_units)
+        except UnitError as error:
+            raise _error(f"{key}.scale_units", error.message, hint=error.hint) from None
+        if model_dim != dimension(measured_units):
+            raise _error(
+                f"{key}.model", f"unit mismatch: {measured} is in {measured_units!r} but "
+                f"{output} is in {output.units!r} (times scale_units {scale_units!r})",
+                hint="compare like with like, or set scale and scale_units to convert the model "
+                     "quantity (e.g. scale = -1/A, scale_units = 'm-2' turns N into Pa)")
+        specs.append(ComparisonSpec(name, measured, output, scale, scale_units, lowpass,
+                                    _get(table, "remove_offset", key, bool, False),
+                                    thresholds, key))
+    return tuple(specs)
+
+
+def _predictions(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...]
+                 ) -> PredictionSpec:
+    key = "predictions"
+    table = _table(_get(doc, key, "", dict, {}), key)
+    _check_keys(table, key, {"points", "supports"})
+    default_points = tuple(dict.fromkeys(c.model.item for c in comparisons
+                                         if c.model.quantity.startswith("point_")))
+    points = _get(table, "points", key, list, list(default_points))
+    supports = _get(table, "supports", key, list, None)
+    for name, values in (("points", points), ("supports", supports or [])):
+        for i, value in enumerate(values):
+            if not isinstance(value, str):
+                raise _error(f"{key}.{name}[{i}]", f"expected a name, got {value!r}")
+    return PredictionSpec(tuple(points), None if supports is None else tuple(supports))
+
+
+def check_mechanism_names(scene: Scene, names: MechanismNames) -> None:
+    """Check the scene's model references against a mechanism's names.
+
+    Parameters
+    ----------
+    scene : Scene
+        The parsed scene.
+    names : MechanismNames
+        What the mechanism defines.
+
+    Raises
+    ------
+    SceneError
+        Naming the key of the first unknown item, driver or ground joint.
+    """
+    for comparison in scene.comparisons:
+        kind = MODEL_QUANTITIES[comparison.model.quantity][0]
+        known = names.of_kind(kind)
+        if comparison.model.item not in known:
+            raise _error(f"{comparison.key}.model.item",
+                         f"unknown {kind} {comparison.model.item!r} for "
+                         f"{comparison.model.quantity} in {scene.mechanism.name}",
+                         hint=f"{kind}s are {', '.join(known)}")
+    if scene.model.drives == "measured":
+        for name in scene.model.drivers:
+            if name not in names.drivers:
+                raise _error(f"model.drivers.{name}", f"unknown driver {name!r}",
+                             hint=f"drivers are {', '.join(names.drivers)}")
+        missing = [d for d in names.drivers if d not in scene.model.drivers]
+        if missing:
+            raise _error(f"model.drivers.{missing[0]}", "missing: with drives = \"measured\" "
+                         "every driver needs an encoder", hint="add the table or set drives = "
+                         '"analytic"')
+    for i, point in enumerate(scene.predictions.points):
+        if point not in names.points:
+            raise _error(f"predictions.points[{i}]", f"unknown point {point!r}",
+                         hint=f"points are {', '.join(names.points)}")
+    for i, joint in enumerate(scene.predictions.supports or ()):
+        if joint not in names.ground_joints:
+            raise _error(f"predictions.supports[{i}]", f"{joint!r} is not a ground joint",
+                         hint=f"ground joints are {', '.join(names.ground_joints)}")
+
+
+def mechanism_names(path: str | Path) -> MechanismNames:
+    """Return the names a scene may refer to in a mechanism file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The mechanism file (``rigval-mechanism/1``).
+    """
+    doc = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    bodies = doc.get("bodies", [])
+    joints = doc.get("joints", [])
+    return MechanismNames(
+        bodies=tuple(b["name"] for b in bodies),
+        points=tuple(dict.fromkeys(p for b in bodies for p in b.get("points", {}))),
+        joints=tuple(j["point"] for j in joints),
+        drivers=tuple(d["name"] for d in doc.get("drivers", [])),
+        ground_joints=tuple(j["point"] for j in joints if j.get("type") == "ground"))
+
+
+def parse_scene(text: str, path: str | Path, *, names: MechanismNames | None = None) -> Scene:
+    """Parse scene text (TOML) into a :class:`Scene`.
+
+    Parameters
+    ----------
+    text : str
+        The TOML text.
+    path : str or pathlib.Path
+        Where the scene lives; relative paths in it are resolved against its folder.
+    names : MechanismNames, optional
+        The mechanism's names, to check the model references (see :func:`load_scene`).
+
+    Returns
+    -------
+    Scene
+        The checked scene.
+
+    Raises
+    ------
+    SceneError
+        With ``where["key"]`` the key path of the first problem.
+    """
+    path = Path(path).resolve()
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise SceneError(f"not valid TOML: {error}", where={"file": str(path)},
+                         hint="check quotes, brackets and '=' on the line named") from None
+    _check_keys(doc, "", {"schema", "title", "mechanism", "note", "streams", "alignment", "angle",
+                          "model", "comparisons", "predictions"})
+    schema = _get(doc, "schema", "", str)
+    if schema != SCHEMA:
+        raise _error("schema", f"expected {SCHEMA!r}, got {schema!r}")
+    scene_dir = path.parent
+    streams = _streams(doc, scene_dir)
+    comparisons = _comparisons(doc, streams)
+    note = _get(doc, "note", "", str, None)
+    scene = Scene(
+        path=path, text=text, sha256=hashlib.sha256(text.encode()).hexdigest(),
+        title=_get(doc, "title", "", str, path.stem),
+        mechanism=_mechanism_path(scene_dir, _get(doc, "mechanism", "", str), "mechanism"),
+        note=_file(scene_dir, note, "note") if note is not None else None,
+        streams=MappingProxyType(streams), alignment=_alignment(doc, streams),
+        angle=_angle(doc), model=_model(doc, streams), comparisons=comparisons,
+        predictions=_predictions(doc, comparisons))
+    if names is not None:
+        check_mechanism_names(scene, names)
+    return scene
+
+
+def load_scene(path: str | Path, *, check_mechanism: bool = True) -> Scene:
+    """Read and check a scene file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The scene file (TOML).
+    check_mechanism : bool
+        Load the mechanism and check the comparisons' model items, the drivers and the predicted
+        points and supports against it.
+
+    Returns
+    -------
+    Scene
+        The checked scene, with every path resolved.
+
+    Raises
+    ------
+    SceneError
+        For a missing or unreadable scene, or any problem in it (``where["key"]`` names the key).
+    MechanismError
+        If the mechanism file itself is invalid.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        raise SceneError(f"cannot read the scene file: {error}", where={"file": str(path)},
+                         hint="check the path") from None
+    scene = parse_scene(text, path)
+    if check_mechanism:
+        check_mechanism_names(scene, mechanism_names(scene.mechanism))
+    logger.debug("scene %s: %d streams, %d comparisons", path, len(scene.streams),
+                 len(scene.comparisons))
+    return scene
