@@ -1,0 +1,163 @@
+"""Zero-phase Butterworth filtering that never crosses a gap and runs in bounded memory.
+
+``scipy.signal.butter(..., output="sos")`` applied forward and backward with
+``scipy.signal.sosfiltfilt``: no phase shift (filtered channels stay angle-aligned), magnitude
+squared (the design's -3 dB corner becomes -6 dB). The default edge padding of ``sosfiltfilt``
+(a few samples) is far shorter than the impulse response at low corners; here the odd padding is
+``3 fs / f_c`` samples (2.8e-7 edge error instead of 2.6e-4 for a 20 Hz low-pass at 5 kHz, research
+section 6). Every gap-free, valid run of samples is filtered on its own; long runs are filtered in
+overlapping chunks whose overlap is long enough for the impulse response to have died away, so the
+memory use is bounded by the chunk size and the result matches a one-shot filter to ~1e-12.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import warnings
+from collections.abc import Iterator
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.signal import butter, sosfiltfilt
+
+from rigval.acquisition.errors import ConfigError, DataWarning
+
+__all__ = ["butter_sos", "contiguous_runs", "default_padlen", "zero_phase"]
+
+logger = logging.getLogger(__name__)
+
+_FloatArray = NDArray[np.float64]
+BandType = Literal["lowpass", "highpass", "bandpass", "bandstop"]
+
+#: Default number of samples filtered at once in a long run (bounded memory).
+DEFAULT_CHUNK = 1 << 20
+
+
+def butter_sos(cutoff_hz: float | tuple[float, float], fs: float, *, order: int = 4,
+               btype: BandType = "lowpass") -> NDArray[np.float64]:
+    """Design a Butterworth filter as second-order sections.
+
+    Parameters
+    ----------
+    cutoff_hz : float or (float, float)
+        Corner frequency (or band edges) in Hz; below ``fs / 2``.
+    fs : float
+        Sampling rate in Hz.
+    order : int, default 4
+        Filter order of one pass (the zero-phase filter has twice this order).
+    btype : {"lowpass", "highpass", "bandpass", "bandstop"}
+        Filter type.
+
+    Returns
+    -------
+    numpy.ndarray
+        SOS array of shape (n_sections, 6).
+    """
+    edges = np.atleast_1d(np.asarray(cutoff_hz, dtype=np.float64))
+    if np.any(edges <= 0) or np.any(edges >= fs / 2):
+        raise ConfigError(f"cut-off {cutoff_hz} Hz must lie between 0 and fs/2 = {fs / 2} Hz",
+                          where={"key": "cutoff_hz"})
+    return np.asarray(butter(order, cutoff_hz, btype=btype, fs=fs, output="sos"))
+
+
+def default_padlen(cutoff_hz: float | tuple[float, float], fs: float) -> int:
+    """Return the edge padding ``ceil(3 fs / f_c,min)`` in samples for a zero-phase filter."""
+    lowest = float(np.min(np.atleast_1d(cutoff_hz)))
+    return int(np.ceil(3.0 * fs / lowest))
+
+
+def contiguous_runs(n: int, segment: ArrayLike | None = None,
+                    valid: ArrayLike | None = None) -> list[tuple[int, int]]:
+    """Return ``[start, stop)`` index ranges of valid samples within one segment.
+
+    Parameters
+    ----------
+    n : int
+        Number of samples.
+    segment : array_like of int, optional
+        Gap-free segment index per sample (stream variable ``segment``).
+    valid : array_like of bool, optional
+        Usable samples (stream variable ``valid``).
+
+    Returns
+    -------
+    list of (int, int)
+        Runs in order; a run never spans a gap or an invalid sample.
+    """
+    ok = np.ones(n, dtype=bool) if valid is None else np.asarray(valid, dtype=bool)
+    change = ok[1:] != ok[:-1]
+    if segment is not None:
+        seg = np.asarray(segment)
+        change |= seg[1:] != seg[:-1]
+    bounds = np.concatenate(([0], np.flatnonzero(change) + 1, [n])).tolist()
+    return [(a, b) for a, b in itertools.pairwise(bounds) if b > a and ok[a]]
+
+
+def _chunks(start: int, stop: int, chunk: int, margin: int) -> Iterator[tuple[int, int, int, int]]:
+    """Yield (read_start, read_stop, keep_start, keep_stop) covering [start, stop)."""
+    keep = start
+    while keep < stop:
+        keep_stop = min(keep + chunk, stop)
+        yield max(start, keep - margin), min(stop, keep_stop + margin), keep, keep_stop
+        keep = keep_stop
+
+
+def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], *,
+               order: int = 4, btype: BandType = "lowpass", segment: ArrayLike | None = None,
+               valid: ArrayLike | None = None, padlen: int | None = None,
+               chunk_samples: int = DEFAULT_CHUNK) -> _FloatArray:
+    """Filter forward and backward with a Butterworth filter, run by gap-free run.
+
+    Parameters
+    ----------
+    x : array_like
+        Samples (any unit), uniformly sampled within each segment.
+    fs : float
+        Sampling rate in Hz.
+    cutoff_hz : float or (float, float)
+        Corner(s) in Hz of the one-pass design.
+    order : int, default 4
+        One-pass order.
+    btype : {"lowpass", "highpass", "bandpass", "bandstop"}
+        Filter type.
+    segment, valid : array_like, optional
+        Stream ``segment`` and ``valid`` variables: the filter never crosses a segment boundary
+        or an invalid sample.
+    padlen : int, optional
+        Odd-extension padding in samples; default :func:`default_padlen` (limited to the run
+        length - 1).
+    chunk_samples : int, default 2**20
+        Samples kept per chunk of a long run; chunks overlap by ``4 * padlen``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Filtered samples; NaN where a sample is invalid or its run is shorter than
+        ``3 * (2 * n_sections + 1)`` samples (a DataWarning says how many).
+
+    Warns
+    -----
+    DataWarning
+        When runs too short to filter are left as NaN.
+    """
+    data = np.asarray(x, dtype=np.float64)
+    sos = butter_sos(cutoff_hz, fs, order=order, btype=btype)
+    pad = default_padlen(cutoff_hz, fs) if padlen is None else int(padlen)
+    minimum = 3 * (2 * sos.shape[0] + 1)
+    out = np.full(data.shape, np.nan)
+    margin = 4 * pad
+    short = 0
+    for start, stop in contiguous_runs(data.size, segment, valid):
+        if stop - start <= minimum:
+            short += stop - start
+            continue
+        for lo, hi, keep_lo, keep_hi in _chunks(start, stop, max(chunk_samples, 1), margin):
+            piece = data[lo:hi]
+            y = sosfiltfilt(sos, piece, padlen=min(pad, piece.size - 1))
+            out[keep_lo:keep_hi] = y[keep_lo - lo:keep_hi - lo]
+    if short:
+        warnings.warn(f"{short} samples in runs too short to filter (<= {minimum} samples) were "
+                      "set to NaN", DataWarning, stacklevel=2)
+    return out
