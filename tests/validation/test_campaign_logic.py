@@ -1,0 +1,222 @@
+"""Campaign machinery with a small stand-in validation: outcomes, errors, resume, summary, CLI.
+
+The stand-in reads a one-column CSV named by a tiny TOML "scene", scores its mean against a
+threshold, and writes a report, a metrics file and a netCDF file with a ``validation`` group. Its
+results are known in closed form, so the campaign's bookkeeping can be checked exactly and fast,
+one run after the other in this process (the cluster path is tested in test_campaign_cluster.py).
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import xarray as xr
+
+import rigval.validation.campaign as campaign
+from rigval.acquisition.errors import ConfigError, DataFileError
+from rigval.validation.campaign import RunError, RunReport, plan_runs, run_campaign, run_one
+from rigval.validation.campaign_report import (
+    metrics_table,
+    open_campaign,
+    write_campaign_report,
+)
+from rigval.validation.cli import main
+
+LIMIT = 1.0
+CALLS: list[str] = []
+
+
+def standin_validate(scene: Path, run_dir: Path) -> RunReport:
+    """Score the mean of the scene's data column against ``<= LIMIT``."""
+    CALLS.append(scene.stem)
+    spec = tomllib.loads(scene.read_text())
+    data = scene.parent / spec["data"]
+    try:
+        values = np.loadtxt(data, ndmin=1)
+    except ValueError as error:
+        raise DataFileError("not a column of numbers", where={"file": data},
+                            hint="write one number per line") from error
+    rows = [{"comparison": "acc1", "metric": "mean", "value": float(values.mean()),
+             "threshold": f"<= {LIMIT}", "passed": bool(values.mean() <= LIMIT)},
+            {"comparison": "acc1", "metric": "peak", "value": float(values.max()),
+             "threshold": None, "passed": None}]
+    report = run_dir / "report.html"
+    report.write_text("<html>report</html>")
+    table = run_dir / "metrics.json"
+    table.write_text(json.dumps(rows))
+    metrics = xr.DataArray([[values.mean(), values.max()]], dims=("channel", "metric"),
+                           coords={"channel": ["acc1"], "metric": ["mean", "peak"]})
+    netcdf = run_dir / f"{scene.stem}.nc"
+    xr.DataTree.from_dict({"/validation": xr.Dataset({"metrics": metrics})}).to_netcdf(netcdf)
+    return RunReport(passed=all(r["passed"] is not False for r in rows), metrics=tuple(rows),
+                     outputs=(report, table, netcdf), inputs=(data,),
+                     speed_rev_s=spec["speed"])
+
+
+def write_run(folder: Path, name: str, speed: float, values: list[float] | str) -> Path:
+    """Write a stand-in scene and its data file; return the scene path."""
+    folder.mkdir(parents=True, exist_ok=True)
+    text = values if isinstance(values, str) else "\n".join(map(str, values))
+    (folder / f"{name}.csv").write_text(text)
+    scene = folder / f"{name}.toml"
+    scene.write_text(f'speed = {speed}\ndata = "{name}.csv"\n')
+    return scene
+
+
+@pytest.fixture
+def scenes(tmp_path: Path) -> list[Path]:
+    CALLS.clear()
+    data = tmp_path / "data"
+    return [write_run(data, "slow", 0.5, [0.2, 0.4]),
+            write_run(data, "broken", 0.8, "not numbers"),
+            write_run(data, "fast", 1.5, [1.0, 2.0])]
+
+
+def test_campaign_reports_each_run_and_carries_the_error(tmp_path: Path,
+                                                         scenes: list[Path]) -> None:
+    outcomes = run_campaign(scenes, tmp_path / "out", scheduler="none",
+                            validate=standin_validate)
+    assert [o.name for o in outcomes] == ["slow", "broken", "fast"]
+    assert [o.status for o in outcomes] == ["passed", "error", "failed"]
+    slow, broken, fast = outcomes
+    assert slow.metrics[0]["value"] == pytest.approx(0.3)
+    assert fast.metrics[1]["value"] == pytest.approx(2.0)
+    assert fast.speed_rev_s == 1.5
+    error = broken.error
+    assert error is not None
+    assert error.kind == "DataFileError"
+    assert error.where == {"file": scenes[1].parent / "broken.csv"}
+    assert error.hint == "write one number per line"
+    assert "standin_validate" in error.traceback
+    assert isinstance(error.exception, DataFileError)
+    assert broken.metrics == ()
+    assert not (tmp_path / "out" / "broken" / campaign.MANIFEST_NAME).exists()
+
+
+def test_summary_files_list_every_run_metric_and_error(tmp_path: Path,
+                                                       scenes: list[Path]) -> None:
+    out = tmp_path / "out"
+    outcomes = run_campaign(scenes, out, scheduler="none", validate=standin_validate)
+    files = write_campaign_report(outcomes, out, details={"scheduler": "none"})
+    table = pd.read_csv(files.metrics_csv)
+    assert list(table["run"]) == ["slow", "slow", "fast", "fast"]
+    assert table.loc[table["metric"] == "mean", "value"].tolist() == pytest.approx([0.3, 1.5])
+    document = json.loads(files.outcomes_json.read_text())
+    assert document["counts"] == {"passed": 1, "failed": 1, "error": 1}
+    assert document["runs"][1]["error"]["kind"] == "DataFileError"
+    page = files.html.read_text()
+    assert 'href="slow/report.html"' in page
+    assert "not a column of numbers" in page
+    assert "write one number per line" in page
+    assert page.count("<svg") >= 1
+
+
+def test_rigval_error_survives_pickling_with_its_fields() -> None:
+    error = DataFileError("bad", where={"file": "x.tdms"}, hint="fix it")
+    record = pickle.loads(pickle.dumps(RunError.from_exception(error)))
+    assert (record.kind, record.message, record.where, record.hint) == (
+        "DataFileError", "bad", {"file": "x.tdms"}, "fix it")
+    assert isinstance(record.exception, DataFileError)
+    assert record.exception.where == {"file": "x.tdms"}
+
+
+def test_unpicklable_exception_is_described_without_the_object() -> None:
+    class Local(Exception):  # a local class cannot be pickled
+        pass
+
+    record = RunError.from_exception(Local("boom"))
+    assert (record.kind, record.message, record.exception) == ("Local", "boom", None)
+    assert record.hint
+
+
+def test_up_to_date_runs_are_reused_and_changed_ones_recomputed(
+        tmp_path: Path, scenes: list[Path], monkeypatch: pytest.MonkeyPatch) -> None:
+    out = tmp_path / "out"
+    first = run_campaign(scenes, out, scheduler="none", validate=standin_validate)
+    CALLS.clear()
+    second = run_campaign(scenes, out, scheduler="none", validate=standin_validate)
+    assert CALLS == ["broken"]  # errors are never reused
+    assert [o.reused for o in second] == [True, False, True]
+    assert [(o.status, o.metrics, o.speed_rev_s) for o in second] == [
+        (o.status, o.metrics, o.speed_rev_s) for o in first]
+
+    (scenes[0].parent / "slow.csv").write_text("0.1\n0.2\n")  # an input changed
+    (out / "fast" / "metrics.json").unlink()  # an output lost
+    CALLS.clear()
+    third = run_campaign(scenes, out, scheduler="none", validate=standin_validate)
+    assert CALLS == ["slow", "broken", "fast"]
+    assert third[0].metrics[0]["value"] == pytest.approx(0.15)
+
+    CALLS.clear()
+    monkeypatch.setattr(campaign, "_rigval_version", lambda: "99.0")
+    run_campaign(scenes[:1], out, scheduler="none", validate=standin_validate)
+    assert CALLS == ["slow"]
+    CALLS.clear()
+    run_campaign(scenes[:1], out, scheduler="none", validate=standin_validate, force=True)
+    assert CALLS == ["slow"]
+
+
+def test_changed_scene_is_recomputed(tmp_path: Path, scenes: list[Path]) -> None:
+    run_one(scenes[0], tmp_path / "run", validate=standin_validate)
+    scenes[0].write_text(scenes[0].read_text().replace("0.5", "0.6"))
+    outcome = run_one(scenes[0], tmp_path / "run", validate=standin_validate)
+    assert not outcome.reused
+    assert outcome.speed_rev_s == 0.6
+
+
+def test_run_names_are_unique_and_stable(tmp_path: Path) -> None:
+    scenes = [tmp_path / "a" / "run.toml", tmp_path / "b" / "run.toml", tmp_path / "a" / "x.toml",
+              tmp_path / "a" / "run.toml"]
+    plan = plan_runs(scenes, tmp_path / "out")
+    assert [name for name, _, _ in plan] == ["a_run", "b_run", "x"]
+    assert plan[2][2] == tmp_path / "out" / "x"
+
+
+def test_open_campaign_stacks_runs(tmp_path: Path, scenes: list[Path]) -> None:
+    out = tmp_path / "out"
+    outcomes = run_campaign(scenes, out, scheduler="none", validate=standin_validate)
+    write_campaign_report(outcomes, out)
+    with open_campaign(out) as data:
+        assert list(data["run"].values) == ["slow", "fast"]
+        assert data["speed_rev_s"].values.tolist() == [0.5, 1.5]
+        expected = metrics_table(outcomes).pivot_table(index="run", columns="metric",
+                                                       values="value", sort=False)
+        np.testing.assert_allclose(data["metrics"].sel(channel="acc1", metric="mean").values,
+                                   expected["mean"].to_numpy())
+
+
+def test_without_dask_runs_go_one_after_the_other(
+        tmp_path: Path, scenes: list[Path], monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(campaign, "dask_available", lambda: False)
+    outcomes = run_campaign(scenes[:1], tmp_path / "out", validate=standin_validate)
+    assert outcomes[0].status == "passed"
+    with pytest.raises(ConfigError, match="needs Dask"):
+        run_campaign(scenes[:1], tmp_path / "out", scheduler="local", validate=standin_validate)
+
+
+def test_unknown_scheduler_is_a_config_error(tmp_path: Path, scenes: list[Path]) -> None:
+    with pytest.raises(ConfigError, match="unknown scheduler"):
+        run_campaign(scenes[:1], tmp_path / "out", scheduler="fast")
+
+
+@pytest.mark.parametrize(("names", "code"), [(["slow"], 0), (["slow", "fast"], 1),
+                                             (["slow", "fast", "broken"], 3)])
+def test_cli_exit_code_says_the_worst_run(tmp_path: Path, scenes: list[Path], names: list[str],
+                                         code: int, monkeypatch: pytest.MonkeyPatch,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setattr(campaign, "_validate_with_pipeline", standin_validate)
+    chosen = [s for s in scenes if s.stem in names]
+    out = tmp_path / "out"
+    assert main(["campaign", *map(str, chosen), "--out", str(out), "--scheduler", "none"]) == code
+    captured = capsys.readouterr()
+    assert (out / "campaign.html").is_file()
+    assert captured.out.splitlines()[-1].startswith(
+        f"{names.count('slow')} passed, {names.count('fast')} failed, "
+        f"{names.count('broken')} errors")
+    assert ("DataFileError" in captured.err) == ("broken" in names)

@@ -1,0 +1,294 @@
+"""The campaign summary: a metrics table over runs, a plot against running speed, an HTML page.
+
+:func:`write_campaign_report` writes three files into the campaign folder, beside the per-run
+report folders:
+
+``campaign.html``
+    Self-contained page: counts, one row per run (status, speed, time, link to its report), the
+    metrics of every comparison over the runs, the metrics plotted against running speed, and
+    every error with its class, message, location, hint and traceback.
+``campaign_metrics.csv``
+    The metrics of every run in long form (one row per run, comparison and metric).
+``campaign.json``
+    Every :class:`~rigval.validation.campaign.RunOutcome` as data (what :func:`open_campaign`
+    and scripts read back).
+
+:func:`open_campaign` reads the runs' netCDF files back as one dataset with a ``run`` dimension.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+from matplotlib.figure import Figure
+
+from rigval.acquisition.errors import DataFileError
+from rigval.validation.campaign import RunOutcome, dask_available
+from rigval.validation.html import Page, escape
+
+__all__ = [
+    "CampaignFiles",
+    "metrics_table",
+    "open_campaign",
+    "plot_metrics_against_speed",
+    "write_campaign_report",
+]
+
+logger = logging.getLogger(__name__)
+
+_METRIC_COLUMNS = ["run", "status", "speed_rev_s", "comparison", "metric", "value", "threshold",
+                   "passed"]
+#: Most metrics the speed plot shows (those with thresholds first).
+_MAX_PLOTTED = 6
+
+
+@dataclass(frozen=True)
+class CampaignFiles:
+    """Paths of the campaign summary files.
+
+    Parameters
+    ----------
+    html : Path
+        ``campaign.html``.
+    metrics_csv : Path
+        ``campaign_metrics.csv``.
+    outcomes_json : Path
+        ``campaign.json``.
+    """
+
+    html: Path
+    metrics_csv: Path
+    outcomes_json: Path
+
+
+def metrics_table(outcomes: Sequence[RunOutcome]) -> pd.DataFrame:
+    """Return every run's metrics in long form.
+
+    Parameters
+    ----------
+    outcomes : sequence of RunOutcome
+        The campaign's runs; runs with an error contribute no rows.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``run``, ``status``, ``speed_rev_s`` (rev/s), ``comparison``, ``metric``,
+        ``value`` (the metric's own unit), ``threshold`` (text or None) and ``passed`` (bool or
+        None), in run order.
+    """
+    rows = [
+        {"run": outcome.name, "status": outcome.status, "speed_rev_s": outcome.speed_rev_s,
+         "comparison": row.get("comparison"), "metric": row.get("metric"),
+         "value": row.get("value"), "threshold": row.get("threshold"),
+         "passed": row.get("passed")}
+        for outcome in outcomes for row in outcome.metrics
+    ]
+    table = pd.DataFrame(rows, columns=_METRIC_COLUMNS)
+    table["value"] = pd.to_numeric(table["value"], errors="coerce").astype(float)
+    table["speed_rev_s"] = pd.to_numeric(table["speed_rev_s"], errors="coerce").astype(float)
+    return table
+
+
+def plot_metrics_against_speed(table: pd.DataFrame, *, metrics: Sequence[str] | None = None,
+                               ax_width: float = 3.6) -> Figure:
+    """Plot metrics against running speed, one panel per metric and one line per comparison.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Long-form metrics as returned by :func:`metrics_table`.
+    metrics : sequence of str, optional
+        Metrics to show; default those with a threshold in some run, then the others, at most
+        six.
+    ax_width : float
+        Width of one panel in inches.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Markers show runs; a hollow red ring marks a run that missed that metric's threshold.
+    """
+    if metrics is None:
+        with_threshold = table.loc[table["threshold"].notna(), "metric"].unique().tolist()
+        others = [m for m in table["metric"].unique() if m not in with_threshold]
+        metrics = (with_threshold + others)[:_MAX_PLOTTED]
+    n = max(len(metrics), 1)
+    columns = min(n, 3)
+    rows = -(-n // columns)
+    fig = Figure(figsize=(ax_width * columns, 2.8 * rows), layout="constrained")
+    axes = fig.subplots(rows, columns, squeeze=False).ravel()
+    for ax in axes[len(metrics):]:
+        ax.set_visible(False)
+    for ax, metric in zip(axes, metrics, strict=False):
+        part = table[table["metric"] == metric]
+        for comparison, group in part.groupby("comparison", sort=False):
+            group = group.sort_values("speed_rev_s")
+            ax.plot(group["speed_rev_s"], group["value"], marker="o", label=str(comparison))
+            missed = group[group["passed"].map(lambda p: p is False or p is np.False_)]
+            ax.plot(missed["speed_rev_s"], missed["value"], linestyle="none", marker="o",
+                    markersize=11, markerfacecolor="none", markeredgecolor="tab:red")
+        thresholds = part["threshold"].dropna().unique()
+        title = metric if len(thresholds) != 1 else f"{metric} (pass: {thresholds[0]})"
+        ax.set_title(title, fontsize="medium")
+        ax.set_xlabel("running speed [rev/s]")
+        ax.grid(alpha=0.3)
+    if len(metrics):
+        axes[0].legend(fontsize="small", title="comparison", title_fontsize="small")
+    return fig
+
+
+def write_campaign_report(outcomes: Sequence[RunOutcome], out_dir: str | Path, *,
+                          title: str = "rigval campaign",
+                          details: dict[str, Any] | None = None) -> CampaignFiles:
+    """Write the campaign summary (HTML page, metrics CSV, outcomes JSON) into ``out_dir``.
+
+    Parameters
+    ----------
+    outcomes : sequence of RunOutcome
+        The runs, in the order to list them.
+    out_dir : path
+        The campaign folder (the per-run folders are inside it).
+    title : str
+        Page title.
+    details : dict, optional
+        Further facts shown on the page and stored in the JSON (scheduler, workers, wall time).
+
+    Returns
+    -------
+    CampaignFiles
+        The paths written.
+    """
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    details = dict(details or {})
+    table = metrics_table(outcomes)
+    files = CampaignFiles(html=out_dir / "campaign.html",
+                          metrics_csv=out_dir / "campaign_metrics.csv",
+                          outcomes_json=out_dir / "campaign.json")
+    table.to_csv(files.metrics_csv, index=False)
+    counts = {status: sum(o.status == status for o in outcomes)
+              for status in ("passed", "failed", "error")}
+    document = {"written": datetime.now(UTC).isoformat(timespec="seconds"), "counts": counts,
+                **details, "runs": [outcome.to_dict() for outcome in outcomes]}
+    files.outcomes_json.write_text(json.dumps(document, indent=1, allow_nan=False),
+                                   encoding="utf-8")
+    _summary_page(outcomes, table, out_dir, title, counts, details).write(files.html)
+    logger.info("campaign summary written to %s", files.html)
+    return files
+
+
+def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: Path,
+                  title: str, counts: dict[str, int], details: dict[str, Any]) -> Page:
+    """Build the campaign page."""
+    verdict = ("errors" if counts["error"] else "failed" if counts["failed"] else "passed")
+    page = Page(title, subtitle=f"{len(outcomes)} runs: {counts['passed']} passed, "
+                                f"{counts['failed']} failed, {counts['error']} errors")
+    page.section("Summary")
+    page.facts({"result": verdict, **counts,
+                "reused (up to date)": sum(o.reused for o in outcomes), **details})
+
+    page.section("Runs")
+    page.table([{"run": o.name, "status": o.status, "speed [rev/s]": o.speed_rev_s,
+                 "time [s]": o.elapsed_s, "reused": o.reused,
+                 "error": o.error.kind if o.error else None} for o in outcomes], digits=3)
+    links = []
+    for outcome in outcomes:
+        report = outcome.output(".html")
+        if report is not None:
+            href = Path(os.path.relpath(report, out_dir)).as_posix()
+            links.append(f'<li><a href="{escape(href)}">{escape(outcome.name)}</a></li>')
+    if links:
+        page.paragraph("Per-run reports:")
+        page.raw("<ul>" + "".join(links) + "</ul>")
+
+    if not table.empty:
+        page.section("Metrics against running speed")
+        fig = plot_metrics_against_speed(table)
+        page.figure(fig, caption="Each marker is a run; a red ring marks a missed threshold.",
+                    fmt="svg")
+        page.section("Metrics per comparison")
+        for comparison, part in table.groupby("comparison", sort=False):
+            wide = part.pivot_table(index=["run", "speed_rev_s"], columns="metric",
+                                    values="value", sort=False, dropna=False)
+            rows = [{"run": run, "speed [rev/s]": speed, **values.to_dict()}
+                    for (run, speed), values in wide.iterrows()]
+            page.table(rows, caption=str(comparison), digits=3)
+
+    errors = [o for o in outcomes if o.error is not None]
+    if errors:
+        page.section("Errors")
+        page.table([{"run": o.name, "error": o.error.kind, "message": o.error.message,
+                     "where": ", ".join(f"{k}: {v}" for k, v in o.error.where.items()),
+                     "how to fix": o.error.hint} for o in errors if o.error is not None])
+        for outcome in errors:
+            if outcome.error is not None:
+                page.section(f"Traceback of {outcome.name}", level=3)
+                page.preformatted(outcome.error.traceback)
+    return page
+
+
+def open_campaign(directory: str | Path, group: str = "validation", *,
+                  parallel: bool | None = None, **kwargs: Any) -> xr.Dataset:
+    """Open one group of every validated run's netCDF file as one dataset with a ``run`` dim.
+
+    Parameters
+    ----------
+    directory : path
+        A campaign folder written by ``rigval campaign`` (it holds ``campaign.json``).
+    group : str
+        netCDF group to read (``"validation"``, ``"angle"``, ``"model"``, ...).
+    parallel : bool, optional
+        Open the files in parallel with Dask; default True when Dask is installed.
+    **kwargs
+        Passed on to :func:`xarray.open_mfdataset` (e.g. ``join="exact"``, ``chunks``).
+
+    Returns
+    -------
+    xarray.Dataset
+        The group's variables stacked along ``run`` (coordinate: run names), with the
+        coordinates ``speed_rev_s`` (rev/s) and ``status`` along ``run``. Runs that errored
+        have no file and are left out. Lazy (dask arrays) when Dask is installed.
+
+    Raises
+    ------
+    DataFileError
+        If the folder has no ``campaign.json`` or no run has a netCDF file.
+    """
+    directory = Path(directory)
+    index = directory / "campaign.json"
+    try:
+        runs = json.loads(index.read_text(encoding="utf-8"))["runs"]
+    except (OSError, ValueError, KeyError) as error:
+        raise DataFileError(f"cannot read the campaign index: {error}", where={"file": index},
+                            hint="give a folder written by `rigval campaign`") from error
+    found = [(run, directory / run["name"] / name) for run in runs for name in run["outputs"]
+             if name.endswith(".nc")]
+    if not found:
+        raise DataFileError("no run of the campaign has a netCDF file", where={"file": index},
+                            hint="check the errors in campaign.html; rerun the failed runs")
+    has_dask = dask_available()
+    options: dict[str, Any] = {
+        "engine": "h5netcdf", "combine": "nested", "concat_dim": "run", "data_vars": "all",
+        "coords": "minimal", "compat": "override", "join": "outer",
+        "parallel": has_dask if parallel is None else parallel,
+        "chunks": {} if has_dask else None, "combine_attrs": "drop_conflicts",
+    }
+    options.update(kwargs)
+    dataset = xr.open_mfdataset([str(path) for _, path in found], group=group, **options)
+    return dataset.assign_coords(
+        run=[run["name"] for run, _ in found],
+        speed_rev_s=("run", [np.nan if run["speed_rev_s"] is None else run["speed_rev_s"]
+                             for run, _ in found], {"units": "s-1",
+                                                    "long_name": "mean running speed in rev/s"}),
+        status=("run", [run["status"] for run, _ in found]),
+    )

@@ -1,0 +1,124 @@
+"""``rigval campaign SCENE... --out DIR``: validate many runs at once and summarise them.
+
+Exit codes: 0 every run passed; 1 every run was validated but at least one missed a threshold;
+3 at least one run could not be validated (its error is in the summary; the other runs still
+completed); 2 a usage error (e.g. ``--scheduler`` needs Dask and it is not installed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import TYPE_CHECKING, Any, TextIO
+
+if TYPE_CHECKING:
+    from rigval.validation.campaign import RunOutcome
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register the ``campaign`` subcommand."""
+    parser = subparsers.add_parser(
+        "campaign",
+        help="validate many runs (scenes) at once, on Dask if installed",
+        description="Validate every scene into OUT/<run>/ and write a campaign summary "
+                    "(campaign.html, campaign_metrics.csv, campaign.json) beside them. Runs "
+                    "whose inputs and outputs are unchanged since the last campaign are reused.",
+        epilog="Exit codes: 0 all passed, 1 some run failed its thresholds, 2 usage error, "
+               "3 some run could not be validated (the others still complete).",
+    )
+    parser.add_argument("scenes", nargs="+", metavar="SCENE", help="scene files, one per run")
+    parser.add_argument("--out", required=True, metavar="DIR", help="campaign folder")
+    parser.add_argument("--workers", type=_positive_int, metavar="N",
+                        help="worker processes of the embedded Dask cluster (default: CPUs)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help='"local" (default with Dask: an embedded cluster), "none" (one '
+                             'run after the other), or an existing cluster (tcp://host:8786)')
+    parser.add_argument("--force", action="store_true",
+                        help="recompute every run, even those that are up to date")
+    parser.add_argument("--title", default="rigval campaign", help="title of the summary page")
+    parser.add_argument("--no-progress", action="store_true", help="no progress line")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the campaign and return the exit code (see the module docstring)."""
+    from rigval.validation.campaign import run_campaign
+    from rigval.validation.campaign_report import write_campaign_report
+
+    progress = _ProgressLine(len(args.scenes), sys.stderr,
+                             enabled=not args.no_progress and sys.stderr.isatty())
+    start = time.perf_counter()
+    try:
+        outcomes = run_campaign(args.scenes, args.out, scheduler=args.scheduler,
+                                workers=args.workers, force=args.force, on_result=progress.update)
+    finally:
+        progress.close()
+    details = {"scheduler": args.scheduler or "default", "workers": args.workers or "default",
+               "wall time [s]": round(time.perf_counter() - start, 2)}
+    files = write_campaign_report(outcomes, args.out, title=args.title, details=details)
+    _print_runs(outcomes)
+    errors = [o for o in outcomes if o.status == "error"]
+    for outcome in errors:
+        print(f"rigval: run {outcome.name}: {outcome.error}", file=sys.stderr)
+    failed = sum(o.status == "failed" for o in outcomes)
+    print(f"{len(outcomes) - failed - len(errors)} passed, {failed} failed, {len(errors)} errors; "
+          f"summary: {files.html}")
+    if errors:
+        return 3
+    return 1 if failed else 0
+
+
+def _positive_int(text: str) -> int:
+    """Parse a worker count (argparse type)."""
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive number of workers, got {value}")
+    return value
+
+
+def _print_runs(outcomes: list[RunOutcome]) -> None:
+    """Print one line per run: name, status, speed, time, and the error class if any."""
+    width = max([len(o.name) for o in outcomes] + [3])
+    print(f"{'run':<{width}}  {'status':<6}  {'rev/s':>6}  {'time s':>7}  note")
+    for o in outcomes:
+        speed = "-" if o.speed_rev_s is None else f"{o.speed_rev_s:.3f}"
+        note = o.error.kind if o.error else ("reused" if o.reused else "")
+        print(f"{o.name:<{width}}  {o.status:<6}  {speed:>6}  {o.elapsed_s:7.1f}  {note}")
+
+
+class _ProgressLine:
+    """A one-line progress display over runs on a terminal (redrawn in place)."""
+
+    def __init__(self, total: int, stream: TextIO, *, enabled: bool) -> None:
+        self.total, self.stream, self.enabled = total, stream, enabled
+        self.counts = {"passed": 0, "failed": 0, "error": 0}
+        self.start = time.perf_counter()
+        self._show()
+
+    def update(self, outcome: RunOutcome) -> None:
+        """Count a finished run and redraw the line."""
+        self.counts[outcome.status] += 1
+        self._show()
+
+    def _show(self) -> None:
+        if not self.enabled:
+            return
+        done = sum(self.counts.values())
+        elapsed = time.perf_counter() - self.start
+        left = f", ~{elapsed / done * (self.total - done):.0f} s left" if done else ""
+        width = 24
+        filled = width * done // max(self.total, 1)
+        self.stream.write(
+            f"\rcampaign [{'#' * filled}{'.' * (width - filled)}] {done}/{self.total} runs "
+            f"({self.counts['passed']} passed, {self.counts['failed']} failed, "
+            f"{self.counts['error']} errors) {elapsed:.0f} s{left}   ")
+        self.stream.flush()
+
+    def close(self) -> None:
+        """End the line."""
+        if self.enabled:
+            self.stream.write("\n")
+            self.stream.flush()
