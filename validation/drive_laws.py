@@ -1,0 +1,815 @@
+"""Drive laws: how each drive's angle moves over one cycle of the machine.
+
+Every drive angle is written against the cycle phase ``tau = Omega t`` of the main drive, where
+``Omega = 2 pi f`` and ``f`` is the cycle frequency (Hz, main-drive revolutions per second):
+
+    theta(t) = theta0 + phase + ratio * Omega t + sum_k amplitude_k sin(order_k Omega t + phase_k)
+
+``ratio`` is the drive's speed ratio to the main drive (1 for the main drive itself, 2 for the
+pendulum's lifting drive), ``phase`` (rad) shifts the drive's angle against the main drive, and the
+harmonic orders count multiples of the cycle frequency. Because the law is written against the
+phase, changing the frequency keeps the shape of every profile over a cycle (a speed sweep moves
+along one path at different speeds).
+
+Laws come from
+
+* the mechanism file (:func:`excitation_from_drivers`, the ``harmonic`` law of design 4.1),
+* a small TOML table, on the command line (``--drive theta_H={phase = 0.5}``) or in a file
+  (:func:`parse_drive_option`, :func:`law_from_table`),
+* a tabulated profile, a CSV of angle against time, smoothed and differentiated by a least-squares
+  Fourier series whose order is chosen by generalised cross-validation, with a stated error
+  (:func:`fit_periodic_profile`, :func:`read_profile_csv`),
+* a measured run: the drive angles that processing identified from the encoders
+  (:func:`excitation_from_measured`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import tomllib
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+import scipy.linalg
+import xarray as xr
+
+from rigval.acquisition.errors import (
+    ChannelNotFoundError,
+    ConfigError,
+    DataError,
+    DataFileError,
+)
+
+__all__ = [
+    "NOISE_COVERAGE",
+    "DriveLaw",
+    "Excitation",
+    "FitError",
+    "Harmonic",
+    "ProfileFit",
+    "apply_drive_options",
+    "excitation_from_drivers",
+    "excitation_from_measured",
+    "fit_periodic_profile",
+    "law_from_table",
+    "parse_drive_option",
+    "read_profile_csv",
+]
+
+logger = logging.getLogger(__name__)
+
+#: Multiple of the propagated noise standard deviation included in a fitted law's stated error.
+NOISE_COVERAGE = 4.0
+
+_LAW_KEYS = ("frequency", "ratio", "phase", "theta0", "harmonics", "profile", "period")
+_HARMONIC_KEYS = ("amplitude", "order", "phase")
+_CHUNK_ROWS = 8192
+_ERROR_GRID = 720
+_TRUNCATION_ORDERS = 3
+_ROUNDOFF = 64 * np.finfo(float).eps
+
+
+@dataclass(frozen=True)
+class Harmonic:
+    """One harmonic term ``amplitude sin(order Omega t + phase)`` of a drive law.
+
+    Parameters
+    ----------
+    amplitude : float
+        Amplitude, rad.
+    order : float
+        Frequency as a multiple of the cycle frequency (1 = once per main-drive revolution).
+    phase : float
+        Phase at t = 0, rad.
+    """
+
+    amplitude: float
+    order: float
+    phase: float = 0.0
+
+
+@dataclass(frozen=True)
+class FitError:
+    """Stated error of a law fitted to samples, per unit of cycle phase.
+
+    The error of the angle, speed and acceleration at frequency ``Omega`` (rad/s) is ``angle``,
+    ``speed * Omega`` and ``acceleration * Omega**2``. Each is the maximum over the cycle of
+    :data:`NOISE_COVERAGE` standard deviations of the sample noise propagated through the least-
+    squares fit, plus the truncation estimate (what the next harmonics above the fitted order
+    add) and floating-point round-off.
+
+    Parameters
+    ----------
+    angle : float
+        Error of the angle, rad.
+    speed : float
+        Error of ``d theta / d tau``, rad per rad of cycle phase.
+    acceleration : float
+        Error of ``d2 theta / d tau2``, rad per rad**2 of cycle phase.
+    residual_rms : float
+        Root mean square of the fit residual, rad (the estimated sample noise).
+    order : int
+        Number of harmonics kept.
+    samples : int
+        Number of samples fitted.
+    """
+
+    angle: float
+    speed: float
+    acceleration: float
+    residual_rms: float
+    order: int
+    samples: int
+
+    def at(self, omega: float) -> tuple[float, float, float]:
+        """Return the errors of angle (rad), speed (rad/s) and acceleration (rad/s**2) at ``omega``.
+
+        Parameters
+        ----------
+        omega : float
+            Cycle angular frequency, rad/s.
+        """
+        return self.angle, self.speed * abs(omega), self.acceleration * omega**2
+
+
+@dataclass(frozen=True)
+class DriveLaw:
+    """The angle of one drive over the cycle (see the module docstring for the formula).
+
+    Parameters
+    ----------
+    theta0 : float
+        Angle offset of the law, rad.
+    ratio : float
+        Constant speed as a multiple of the cycle angular frequency (1 for the main drive).
+    phase : float
+        Angle added to the whole law, rad: shifts this drive against the main drive.
+    harmonics : tuple of Harmonic
+        Harmonic terms.
+    source : str
+        Where the law came from (``"mechanism file"``, a CSV path, ``"command line"``, ...).
+    error : FitError, optional
+        Stated error when the law was fitted to samples; None for an exact law.
+    """
+
+    theta0: float
+    ratio: float = 1.0
+    phase: float = 0.0
+    harmonics: tuple[Harmonic, ...] = ()
+    source: str = "mechanism file"
+    error: FitError | None = None
+
+    def evaluate(self, t: npt.ArrayLike, omega: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Return angle (rad), speed (rad/s) and acceleration (rad/s**2) at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times, s.
+        omega : float
+            Cycle angular frequency, rad/s.
+        """
+        tau = omega * np.asarray(t, dtype=float)
+        theta = self.theta0 + self.phase + self.ratio * tau
+        speed = np.full_like(tau, self.ratio * omega)
+        acceleration = np.zeros_like(tau)
+        for term in self.harmonics:
+            arg = term.order * tau + term.phase
+            rate = term.order * omega
+            sin, cos = np.sin(arg), np.cos(arg)
+            theta = theta + term.amplitude * sin
+            speed = speed + term.amplitude * rate * cos
+            acceleration = acceleration - term.amplitude * rate**2 * sin
+        return theta, speed, acceleration
+
+
+@dataclass(frozen=True)
+class Excitation:
+    """The laws of every drive of a mechanism, sharing one cycle frequency.
+
+    Parameters
+    ----------
+    frequency : float
+        Cycle frequency, Hz (main-drive revolutions per second for a main drive of ratio 1).
+    laws : tuple of (str, DriveLaw)
+        Drive name and its law, in the mechanism's driver order.
+    main : str
+        Name of the main drive, whose angle is the cycle's reference (phi_F).
+    """
+
+    frequency: float
+    laws: tuple[tuple[str, DriveLaw], ...]
+    main: str
+
+    @property
+    def omega(self) -> float:
+        """Cycle angular frequency, rad/s."""
+        return 2.0 * math.pi * self.frequency
+
+    @property
+    def period(self) -> float:
+        """Cycle period, s."""
+        return 1.0 / self.frequency
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Drive names in order."""
+        return tuple(name for name, _ in self.laws)
+
+    def law(self, name: str) -> DriveLaw:
+        """Return the law of drive ``name`` (ChannelNotFoundError when there is none)."""
+        for law_name, law in self.laws:
+            if law_name == name:
+                return law
+        raise ChannelNotFoundError(f"no drive named {name!r}", where={"drive": name},
+                                   hint="use one of the mechanism's driver names",
+                                   available=list(self.names))
+
+    def with_law(self, name: str, law: DriveLaw) -> Excitation:
+        """Return a copy with drive ``name``'s law replaced."""
+        self.law(name)
+        laws = tuple((n, law if n == name else old) for n, old in self.laws)
+        return dataclasses.replace(self, laws=laws)
+
+    def with_frequency(self, frequency: float) -> Excitation:
+        """Return a copy running at cycle frequency ``frequency`` (Hz), profiles unchanged."""
+        _check_frequency(frequency, "frequency")
+        return dataclasses.replace(self, frequency=float(frequency))
+
+    def evaluate(self, t: npt.ArrayLike) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Return, per drive, angle (rad), speed (rad/s), acceleration (rad/s**2) at ``t`` (s)."""
+        return {name: law.evaluate(t, self.omega) for name, law in self.laws}
+
+    def to_dataset(self, t: npt.ArrayLike) -> xr.Dataset:
+        """Return the drive angles and derivatives at times ``t`` (s) as a Dataset.
+
+        Variables ``<drive>`` (rad), ``<drive>_speed`` (rad s-1) and ``<drive>_acceleration``
+        (rad s-2) along dim ``time``: the form processing identifies from encoders, and the form
+        :func:`excitation_from_measured` reads.
+        """
+        t = np.asarray(t, dtype=float)
+        data: dict[str, Any] = {}
+        for name, (theta, speed, accel) in self.evaluate(t).items():
+            data[name] = ("time", theta, {"units": "rad", "long_name": f"{name} drive angle"})
+            data[f"{name}_speed"] = ("time", speed, {"units": "rad s-1",
+                                                     "long_name": f"{name} angular speed"})
+            data[f"{name}_acceleration"] = ("time", accel, {
+                "units": "rad s-2", "long_name": f"{name} angular acceleration"})
+        coords = {"time": ("time", t, {"units": "s", "long_name": "time from cycle start"})}
+        return xr.Dataset(data, coords=coords)
+
+    def cycle_times(self, n_points: int) -> tuple[np.ndarray, np.ndarray]:
+        """Return the times (s) at which the main drive has turned ``2 pi j / n_points``.
+
+        Parameters
+        ----------
+        n_points : int
+            Number of grid points over one cycle (the end point 2 pi is left out).
+
+        Returns
+        -------
+        angle : ndarray
+            Main-drive angle from its position at t = 0, rad, in [0, 2 pi).
+        time : ndarray
+            Times at which the main drive reaches ``angle``, s.
+
+        Raises
+        ------
+        ConfigError
+            If the main drive stops or reverses within the cycle, so that its angle cannot serve as
+            the cycle coordinate.
+        """
+        if n_points < 4:
+            raise ConfigError(f"a cycle needs at least 4 points, got {n_points}",
+                              where={"option": "n_points"}, hint="use 360 or more points")
+        law = self.law(self.main)
+        omega = self.omega
+        check_t = np.linspace(0.0, self.period, 4 * n_points + 1)
+        _, speed, _ = law.evaluate(check_t, omega)
+        direction = math.copysign(1.0, law.ratio) if law.ratio else 0.0
+        if abs(law.ratio) != 1.0 or np.any(direction * speed <= 0.0):
+            raise ConfigError(
+                f"the main drive {self.main!r} must turn once per cycle without stopping "
+                f"(ratio {law.ratio:g}, slowest speed {np.min(direction * speed):.4g} rad/s)",
+                where={"drive": self.main},
+                hint="choose as main drive one that turns continuously, with harmonic "
+                     "amplitudes small enough that its speed stays positive")
+        angle = 2.0 * math.pi * np.arange(n_points) / n_points
+        start = law.evaluate(np.zeros(1), omega)[0][0]
+        t = angle / omega
+        for _ in range(50):
+            theta, speed, _ = law.evaluate(t, omega)
+            step = (direction * (theta - start) - angle) / (direction * speed)
+            t = t - step
+            if np.max(np.abs(step)) <= 1e-14 * self.period:
+                break
+        return angle, t
+
+
+class ProfileFit(NamedTuple):
+    """A law fitted to a tabulated or measured profile and the cycle frequency it implies.
+
+    Attributes
+    ----------
+    law : DriveLaw
+        The fitted law (``law.error`` holds the stated error).
+    frequency : float
+        Cycle frequency of the profile, Hz.
+    """
+
+    law: DriveLaw
+    frequency: float
+
+
+def _check_frequency(value: Any, key: str) -> float:
+    if not isinstance(value, int | float) or isinstance(value, bool) or not value > 0 \
+            or not math.isfinite(value):
+        raise ConfigError(f"the cycle frequency must be a positive number of Hz, got {value!r}",
+                          where={"key": key}, hint="give main-drive turns per second, e.g. 1.0")
+    return float(value)
+
+
+def excitation_from_drivers(drivers: Iterable[tuple[str, float, float,
+                                                    Sequence[tuple[float, float, float]]]],
+                            *, main: str | None = None) -> Excitation:
+    """Return the excitation of a mechanism file's ``harmonic`` drivers.
+
+    Parameters
+    ----------
+    drivers : iterable of (name, theta0, omega, harmonics)
+        Per driver: name, ``theta0`` (rad), constant speed ``omega`` (rad/s) and harmonics as
+        ``(amplitude rad, omega rad/s, phase rad)``, i.e.
+        ``theta(t) = theta0 + omega t + sum amplitude sin(omega_k t + phase)``.
+    main : str, optional
+        Name of the main drive; default the first driver.
+
+    Returns
+    -------
+    Excitation
+        The same laws written against the main drive's cycle (exact, no refit).
+
+    Raises
+    ------
+    ConfigError
+        If the main drive has neither a constant speed nor a harmonic (no cycle to speak of).
+    """
+    drivers = list(drivers)
+    if not drivers:
+        raise ConfigError("the mechanism has no drivers", hint="add a [[drivers]] table")
+    main = drivers[0][0] if main is None else main
+    rows = {name: (theta0, omega, harmonics) for name, theta0, omega, harmonics in drivers}
+    if main not in rows:
+        raise ChannelNotFoundError(f"no driver named {main!r}", where={"drive": main},
+                                   hint="name one of the mechanism's drivers as main",
+                                   available=list(rows))
+    _, main_omega, main_harmonics = rows[main]
+    cycle_omega = abs(main_omega) or next((abs(h[1]) for h in main_harmonics if h[1]), 0.0)
+    if cycle_omega == 0.0:
+        raise ConfigError(f"the main drive {main!r} does not move (omega 0, no harmonics)",
+                          where={"drive": main}, hint="give the main drive a constant speed")
+    laws = []
+    for name, theta0, omega, harmonics in drivers:
+        terms = tuple(Harmonic(float(a), float(w) / cycle_omega, float(p)) for a, w, p in harmonics)
+        laws.append((name, DriveLaw(theta0=float(theta0), ratio=float(omega) / cycle_omega,
+                                    harmonics=terms)))
+    return Excitation(frequency=cycle_omega / (2.0 * math.pi), laws=tuple(laws), main=main)
+
+
+def _number(table: Mapping[str, Any], key: str, where: str) -> float:
+    value = table[key]
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ConfigError(f"{key} must be a finite number, got {value!r}",
+                          where={"key": f"{where}.{key}"}, hint="write a plain number (SI units)")
+    return float(value)
+
+
+def _harmonics(value: Any, where: str) -> tuple[Harmonic, ...]:
+    if not isinstance(value, list):
+        raise ConfigError(f"harmonics must be a list of tables, got {value!r}",
+                          where={"key": f"{where}.harmonics"},
+                          hint="write harmonics = [{amplitude = 0.05, order = 1, phase = 0.0}]")
+    terms = []
+    for i, item in enumerate(value):
+        key = f"{where}.harmonics[{i}]"
+        if not isinstance(item, dict):
+            raise ConfigError(f"a harmonic must be a table, got {item!r}", where={"key": key},
+                              hint="write {amplitude = 0.05, order = 1, phase = 0.0}")
+        unknown = sorted(set(item) - set(_HARMONIC_KEYS))
+        if unknown or "amplitude" not in item or "order" not in item:
+            raise ConfigError(f"a harmonic needs amplitude (rad) and order, phase (rad) optional; "
+                              f"got keys {sorted(item)}", where={"key": key},
+                              hint=f"use only the keys {', '.join(_HARMONIC_KEYS)}")
+        terms.append(Harmonic(_number(item, "amplitude", key), _number(item, "order", key),
+                              _number(item, "phase", key) if "phase" in item else 0.0))
+    return tuple(terms)
+
+
+def law_from_table(table: Mapping[str, Any], base: DriveLaw, *, where: str,
+                   base_dir: Path | None = None) -> tuple[DriveLaw, float | None]:
+    """Return a drive law built from a TOML table, keys not given taken from ``base``.
+
+    Keys (SI units): ``frequency`` (Hz, cycle frequency; main drive only), ``ratio`` (speed ratio
+    to the main drive), ``phase`` (rad, shift against the main drive), ``theta0`` (rad),
+    ``harmonics`` (list of ``{amplitude = rad, order = multiple of the cycle frequency, phase =
+    rad}``, replacing the base harmonics), ``profile`` (path of a CSV of angle against time,
+    relative to ``base_dir``) with optional ``period`` (s).
+
+    Parameters
+    ----------
+    table : mapping
+        The parsed TOML table.
+    base : DriveLaw
+        The law that keys not given keep (usually the mechanism file's).
+    where : str
+        Key path or origin used in error messages.
+    base_dir : pathlib.Path, optional
+        Folder that a relative ``profile`` path is resolved against; default the working folder.
+
+    Returns
+    -------
+    law : DriveLaw
+        The new law.
+    frequency : float or None
+        The cycle frequency the table sets (``frequency`` key, or a profile's period), Hz.
+    """
+    unknown = sorted(set(table) - set(_LAW_KEYS))
+    if unknown:
+        raise ConfigError(f"unknown drive-law keys {unknown}", where={"key": where},
+                          hint=f"use only {', '.join(_LAW_KEYS)}")
+    frequency = _check_frequency(table["frequency"], f"{where}.frequency") \
+        if "frequency" in table else None
+    if "profile" in table:
+        others = sorted(set(table) - {"profile", "period", "phase", "frequency"})
+        if others:
+            raise ConfigError(f"a profile law takes only profile, period, phase and frequency, "
+                              f"not {others}", where={"key": where},
+                              hint="the profile itself fixes ratio, theta0 and harmonics")
+        path = Path(str(table["profile"]))
+        if base_dir is not None and not path.is_absolute():
+            path = base_dir / path
+        period = _number(table, "period", where) if "period" in table else None
+        t, theta = read_profile_csv(path)
+        fit = fit_periodic_profile(t, theta, period=period, source=str(path))
+        law = fit.law
+        if "phase" in table:
+            law = dataclasses.replace(law, phase=_number(table, "phase", where))
+        return law, frequency if frequency is not None else fit.frequency
+    changes: dict[str, Any] = {}
+    for key in ("ratio", "phase", "theta0"):
+        if key in table:
+            changes[key] = _number(table, key, where)
+    if "harmonics" in table:
+        changes["harmonics"] = _harmonics(table["harmonics"], where)
+    if not changes:
+        return base, frequency
+    return dataclasses.replace(base, source=where, error=None, **changes), frequency
+
+
+def parse_drive_option(text: str, excitation: Excitation, *, base_dir: Path | None = None
+                       ) -> Excitation:
+    """Apply one ``NAME=LAW`` drive option to an excitation.
+
+    ``LAW`` is ``file`` (the mechanism file's law, i.e. no change), the path of a ``.csv``
+    tabulated profile, the path of a ``.toml`` file holding one law table, or an inline TOML table
+    such as ``{phase = 0.5}`` or ``{frequency = 1.2, harmonics = [{amplitude = 0.05, order = 1}]}``
+    (keys of :func:`law_from_table`).
+
+    Parameters
+    ----------
+    text : str
+        The option value.
+    excitation : Excitation
+        The excitation to change.
+    base_dir : pathlib.Path, optional
+        Folder that relative paths are resolved against.
+
+    Returns
+    -------
+    Excitation
+        The changed excitation; a ``frequency`` key or a profile's period on the main drive sets
+        the cycle frequency.
+    """
+    name, sep, law_text = text.partition("=")
+    name, law_text = name.strip(), law_text.strip()
+    where = f"--drive {name}"
+    if not sep or not name or not law_text:
+        raise ConfigError(f"a drive option reads NAME=LAW, got {text!r}",
+                          where={"option": text},
+                          hint="e.g. --drive 'theta_H={phase = 0.5}' or theta_F=profile.csv")
+    base = excitation.law(name)
+    if law_text == "file":
+        return excitation
+    if law_text.startswith("{"):
+        try:
+            table = tomllib.loads(f"law = {law_text}")["law"]
+        except tomllib.TOMLDecodeError as error:
+            raise ConfigError(f"the inline law is not a TOML table: {error}",
+                              where={"option": text},
+                              hint="write TOML keys, e.g. {phase = 0.5, ratio = 2.0}") from None
+    elif law_text.lower().endswith(".csv"):
+        table = {"profile": law_text}
+    elif law_text.lower().endswith(".toml"):
+        path = Path(law_text)
+        if base_dir is not None and not path.is_absolute():
+            path = base_dir / path
+        try:
+            with path.open("rb") as handle:
+                table = tomllib.load(handle)
+        except OSError as error:
+            raise DataFileError(f"cannot read the drive-law file: {error}",
+                                where={"file": str(path)}, hint="check the path") from None
+        except tomllib.TOMLDecodeError as error:
+            raise ConfigError(f"the drive-law file is not valid TOML: {error}",
+                              where={"file": str(path)}, hint="fix the TOML syntax") from None
+        base_dir, where = path.parent, str(path)
+    else:
+        raise ConfigError(f"cannot tell what drive law {law_text!r} is",
+                          where={"option": text},
+                          hint="give 'file', a .csv profile, a .toml law file or an inline "
+                               "TOML table in braces")
+    law, frequency = law_from_table(table, base, where=where, base_dir=base_dir)
+    if name != excitation.main and "frequency" in table:
+        raise ConfigError("only the main drive sets the cycle frequency",
+                          where={"key": f"{where}.frequency", "main drive": excitation.main},
+                          hint=f"give frequency on {excitation.main}, and a ratio here")
+    changed = excitation.with_law(name, law)
+    if name == excitation.main and frequency is not None:
+        changed = changed.with_frequency(frequency)
+    return changed
+
+
+def apply_drive_options(excitation: Excitation, options: Sequence[str], *,
+                        base_dir: Path | None = None) -> Excitation:
+    """Apply ``NAME=LAW`` options in order (see :func:`parse_drive_option`)."""
+    for text in options:
+        excitation = parse_drive_option(text, excitation, base_dir=base_dir)
+    return excitation
+
+
+def read_profile_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read a tabulated drive profile: a CSV with a header and columns of time and angle.
+
+    The columns are found by name: one containing ``time`` (s) and one containing ``angle`` or
+    ``theta`` (rad); a file with exactly two columns may name them freely (time first).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The CSV file.
+
+    Returns
+    -------
+    t : ndarray
+        Times, s, strictly increasing.
+    theta : ndarray
+        Angles, rad (unwrapped as given; a turning drive's angle keeps growing).
+    """
+    path = Path(path)
+    try:
+        frame = pd.read_csv(path, comment="#")
+    except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as error:
+        raise DataFileError(f"cannot read the profile CSV: {error}", where={"file": str(path)},
+                            hint="give a CSV with a header row, columns time_s and angle_rad") \
+            from None
+    columns = [str(c) for c in frame.columns]
+    time_cols = [c for c in columns if "time" in c.lower()]
+    angle_cols = [c for c in columns if "angle" in c.lower() or "theta" in c.lower()]
+    if len(time_cols) == 1 and len(angle_cols) == 1:
+        time_col, angle_col = time_cols[0], angle_cols[0]
+    elif len(columns) == 2:
+        time_col, angle_col = columns
+    else:
+        raise DataFileError(f"cannot tell the time and angle columns apart among {columns}",
+                            where={"file": str(path)},
+                            hint="name the columns time_s and angle_rad")
+    values = {}
+    for col in (time_col, angle_col):
+        numeric = pd.to_numeric(frame[col], errors="coerce").to_numpy(dtype=float)
+        bad = np.flatnonzero(~np.isfinite(numeric))
+        if bad.size:
+            raise DataError(f"{bad.size} rows of column {col!r} are not finite numbers "
+                            f"(first at data row {bad[0] + 1})",
+                            where={"file": str(path), "column": col},
+                            hint="remove or fix those rows")
+        values[col] = numeric
+    t, theta = values[time_col], values[angle_col]
+    if t.size and np.any(np.diff(t) <= 0):
+        row = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 2
+        raise DataError("profile times must increase strictly", where={
+            "file": str(path), "column": time_col, "data row": row},
+            hint="sort the rows by time and drop duplicates")
+    return t, theta
+
+
+def _basis(tau: np.ndarray, order: int, derivative: int = 0) -> np.ndarray:
+    """Return the Fourier design matrix ``[1, cos tau, sin tau, cos 2tau, ...]`` or a derivative."""
+    k = np.arange(1, order + 1)
+    arg = np.outer(tau, k)
+    cos, sin = np.cos(arg), np.sin(arg)
+    columns = np.empty((tau.size, 2 * order + 1))
+    columns[:, 0] = 1.0 if derivative == 0 else 0.0
+    if derivative == 0:
+        columns[:, 1::2], columns[:, 2::2] = cos, sin
+    elif derivative == 1:
+        columns[:, 1::2], columns[:, 2::2] = -k * sin, k * cos
+    else:
+        columns[:, 1::2], columns[:, 2::2] = -(k**2) * cos, -(k**2) * sin
+    return columns
+
+
+def _normal_equations(tau: np.ndarray, y: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``A^T A`` and ``A^T y`` of the Fourier design, built in chunks (bounded memory)."""
+    p = 2 * order + 1
+    gram, rhs = np.zeros((p, p)), np.zeros(p)
+    for start in range(0, tau.size, _CHUNK_ROWS):
+        block = _basis(tau[start:start + _CHUNK_ROWS], order)
+        gram += block.T @ block
+        rhs += block.T @ y[start:start + _CHUNK_ROWS]
+    return gram, rhs
+
+
+def fit_periodic_profile(t: npt.ArrayLike, theta: npt.ArrayLike, *, period: float | None = None,
+                         max_order: int | None = None, source: str = "profile") -> ProfileFit:
+    """Smooth and differentiate a periodic drive profile by a least-squares Fourier series.
+
+    The angle minus its whole turns per cycle, ``theta - ratio * tau``, is fitted by a Fourier
+    series in the cycle phase ``tau = 2 pi (t - t0) / period``; the number of harmonics minimises
+    generalised cross-validation, ``N RSS / (N - p)**2``. Derivatives are the series' analytic
+    derivatives. The stated error (:class:`FitError`) adds the noise propagated through the fit
+    (:data:`NOISE_COVERAGE` standard deviations, from the least-squares covariance, worst point of
+    the cycle) and a truncation estimate (what harmonics ``K+1 .. K+3`` add when fitted) and
+    floating-point round-off.
+
+    Parameters
+    ----------
+    t : array_like
+        Times, s, strictly increasing (any spacing).
+    theta : array_like
+        Angles, rad.
+    period : float, optional
+        Cycle period, s. Default ``t[-1] - t[0]``: the last row closes the cycle (its angle is the
+        first angle plus whole turns).
+    max_order : int, optional
+        Largest number of harmonics tried; default ``min(100, (N - 1) // 3)``.
+    source : str
+        Where the samples came from (kept in the law).
+
+    Returns
+    -------
+    ProfileFit
+        The law (t = 0 at ``t[0]``) with its stated error, and the cycle frequency ``1 / period``.
+
+    Raises
+    ------
+    DataError
+        Too few samples, times not increasing, or a period the samples do not fit.
+    """
+    t = np.asarray(t, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    where = {"source": source}
+    if t.shape != theta.shape or t.ndim != 1 or t.size < 8:
+        raise DataError(f"a profile needs at least 8 (time, angle) pairs, got shapes {t.shape} "
+                        f"and {theta.shape}", where=where, hint="tabulate the whole cycle")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(theta)) and np.all(np.diff(t) > 0)):
+        raise DataError("profile times must be finite and strictly increasing, angles finite",
+                        where=where, hint="sort the rows and remove gaps")
+    span = t[-1] - t[0]
+    period = span if period is None else float(period)
+    if not period > 0 or period > span * (1 + 1e-9):
+        raise DataError(f"the period {period:g} s must be positive and at most the profile's "
+                        f"span {span:g} s", where=where,
+                        hint="tabulate at least one whole cycle, the last row closing it")
+    turns = (theta[-1] - theta[0]) / span * period / (2.0 * math.pi)
+    ratio = float(round(turns))
+    tau = 2.0 * math.pi * (t - t[0]) / period
+    y = theta - ratio * tau
+    n = t.size
+    available = min(100, (n - 1) // 3)
+    largest = available if max_order is None else max(0, min(int(max_order), available))
+    gram, rhs = _normal_equations(tau, y, min(largest + _TRUNCATION_ORDERS, available))
+    y2 = float(y @ y)
+    scores = []
+    for order in range(largest + 1):
+        p = 2 * order + 1
+        coef = scipy.linalg.solve(gram[:p, :p], rhs[:p], assume_a="pos")
+        rss = max(y2 - float(coef @ rhs[:p]), 0.0)
+        scores.append(n * rss / (n - p) ** 2)
+    order = int(np.argmin(scores))
+    p = 2 * order + 1
+    factor = scipy.linalg.cholesky(gram[:p, :p], lower=False)
+    coef = scipy.linalg.cho_solve((factor, False), rhs[:p])
+    residual = np.concatenate([
+        y[s:s + _CHUNK_ROWS] - _basis(tau[s:s + _CHUNK_ROWS], order) @ coef
+        for s in range(0, n, _CHUNK_ROWS)])
+    sigma = math.sqrt(float(residual @ residual) / (n - p)) if n > p else 0.0
+    grid = np.linspace(0.0, 2.0 * math.pi, _ERROR_GRID, endpoint=False)
+    noise, truncation = [], []
+    extra = min(order + _TRUNCATION_ORDERS, available)
+    extra_coef = None
+    if extra > order:
+        pe = 2 * extra + 1
+        extra_coef = scipy.linalg.solve(gram[:pe, :pe], rhs[:pe], assume_a="pos")
+    for derivative in range(3):
+        rows = _basis(grid, order, derivative)
+        spread = scipy.linalg.solve_triangular(factor, rows.T, trans="T")
+        noise.append(NOISE_COVERAGE * sigma * float(np.sqrt(np.max(np.sum(spread**2, axis=0)))))
+        if extra_coef is None:
+            truncation.append(0.0)
+        else:
+            tail = _basis(grid, extra, derivative)[:, p:] @ extra_coef[p:]
+            truncation.append(float(np.max(np.abs(tail))))
+    scale = abs(coef[0]) + abs(ratio) * 2.0 * math.pi + np.abs(coef[1:]).sum()
+    roundoff = [_ROUNDOFF * scale * max(1, order) ** m for m in range(3)]
+    total = [a + b + c for a, b, c in zip(noise, truncation, roundoff, strict=True)]
+    error = FitError(angle=total[0], speed=total[1], acceleration=total[2], residual_rms=sigma,
+                     order=order, samples=n)
+    harmonics = tuple(
+        Harmonic(amplitude=math.hypot(coef[2 * k - 1], coef[2 * k]), order=float(k),
+                 phase=math.atan2(coef[2 * k - 1], coef[2 * k]))
+        for k in range(1, order + 1))
+    law = DriveLaw(theta0=float(coef[0]), ratio=ratio, harmonics=harmonics, source=source,
+                   error=error)
+    logger.info("fitted %s: %d harmonics, residual rms %.3g rad, speed error %.3g rad/rad",
+                source, order, sigma, error.speed)
+    return ProfileFit(law=law, frequency=1.0 / period)
+
+
+def _whole_turns_period(t: np.ndarray, theta: np.ndarray, name: str) -> float:
+    """Return the mean period of the whole turns in a measured angle record, s.
+
+    For every sample, the time at which the angle has turned a further ``m`` whole revolutions is
+    interpolated (``m`` as large as the record allows); a periodic law repeats exactly after
+    ``m`` periods, so harmonics do not bias the estimate as an end-to-end slope would, and the
+    mean over all samples averages the angle noise.
+    """
+    turned = (theta - theta[0]) * math.copysign(1.0, theta[-1] - theta[0])
+    turns = math.floor(turned[-1] / (2.0 * math.pi))
+    if turns < 1:
+        raise DataError(f"the main drive {name!r} turns less than once in the measured run "
+                        f"({turned[-1]:.3g} rad)", where={"drive": name},
+                        hint="give a run of at least one whole revolution, or the period")
+    monotone = np.maximum.accumulate(turned)
+    levels = turned + 2.0 * math.pi * turns
+    usable = levels <= monotone[-1]
+    later = np.interp(levels[usable], monotone, t)
+    return float(np.mean(later - t[usable]) / turns)
+
+
+def excitation_from_measured(data: xr.Dataset, names: Sequence[str], *, main: str | None = None,
+                             period: float | None = None) -> Excitation:
+    """Return the periodic excitation identified from a measured run's drive angles.
+
+    Each drive angle ``data[name]`` (rad, along ``time`` in s) is fitted by
+    :func:`fit_periodic_profile` over all its cycles, with the cycle period from the main drive's
+    mean speed unless given. Where ``data`` also holds ``<name>_speed`` and ``<name>_acceleration``
+    (what processing derives from the encoders), their deviation from the fitted law is logged:
+    it measures how far the run departs from one repeating cycle.
+
+    Parameters
+    ----------
+    data : xarray.Dataset
+        Drive angles, and optionally their derivatives, along dim ``time``.
+    names : sequence of str
+        Drive names, in the mechanism's driver order.
+    main : str, optional
+        Main drive; default ``names[0]``.
+    period : float, optional
+        Cycle period, s; default one main-drive revolution at its mean speed.
+
+    Returns
+    -------
+    Excitation
+        The laws with their stated errors; t = 0 at the first sample.
+    """
+    main = names[0] if main is None else main
+    missing = [name for name in names if name not in data.data_vars]
+    if missing:
+        raise ChannelNotFoundError(f"the measured excitation lacks drive angles {missing}",
+                                   where={"variables": missing},
+                                   hint="identify the excitation from the encoders first",
+                                   available=list(map(str, data.data_vars)))
+    t = np.asarray(data["time"].values, dtype=float)
+    if period is None:
+        period = _whole_turns_period(t, np.asarray(data[main].values, dtype=float), main)
+    laws = []
+    for name in names:
+        fit = fit_periodic_profile(t, data[name].values, period=period,
+                                   source=f"measured {name}")
+        laws.append((name, fit.law))
+        if f"{name}_speed" in data.data_vars:
+            _, speed, accel = fit.law.evaluate(t - t[0], 2.0 * math.pi / period)
+            dev_speed = float(np.sqrt(np.mean((speed - data[f"{name}_speed"].values) ** 2)))
+            text = f"{dev_speed:.3g} rad/s"
+            if f"{name}_acceleration" in data.data_vars:
+                dev_accel = np.sqrt(np.mean((accel - data[f"{name}_acceleration"].values) ** 2))
+                text += f", {float(dev_accel):.3g} rad/s^2"
+            logger.info("measured %s departs from its periodic law by rms %s", name, text)
+    return Excitation(frequency=1.0 / period, laws=tuple(laws), main=main)
