@@ -250,7 +250,8 @@ def plan_runs(scenes: Sequence[str | Path], out_dir: str | Path) -> list[tuple[s
     Returns
     -------
     list of (str, Path, Path)
-        Name, scene path and report folder per run, in the order given.
+        Name, scene path and report folder per run, in the order given; absolute paths, so that
+        workers started elsewhere find them on a shared file system.
     """
     unique: list[Path] = []
     for scene in map(Path, scenes):
@@ -269,7 +270,7 @@ def plan_runs(scenes: Sequence[str | Path], out_dir: str | Path) -> list[tuple[s
         while name in taken:
             name, number = f"{base}-{number}", number + 1
         taken.add(name)
-        plan.append((name, scene, Path(out_dir) / name))
+        plan.append((name, scene.absolute(), Path(out_dir).absolute() / name))
     return plan
 
 
