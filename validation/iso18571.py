@@ -1,0 +1,543 @@
+"""ISO/TS 18571 objective rating of a model signal against a measured one.
+
+The rating combines four scores in [0, 1] (ISO/TS 18571, ed. 2 2024; ed. 1 2014):
+
+* corridor ``Z``: the share of samples inside corridors around the reference, on the unshifted
+  signals;
+* phase ``E_P``: the shift that maximises the Pearson correlation of the overlapping parts, scored
+  against the allowed shift window;
+* magnitude ``E_M``: the L1 error of the phase-compensated signals after dynamic time warping (DTW);
+* slope ``E_S``: the L1 error of their smoothed derivatives;
+
+``R = 0.4 Z + 0.2 E_P + 0.2 E_M + 0.2 E_S``, graded excellent (R > 0.94), good (> 0.80),
+fair (> 0.58) or poor. The computational details (window limits, DTW band, step pattern, tie order,
+end treatment of the slope smoothing) follow the TU Graz reference implementation
+``objective_rating_metrics`` 1.3, which reproduces the 42 rating cases of the standard's Annex C
+within its 0.001 tolerance (see ``shared/research/validation_metrics.md``).
+
+:func:`iso18571_periodic` is this package's variant for signals over exactly one revolution: the
+phase shift is circular (no truncation, all samples kept), and the slope uses circular differences
+and a circular 9-point mean (no shrinking windows at the ends). Corridor, magnitude and the scoring
+formulas are those of the standard.
+
+Cost: the DTW of the magnitude score is O(n^2) in time (a band of 20 % of the cells, swept one
+anti-diagonal at a time) and stores one byte per band cell. Longer signals are therefore brought
+down to at most ``max_samples`` samples before rating (integer decimation with a zero-phase FIR
+anti-alias filter for time signals, Fourier resampling for periodic ones); the rated sample count is
+in the result. The standard assumes 10 kHz sampling and its slope smoothing and windows are in
+samples and fractions of the interval, so ratings of the same signals at different sample counts
+differ slightly.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from typing import Any
+
+import numpy as np
+import scipy.signal
+
+from rigval.acquisition.errors import ConfigError, DataError
+from rigval.validation.metric_core import Scores, paired
+
+__all__ = [
+    "DEFAULT_MAX_SAMPLES",
+    "GRADES",
+    "IsoParameters",
+    "IsoScores",
+    "dtw_path",
+    "grade",
+    "iso18571",
+    "iso18571_periodic",
+]
+
+logger = logging.getLogger(__name__)
+
+DEFAULT_MAX_SAMPLES = 5000
+"""Longest signal rated as it is; longer ones are resampled (see the module docstring)."""
+
+MIN_ISO_SAMPLES = 16
+"""Fewest samples ISO rating accepts (the slope smoothing spans 9)."""
+
+GRADES: tuple[tuple[float, str], ...] = ((0.94, "excellent"), (0.80, "good"), (0.58, "fair"))
+"""Lower grade limits of ISO/TS 18571 (a rating must exceed the limit); below all: ``"poor"``."""
+
+_TIE_TOLERANCE = 1e-12
+"""Correlations closer than this to the best count as ties (rounding of the FFT correlation)."""
+
+_SLOPE_HALF_WIDTH = 4
+"""Half-width of the 9-point moving average applied to the derivatives, samples."""
+
+
+@dataclasses.dataclass(frozen=True)
+class IsoParameters:
+    """Parameters of the ISO/TS 18571 rating (defaults: the standard's).
+
+    Parameters
+    ----------
+    inner_width : float
+        Inner corridor half-width ``a_0`` as a fraction of ``max|measured|`` (0.05).
+    outer_width : float
+        Outer corridor half-width ``b_0`` as a fraction of ``max|measured|`` (0.5).
+    corridor_exponent : float
+        ``k_Z`` (2).
+    phase_window : float
+        Largest shift ``eps_P`` considered, as a fraction of the sample count (0.2).
+    phase_exponent : float
+        ``k_P`` (1).
+    magnitude_limit : float
+        Relative L1 magnitude error ``eps_M`` that scores 0 (0.5).
+    magnitude_exponent : float
+        ``k_M`` (1).
+    slope_limit : float
+        Relative L1 slope error ``eps_S`` that scores 0 (2.0).
+    slope_exponent : float
+        ``k_S`` (1).
+    dtw_band : float
+        Sakoe-Chiba band of the DTW as a fraction of the sample count: cells with
+        ``|i - j| < ceil(dtw_band * n)`` (0.1).
+    weights : tuple of float
+        Weights of corridor, phase, magnitude and slope (0.4, 0.2, 0.2, 0.2); they sum to 1.
+
+    Raises
+    ------
+    ConfigError
+        If a parameter is out of range (the key names it).
+    """
+
+    inner_width: float = 0.05
+    outer_width: float = 0.5
+    corridor_exponent: float = 2.0
+    phase_window: float = 0.2
+    phase_exponent: float = 1.0
+    magnitude_limit: float = 0.5
+    magnitude_exponent: float = 1.0
+    slope_limit: float = 2.0
+    slope_exponent: float = 1.0
+    dtw_band: float = 0.1
+    weights: tuple[float, float, float, float] = (0.4, 0.2, 0.2, 0.2)
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.inner_width < self.outer_width:
+            raise ConfigError(f"corridor widths need 0 <= inner < outer, got inner "
+                              f"{self.inner_width}, outer {self.outer_width}",
+                              where={"key": "inner_width"}, hint="the standard uses 0.05 and 0.5")
+        if not 0.0 < self.phase_window < 0.5:
+            raise ConfigError(f"phase_window must lie in (0, 0.5), got {self.phase_window}",
+                              where={"key": "phase_window"}, hint="the standard uses 0.2")
+        if not 0.0 < self.dtw_band <= 1.0:
+            raise ConfigError(f"dtw_band must lie in (0, 1], got {self.dtw_band}",
+                              where={"key": "dtw_band"}, hint="the standard uses 0.1")
+        for key in ("magnitude_limit", "slope_limit", "corridor_exponent", "phase_exponent",
+                    "magnitude_exponent", "slope_exponent"):
+            if not getattr(self, key) > 0.0:
+                raise ConfigError(f"{key} must be positive, got {getattr(self, key)}",
+                                  where={"key": key}, hint="use the standard's default")
+        if len(self.weights) != 4 or min(self.weights) < 0 or not math.isclose(sum(self.weights),
+                                                                              1.0):
+            raise ConfigError(f"weights must be four non-negative numbers summing to 1, got "
+                              f"{self.weights}", where={"key": "weights"},
+                              hint="the standard uses (0.4, 0.2, 0.2, 0.2)")
+
+
+@dataclasses.dataclass(frozen=True)
+class IsoScores(Scores):
+    """Result of an ISO/TS 18571 rating.
+
+    Attributes
+    ----------
+    rating : float
+        Overall rating ``R`` in [0, 1].
+    grade : str
+        ``"excellent"``, ``"good"``, ``"fair"`` or ``"poor"``.
+    corridor, phase, magnitude, slope : float
+        The sub-scores ``Z``, ``E_P``, ``E_M``, ``E_S`` in [0, 1].
+    shift_samples : int
+        Shift found by the phase score, samples; positive when the model lags (is delayed).
+    shift : float
+        The same shift in s (:func:`iso18571`) or in degrees of shaft angle
+        (:func:`iso18571_periodic`).
+    n_samples : int
+        Samples rated (fewer than given when a long signal was resampled).
+    """
+
+    rating: float
+    grade: str
+    corridor: float
+    phase: float
+    magnitude: float
+    slope: float
+    shift_samples: int
+    shift: float
+    n_samples: int
+
+
+def grade(rating: float) -> str:
+    """Return the ISO/TS 18571 grade of a rating.
+
+    Parameters
+    ----------
+    rating : float
+        Overall rating in [0, 1].
+
+    Returns
+    -------
+    str
+        ``"excellent"`` (R > 0.94), ``"good"`` (R > 0.80), ``"fair"`` (R > 0.58) or ``"poor"``.
+    """
+    for limit, name in GRADES:
+        if rating > limit:
+            return name
+    return "poor"
+
+
+def iso18571(measured: Any, model: Any, *, dt: float | None = None, fs: float | None = None,
+             params: IsoParameters | None = None,
+             max_samples: int = DEFAULT_MAX_SAMPLES) -> IsoScores:
+    """Rate a model time signal against the measured one by ISO/TS 18571.
+
+    Parameters
+    ----------
+    measured : array_like or xarray.DataArray
+        Reference signal ``T`` (any units), uniformly sampled over the interval of evaluation,
+        pre-filtered as the standard expects (ISO 6487 / SAE J211 CFC in crash practice).
+    model : array_like or xarray.DataArray
+        Comparison signal ``C`` on the same samples and in the same units.
+    dt : float, optional
+        Sample spacing, s. Give ``dt`` or ``fs``; with neither, a DataArray's single coordinate
+        supplies it.
+    fs : float, optional
+        Sampling rate, Hz.
+    params : IsoParameters, optional
+        Rating parameters; the standard's by default.
+    max_samples : int
+        Longer signals are decimated by the smallest integer factor that brings them to at most
+        this many samples (zero-phase FIR anti-alias filter) before rating.
+
+    Returns
+    -------
+    IsoScores
+        Rating, grade, sub-scores and the phase shift (``shift`` in s).
+
+    Raises
+    ------
+    DataError
+        On bad samples, unequal lengths, fewer than 16 samples or an all-zero reference.
+    ConfigError
+        If the sample spacing is missing, ambiguous or not positive.
+
+    Notes
+    -----
+    Not symmetric: the measured signal is the reference. The standard sets no rule for the interval
+    of evaluation; cut both signals to it before calling.
+    """
+    params = params or IsoParameters()
+    step = _sample_spacing(measured, dt, fs)
+    reference, comparison = paired(measured, model)
+    factor = math.ceil(reference.size / max_samples)
+    if factor > 1:
+        logger.info("ISO 18571: decimating %d samples by %d (max_samples=%d)", reference.size,
+                    factor, max_samples)
+        reference = scipy.signal.decimate(reference, factor, ftype="fir", zero_phase=True)
+        comparison = scipy.signal.decimate(comparison, factor, ftype="fir", zero_phase=True)
+        step *= factor
+    _check_reference(reference)
+    n = reference.size
+    limit = int(np.floor(n * params.phase_window))
+    shifts, rho = _overlap_correlation(reference, comparison, limit)
+    shift = _best_shift(shifts, rho)
+    if shift >= 0:
+        ref_part, cmp_part = reference[:n - shift], comparison[shift:]
+    else:
+        ref_part, cmp_part = reference[-shift:], comparison[:n + shift]
+    slope_ref, slope_cmp = _smoothed_slope(ref_part), _smoothed_slope(cmp_part)
+    return _scores(reference, comparison, ref_part, cmp_part, slope_ref, slope_cmp, shift,
+                   shift * step, params)
+
+
+def iso18571_periodic(measured: Any, model: Any, *, params: IsoParameters | None = None,
+                      max_samples: int = DEFAULT_MAX_SAMPLES) -> IsoScores:
+    """Rate a model signal over one revolution against the measured one (periodic ISO variant).
+
+    The signals hold one revolution on a uniform angle grid without the repeated end sample
+    (``angle[k] = k * 360 / n`` degrees). The corridor, the DTW magnitude and all scoring formulas
+    are those of ISO/TS 18571; the phase shift is circular (Pearson correlation of all samples
+    with the model rotated by up to ``phase_window`` of a revolution; nothing is truncated), and the
+    slope uses circular central differences and a circular 9-point mean.
+
+    Parameters
+    ----------
+    measured : array_like or xarray.DataArray
+        Reference signal over one revolution (any units).
+    model : array_like or xarray.DataArray
+        Model signal on the same angle grid, same units.
+    params : IsoParameters, optional
+        Rating parameters; the standard's by default.
+    max_samples : int
+        Longer signals are Fourier-resampled to this many samples before rating.
+
+    Returns
+    -------
+    IsoScores
+        Rating, grade, sub-scores and the phase shift (``shift`` in degrees, positive when the
+        model lags).
+
+    Raises
+    ------
+    DataError
+        On bad samples, unequal lengths, fewer than 16 samples or an all-zero reference.
+    """
+    params = params or IsoParameters()
+    reference, comparison = paired(measured, model)
+    if reference.size > max_samples:
+        logger.info("ISO 18571 periodic: resampling %d samples to %d", reference.size,
+                    max_samples)
+        reference = scipy.signal.resample(reference, max_samples)
+        comparison = scipy.signal.resample(comparison, max_samples)
+    _check_reference(reference)
+    n = reference.size
+    limit = int(np.floor(n * params.phase_window))
+    shifts, rho = _circular_correlation(reference, comparison, limit)
+    shift = _best_shift(shifts, rho)
+    rotated = np.roll(comparison, -shift)
+    slope_ref = _smoothed_slope_circular(reference)
+    slope_cmp = _smoothed_slope_circular(rotated)
+    return _scores(reference, comparison, reference, rotated, slope_ref, slope_cmp, shift,
+                   shift * 360.0 / n, params)
+
+
+def dtw_path(x: np.ndarray, y: np.ndarray, radius: int) -> tuple[np.ndarray, np.ndarray]:
+    """Return the ISO/TS 18571 dynamic-time-warping path between two equal-length signals.
+
+    Local cost ``(x_i - y_j)^2``; steps (1, 0), (0, 1), (1, 1) of weight 1; a Sakoe-Chiba band
+    ``|i - j| <= radius``; the path runs from (0, 0) to (n-1, n-1). Where predecessors tie, the
+    step that advances only ``x`` wins, then the one advancing only ``y``, then the diagonal.
+
+    Parameters
+    ----------
+    x, y : numpy.ndarray
+        Signals of equal length ``n`` (same units).
+    radius : int
+        Band half-width, samples (``>= 0``).
+
+    Returns
+    -------
+    ix, iy : numpy.ndarray
+        Indices into ``x`` and ``y`` along the path, from the start; ``x[ix]`` and ``y[iy]`` are
+        the warped signals.
+
+    Notes
+    -----
+    The accumulated cost is swept one anti-diagonal at a time (each a vectorised step over at most
+    ``2 radius + 1`` cells), so time is O(n radius) and memory is one byte per band cell plus three
+    vectors.
+    """
+    n = x.size
+    width = 2 * radius + 1
+    choices = np.zeros((n + 1, width), dtype=np.int8)
+    before_last = np.full(n + 1, np.inf)
+    before_last[0] = 0.0
+    last = np.full(n + 1, np.inf)
+    for k in range(2, 2 * n + 1):
+        lo = max(1, k - n, (k - radius + 1) // 2)
+        hi = min(n, k - 1, (k + radius) // 2)
+        current = np.full(n + 1, np.inf)
+        rows = np.arange(lo, hi + 1)
+        cost = (x[lo - 1:hi] - y[k - hi - 1:k - lo][::-1]) ** 2
+        candidates = np.stack((last[lo - 1:hi], last[lo:hi + 1], before_last[lo - 1:hi]))
+        choice = np.argmin(candidates, axis=0)
+        current[lo:hi + 1] = cost + np.take_along_axis(candidates, choice[None, :], 0)[0]
+        choices[rows, k - 2 * rows + radius] = choice
+        before_last, last = last, current
+    return _backtrack(choices, n, radius)
+
+
+def _backtrack(choices: np.ndarray, n: int, radius: int) -> tuple[np.ndarray, np.ndarray]:
+    """Follow the stored step choices from (n, n) back to (1, 1); return 0-based indices."""
+    i = j = n
+    path_i, path_j = [i], [j]
+    while i > 1 or j > 1:
+        step = choices[i, j - i + radius]
+        if step == 0:
+            i -= 1
+        elif step == 1:
+            j -= 1
+        else:
+            i -= 1
+            j -= 1
+        path_i.append(i)
+        path_j.append(j)
+    return np.array(path_i[::-1]) - 1, np.array(path_j[::-1]) - 1
+
+
+def _sample_spacing(measured: Any, dt: float | None, fs: float | None) -> float:
+    """Return the sample spacing from ``dt``, ``fs`` or a DataArray coordinate, s."""
+    if dt is not None and fs is not None:
+        raise ConfigError("give the sample spacing once: dt or fs, not both",
+                          where={"key": "dt"}, hint="drop one of them")
+    if fs is not None:
+        dt = 1.0 / fs if fs > 0 else fs
+    if dt is None:
+        coords = getattr(measured, "coords", {})
+        dims = getattr(measured, "dims", ())
+        if len(dims) == 1 and dims[0] in coords and coords[dims[0]].size > 1:
+            axis = np.asarray(coords[dims[0]].values, dtype=np.float64)
+            dt = float(np.mean(np.diff(axis)))
+        else:
+            raise ConfigError("the sample spacing is missing", where={"key": "dt"},
+                              hint="pass dt (s) or fs (Hz), or a DataArray with a time coordinate")
+    if not (np.isfinite(dt) and dt > 0):
+        raise ConfigError(f"the sample spacing must be positive, got dt = {dt}",
+                          where={"key": "dt"}, hint="pass dt in s or fs in Hz")
+    return float(dt)
+
+
+def _check_reference(reference: np.ndarray) -> None:
+    """Raise DataError if the reference is too short or zero everywhere."""
+    if reference.size < MIN_ISO_SAMPLES:
+        raise DataError(f"ISO 18571 needs at least {MIN_ISO_SAMPLES} samples, got "
+                        f"{reference.size}", where={"signal": "measured"},
+                        hint="rate a longer interval or sample it more finely")
+    if not np.any(reference):
+        raise DataError("the measured signal is zero everywhere: its corridors have zero width",
+                        where={"signal": "measured"},
+                        hint="ISO rating needs a reference with a non-zero peak")
+
+
+def _overlap_correlation(reference: np.ndarray, comparison: np.ndarray,
+                         limit: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pearson correlation of the overlapping parts for shifts -limit..limit.
+
+    Shift ``m > 0`` pairs ``reference[i]`` with ``comparison[i + m]`` (the model lags). All shifts
+    at once: the cross products from one FFT correlation, the partial sums from cumulative sums.
+    Shifts whose overlap is constant get correlation -inf.
+    """
+    n = reference.size
+    t = (reference - reference.mean()) / (reference.std() or 1.0)
+    c = (comparison - comparison.mean()) / (comparison.std() or 1.0)
+    shifts = np.arange(-limit, limit + 1)
+    cross = scipy.signal.correlate(c, t, mode="full")[n - 1 + shifts]
+    ct, ct2 = _cumulative(t), _cumulative(t * t)
+    cc, cc2 = _cumulative(c), _cumulative(c * c)
+    lag = np.maximum(shifts, 0)
+    lead = np.maximum(-shifts, 0)
+    t_lo, t_hi = lead, n - lag
+    c_lo, c_hi = lag, n - lead
+    count = n - np.abs(shifts)
+    sum_t, sum_t2 = ct[t_hi] - ct[t_lo], ct2[t_hi] - ct2[t_lo]
+    sum_c, sum_c2 = cc[c_hi] - cc[c_lo], cc2[c_hi] - cc2[c_lo]
+    covariance = cross - sum_t * sum_c / count
+    variance_t = sum_t2 - sum_t**2 / count
+    variance_c = sum_c2 - sum_c**2 / count
+    return shifts, _ratio(covariance, variance_t, variance_c, count)
+
+
+def _circular_correlation(reference: np.ndarray, comparison: np.ndarray,
+                          limit: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pearson correlation of the reference with the model rotated by -limit..limit samples."""
+    n = reference.size
+    t = (reference - reference.mean()) / (reference.std() or 1.0)
+    c = (comparison - comparison.mean()) / (comparison.std() or 1.0)
+    cross = np.fft.irfft(np.conj(np.fft.rfft(t)) * np.fft.rfft(c), n)
+    shifts = np.arange(-limit, limit + 1)
+    count = np.full(shifts.size, n)
+    return shifts, _ratio(cross[shifts % n], np.full(shifts.size, t @ t),
+                          np.full(shifts.size, c @ c), count)
+
+
+def _ratio(covariance: np.ndarray, variance_t: np.ndarray, variance_c: np.ndarray,
+           count: np.ndarray) -> np.ndarray:
+    """Correlation coefficient of unit-variance signals; -inf where a part is (nearly) constant."""
+    tiny = 1e-12 * count
+    valid = (variance_t > tiny) & (variance_c > tiny)
+    rho = np.full(covariance.size, -np.inf)
+    rho[valid] = covariance[valid] / np.sqrt(variance_t[valid] * variance_c[valid])
+    return rho
+
+
+def _cumulative(values: np.ndarray) -> np.ndarray:
+    """Cumulative sum with a leading zero, so that ``s[b] - s[a]`` sums ``values[a:b]``."""
+    return np.concatenate(([0.0], np.cumsum(values)))
+
+
+def _best_shift(shifts: np.ndarray, rho: np.ndarray) -> int:
+    """Shift of the highest correlation; ties go to the smaller shift, then to the model lagging."""
+    if not np.isfinite(rho).any():
+        return 0
+    best = np.max(rho)
+    tied = shifts[rho >= best - _TIE_TOLERANCE]
+    return int(min(tied, key=lambda m: (abs(m), m < 0)))
+
+
+def _smoothed_slope(values: np.ndarray) -> np.ndarray:
+    """Central-difference derivative (one-sided at the ends) smoothed by a centred 9-point mean.
+
+    The window shrinks to 1, 3, 5, 7 points at the ends so that it stays centred (ISO/TS 18571).
+    The derivative is per sample: the scores use ratios of slopes, so the spacing cancels.
+    """
+    derivative = np.gradient(values)
+    n = derivative.size
+    index = np.arange(n)
+    half = np.minimum(np.minimum(index, n - 1 - index), _SLOPE_HALF_WIDTH)
+    sums = _cumulative(derivative)
+    return (sums[index + half + 1] - sums[index - half]) / (2 * half + 1)
+
+
+def _smoothed_slope_circular(values: np.ndarray) -> np.ndarray:
+    """Circular central-difference derivative smoothed by a circular 9-point mean."""
+    derivative = 0.5 * (np.roll(values, -1) - np.roll(values, 1))
+    h = _SLOPE_HALF_WIDTH
+    wrapped = np.concatenate((derivative[-h:], derivative, derivative[:h]))
+    return np.convolve(wrapped, np.full(2 * h + 1, 1.0 / (2 * h + 1)), mode="valid")
+
+
+def _scores(reference: np.ndarray, comparison: np.ndarray, ref_part: np.ndarray,
+            cmp_part: np.ndarray, slope_ref: np.ndarray, slope_cmp: np.ndarray, shift: int,
+            shift_value: float, params: IsoParameters) -> IsoScores:
+    """Combine the four ISO sub-scores into the result."""
+    n = reference.size
+    corridor = _corridor_score(reference, comparison, params)
+    phase = _limited_score(abs(shift), params.phase_window * n, params.phase_exponent)
+    radius = max(math.ceil(params.dtw_band * ref_part.size) - 1, 0)
+    ix, iy = dtw_path(cmp_part, ref_part, radius)
+    magnitude_error = _relative_l1(cmp_part[ix], ref_part[iy], "magnitude")
+    magnitude = _limited_score(magnitude_error, params.magnitude_limit,
+                               params.magnitude_exponent)
+    slope_error = _relative_l1(slope_cmp, slope_ref, "slope")
+    slope = _limited_score(slope_error, params.slope_limit, params.slope_exponent)
+    w_z, w_p, w_m, w_s = params.weights
+    rating = w_z * corridor + w_p * phase + w_m * magnitude + w_s * slope
+    return IsoScores(rating=float(rating), grade=grade(rating), corridor=float(corridor),
+                     phase=float(phase), magnitude=float(magnitude), slope=float(slope),
+                     shift_samples=shift, shift=float(shift_value), n_samples=n)
+
+
+def _corridor_score(reference: np.ndarray, comparison: np.ndarray,
+                    params: IsoParameters) -> float:
+    """Mean corridor score of the samples (1 inside the inner corridor, 0 outside the outer)."""
+    peak = np.max(np.abs(reference))
+    inner, outer = params.inner_width * peak, params.outer_width * peak
+    distance = np.abs(comparison - reference)
+    between = np.clip((outer - distance) / (outer - inner), 0.0, 1.0)
+    return float(np.mean(between ** params.corridor_exponent))
+
+
+def _limited_score(error: float, limit: float, exponent: float) -> float:
+    """``((limit - error) / limit) ** exponent`` for ``0 <= error < limit``; 1 at 0, 0 beyond."""
+    if error <= 0.0:
+        return 1.0
+    if error >= limit:
+        return 0.0
+    return ((limit - error) / limit) ** exponent
+
+
+def _relative_l1(comparison: np.ndarray, reference: np.ndarray, what: str) -> float:
+    """``||comparison - reference||_1 / ||reference||_1``; DataError if the reference is zero."""
+    norm = np.sum(np.abs(reference))
+    if norm == 0.0:
+        raise DataError(f"the measured signal's {what} is zero over the rated interval",
+                        where={"signal": "measured"},
+                        hint="ISO rating needs a reference that varies over the interval")
+    return float(np.sum(np.abs(comparison - reference)) / norm)

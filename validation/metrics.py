@@ -1,0 +1,325 @@
+"""Objective comparison of a measured and a model signal: every metric, by name, in one place.
+
+The metric functions (each returns a frozen record with ``as_dict()``):
+
+=======================  =========================================================================
+:func:`iso18571`         ISO/TS 18571 rating of time signals (corridor, phase, magnitude, slope)
+:func:`iso18571_periodic` the same over one revolution (circular shift, no end effects)
+:func:`sprague_geers`    Sprague & Geers magnitude, phase, comprehensive
+:func:`russell`          Russell magnitude, phase, comprehensive
+:func:`nrmse`            RMSE normalised by the measured range, RMS or peak (named in the result)
+:func:`pearson_r`        Pearson correlation
+:func:`peak_error`       peak value error and the location of the peaks
+:func:`circular_lag`     lag of the model over one revolution by circular cross-correlation, deg
+:func:`vv20`             ASME V&V 20 comparison error and validation uncertainty, peak and RMS
+=======================  =========================================================================
+
+:func:`compare` runs a chosen set of them on one revolution and returns one flat dict of scores;
+:func:`baseline` runs the same set on each measured cycle against the cycle mean (the
+cycle-to-cycle scatter a model is judged against); :func:`check_thresholds` applies pass/fail
+thresholds. Definitions, ranges and grades: ``docs/metrics.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from rigval.acquisition.errors import ConfigError, DataError
+from rigval.validation.iso18571 import IsoParameters, IsoScores, grade, iso18571, iso18571_periodic
+from rigval.validation.metric_core import Scores, as_signal, check_revolution, paired
+from rigval.validation.thresholds import ThresholdCheck, check_thresholds, parse_threshold
+from rigval.validation.vv20 import VV20Feature, VV20Scores, vv20
+from rigval.validation.waveform_metrics import (
+    LagScores,
+    NrmseScores,
+    PeakScores,
+    PearsonScores,
+    RussellScores,
+    SpragueGeersScores,
+    circular_lag,
+    nrmse,
+    peak_error,
+    pearson_r,
+    russell,
+    sprague_geers,
+)
+
+__all__ = [
+    "DEFAULT_METRICS",
+    "METRICS",
+    "BaselineScores",
+    "IsoParameters",
+    "IsoScores",
+    "LagScores",
+    "NrmseScores",
+    "PeakScores",
+    "PearsonScores",
+    "RussellScores",
+    "Scores",
+    "SpragueGeersScores",
+    "ThresholdCheck",
+    "VV20Feature",
+    "VV20Scores",
+    "baseline",
+    "check_thresholds",
+    "circular_lag",
+    "compare",
+    "grade",
+    "iso18571",
+    "iso18571_periodic",
+    "nrmse",
+    "orientation",
+    "parse_threshold",
+    "peak_error",
+    "pearson_r",
+    "russell",
+    "sprague_geers",
+    "vv20",
+]
+
+logger = logging.getLogger(__name__)
+
+METRICS: tuple[str, ...] = ("iso18571_periodic", "iso18571", "sprague_geers", "russell", "nrmse",
+                            "pearson_r", "peak_error", "circular_lag", "vv20")
+"""Metric names :func:`compare` knows."""
+
+DEFAULT_METRICS: tuple[str, ...] = ("iso18571_periodic", "sprague_geers", "russell", "nrmse",
+                                    "pearson_r", "peak_error", "circular_lag")
+"""Metrics :func:`compare` runs unless told otherwise (V&V 20 needs stated uncertainties)."""
+
+_HIGHER = ("iso18571_periodic.rating", "iso18571_periodic.corridor", "iso18571_periodic.phase",
+           "iso18571_periodic.magnitude", "iso18571_periodic.slope", "iso18571.rating",
+           "iso18571.corridor", "iso18571.phase", "iso18571.magnitude", "iso18571.slope",
+           "pearson_r", "circular_lag.correlation")
+_LOWER = ("sprague_geers.phase", "sprague_geers.comprehensive", "russell.phase",
+          "russell.comprehensive", "nrmse", "nrmse.rmse")
+_NEAR_ZERO = ("iso18571_periodic.shift_samples", "iso18571_periodic.shift",
+              "iso18571.shift_samples", "iso18571.shift", "sprague_geers.magnitude",
+              "russell.magnitude", "peak_error.error", "peak_error.relative_error",
+              "peak_error.shift", "circular_lag.lag_deg", "vv20.peak.error",
+              "vv20.peak.normalised_error", "vv20.rms.error", "vv20.rms.normalised_error")
+_ORIENTATION = (dict.fromkeys(_HIGHER, "higher") | dict.fromkeys(_LOWER, "lower")
+                | dict.fromkeys(_NEAR_ZERO, "near_zero"))
+
+
+def orientation(score: str) -> str | None:
+    """Return which way a score improves.
+
+    Parameters
+    ----------
+    score : str
+        Score name as :func:`compare` gives it.
+
+    Returns
+    -------
+    str or None
+        ``"higher"`` (1 is perfect), ``"lower"`` (0 is perfect), ``"near_zero"`` (signed, 0 is
+        perfect) or None for descriptive values (peak values and locations, sample counts,
+        uncertainties, names).
+    """
+    return _ORIENTATION.get(score)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class BaselineScores:
+    """Scores of each measured cycle against the measured cycle mean.
+
+    Attributes
+    ----------
+    n_cycles : int
+        Cycles compared.
+    per_cycle : dict of str to numpy.ndarray
+        Every numeric score of :func:`compare`, one value per cycle.
+    median : dict of str to float
+        Median over the cycles of every numeric score.
+    worst : dict of str to float
+        The worst cycle's value of every score with an :func:`orientation` (lowest of "higher",
+        highest of "lower", largest magnitude of "near_zero", sign kept).
+    worst_cycle : dict of str to int
+        Index of that cycle.
+    """
+
+    n_cycles: int
+    per_cycle: dict[str, np.ndarray]
+    median: dict[str, float]
+    worst: dict[str, float]
+    worst_cycle: dict[str, int]
+
+    def as_dict(self) -> dict[str, Any]:
+        """Return the summary by name (per-cycle arrays left out).
+
+        Returns
+        -------
+        dict
+            ``{"n_cycles": int, "median": {...}, "worst": {...}, "worst_cycle": {...}}``, with the
+            same score names as :func:`compare`.
+        """
+        return {"n_cycles": self.n_cycles, "median": dict(self.median),
+                "worst": dict(self.worst), "worst_cycle": dict(self.worst_cycle)}
+
+
+def compare(measured: Any, model: Any, angle: Any = None, *,
+            metrics: Sequence[str] = DEFAULT_METRICS, normaliser: str = "range",
+            iso_params: IsoParameters | None = None, cycles: Any = None,
+            uncertainty: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Run several metrics on a measured and a model signal over one revolution.
+
+    Parameters
+    ----------
+    measured : array_like or xarray.DataArray
+        Measured signal (usually the cycle mean) over one revolution of the shaft.
+    model : array_like or xarray.DataArray
+        Model signal on the same angle grid, same units.
+    angle : array_like, optional
+        Shaft angle of the samples, rad, uniform over one revolution without the repeated end
+        sample. Defaults to a DataArray's ``angle`` coordinate, else ``k * 2 pi / n``.
+    metrics : sequence of str
+        Names from :data:`METRICS`; :data:`DEFAULT_METRICS` by default.
+    normaliser : {"range", "rms", "peak"}
+        NRMSE normaliser.
+    iso_params : IsoParameters, optional
+        ISO rating parameters (the standard's by default).
+    cycles : array_like, optional
+        Measured cycles ``(n_cycles, n)``, for the random part of the V&V 20 data uncertainty.
+    uncertainty : mapping, optional
+        Keyword arguments of :func:`vv20` (``u_num``, ``u_input``, ``u_measurement``,
+        ``u_measurement_rel``, ``k``).
+
+    Returns
+    -------
+    dict
+        Score name to value. A score is named ``"<metric>.<field>"``, or just ``"<metric>"`` for
+        the field that carries the metric's name (``"nrmse"``, ``"pearson_r"``). Angles are in
+        degrees: ``peak_error.measured_at``, ``peak_error.model_at``, ``peak_error.shift``,
+        ``circular_lag.lag_deg``, ``iso18571_periodic.shift``. Sprague-Geers and Russell use the
+        rectangle rule of one period.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown metric name or option.
+    DataError
+        For bad samples, unequal lengths or an angle grid that is not one revolution.
+    """
+    unknown = [name for name in metrics if name not in METRICS]
+    if unknown:
+        raise ConfigError(f"unknown metric {unknown[0]!r}", where={"key": "metrics"},
+                          hint=f"use names from: {', '.join(METRICS)}")
+    m, c = paired(measured, model)
+    angle_deg = np.degrees(_revolution_angle(measured, angle, m.size))
+    runners = {
+        "iso18571_periodic": lambda: iso18571_periodic(m, c, params=iso_params),
+        "iso18571": lambda: iso18571(m, c, dt=360.0 / m.size, params=iso_params),
+        "sprague_geers": lambda: sprague_geers(m, c, periodic=True),
+        "russell": lambda: russell(m, c, periodic=True),
+        "nrmse": lambda: nrmse(m, c, normaliser=normaliser),
+        "pearson_r": lambda: pearson_r(m, c),
+        "peak_error": lambda: peak_error(m, c, angle_deg, period=360.0),
+        "circular_lag": lambda: circular_lag(m, c),
+        "vv20": lambda: vv20(m, c, cycles=cycles, **dict(uncertainty or {})),
+    }
+    scores: dict[str, Any] = {}
+    for name in metrics:
+        for field, value in runners[name]().as_dict().items():
+            scores[name if field == name else f"{name}.{field}"] = value
+    return scores
+
+
+def baseline(cycles: Any, mean: Any = None, *, angle: Any = None,
+             metrics: Sequence[str] = DEFAULT_METRICS, normaliser: str = "range",
+             iso_params: IsoParameters | None = None) -> BaselineScores:
+    """Score each measured cycle against the measured cycle mean with the metrics of a comparison.
+
+    Each cycle takes the model's place in :func:`compare`. The result is the cycle-to-cycle
+    scatter expressed in the comparison's own scores: a model whose scores are no worse than the
+    median cycle's agrees with the mean as well as a single measured revolution does.
+
+    Parameters
+    ----------
+    cycles : array_like or xarray.DataArray
+        Measured cycles, shape ``(n_cycles, n)`` over one revolution each (a DataArray with dims
+        ``cycle`` and ``angle`` in any order).
+    mean : array_like, optional
+        The reference the cycles are compared with; their mean by default. Pass the same signal
+        the model is compared with.
+    angle : array_like, optional
+        Shaft angle of the samples, rad (see :func:`compare`).
+    metrics, normaliser, iso_params
+        As for :func:`compare` (``vv20`` is not a per-cycle metric and is refused).
+
+    Returns
+    -------
+    BaselineScores
+        Per-cycle scores, their median and the worst cycle per score.
+
+    Raises
+    ------
+    ConfigError
+        For ``vv20`` or an unknown metric among ``metrics``.
+    DataError
+        For fewer than 2 cycles, NaN samples or shapes that do not match.
+
+    Notes
+    -----
+    The mean contains each cycle with weight 1/n, so for n cycles the cycle-to-mean scatter is
+    ``sqrt(1 - 1/n)`` of the cycle-to-cycle scatter: slightly optimistic for few cycles.
+    """
+    if "vv20" in metrics:
+        raise ConfigError("vv20 compares features with uncertainties, not single cycles",
+                          where={"key": "metrics"}, hint="leave vv20 out of the baseline")
+    array = _cycle_array(cycles)
+    if angle is None and isinstance(cycles, xr.DataArray) and "angle" in cycles.coords:
+        angle = cycles["angle"]
+    reference = array.mean(axis=0) if mean is None else as_signal(mean, "mean")
+    rows = [compare(reference, cycle, angle, metrics=metrics, normaliser=normaliser,
+                    iso_params=iso_params) for cycle in array]
+    numeric = [key for key, value in rows[0].items()
+               if isinstance(value, int | float) and not isinstance(value, bool)]
+    per_cycle = {key: np.array([row[key] for row in rows], dtype=np.float64) for key in numeric}
+    median = {key: float(np.median(values)) for key, values in per_cycle.items()}
+    worst, worst_cycle = {}, {}
+    for key, values in per_cycle.items():
+        direction = orientation(key)
+        if direction is None:
+            continue
+        index = int({"higher": np.argmin(values), "lower": np.argmax(values),
+                     "near_zero": np.argmax(np.abs(values))}[direction])
+        worst[key], worst_cycle[key] = float(values[index]), index
+    logger.debug("baseline over %d cycles: %d scores", array.shape[0], len(numeric))
+    return BaselineScores(n_cycles=array.shape[0], per_cycle=per_cycle, median=median,
+                          worst=worst, worst_cycle=worst_cycle)
+
+
+def _revolution_angle(measured: Any, angle: Any, n: int) -> np.ndarray:
+    """Return the samples' shaft angle in rad, checked to be one uniform revolution."""
+    if angle is None and isinstance(measured, xr.DataArray) and "angle" in measured.coords:
+        angle = measured["angle"]
+    if angle is None:
+        return np.arange(n) * (2.0 * math.pi / n)
+    check_revolution(angle, n)
+    return as_signal(angle, "angle")
+
+
+def _cycle_array(cycles: Any) -> np.ndarray:
+    """Measured cycles as a finite float64 array ``(n_cycles, n)``."""
+    if isinstance(cycles, xr.DataArray) and set(cycles.dims) == {"cycle", "angle"}:
+        cycles = cycles.transpose("cycle", "angle")
+    array = np.asarray(getattr(cycles, "values", cycles), dtype=np.float64)
+    if array.ndim != 2 or array.shape[0] < 2:
+        raise DataError(f"cycles must have shape (n_cycles >= 2, n_samples), got {array.shape}",
+                        where={"signal": "cycles"},
+                        hint="pass the angle-domain cycles of one channel")
+    bad = ~np.isfinite(array)
+    if bad.any():
+        cycle = int(np.argmax(bad.any(axis=1)))
+        raise DataError(f"cycles hold {int(bad.sum())} NaN or infinite samples",
+                        where={"signal": "cycles", "cycle": cycle},
+                        hint="drop incomplete cycles before the baseline")
+    return array
