@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -46,8 +47,8 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-_METRIC_COLUMNS = ["run", "status", "speed_rev_s", "comparison", "metric", "value", "threshold",
-                   "passed"]
+_METRIC_COLUMNS = ["run", "status", "speed_rev_s", "comparison", "row", "metric", "value",
+                   "threshold", "passed"]
 #: Most metrics the speed plot shows (those with thresholds first).
 _MAX_PLOTTED = 6
 
@@ -82,13 +83,15 @@ def metrics_table(outcomes: Sequence[RunOutcome]) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        Columns ``run``, ``status``, ``speed_rev_s`` (rev/s), ``comparison``, ``metric``,
-        ``value`` (the metric's own unit), ``threshold`` (text or None) and ``passed`` (bool or
-        None), in run order.
+        Columns ``run``, ``status``, ``speed_rev_s`` (rev/s), ``comparison``, ``row``
+        (``"model"`` for the model against the measured mean, ``"baseline ..."`` for the
+        measured cycles against their mean), ``metric``, ``value`` (the metric's own unit),
+        ``threshold`` (text or None) and ``passed`` (bool or None), in run order.
     """
     rows = [
         {"run": outcome.name, "status": outcome.status, "speed_rev_s": outcome.speed_rev_s,
-         "comparison": row.get("comparison"), "metric": row.get("metric"),
+         "comparison": row.get("comparison"), "row": row.get("row", "model"),
+         "metric": row.get("metric"),
          "value": row.get("value"), "threshold": row.get("threshold"),
          "passed": row.get("passed")}
         for outcome in outcomes for row in outcome.metrics
@@ -106,7 +109,8 @@ def plot_metrics_against_speed(table: pd.DataFrame, *, metrics: Sequence[str] | 
     Parameters
     ----------
     table : pandas.DataFrame
-        Long-form metrics as returned by :func:`metrics_table`.
+        Long-form metrics as returned by :func:`metrics_table`; only the ``"model"`` rows are
+        plotted.
     metrics : sequence of str, optional
         Metrics to show; default those with a threshold in some run, then the others, at most
         six.
@@ -116,8 +120,10 @@ def plot_metrics_against_speed(table: pd.DataFrame, *, metrics: Sequence[str] | 
     Returns
     -------
     matplotlib.figure.Figure
-        Markers show runs; a hollow red ring marks a run that missed that metric's threshold.
+        Markers show runs; a hollow red ring marks a run that missed that metric's threshold,
+        a dashed line shows the threshold when all comparisons share one.
     """
+    table = table[table["row"] == "model"]
     if metrics is None:
         with_threshold = table.loc[table["threshold"].notna(), "metric"].unique().tolist()
         others = [m for m in table["metric"].unique() if m not in with_threshold]
@@ -138,7 +144,12 @@ def plot_metrics_against_speed(table: pd.DataFrame, *, metrics: Sequence[str] | 
             ax.plot(missed["speed_rev_s"], missed["value"], linestyle="none", marker="o",
                     markersize=11, markerfacecolor="none", markeredgecolor="tab:red")
         thresholds = part["threshold"].dropna().unique()
-        title = metric if len(thresholds) != 1 else f"{metric} (pass: {thresholds[0]})"
+        title = metric
+        if len(thresholds) == 1:
+            title = f"{metric} (pass: {thresholds[0]})"
+            limit = re.fullmatch(r"\s*[<>]=?\s*([-+0-9.eE]+)\s*", str(thresholds[0]))
+            if limit:
+                ax.axhline(float(limit.group(1)), color="0.4", linestyle="--", linewidth=1)
         ax.set_title(title, fontsize="medium")
         ax.set_xlabel("running speed [rev/s]")
         ax.grid(alpha=0.3)
@@ -217,11 +228,13 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
         page.figure(fig, caption="Each marker is a run; a red ring marks a missed threshold.",
                     fmt="svg")
         page.section("Metrics per comparison")
-        for comparison, part in table.groupby("comparison", sort=False):
-            wide = part.pivot_table(index=["run", "speed_rev_s"], columns="metric",
-                                    values="value", sort=False, dropna=False)
-            rows = [{"run": run, "speed [rev/s]": speed, **values.to_dict()}
-                    for (run, speed), values in wide.iterrows()]
+        model_rows = table[table["row"] == "model"]
+        for comparison, part in model_rows.groupby("comparison", sort=False):
+            wide = part.pivot_table(index="run", columns="metric", values="value", sort=False,
+                                    dropna=False)
+            speeds = part.groupby("run", sort=False)["speed_rev_s"].first()
+            rows = [{"run": run, "speed [rev/s]": speeds[run], **values.to_dict()}
+                    for run, values in wide.iterrows()]
             page.table(rows, caption=str(comparison), digits=3)
 
     errors = [o for o in outcomes if o.error is not None]
