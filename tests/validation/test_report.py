@@ -1,0 +1,151 @@
+"""Report folder from a synthetic validation result: files, tables, netCDF layout, browser view."""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from rigval.validation.report import write_report
+from rigval.validation.results import (
+    ComparisonResult,
+    NumericsSummary,
+    StreamAlignment,
+    ThresholdCheck,
+    ValidationResult,
+)
+from rigval.validation.scene import load_scene
+
+DOC = Path(__file__).resolve().parents[2] / "docs" / "scene.md"
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+def _scene(tmp_path: Path, mechanisms_dir: Path):
+    for name in ("run_1p0_cdaq.tdms", "run_1p0_wls1.tdms", "run_1p0_wls2.csv",
+                 "run_1p0_note.txt"):
+        (tmp_path / name).write_text("x")
+    shutil.copy(mechanisms_dir / "pendulum.toml", tmp_path / "pendulum.toml")
+    text = re.search(r"```toml\n(.+?)\n```", DOC.read_text(), re.S).group(1)
+    path = tmp_path / "scene.toml"
+    path.write_text(text.replace('"builtin:pendulum"', '"pendulum.toml"'))
+    return load_scene(path)
+
+
+@pytest.fixture
+def result(tmp_path: Path, mechanisms_dir: Path) -> ValidationResult:
+    scene = _scene(tmp_path, mechanisms_dir)
+    rng = np.random.default_rng(1)
+    angle = np.linspace(0, 2 * np.pi, 72, endpoint=False)
+    comparisons = []
+    for spec in scene.comparisons:
+        truth = np.sin(angle) + 0.3 * np.sin(2 * angle)
+        cycles = truth + 0.05 * rng.standard_normal((6, angle.size))
+        rating = 0.5 if spec.name == "str1" else 0.9  # str1 fails its ">= 0.58"
+        scores = {"iso18571.rating": rating, "iso18571.grade": "good", "nrmse": 0.05}
+        checks = tuple(ThresholdCheck(spec.name, t, float(scores.get(t.metric, np.nan)))
+                       for t in spec.thresholds)
+        comparisons.append(ComparisonResult(
+            spec=spec, units=scene.channel(spec.measured).units, long_name=spec.name,
+            angle=angle, cycles=cycles, model=truth * 1.02, offset=0.0, scores=scores,
+            baseline={"median": {"iso18571.rating": 0.97}, "worst": {"iso18571.rating": 0.93}},
+            checks=checks))
+    alignment = {
+        name: StreamAlignment(
+            stream=name, device=spec.device, is_reference=name == "cdaq", offset_s=0.1,
+            drift_ppm=20.0, residual_rms_s=3e-6, events_matched=19, events_missing=1,
+            events_spurious=0, input_delay_s=0.0, segments=1,
+            gaps=({"after_s": 5.0, "duration_s": 0.2, "missing_samples": 322},),
+            span_s=(0.0, 20.0), residual_time=np.arange(19.0),
+            residual_s=3e-6 * rng.standard_normal(19), pulse_time=np.linspace(0, 2, 200),
+            pulse_signal=(np.linspace(0, 2, 200) % 1 < 0.1) * 5.0, edge_times=np.array([0, 1.0]))
+        for name, spec in scene.streams.items()}
+    supports = ["P3", "P4", "P10", "P11"]
+    predictions = xr.Dataset(
+        {"support_force": (("angle", "support", "axis"), rng.standard_normal((72, 4, 2)) * 1e3,
+                           {"units": "N"}),
+         **{q: (("angle", "point", "axis"), rng.standard_normal((72, 1, 2)), {"units": u})
+            for q, u in (("point_position", "m"), ("point_velocity", "m s-1"),
+                         ("point_acceleration", "m s-2"))}},
+        coords={"angle": angle, "support": supports, "point": ["P1"], "axis": ["x", "y"]})
+    raw = xr.Dataset({"acc1": ("time", np.arange(10, dtype=np.float32))},
+                     coords={"time": np.arange(10.0)})
+    tree = xr.DataTree.from_dict({"/raw/cdaq": raw, "/model": predictions})
+    numerics = NumericsSummary({"read": 0.5, "align": 0.1}, {"position": 1e-12},
+                               {c.name: 1e-6 for c in comparisons}, 72)
+    return ValidationResult(scene=scene, comparisons=tuple(comparisons), alignment=alignment,
+                            predictions=predictions, numerics=numerics, speed_rev_s=1.0,
+                            n_cycles=6, tree=tree)
+
+
+def test_report_folder_has_every_file(result: ValidationResult, tmp_path: Path) -> None:
+    out = tmp_path / "report"
+    written = write_report(result, out)
+    names = sorted(p.name for p in written)
+    assert names == ["alignment.json", "metrics.csv", "metrics.json", "report.html", "scene.nc"]
+    html_text = (out / "report.html").read_text()
+    assert html_text.count("<img ") == 3 + 3 + 2  # comparisons, alignment, predictions
+    assert "FAILED" in html_text and not result.passed
+    rows = list(csv.DictReader((out / "metrics.csv").open()))
+    model_rows = [r for r in rows if r["row"] == "model"]
+    assert {r["comparison"] for r in model_rows} == {"acc1", "tor1", "str1"}
+    assert any(r["row"] == "baseline worst" for r in rows)
+    doc = json.loads((out / "metrics.json").read_text())
+    assert doc["passed"] is result.passed
+    alignment = json.loads((out / "alignment.json").read_text())
+    assert alignment["wls1"]["drift_ppm"] == 20.0 and alignment["wls1"]["gaps"][0]["after_s"] == 5
+
+
+def test_threshold_failures_are_reported(result: ValidationResult) -> None:
+    rows = result.metric_rows()
+    nrmse = [r for r in rows if r["comparison"] == "acc1" and r["metric"] == "nrmse"]
+    assert nrmse == [{"comparison": "acc1", "row": "model", "metric": "nrmse", "value": 0.05,
+                      "threshold": "<= 0.15", "passed": True}]
+    assert [c.passed for c in result.comparisons] == [True, True, False]
+    str1 = [r for r in rows if r["comparison"] == "str1" and r["row"] == "model"]
+    assert [r["passed"] for r in str1 if r["threshold"]] == [False]
+
+
+def test_netcdf_has_provenance_and_compression(result: ValidationResult, tmp_path: Path) -> None:
+    write_report(result, tmp_path)
+    tree = xr.open_datatree(tmp_path / "scene.nc")
+    assert tree.attrs["scene_sha256"] == result.scene.sha256
+    assert tree.attrs["Conventions"].startswith("CF-")
+    assert json.loads(tree.attrs["input_files"])[0]["sha256"]
+    assert tree["raw/cdaq"]["acc1"].dtype == np.float32
+    assert tree["raw/cdaq"]["acc1"].encoding["zlib"] and tree["raw/cdaq"]["acc1"].encoding[
+        "complevel"] == 4
+
+
+@pytest.mark.browser
+def test_report_renders_in_chromium(result: ValidationResult, tmp_path: Path) -> None:
+    if CHROMIUM is None:
+        pytest.skip("chromium not installed (apt-get install chromium); .ci/run installs it")
+    write_report(result, tmp_path)
+    assert_every_image_decodes(tmp_path / "report.html", tmp_path)
+
+
+def assert_every_image_decodes(report: Path, tmp_path: Path) -> None:
+    """Load the page in headless Chromium; a script writes each <img>'s naturalWidth into the DOM."""
+    probe = tmp_path / "probe.html"
+    script = ("<script>window.addEventListener('load',()=>{const r=[...document.images]"
+              ".map(i=>i.complete&&i.naturalWidth);const p=document.createElement('pre');"
+              "p.id='probe';p.textContent=JSON.stringify(r);document.body.appendChild(p);});"
+              "</script></body>")
+    probe.write_text(report.read_text().replace("</body>", script, 1))
+    profile = tmp_path / "chromium-profile"
+    command = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+               "--no-first-run", "--disable-background-networking", "--disable-component-update",
+               "--disable-sync", f"--user-data-dir={profile}", "--virtual-time-budget=5000",
+               "--dump-dom", probe.as_uri()]
+    dom = subprocess.run(command, capture_output=True, text=True, timeout=120, check=True).stdout
+    match = re.search(r'<pre id="probe">(.*?)</pre>', dom, re.S)
+    assert match, f"probe did not run; chromium printed {dom[:300]!r}"
+    widths = json.loads(match.group(1))
+    assert widths and all(isinstance(w, int) and w > 0 for w in widths), widths

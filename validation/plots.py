@@ -1,0 +1,228 @@
+"""Figures of a validation, built on :class:`matplotlib.figure.Figure` without pyplot.
+
+Every function returns a new Figure (constrained layout) and keeps no global state, so it is safe in
+long-running processes and worker pools. Angles are shown in degrees of phi_F, the main shaft angle
+from the reference position; labels carry units.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import xarray as xr
+from matplotlib.figure import Figure
+from matplotlib.ticker import MultipleLocator
+
+from rigval.validation.results import ComparisonResult, StreamAlignment
+
+__all__ = [
+    "plot_clock_residuals",
+    "plot_comparison",
+    "plot_point_kinematics",
+    "plot_pulse_edges",
+    "plot_stream_coverage",
+    "plot_support_forces",
+]
+
+MEASURED = "#1f5fa8"
+MODEL = "#c8322b"
+CYCLES = "#9aa5b1"
+BAND = "#9ec3ea"
+
+
+def _angle_axis(ax: object, label: bool = True) -> None:
+    ax.set_xlim(0.0, 360.0)  # type: ignore[attr-defined]
+    ax.xaxis.set_major_locator(MultipleLocator(45.0))  # type: ignore[attr-defined]
+    ax.grid(True, lw=0.4, alpha=0.6)  # type: ignore[attr-defined]
+    if label:
+        ax.set_xlabel(r"main shaft angle $\varphi_F$ [deg]")  # type: ignore[attr-defined]
+
+
+def _closed(angle: np.ndarray, *values: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Append the first point at 360 degrees so that a periodic curve spans the whole axis."""
+    degrees = np.append(np.degrees(angle), 360.0)
+    return (degrees, *(np.concatenate([v, v[..., :1]], axis=-1) for v in values))
+
+
+def plot_comparison(result: ComparisonResult, *, width: float = 9.0) -> Figure:
+    """Overlay of measured cycles, measured mean with its band and the model, and the residual.
+
+    Parameters
+    ----------
+    result : ComparisonResult
+        The comparison.
+    width : float
+        Figure width in inches.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Top: every cycle (light), the measured mean with its P5-P95 band, the model. Bottom: the
+        residual model minus measured mean, with the band around the mean.
+    """
+    fig = Figure(figsize=(width, 5.2), layout="constrained")
+    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1.6])
+    low, high = result.band
+    mean = result.mean
+    x, cycles, mean_c, low_c, high_c, model_c = _closed(result.angle, result.cycles, mean, low,
+                                                        high, result.model)
+    top.plot(x, cycles.T, color=CYCLES, lw=0.5, alpha=0.45)
+    top.fill_between(x, low_c, high_c, color=BAND, alpha=0.6, lw=0,
+                     label=f"measured P5-P95 ({result.cycles.shape[0]} cycles)")
+    top.plot(x, mean_c, color=MEASURED, lw=1.8, label="measured mean")
+    model_label = "model" if result.offset == 0 else f"model {result.offset:+.3g} {result.units}"
+    top.plot(x, model_c, color=MODEL, lw=1.6, ls="--", label=model_label)
+    top.set_ylabel(f"{result.name} [{result.units}]")
+    top.set_title(f"{result.name}: {result.long_name} against {result.spec.model}")
+    top.legend(loc="best", fontsize=8, framealpha=0.85)
+    _angle_axis(top, label=False)
+    bottom.fill_between(x, low_c - mean_c, high_c - mean_c, color=BAND, alpha=0.6, lw=0,
+                        label="measured P5-P95 about the mean")
+    bottom.plot(x, model_c - mean_c, color=MODEL, lw=1.2, label="model - measured mean")
+    bottom.axhline(0.0, color="black", lw=0.6)
+    bottom.set_ylabel(f"residual [{result.units}]")
+    bottom.legend(loc="best", fontsize=8, framealpha=0.85)
+    _angle_axis(bottom)
+    return fig
+
+
+def plot_pulse_edges(alignment: Mapping[str, StreamAlignment], *, width: float = 9.0) -> Figure:
+    """Plot the raw reference pulse of each stream with the detected rising edges marked.
+
+    Parameters
+    ----------
+    alignment : mapping of str to StreamAlignment
+        Per stream, a stretch of its pulse channel and the edges found in it.
+    width : float
+        Figure width in inches.
+    """
+    streams = [a for a in alignment.values() if a.pulse_time.size]
+    fig = Figure(figsize=(width, 1.2 + 1.5 * max(len(streams), 1)), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(max(len(streams), 1), 1, sharex=True, squeeze=False)[:, 0])
+    for ax, stream in zip(axes, streams, strict=False):
+        ax.plot(stream.pulse_time, stream.pulse_signal, color=MEASURED, lw=0.8)
+        for edge in stream.edge_times:
+            ax.axvline(edge, color=MODEL, lw=0.9, ls="--")
+        ax.set_ylabel(f"{stream.stream} [V]")
+        ax.grid(True, lw=0.4, alpha=0.6)
+        ax.set_title(f"{stream.stream} ({stream.device}): {stream.edge_times.size} rising edges "
+                     "(dashed) in this stretch", fontsize=9, loc="left")
+    axes[-1].set_xlabel("time on the reference timeline [s]")
+    return fig
+
+
+def plot_clock_residuals(alignment: Mapping[str, StreamAlignment], *,
+                         width: float = 9.0) -> Figure:
+    """Residuals of each stream's clock fit (offset + drift) at its matched events, in us.
+
+    Parameters
+    ----------
+    alignment : mapping of str to StreamAlignment
+        Per stream; the reference stream has no fit and is left out.
+    width : float
+        Figure width in inches.
+    """
+    fig = Figure(figsize=(width, 3.2), layout="constrained")
+    ax = fig.subplots()
+    for stream in alignment.values():
+        if stream.is_reference or not stream.residual_s.size:
+            continue
+        ax.plot(stream.residual_time, stream.residual_s * 1e6, ".", ms=3,
+                label=f"{stream.stream}: rms {stream.residual_rms_s * 1e6:.1f} us, "
+                      f"{stream.events_matched} events")
+    ax.axhline(0.0, color="black", lw=0.6)
+    ax.set_xlabel("time on the reference timeline [s]")
+    ax.set_ylabel("clock-fit residual [us]")
+    ax.grid(True, lw=0.4, alpha=0.6)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=8)
+    return fig
+
+
+def plot_stream_coverage(alignment: Mapping[str, StreamAlignment], *,
+                         width: float = 9.0) -> Figure:
+    """Each stream's span on the reference timeline with its gaps (dropouts, restarts) in red.
+
+    Parameters
+    ----------
+    alignment : mapping of str to StreamAlignment
+        Per stream.
+    width : float
+        Figure width in inches.
+    """
+    names = list(alignment)
+    fig = Figure(figsize=(width, 0.9 + 0.45 * len(names)), layout="constrained")
+    ax = fig.subplots()
+    for row, name in enumerate(names):
+        stream = alignment[name]
+        start, end = stream.span_s
+        ax.broken_barh([(start, end - start)], (row - 0.3, 0.6), color=BAND)
+        # gap times are on the stream's own clock from its first sample; drift is negligible here
+        spans = [(start + g["after_s"], max(g["duration_s"], 1e-3)) for g in stream.gaps]
+        if spans:
+            ax.broken_barh(spans, (row - 0.3, 0.6), color=MODEL)
+    ax.set_yticks(range(len(names)), names)
+    ax.set_xlabel("time on the reference timeline [s]  (red: gaps)")
+    ax.grid(True, axis="x", lw=0.4, alpha=0.6)
+    return fig
+
+
+def plot_support_forces(predictions: xr.Dataset, *, width: float = 9.0) -> Figure:
+    """Support forces on the frame over phi_F, horizontal and vertical (the paper's figs. 16, 17).
+
+    Parameters
+    ----------
+    predictions : xarray.Dataset
+        With ``support_force`` (angle, support, axis) in N and the coordinate ``angle`` in rad.
+    width : float
+        Figure width in inches.
+    """
+    force = predictions["support_force"]
+    fig = Figure(figsize=(width, 5.6), layout="constrained")
+    axes = fig.subplots(2, 1, sharex=True)
+    for ax, axis, label in zip(axes, ("x", "y"), ("horizontal", "vertical"), strict=True):
+        for support in force["support"].values:
+            values = force.sel(support=support, axis=axis).values
+            x, y = _closed(predictions["angle"].values, values)
+            ax.plot(x, y / 1e3, lw=1.3, label=str(support))
+        ax.set_ylabel(f"{label} force on frame [kN]")
+        ax.legend(fontsize=8, ncol=4)
+        _angle_axis(ax, label=ax is axes[-1])
+    axes[0].set_title("support forces on the frame (model prediction)")
+    return fig
+
+
+def plot_point_kinematics(predictions: xr.Dataset, point: str, *,
+                          width: float = 9.0) -> Figure:
+    """Position, absolute speed and absolute acceleration of a point over phi_F (paper fig. 15).
+
+    Parameters
+    ----------
+    predictions : xarray.Dataset
+        With ``point_position``, ``point_velocity``, ``point_acceleration`` (angle, point, axis).
+    point : str
+        The point, e.g. ``"P1"``.
+    width : float
+        Figure width in inches.
+    """
+    angle = predictions["angle"].values
+    position = predictions["point_position"].sel(point=point)
+    speed = np.hypot(*(predictions["point_velocity"].sel(point=point, axis=a).values
+                       for a in ("x", "y")))
+    accel = np.hypot(*(predictions["point_acceleration"].sel(point=point, axis=a).values
+                       for a in ("x", "y")))
+    fig = Figure(figsize=(width, 6.4), layout="constrained")
+    axes = fig.subplots(3, 1, sharex=True)
+    panels: Sequence[tuple[np.ndarray, str]] = (
+        (position.sel(axis="y").values, f"$y_{{{point}}}$ [m]"),
+        (speed, f"$|v_{{{point}}}|$ [m/s]"),
+        (accel, f"$|a_{{{point}}}|$ [m/s$^2$]"),
+    )
+    for ax, (values, label) in zip(axes, panels, strict=True):
+        x, y = _closed(angle, values)
+        ax.plot(x, y, color=MODEL, lw=1.5)
+        ax.set_ylabel(label)
+        _angle_axis(ax, label=ax is axes[-1])
+    axes[0].set_title(f"{point}: position, speed and acceleration (model prediction)")
+    return fig

@@ -1,0 +1,289 @@
+"""The report folder of one validation.
+
+:func:`write_report` writes, from a :class:`~rigval.validation.results.ValidationResult` alone:
+
+``report.html``
+    Self-contained (figures embedded as PNG, style inline; opens offline): summary and pass/fail,
+    per comparison the overlay against phi_F, the residual and the metric table with the baseline
+    rows; alignment diagnostics; predictions of what was not measured (support forces, point
+    kinematics, as the paper's figs. 15-17); numerics; the scene and input files for reproduction.
+``metrics.csv``, ``metrics.json``
+    One row per comparison, row kind (model, baseline median, baseline worst) and metric.
+``alignment.json``
+    Per stream: offset, drift, residual, events matched, missing and spurious, gaps.
+``<scene>.nc``
+    The run's netCDF file (design section 3.4).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import logging
+import math
+from collections.abc import Mapping
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from rigval.acquisition.schema import file_sha256
+from rigval.validation import plots
+from rigval.validation.html import Page
+from rigval.validation.results import ComparisonResult, ValidationResult
+
+__all__ = ["rigval_version", "write_metrics", "write_netcdf", "write_report"]
+
+logger = logging.getLogger(__name__)
+
+#: Metrics shown first in the per-comparison tables (others follow in the order reported).
+_PREFERRED = ("iso18571.rating", "iso18571.grade", "iso18571.corridor", "iso18571.phase",
+              "iso18571.magnitude", "iso18571.slope", "sprague_geers.magnitude",
+              "sprague_geers.phase", "sprague_geers.comprehensive", "russell.magnitude",
+              "russell.phase", "russell.comprehensive", "nrmse", "pearson_r")
+
+
+def rigval_version() -> str:
+    """Return the installed rigval version (``"unknown"`` in an uninstalled source tree)."""
+    try:
+        return version("rigval")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+def _finite(value: Any) -> Any:
+    """JSON-safe value: NaN and infinities become None, numpy scalars plain numbers."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def write_metrics(result: ValidationResult, out_dir: Path) -> list[Path]:
+    """Write ``metrics.csv`` and ``metrics.json`` and return their paths."""
+    rows = result.metric_rows()
+    csv_path = out_dir / "metrics.csv"
+    columns = ["comparison", "row", "metric", "value", "threshold", "passed"]
+    with csv_path.open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=columns)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: "" if row[k] is None else row[k] for k in columns})
+    json_path = out_dir / "metrics.json"
+    document = {
+        "scene": str(result.scene.path), "scene_sha256": result.scene.sha256,
+        "passed": result.passed, "speed_rev_s": result.speed_rev_s, "cycles": result.n_cycles,
+        "rows": [{k: _finite(v) for k, v in row.items()} for row in rows],
+    }
+    json_path.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+    return [csv_path, json_path]
+
+
+def write_alignment(result: ValidationResult, out_dir: Path) -> Path:
+    """Write ``alignment.json`` (per stream: offset, drift, residual, events, gaps)."""
+    path = out_dir / "alignment.json"
+    document = {name: {k: _finite(v) for k, v in a.summary().items()}
+                for name, a in result.alignment.items()}
+    path.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+    return path
+
+
+def _encoding(ds: xr.Dataset) -> dict[str, dict[str, Any]]:
+    """zlib level 4 with shuffle for every numeric variable (design section 3.4)."""
+    return {name: {"zlib": True, "complevel": 4, "shuffle": True}
+            for name, var in ds.variables.items()
+            if var.dtype.kind in "fiub" and var.ndim > 0}
+
+
+def write_netcdf(result: ValidationResult, path: Path) -> Path:
+    """Write the run's DataTree to netCDF-4 (groups, zlib 4, provenance in global attributes).
+
+    Parameters
+    ----------
+    result : ValidationResult
+        Its ``tree`` holds ``/raw/<stream>``, ``/aligned``, ``/angle``, ``/model``,
+        ``/validation``; measured values are float32 there, derived ones float64.
+    path : pathlib.Path
+        The file to write.
+    """
+    tree = result.tree.copy()
+    scene = result.scene
+    inputs = [{"path": str(p), "sha256": file_sha256(p)} for p in scene.input_files]
+    tree.attrs.update({
+        "Conventions": "CF-1.13",
+        "title": scene.title,
+        "rigval_version": rigval_version(),
+        "scene_toml": scene.text,
+        "scene_sha256": scene.sha256,
+        "scene_file": str(scene.path),
+        "input_files": json.dumps(inputs),
+        "validation_passed": int(result.passed),
+    })
+    encoding = {node.path: _encoding(node.to_dataset(inherit=False))
+                for node in tree.subtree if node.has_data}
+    tree.to_netcdf(path, engine="netcdf4", encoding=encoding)
+    return path
+
+
+def _metric_table(comparison: ComparisonResult) -> list[dict[str, Any]]:
+    """Rows: metric; columns: model, baseline median, baseline worst, threshold, status."""
+    names = [m for m in _PREFERRED if m in comparison.scores]
+    names += [m for m in comparison.scores if m not in names]
+    checks = {c.threshold.metric: c for c in comparison.checks}
+    names += [m for m in checks if m not in names]
+    rows = []
+    for metric in names:
+        row: dict[str, Any] = {"metric": metric, "model": comparison.scores.get(metric)}
+        for which, scores in comparison.baseline.items():
+            row[f"baseline {which}"] = scores.get(metric)
+        check = checks.get(metric)
+        row["threshold"] = str(check.threshold) if check else ""
+        row["status"] = ("pass" if check.passed else "fail") if check else ""
+        rows.append(row)
+    return rows
+
+
+def _summary_rows(result: ValidationResult) -> list[dict[str, Any]]:
+    rows = []
+    for c in result.comparisons:
+        failed = [str(ch.threshold.metric) for ch in c.checks if not ch.passed]
+        rows.append({
+            "comparison": c.name, "measured": str(c.spec.measured), "model": str(c.spec.model),
+            "scale": c.spec.scale, "unit": c.units,
+            "ISO rating": c.scores.get("iso18571.rating"),
+            "grade": c.scores.get("iso18571.grade"),
+            "NRMSE": c.scores.get("nrmse"), "r": c.scores.get("pearson_r"),
+            "status": "pass" if c.passed else "fail",
+            "failed thresholds": ", ".join(failed),
+        })
+    return rows
+
+
+def _peaks(predictions: xr.Dataset) -> list[dict[str, Any]]:
+    rows = []
+    force = predictions["support_force"]
+    angle = np.degrees(predictions["angle"].values)
+    for support in force["support"].values:
+        for axis in ("x", "y"):
+            values = force.sel(support=support, axis=axis).values
+            i_max, i_min = int(np.argmax(values)), int(np.argmin(values))
+            rows.append({"support": str(support), "axis": axis,
+                         "max [N]": float(values[i_max]), "at [deg]": float(angle[i_max]),
+                         "min [N]": float(values[i_min]), "at [deg] ": float(angle[i_min])})
+    return rows
+
+
+def _build_page(result: ValidationResult) -> Page:
+    scene = result.scene
+    status = "PASSED" if result.passed else "FAILED"
+    page = Page(f"rigval validation: {scene.title}",
+                subtitle=f"{status} · {len(result.comparisons)} comparisons · "
+                         f"{result.n_cycles} revolutions at {result.speed_rev_s:.3f} rev/s")
+    page.section("Summary")
+    page.paragraph(f"Result: {status}", css_class="ok" if result.passed else "bad")
+    page.facts({
+        "scene": scene.path, "scene sha256": scene.sha256, "mechanism": scene.mechanism,
+        "drives": scene.model.drives,
+        "angle grid": f"{scene.angle.points_per_revolution} points per revolution, "
+                      f"{scene.angle.interpolation} interpolation",
+        "revolutions compared": result.n_cycles,
+        "mean main-shaft speed [rev/s]": result.speed_rev_s,
+        "rigval version": rigval_version(),
+    })
+    if scene.note is not None:
+        page.preformatted(scene.note.read_text(encoding="utf-8", errors="replace"))
+    page.table(_summary_rows(result), caption="comparisons")
+
+    page.section("Comparisons")
+    page.paragraph("Measured against the model over the main shaft angle phi_F. Light lines: each "
+                   "revolution; band: 5th to 95th percentile over revolutions; the baseline rows "
+                   "score each measured revolution against the measured mean (median and worst "
+                   "revolution): the agreement no model can beat.")
+    for comparison in result.comparisons:
+        page.section(f"{comparison.name}: {comparison.spec.measured} against "
+                     f"{comparison.spec.model}", level=3)
+        details = {"scale": f"{comparison.spec.scale:g} {comparison.spec.scale_units}",
+                   "low-pass [Hz]": comparison.spec.lowpass_hz,
+                   "model offset added": f"{comparison.offset:.4g} {comparison.units}"
+                   if comparison.spec.remove_offset else "none"}
+        page.facts(details)
+        fig = plots.plot_comparison(comparison)
+        page.figure(fig, caption=f"{comparison.name}: overlay and residual against phi_F")
+        page.table(_metric_table(comparison), caption=f"{comparison.name}: metrics")
+
+    page.section("Alignment")
+    page.table([{"stream": name, **{k: v for k, v in a.summary().items() if k != "gaps"},
+                 "gaps": len(a.gaps)} for name, a in result.alignment.items()],
+               caption="clock model per stream (offset and drift against the reference)")
+    page.figure(plots.plot_pulse_edges(result.alignment),
+                caption="reference pulses on the raw signal with the detected rising edges")
+    page.figure(plots.plot_clock_residuals(result.alignment),
+                caption="clock-fit residuals at the matched reference events")
+    page.figure(plots.plot_stream_coverage(result.alignment),
+                caption="streams on the reference timeline; gaps in red")
+    gap_rows = [{"stream": name, **g} for name, a in result.alignment.items() for g in a.gaps]
+    if gap_rows:
+        page.table(gap_rows, caption="gaps (stream clock)")
+
+    page.section("Predictions")
+    page.paragraph("What the model says about quantities that were not measured, for the drive "
+                   "motion of this run (the paper's figs. 15 to 17).")
+    for point in result.predictions.coords.get("point", xr.DataArray([])).values:
+        page.figure(plots.plot_point_kinematics(result.predictions, str(point)),
+                    caption=f"{point}: vertical position, absolute speed and acceleration")
+    if "support_force" in result.predictions:
+        page.figure(plots.plot_support_forces(result.predictions),
+                    caption="support forces on the frame (minus the ground pins' joint forces)")
+        page.table(_peaks(result.predictions), caption="support force extremes")
+
+    page.section("Numerics")
+    numerics = result.numerics
+    stage_rows = [{"stage": k, "time [s]": v} for k, v in numerics.stage_seconds.items()]
+    stage_rows.append({"stage": "total", "time [s]": sum(numerics.stage_seconds.values())})
+    page.table(stage_rows, caption="time per stage")
+    page.table([{"residual": k, "max": v} for k, v in numerics.model_residuals.items()],
+               caption=f"model constraint residuals ({numerics.model_points} angle points)")
+    page.table([{"comparison": k, "max error / range": v} for k, v in numerics.grid_error.items()],
+               caption=f"angle grid: model on {scene.angle.points_per_revolution} points "
+                       "against a grid four times finer")
+
+    page.section("Reproduction")
+    page.table([{"file": str(p), "sha256": file_sha256(p)} for p in scene.input_files],
+               caption="input files")
+    page.preformatted(scene.text)
+    return page
+
+
+def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
+    """Write the report folder of a validation and return the files written.
+
+    Parameters
+    ----------
+    result : ValidationResult
+        The validation (see :func:`rigval.validation.pipeline.run_scene`).
+    out_dir : str or pathlib.Path
+        The folder; created if needed, files in it are overwritten.
+
+    Returns
+    -------
+    list of pathlib.Path
+        ``report.html``, ``metrics.csv``, ``metrics.json``, ``alignment.json`` and the netCDF
+        file; also stored in ``result.outputs``.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = write_metrics(result, out)
+    written.append(write_alignment(result, out))
+    written.append(write_netcdf(result, out / f"{result.scene.path.stem}.nc"))
+    written.insert(0, _build_page(result).write(out / "report.html"))
+    result.outputs[:] = written
+    logger.info("report written to %s", out)
+    return written
+
+
+def stage_table(stage_seconds: Mapping[str, float]) -> str:
+    """Return the stage times as one line of text (``read 0.41 s, align 0.10 s, ...``)."""
+    return ", ".join(f"{k} {v:.2f} s" for k, v in stage_seconds.items())
