@@ -92,7 +92,7 @@ def write_alignment(result: ValidationResult, out_dir: Path) -> Path:
 
 
 def _encoding(ds: xr.Dataset) -> dict[str, dict[str, Any]]:
-    """zlib level 4 with shuffle for every numeric variable (design section 3.4)."""
+    """Return the encoding: zlib level 4 with shuffle for numeric variables (design 3.4)."""
     return {name: {"zlib": True, "complevel": 4, "shuffle": True}
             for name, var in ds.variables.items()
             if var.dtype.kind in "fiub" and var.ndim > 0}

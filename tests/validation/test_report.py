@@ -132,7 +132,7 @@ def test_report_renders_in_chromium(result: ValidationResult, tmp_path: Path) ->
 
 
 def assert_every_image_decodes(report: Path, tmp_path: Path) -> None:
-    """Load the page in headless Chromium; a script writes each <img>'s naturalWidth into the DOM."""
+    """Load the page in headless Chromium; a script writes each image's naturalWidth to the DOM."""
     probe = tmp_path / "probe.html"
     script = ("<script>window.addEventListener('load',()=>{const r=[...document.images]"
               ".map(i=>i.complete&&i.naturalWidth);const p=document.createElement('pre');"
