@@ -1,0 +1,466 @@
+"""Read delimited text exports (LabVIEW "Write Delimited Spreadsheet", European CSV) into a stream.
+
+Every guess can be overridden by an option:
+
+- ``delimiter``: ``;``, tab, ``,`` or ``|``, whichever splits the last lines into the same number
+  (> 1) of fields, in that order of preference;
+- ``decimal``: ``,`` when the delimiter is not a comma and the numbers use a comma, else ``.``;
+- header: the data block is the longest run of numeric lines at the end of the file; the line
+  above it holds the column names (``acc1 [m/s^2]``, ``tor3 (V/V)``), optionally a units row in
+  brackets between names and data; lines above are ``key<delimiter>value`` pairs kept in the
+  stream attribute ``text_header`` (a start time among them is used, see below);
+- ``time_column``: the first column named like ``Time``, ``Zeit``, ``t``, ``X_Value``,
+  ``Timestamp`` or ``Date``, else none (then ``fs`` is needed); its cells are relative seconds
+  (``ms`` in the header scales), ISO 8601 timestamps, or local date-times (``9/5/2014 11:53:14 AM``,
+  ``21.11.2026 06:00:00,125``; ``time_format`` overrides) taken in ``timezone`` (default UTC);
+- ``start_time``: from absolute time cells, else a header entry named like ``Start time``,
+  ``t0``, ``wf_start_time`` or ``Date`` + ``Time``, else 1904-01-01 (unknown) with a note.
+
+Jumps in the time column (restarts, dropouts) are kept as gaps. Empty cells become NaN, counted per
+channel in the attribute ``empty_cells``.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import logging
+import os
+import re
+import zoneinfo
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from rigval.acquisition.detect import checked_path, source_checksum
+from rigval.acquisition.devices import get_device, module_attrs
+from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
+from rigval.acquisition.schema import Channel, stream_dataset
+from rigval.acquisition.unitnames import split_name_and_unit, udunits
+
+__all__ = ["read_csv", "read_text_lines", "sniff_csv"]
+
+logger = logging.getLogger(__name__)
+
+_DELIMITERS = (";", "\t", ",", "|")
+_NUMBER = re.compile(r"^\s*[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?\s*$")
+_COMMA_NUMBER = re.compile(r"^\s*[-+]?\d*,\d+([eE][-+]?\d+)?\s*$")
+_TIME_NAMES = re.compile(r"^(time|zeit|t|x_value|timestamp|zeitstempel|datetime|date|datum|"
+                         r"relative time|elapsed time)\b", re.IGNORECASE)
+_START_KEYS = re.compile(r"(start|t0|wf_start_time|beginn|trigger)", re.IGNORECASE)
+_LOCALE_FORMATS = ("%d.%m.%Y %H:%M:%S.%f", "%d.%m.%Y %H:%M:%S", "%m/%d/%Y %I:%M:%S.%f %p",
+                   "%m/%d/%Y %I:%M:%S %p", "%m/%d/%Y %H:%M:%S.%f", "%m/%d/%Y %H:%M:%S",
+                   "%Y/%m/%d %H:%M:%S.%f", "%Y/%m/%d %H:%M:%S", "%d/%m/%Y %H:%M:%S.%f",
+                   "%d/%m/%Y %H:%M:%S")
+_EPOCH_1904 = np.datetime64("1904-01-01T00:00:00", "ns")
+
+
+@dataclass(frozen=True)
+class CsvLayout:
+    """What :func:`sniff_csv` found out about a text file.
+
+    Attributes
+    ----------
+    delimiter, decimal : str
+        Field and decimal separators.
+    data_start : int
+        Index of the first data line.
+    names : list of str
+        Column names without units.
+    units : list of str or None
+        Units as written per column (None where absent).
+    header : dict
+        ``key -> value`` pairs above the column names.
+    """
+
+    delimiter: str
+    decimal: str
+    data_start: int
+    names: list[str]
+    units: list[str | None]
+    header: dict[str, str]
+
+
+def read_text_lines(path: Path, encoding: str | None = None) -> list[str]:
+    """Return the lines of a text file (UTF-8 with or without BOM, else cp1252)."""
+    raw = path.read_bytes()
+    for candidate in ([encoding] if encoding else ["utf-8-sig", "cp1252"]):
+        try:
+            return raw.decode(candidate).splitlines()
+        except UnicodeDecodeError:
+            continue
+        except LookupError:
+            raise ConfigError(f"unknown text encoding {encoding!r}",
+                              where={"file": str(path), "key": "encoding"}) from None
+    raise DataFileError(f"text is not {encoding or 'UTF-8 or cp1252'}", where={"file": str(path)},
+                        hint="pass encoding=... (e.g. 'latin-1')")
+
+
+def _split(line: str, delimiter: str) -> list[str]:
+    """Split a line, dropping one trailing empty field left by a trailing delimiter."""
+    fields = line.split(delimiter)
+    if len(fields) > 1 and fields[-1].strip() == "":
+        fields.pop()
+    return fields
+
+
+def _is_data(fields: list[str]) -> bool:
+    """Return True when a row looks like data: most cells numeric or a date-time first."""
+    cells = [f for f in fields if f.strip()]
+    if not cells:
+        return False
+    numeric = sum(bool(_NUMBER.match(c)) for c in cells)
+    return numeric >= max(1, len(cells) - 1) and (numeric >= len(cells) / 2)
+
+
+def _guess_delimiter(lines: list[str]) -> str:
+    """Return the delimiter that splits the last lines into a constant number (> 1) of fields."""
+    tail = [ln for ln in lines[-50:] if ln.strip()]
+    for delimiter in _DELIMITERS:
+        counts = {len(_split(ln, delimiter)) for ln in tail}
+        if len(counts) == 1 and counts.pop() > 1:
+            return delimiter
+    for delimiter in _DELIMITERS:  # ragged rows: most common count
+        counts_list = [len(_split(ln, delimiter)) for ln in tail]
+        if counts_list and max(counts_list) > 1 and min(counts_list) > 1:
+            return delimiter
+    return ","
+
+
+def sniff_csv(lines: list[str], *, delimiter: str | None = None, decimal: str | None = None,
+              header_row: int | None = None, units_row: int | None = None,
+              file: Path | None = None) -> CsvLayout:
+    """Find delimiter, decimal separator, header, units and the data block of a text table.
+
+    Parameters
+    ----------
+    lines : list of str
+        The file's lines.
+    delimiter, decimal : str, optional
+        Override the guesses (``"\\t"`` for tab).
+    header_row, units_row : int, optional
+        0-based line numbers of the names and units rows (override the guesses; data then start
+        on the next line).
+    file : pathlib.Path, optional
+        For error messages.
+
+    Returns
+    -------
+    CsvLayout
+        The layout.
+
+    Raises
+    ------
+    DataFileError
+        If no numeric data block is found.
+    """
+    where = {"file": str(file) if file else None}
+    delimiter = delimiter or _guess_delimiter(lines)
+    rows = [_split(ln, delimiter) for ln in lines]
+    if header_row is not None:
+        data_start = max(header_row, units_row if units_row is not None else -1) + 1
+        width = len(rows[header_row])
+    else:
+        end = len(rows)
+        while end > 0 and not lines[end - 1].strip():
+            end -= 1
+        if end == 0:
+            raise DataFileError("text file holds no lines", where=where)
+        width = len(rows[end - 1])
+        data_start = end
+        while data_start > 0 and (not lines[data_start - 1].strip() or (
+                len(rows[data_start - 1]) == width and _is_data(rows[data_start - 1]))):
+            data_start -= 1
+        while data_start < end and not lines[data_start].strip():
+            data_start += 1
+        if data_start >= end or not _is_data(rows[data_start]):
+            raise DataFileError("no block of numeric rows found at the end of the text file",
+                                where=where, hint="pass header_row=... and delimiter=...")
+        above = data_start - 1
+        if units_row is None and above >= 1 and len(rows[above]) == width and all(
+                (c.strip().startswith(("[", "(")) or not c.strip()) for c in rows[above]) \
+                and len(rows[above - 1]) == width:
+            units_row, above = above, above - 1
+        header_row = above if above >= 0 and len(rows[above]) == width else None
+    sample = [c for r in rows[data_start:data_start + 200] for c in r if c.strip()]
+    if decimal is None:
+        decimal = "," if delimiter != "," and any(_COMMA_NUMBER.match(c) for c in sample) else "."
+    if header_row is not None:
+        split = [split_name_and_unit(c) for c in rows[header_row][:width]]
+        names = [n or f"column {k}" for k, (n, _) in enumerate(split)]
+        units = [u for _, u in split]
+    else:
+        names = [f"column {k}" for k in range(width)]
+        units = [None] * width
+    if units_row is not None:
+        units = [c.strip().strip("[]()").strip() or None for c in rows[units_row][:width]]
+        units += [None] * (width - len(units))
+    first_meta = 0
+    last_meta = header_row if header_row is not None else data_start
+    header: dict[str, str] = {}
+    for row in rows[first_meta:last_meta]:
+        cells = [c.strip() for c in row]
+        if cells and cells[0]:
+            key = cells[0].rstrip(":=").strip()
+            header[key] = delimiter.join(c for c in cells[1:] if c).strip()
+    return CsvLayout(delimiter, decimal, data_start, names, units, header)
+
+
+def _parse_datetimes(cells: Sequence[str], time_format: str | None, timezone: str | None,
+                     where: Mapping[str, Any]) -> np.ndarray:
+    """Parse absolute time cells into naive UTC datetime64[ns]."""
+    texts = pd.Series([c.strip() for c in cells])
+    if time_format is None and texts.str.match(r"^\d{4}-\d{2}-\d{2}[T ]").all():
+        stamps = pd.to_datetime(texts, format="ISO8601", utc=False)
+    else:
+        stamps = None
+        for fmt in ([time_format] if time_format else list(_LOCALE_FORMATS)):
+            try:
+                stamps = pd.to_datetime(texts.str.replace(",", ".", regex=False)
+                                        if fmt.endswith("%f") or "%f " in fmt else texts,
+                                        format=fmt)
+                break
+            except (ValueError, TypeError):
+                continue
+        if stamps is None:
+            raise DataFileError(f"cannot parse time cells like {texts.iloc[0]!r}", where=where,
+                                hint="pass time_format=... (strftime codes)")
+    if getattr(stamps.dt, "tz", None) is not None:
+        stamps = stamps.dt.tz_convert("UTC").dt.tz_localize(None)
+    elif timezone:
+        try:
+            zone = zoneinfo.ZoneInfo(timezone)
+        except (zoneinfo.ZoneInfoNotFoundError, ValueError):
+            raise ConfigError(f"unknown time zone {timezone!r}",
+                              where={**where, "key": "timezone"},
+                              hint="use an IANA name like 'Europe/Berlin'") from None
+        stamps = stamps.dt.tz_localize(zone, ambiguous="raise", nonexistent="raise") \
+            .dt.tz_convert("UTC").dt.tz_localize(None)
+    return stamps.to_numpy().astype("datetime64[ns]")
+
+
+def _header_start(header: Mapping[str, str], time_format: str | None,
+                  timezone: str | None, where: Mapping[str, Any]) -> np.datetime64 | None:
+    """Return a start time found in the header block, or None."""
+    candidates = [v for k, v in header.items() if _START_KEYS.search(k) and v]
+    date = next((v for k, v in header.items() if k.lower() in ("date", "datum")), None)
+    clock = next((v for k, v in header.items() if k.lower() in ("time", "zeit", "uhrzeit")), None)
+    if date and clock:
+        candidates.append(f"{date.replace('/', '-')}T{clock.replace(',', '.')}"
+                          if re.match(r"^\d{4}[/-]", date) else f"{date} {clock}")
+    for text in candidates:
+        try:
+            return _parse_datetimes([text], time_format, timezone, where)[0]
+        except (DataFileError, ValueError):
+            continue
+    return None
+
+
+def _time_column(names: list[str], option: str | int | None,
+                 where: Mapping[str, Any]) -> int | None:
+    """Return the index of the time column (None: there is none)."""
+    if option is None:
+        return next((k for k, n in enumerate(names) if _TIME_NAMES.match(n.strip())), None)
+    if isinstance(option, int):
+        if not 0 <= option < len(names):
+            raise ConfigError(f"time_column {option} out of range 0...{len(names) - 1}",
+                              where={**where, "key": "time_column"})
+        return option
+    if option not in names:
+        raise ChannelNotFoundError(f"time column {option!r} not found", where=where,
+                                   available=names)
+    return names.index(option)
+
+
+def _rate_of(time: np.ndarray) -> float:
+    """Return the sampling rate in Hz of a time column over its first gap-free block.
+
+    Averaging over the block (not the median step) removes the rounding of time cells written
+    with few decimals.
+    """
+    step = np.diff(time)
+    if not step.size:
+        return 1.0
+    typical = float(np.median(step))
+    jumps = np.flatnonzero(step > 1.5 * typical)
+    end = int(jumps[0]) if jumps.size else step.size
+    if end == 0 or time[end] <= time[0]:
+        return 1.0 / typical if typical > 0 else float("nan")
+    return end / float(time[end] - time[0])
+
+
+def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
+             decimal: str | None = None, header_row: int | None = None,
+             units_row: int | None = None, time_column: str | int | None = None,
+             time_format: str | None = None, timezone: str | None = None,
+             time_units: str | None = None, start_time: str | None = None,
+             fs: float | None = None, channels: Sequence[str] | None = None,
+             time_range: tuple[float | None, float | None] | None = None,
+             device: str | None = None, modules: Mapping[str, str] | None = None,
+             encoding: str | None = None, name: str | None = None,
+             checksum: bool = True) -> dict[str, xr.Dataset]:
+    """Read a delimited text file into one stream.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The text file.
+    delimiter, decimal : str, optional
+        Field and decimal separators (default: detected).
+    header_row, units_row : int, optional
+        0-based line numbers of the column names and units (default: detected).
+    time_column : str or int, optional
+        Name or index of the time column (default: detected; None found -> ``fs`` needed).
+    time_format : str, optional
+        strftime format of absolute time cells (default: ISO 8601 or common local formats).
+    timezone : str, optional
+        IANA zone of local (naive) time cells and header times, e.g. ``"Europe/Berlin"``;
+        default UTC.
+    time_units : str, optional
+        Unit of a relative time column (``"s"``, ``"ms"``); default from its header, else s.
+    start_time : str, optional
+        ISO 8601 start time overriding the file's (UTC unless it has an offset).
+    fs : float, optional
+        Sampling rate in Hz for files without a time column.
+    channels : sequence of str, optional
+        Columns to read (default: all but the time column).
+    time_range : tuple of float or None, optional
+        ``(t_from, t_to)`` in s since the first sample, inclusive.
+    device : str, optional
+        Device profile name.
+    modules : mapping of str to str, optional
+        Column name -> module, as in :func:`~rigval.acquisition.tdms.read_tdms`.
+    encoding : str, optional
+        Text encoding (default UTF-8, else cp1252).
+    name : str, optional
+        Stream name (default: the file name without suffix).
+    checksum : bool
+        Compute ``source_sha256``.
+
+    Returns
+    -------
+    dict of str to xarray.Dataset
+        ``{name: stream}``.
+
+    Raises
+    ------
+    DataFileError
+        No numeric block, unparsable times, no time column and no ``fs``.
+    ChannelNotFoundError
+        Unknown column names (the message lists the columns).
+    DataError
+        A time column that is not strictly increasing.
+    """
+    file = checked_path(path)
+    where = {"file": str(file)}
+    lines = read_text_lines(file, encoding)
+    layout = sniff_csv(lines, delimiter=delimiter, decimal=decimal, header_row=header_row,
+                       units_row=units_row, file=file)
+    notes: list[str] = []
+    t_index = _time_column(layout.names, time_column, where)
+    width = len(layout.names)
+    body = "\n".join(lines[layout.data_start:])
+    try:
+        table = pd.read_csv(io.StringIO(body), sep=layout.delimiter, decimal=layout.decimal,
+                            header=None, names=list(range(width)), index_col=False,
+                            dtype=str if t_index is not None else None, keep_default_na=False,
+                            skip_blank_lines=True, engine="c")
+    except (ValueError, pd.errors.ParserError) as error:
+        raise DataFileError(f"cannot split the data rows: {error}", where=where,
+                            hint="pass delimiter=... and header_row=...") from None
+    values: dict[int, np.ndarray] = {}
+    for k in range(width):
+        if k == t_index:
+            continue
+        cells = table[k].astype(str).str.strip()
+        if layout.decimal == ",":
+            cells = cells.str.replace(",", ".", regex=False)
+        numbers = pd.to_numeric(cells.replace("", np.nan), errors="coerce").to_numpy(float)
+        bad = int(np.count_nonzero(np.isnan(numbers) & (cells != "").to_numpy()))
+        if bad and bad == np.count_nonzero(cells != ""):
+            logger.info("%s: column %r is not numeric; skipped", file, layout.names[k])
+            continue
+        if bad:
+            raise DataFileError(f"column {layout.names[k]!r} holds {bad} cells that are not "
+                                "numbers", where={**where, "channel": layout.names[k]},
+                                hint=f"check decimal={layout.decimal!r} and delimiter")
+        values[k] = numbers
+    n = len(table)
+    start = None if start_time is None else np.datetime64(
+        pd.Timestamp(start_time).tz_localize(None) if pd.Timestamp(start_time).tzinfo is None
+        else pd.Timestamp(start_time).tz_convert("UTC").tz_localize(None), "ns")
+    if t_index is not None:
+        cells = table[t_index].astype(str).str.strip()
+        if cells.str.match(_NUMBER.pattern).all():
+            seconds = pd.to_numeric(cells.str.replace(",", ".", regex=False)).to_numpy(float)
+            unit = (time_units or layout.units[t_index] or "s").strip()
+            scale = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}.get(unit)
+            if scale is None:
+                raise ConfigError(f"time column unit {unit!r} is not s, ms or us",
+                                  where={**where, "key": "time_units"})
+            seconds = seconds * scale
+            time = seconds - seconds[0]
+            if start is None:
+                start = _header_start(layout.header, time_format, timezone, where)
+                if start is not None and seconds[0] != 0.0:
+                    start = start + np.timedelta64(round(seconds[0] * 1e9), "ns")
+        else:
+            stamps = _parse_datetimes(cells.tolist(), time_format, timezone, where)
+            start = stamps[0] if start is None else start
+            time = (stamps - stamps[0]).astype(np.int64) / 1e9
+    else:
+        if fs is None:
+            raise DataFileError("no time column found and no fs given", where=where,
+                                hint="pass time_column=... or fs=... (Hz)")
+        time = np.arange(n) / fs
+        notes.append(f"no time column: t = i / {fs} Hz")
+    if start is None:
+        start = _header_start(layout.header, time_format, timezone, where)
+    if start is None:
+        start = _EPOCH_1904
+        notes.append("no start time in the file: start_time unknown (1904-01-01)")
+    if time.size < 1:
+        raise DataFileError("the data block is empty", where=where)
+    fs_nominal = fs if fs is not None else _rate_of(time)
+    if not np.isfinite(fs_nominal) or fs_nominal <= 0:
+        raise DataFileError("the time column does not increase", where=where)
+    by_name = {layout.names[k]: k for k in values}
+    chosen = list(by_name) if channels is None else list(channels)
+    missing = [c for c in chosen if c not in by_name]
+    if missing:
+        raise ChannelNotFoundError(f"column {missing[0]!r} not in the file", where=where,
+                                   available=list(by_name))
+    lo, hi = 0, time.size
+    if time_range is not None:
+        t_from, t_to = time_range
+        lo = int(np.searchsorted(time, -np.inf if t_from is None else t_from - 1e-12, "left"))
+        hi = int(np.searchsorted(time, np.inf if t_to is None else t_to + 1e-12, "right"))
+    profile = get_device(device) if device else None
+    result: dict[str, Channel] = {}
+    for column in chosen:
+        k = by_name[column]
+        unit_text = layout.units[k] or ""
+        data = values[k][lo:hi]
+        attrs: dict[str, Any] = {"units_in_file": unit_text,
+                                 "empty_cells": int(np.count_nonzero(np.isnan(data)))}
+        module = (modules or {}).get(column) or (profile.default_module if profile else None)
+        if module is not None:
+            attrs.update(module_attrs(module, fs_nominal, where={**where, "channel": column}))
+        result[column] = Channel(data, udunits(unit_text), column, column, "none", attrs)
+    for note in notes:
+        logger.info("%s: %s", file, note)
+    attrs = {"source_format": "csv", "delimiter": layout.delimiter, "decimal": layout.decimal,
+             "text_header": json.dumps(layout.header), "time_fallbacks": json.dumps(notes),
+             "first_sample": lo, "samples_in_file": int(time.size)}
+    if profile is not None:
+        attrs.update(profile.stream_attrs())
+    stream = stream_dataset(
+        time[lo:hi], result, device=profile.name if profile else "unknown",
+        start_time=start, source_file=file, source_sha256=source_checksum(file, checksum),
+        fs_nominal=float(fs_nominal), attrs=attrs)
+    return {name or file.stem: stream}

@@ -1,0 +1,127 @@
+"""Piecewise-uniform time axes: blocks of equally spaced samples separated by gaps.
+
+A device that restarts its task (a Wi-Fi dropout on a WLS-9163) continues its file with a new start
+time. The samples of one block are ``t = t_start + i * dt``; the blocks follow each other in file
+order. A :class:`TimeBase` turns that description into the stream's time axis (seconds since the
+first sample), its segment index, and index ranges for a time window, without materialising more
+than the samples asked for.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Block", "TimeBase", "exact_increment"]
+
+#: Rates a rounded ``wf_increment`` is checked against besides integer Hz: NI delta-sigma master
+#: rates divided by n (NI 9237: 50 kS/s, NI 9234: 51.2 kS/s, 12.8 MHz / 256 = 50 kS/s).
+_MASTER_RATES = (50_000.0, 51_200.0)
+
+
+@dataclass(frozen=True)
+class Block:
+    """Equally spaced samples ``t = t_start + i * dt`` for ``i`` in ``0 ... n - 1``.
+
+    Parameters
+    ----------
+    first : int
+        Index of the block's first sample in the channel.
+    n : int
+        Number of samples.
+    t_start : float
+        Time of the first sample in s since the stream's first sample.
+    dt : float
+        Sample interval in s.
+    """
+
+    first: int
+    n: int
+    t_start: float
+    dt: float
+
+
+class TimeBase:
+    """The time axis of a stream as a list of :class:`Block` objects.
+
+    Parameters
+    ----------
+    blocks : list of Block
+        In sample order; ``blocks[k + 1].first == blocks[k].first + blocks[k].n``.
+    """
+
+    def __init__(self, blocks: list[Block]) -> None:
+        self.blocks = [b for b in blocks if b.n > 0] or blocks[:1]
+        self.length = sum(b.n for b in self.blocks)
+        self._firsts = np.array([b.first for b in self.blocks], dtype=np.int64)
+
+    @property
+    def dt(self) -> float:
+        """Sample interval of the first block, s."""
+        return self.blocks[0].dt
+
+    def times(self, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """Return the times in s of samples ``start`` to ``stop - 1`` (float64)."""
+        stop = self.length if stop is None else min(stop, self.length)
+        out = np.empty(max(stop - start, 0), dtype=np.float64)
+        for block in self.blocks:
+            lo, hi = max(start, block.first), min(stop, block.first + block.n)
+            if lo >= hi:
+                continue
+            index = np.arange(lo - block.first, hi - block.first, dtype=np.float64)
+            out[lo - start:hi - start] = block.t_start + index * block.dt
+        return out
+
+    def segments(self, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """Return the block index (``segment``) of samples ``start`` to ``stop - 1``."""
+        stop = self.length if stop is None else min(stop, self.length)
+        index = np.arange(start, stop, dtype=np.int64)
+        return (np.searchsorted(self._firsts, index, side="right") - 1).astype(np.int32)
+
+    def index_range(self, t_from: float | None, t_to: float | None) -> tuple[int, int]:
+        """Return ``(start, stop)`` of the samples with ``t_from <= t <= t_to`` (None: open end)."""
+        start, stop = self.length, 0
+        for block in self.blocks:
+            lo, hi = 0, block.n
+            if t_from is not None:
+                lo = max(lo, math.ceil((t_from - block.t_start) / block.dt - 1e-9))
+            if t_to is not None:
+                hi = min(hi, math.floor((t_to - block.t_start) / block.dt + 1e-9) + 1)
+            if lo < hi:
+                start = min(start, block.first + lo)
+                stop = max(stop, block.first + hi)
+        return (start, stop) if start < stop else (0, 0)
+
+
+def exact_increment(dt: float) -> float | None:
+    """Return the exact sample interval behind a ``wf_increment`` rounded to 6 significant digits.
+
+    Some writers store ``wf_increment`` with 6 significant digits (1.04167e-05 s for 96 kHz; an
+    error of 33 us after 1e6 samples). If ``dt`` has at most 6 significant digits and ``1 / fs``
+    rounds to it for an integer rate ``fs`` in Hz or for ``master / n`` of an NI delta-sigma master
+    rate, while ``1 / fs`` itself needs more digits, that interval is returned.
+
+    Parameters
+    ----------
+    dt : float
+        ``wf_increment`` as stored, s.
+
+    Returns
+    -------
+    float or None
+        The exact interval, or None when ``dt`` shows no sign of rounding.
+    """
+    if not (math.isfinite(dt) and dt > 0) or float(f"{dt:.6g}") != dt:
+        return None
+    candidates = [round(1.0 / dt)]
+    candidates += [master / round(master * dt) for master in _MASTER_RATES
+                   if round(master * dt) >= 1]
+    for fs in candidates:
+        if fs <= 0:
+            continue
+        exact = 1.0 / fs
+        if exact != dt and float(f"{exact:.6g}") == dt:
+            return exact
+    return None
