@@ -39,8 +39,9 @@ __all__ = ["rigval_version", "write_metrics", "write_netcdf", "write_report"]
 logger = logging.getLogger(__name__)
 
 #: Metrics shown first in the per-comparison tables (others follow in the order reported).
-_PREFERRED = ("iso18571.rating", "iso18571.grade", "iso18571.corridor", "iso18571.phase",
-              "iso18571.magnitude", "iso18571.slope", "sprague_geers.magnitude",
+_PREFERRED = ("iso18571_periodic.rating", "iso18571_periodic.grade",
+              "iso18571_periodic.corridor", "iso18571_periodic.phase",
+              "iso18571_periodic.magnitude", "iso18571_periodic.slope", "sprague_geers.magnitude",
               "sprague_geers.phase", "sprague_geers.comprehensive", "russell.magnitude",
               "russell.phase", "russell.comprehensive", "nrmse", "pearson_r")
 
@@ -132,7 +133,7 @@ def _metric_table(comparison: ComparisonResult) -> list[dict[str, Any]]:
     """Rows: metric; columns: model, baseline median, baseline worst, threshold, status."""
     names = [m for m in _PREFERRED if m in comparison.scores]
     names += [m for m in comparison.scores if m not in names]
-    checks = {c.threshold.metric: c for c in comparison.checks}
+    checks = {c.metric: c for c in comparison.checks}
     names += [m for m in checks if m not in names]
     rows = []
     for metric in names:
@@ -140,7 +141,7 @@ def _metric_table(comparison: ComparisonResult) -> list[dict[str, Any]]:
         for which, scores in comparison.baseline.items():
             row[f"baseline {which}"] = scores.get(metric)
         check = checks.get(metric)
-        row["threshold"] = str(check.threshold) if check else ""
+        row["threshold"] = check.threshold if check else ""
         row["status"] = ("pass" if check.passed else "fail") if check else ""
         rows.append(row)
     return rows
@@ -149,12 +150,12 @@ def _metric_table(comparison: ComparisonResult) -> list[dict[str, Any]]:
 def _summary_rows(result: ValidationResult) -> list[dict[str, Any]]:
     rows = []
     for c in result.comparisons:
-        failed = [str(ch.threshold.metric) for ch in c.checks if not ch.passed]
+        failed = [ch.metric for ch in c.checks if not ch.passed]
         rows.append({
             "comparison": c.name, "measured": str(c.spec.measured), "model": str(c.spec.model),
             "scale": c.spec.scale, "unit": c.units,
-            "ISO rating": c.scores.get("iso18571.rating"),
-            "grade": c.scores.get("iso18571.grade"),
+            "ISO rating": c.scores.get("iso18571_periodic.rating"),
+            "grade": c.scores.get("iso18571_periodic.grade"),
             "NRMSE": c.scores.get("nrmse"), "r": c.scores.get("pearson_r"),
             "status": "pass" if c.passed else "fail",
             "failed thresholds": ", ".join(failed),

@@ -7,7 +7,6 @@ notebook or a campaign can use them without re-running anything.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,39 +15,15 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from rigval.validation.scene import ComparisonSpec, Scene, Threshold
+from rigval.validation.scene import ComparisonSpec, Scene
+from rigval.validation.thresholds import ThresholdCheck
 
 __all__ = [
     "ComparisonResult",
     "NumericsSummary",
     "StreamAlignment",
-    "ThresholdCheck",
     "ValidationResult",
 ]
-
-
-@dataclass(frozen=True)
-class ThresholdCheck:
-    """One pass/fail criterion applied to one metric value.
-
-    Parameters
-    ----------
-    comparison : str
-        Comparison name.
-    threshold : Threshold
-        The criterion from the scene.
-    value : float
-        The metric's value (NaN when the metric is undefined or absent).
-    """
-
-    comparison: str
-    threshold: Threshold
-    value: float
-
-    @property
-    def passed(self) -> bool:
-        """Whether the value meets the criterion (NaN never does)."""
-        return self.threshold.passes(self.value)
 
 
 @dataclass(frozen=True)
@@ -76,7 +51,7 @@ class ComparisonResult:
     baseline : mapping of str to mapping
         The same metrics for each cycle against the measured mean: ``{"median": {...},
         "worst": {...}}`` (the noise floor no model can beat).
-    checks : tuple of ThresholdCheck
+    checks : tuple of rigval.validation.thresholds.ThresholdCheck
         The scene's thresholds applied to ``scores``.
     """
 
@@ -267,18 +242,13 @@ class ValidationResult:
         """
         rows: list[dict[str, Any]] = []
         for comparison in self.comparisons:
-            checks = {c.threshold.metric: c for c in comparison.checks}
+            checks = {c.metric: c for c in comparison.checks}
             for metric, value in comparison.scores.items():
                 check = checks.get(metric)
                 rows.append({"comparison": comparison.name, "row": "model", "metric": metric,
                              "value": _plain(value),
-                             "threshold": str(check.threshold) if check else None,
+                             "threshold": check.threshold if check else None,
                              "passed": check.passed if check else None})
-            for metric in checks.keys() - comparison.scores.keys():
-                check = checks[metric]
-                rows.append({"comparison": comparison.name, "row": "model", "metric": metric,
-                             "value": math.nan, "threshold": str(check.threshold),
-                             "passed": False})
             for which, scores in comparison.baseline.items():
                 rows.extend({"comparison": comparison.name, "row": f"baseline {which}",
                              "metric": metric, "value": _plain(value), "threshold": None,

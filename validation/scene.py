@@ -19,8 +19,6 @@ from __future__ import annotations
 import hashlib
 import logging
 import math
-import operator
-import re
 import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -29,7 +27,11 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Literal
 
-from rigval.acquisition.errors import SceneError, UnitError
+import numpy as np
+
+from rigval.acquisition.errors import ConfigError, SceneError, UnitError
+from rigval.validation.metrics import DEFAULT_METRICS, METRICS, compare
+from rigval.validation.thresholds import parse_threshold
 from rigval.validation.units import dimension, multiply
 
 __all__ = [
@@ -49,7 +51,6 @@ __all__ = [
     "PulseSpec",
     "Scene",
     "StreamSpec",
-    "Threshold",
     "check_mechanism_names",
     "load_scene",
     "mechanism_names",
@@ -126,9 +127,6 @@ MODEL_QUANTITIES: Mapping[str, tuple[str, tuple[str, ...] | None, Mapping[str, s
         "driver_torque": ("driver", None, {"": "N m"}),
     }))
 
-_OPERATORS: Mapping[str, Callable[[float, float], bool]] = {
-    ">=": operator.ge, "<=": operator.le, ">": operator.gt, "<": operator.lt}
-_THRESHOLD = re.compile(r"^\s*(abs\s+)?(>=|<=|>|<)\s*([-+0-9.eE]+)\s*$")
 
 
 @dataclass(frozen=True)
@@ -331,37 +329,6 @@ class ModelOutput:
 
 
 @dataclass(frozen=True)
-class Threshold:
-    """A pass/fail criterion on one metric, e.g. ``iso18571.rating >= 0.8``.
-
-    Parameters
-    ----------
-    metric : str
-        Metric name as :func:`rigval.validation.metrics.compare` reports it.
-    operator : {">=", "<=", ">", "<"}
-        Comparison.
-    limit : float
-        The limit.
-    absolute : bool
-        Compare the magnitude of the metric (``"abs <= 0.1"``).
-    """
-
-    metric: str
-    operator: str
-    limit: float
-    absolute: bool = False
-
-    def passes(self, value: float) -> bool:
-        """Whether ``value`` meets the criterion (NaN never does)."""
-        if not math.isfinite(value):
-            return False
-        return _OPERATORS[self.operator](abs(value) if self.absolute else value, self.limit)
-
-    def __str__(self) -> str:
-        return f"{'abs ' if self.absolute else ''}{self.operator} {self.limit:g}"
-
-
-@dataclass(frozen=True)
 class ComparisonSpec:
     """One measured channel against one model quantity.
 
@@ -380,10 +347,14 @@ class ComparisonSpec:
     lowpass_hz : float or None
         Zero-phase low-pass cut-off for the measured signal in Hz (None: unfiltered).
     remove_offset : bool
-        Subtract the measured cycle mean's average before comparing (for sensors with an
-        unknown zero, such as AC-coupled accelerometers); the offset is reported.
-    thresholds : tuple of Threshold
-        Pass/fail criteria.
+        Add the difference of the measured mean's and the model's averages over a revolution to
+        the model (sensors with an unknown zero, such as AC-coupled accelerometers); reported.
+    metrics : tuple of str
+        Metrics to compute (names of :data:`rigval.validation.metrics.METRICS`).
+    nrmse_normaliser : {"range", "rms", "peak"}
+        Normaliser of the NRMSE.
+    thresholds : mapping of str to str
+        Pass/fail criteria: score name to threshold text (``">= 0.8"``, ``"abs <= 0.1"``).
     key : str
         Key path, e.g. ``comparisons[0]``.
     """
@@ -395,7 +366,9 @@ class ComparisonSpec:
     scale_units: str
     lowpass_hz: float | None
     remove_offset: bool
-    thresholds: tuple[Threshold, ...]
+    metrics: tuple[str, ...]
+    nrmse_normaliser: str
+    thresholds: Mapping[str, str]
     key: str
 
 
@@ -710,19 +683,29 @@ def _model(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> ModelSp
     return ModelSpec(drives, MappingProxyType(drivers))
 
 
-def _threshold(metric: str, value: Any, key: str) -> Threshold:
-    if isinstance(value, bool) or not isinstance(value, str):
-        raise _error(key, f"expected a string such as '>= 0.8' or 'abs <= 0.1', got {value!r}")
-    match = _THRESHOLD.match(value)
-    try:
-        limit = float(match.group(3)) if match else math.nan
-    except ValueError:
-        limit = math.nan
-    if not match or not math.isfinite(limit):
-        raise _error(key, f"cannot read threshold {value!r}",
-                     hint="write an operator (>=, <=, >, <), optionally after 'abs', then a "
-                          "number: '>= 0.8', 'abs <= 0.1'")
-    return Threshold(metric, match.group(2), limit, bool(match.group(1)))
+def _score_names(metrics: tuple[str, ...]) -> tuple[str, ...]:
+    """Names of the numeric scores the given metrics report (from a run on a test signal)."""
+    angle = np.arange(32) * (2.0 * math.pi / 32)
+    scores = compare(np.sin(angle), np.sin(angle + 0.1), angle, metrics=metrics)
+    return tuple(k for k, v in scores.items() if isinstance(v, int | float)
+                 and not isinstance(v, bool))
+
+
+def _thresholds(table: Mapping[str, Any], metrics: tuple[str, ...], key: str
+                ) -> Mapping[str, str]:
+    known = _score_names(metrics) if table else ()
+    for metric, text in table.items():
+        tkey = f'{key}."{metric}"'
+        if isinstance(text, bool) or not isinstance(text, str):
+            raise _error(tkey, f"expected a string such as '>= 0.8' or 'abs <= 0.1', got {text!r}")
+        try:
+            parse_threshold(text, tkey)
+        except ConfigError as error:
+            raise _error(tkey, error.message, hint=error.hint) from None
+        if metric not in known:
+            raise _error(tkey, f"unknown score {metric!r} for the metrics {', '.join(metrics)}",
+                         hint=f"scores: {', '.join(known)}")
+    return MappingProxyType(dict(table))
 
 
 def _model_output(value: Any, key: str) -> ModelOutput:
@@ -748,7 +731,8 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
         key = f"comparisons[{index}]"
         table = _table(raw, key)
         _check_keys(table, key, {"name", "measured", "model", "scale", "scale_units",
-                                 "lowpass_hz", "remove_offset", "thresholds"})
+                                 "lowpass_hz", "remove_offset", "metrics", "nrmse_normaliser",
+                                 "thresholds"})
         name = _get(table, "name", key, str)
         if name in {s.name for s in specs}:
             raise _error(f"{key}.name", f"duplicate comparison name {name!r}")
@@ -762,9 +746,13 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
         lowpass = _get(table, "lowpass_hz", key, float, None)
         if lowpass is not None and not lowpass > 0:
             raise _error(f"{key}.lowpass_hz", f"must be positive, got {lowpass}")
-        thresholds_table = _table(_get(table, "thresholds", key, dict, {}), f"{key}.thresholds")
-        thresholds = tuple(_threshold(metric, value, f'{key}.thresholds."{metric}"')
-                           for metric, value in thresholds_table.items())
+        metrics = tuple(_get(table, "metrics", key, list, list(DEFAULT_METRICS)))
+        for i, metric in enumerate(metrics):
+            if metric not in METRICS or metric == "vv20":
+                raise _error(f"{key}.metrics[{i}]", f"unknown metric {metric!r}",
+                             hint=f"metrics: {', '.join(m for m in METRICS if m != 'vv20')}")
+        thresholds = _thresholds(_table(_get(table, "thresholds", key, dict, {}),
+                                        f"{key}.thresholds"), metrics, f"{key}.thresholds")
         measured_units = streams[measured.stream].channels[measured.channel].units
         try:
             model_dim = multiply(output.units, scale_units)
@@ -776,9 +764,11 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
                 f"{output} is in {output.units!r} (times scale_units {scale_units!r})",
                 hint="compare like with like, or set scale and scale_units to convert the model "
                      "quantity (e.g. scale = -1/A, scale_units = 'm-2' turns N into Pa)")
-        specs.append(ComparisonSpec(name, measured, output, scale, scale_units, lowpass,
-                                    _get(table, "remove_offset", key, bool, False),
-                                    thresholds, key))
+        specs.append(ComparisonSpec(
+            name, measured, output, scale, scale_units, lowpass,
+            _get(table, "remove_offset", key, bool, False), metrics,
+            _get(table, "nrmse_normaliser", key, str, "range", ("range", "rms", "peak")),
+            thresholds, key))
     return tuple(specs)
 
 

@@ -53,10 +53,8 @@ def test_documented_example_parses(scene_dir: Path) -> None:
     assert scene.streams["wls1"].channels["tor1"].units == "N m"
     assert scene.alignment.pulses["wls2"].per_revolution == 2
     assert [c.name for c in scene.comparisons] == ["acc1", "tor1", "str1"]
-    thresholds = {t.metric: t for t in scene.comparisons[0].thresholds}
-    assert thresholds["iso18571.rating"].passes(0.8)
-    assert not thresholds["iso18571.rating"].passes(0.79)
-    assert not thresholds["nrmse"].passes(float("nan"))
+    assert dict(scene.comparisons[0].thresholds) == {"iso18571_periodic.rating": ">= 0.8",
+                                                     "nrmse": "<= 0.15"}
     assert scene.predictions.points == ("P1",)
     assert scene.predictions.supports == ("P3", "P4", "P10", "P11")
     assert scene.model.drivers["theta_H"].angle_at_reference == 4.5895
@@ -95,6 +93,10 @@ BAD = {
                              "streams.cdaq.channels.acc1.charge_sensitivity"),
     "bad threshold": (('"nrmse" = "<= 0.15"', '"nrmse" = "small"'),
                       'comparisons[0].thresholds."nrmse"'),
+    "unknown score": (('"nrmse" = "<= 0.15"', '"nrmse_x" = "<= 0.15"'),
+                      'comparisons[0].thresholds."nrmse_x"'),
+    "unknown metric": (('remove_offset = true', 'metrics = ["cora"]'),
+                       "comparisons[0].metrics[0]"),
     "encoder that is no encoder": (('main_encoder = "cdaq.enc1"', 'main_encoder = "cdaq.acc1"'),
                                    "alignment.main_encoder"),
     "stream without pulses": (('wls2 = { channel = "opt3", per_revolution = 2 }', ""),
