@@ -8,7 +8,7 @@ import hypothesis.extra.numpy as hnp
 import numpy as np
 import pytest
 import xarray as xr
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rigval.acquisition.errors import ConfigError, DataError
@@ -83,6 +83,7 @@ def test_window_edge_quirk_of_the_reference():
     assert scores.phase == pytest.approx(0.2 / 300.2, abs=1e-15)
 
 
+@settings(max_examples=15)
 @given(smooth_coefficients)
 def test_identical_signals_score_one(coefficients):
     signal = smooth(coefficients)
@@ -141,6 +142,7 @@ def test_rotation_beyond_window_scores_zero_phase():
     assert scores.phase == 0.0
 
 
+@settings(max_examples=15)
 @given(st.floats(0.6, 1.4), st.sampled_from(["time", "periodic"]))
 def test_pure_scaling(k, variant):
     measured = revolution(360)
@@ -163,6 +165,7 @@ def test_small_scaling_stays_inside_inner_corridor_and_offset_closed_form():
     assert scores.phase == 1.0 and scores.slope == pytest.approx(1.0, abs=1e-12)
 
 
+@settings(max_examples=15)
 @given(smooth_coefficients, smooth_coefficients, st.integers(0, 239))
 def test_periodic_rating_has_no_start_angle(a, b, start):
     measured, model = smooth(a), smooth(b)
