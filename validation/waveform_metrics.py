@@ -134,7 +134,8 @@ class PeakScores(Scores):
     error : float
         ``model_peak - measured_peak``, in the signals' units.
     relative_error : float
-        ``error / |measured_peak|``.
+        ``(|model_peak| - |measured_peak|) / |measured_peak|``: positive when the model
+        over-predicts the peak's size, whatever its sign.
     measured_at, model_at : float
         Abscissa of each peak (units of the abscissa given: s, rad or degrees).
     shift : float
@@ -347,9 +348,10 @@ def peak_error(measured: Any, model: Any, x: Any = None, *,
     shift = float(abscissa[i_c] - abscissa[i_m])
     if period is not None:
         shift = (shift + period / 2.0) % period - period / 2.0
-    error = float(c[i_c] - m[i_m])
-    return PeakScores(measured_peak=float(m[i_m]), model_peak=float(c[i_c]), error=error,
-                      relative_error=error / abs(float(m[i_m])),
+    measured_peak, model_peak = float(m[i_m]), float(c[i_c])
+    return PeakScores(measured_peak=measured_peak, model_peak=model_peak,
+                      error=model_peak - measured_peak,
+                      relative_error=(abs(model_peak) - abs(measured_peak)) / abs(measured_peak),
                       measured_at=float(abscissa[i_m]), model_at=float(abscissa[i_c]),
                       shift=shift)
 
