@@ -1,1 +1,51 @@
-"""Model: planar constraint-based kinematics and inverse dynamics."""
+"""Model: planar constraint-based kinematics and inverse dynamics of any mechanism file.
+
+Public API (see ``docs/model.md``)::
+
+    load_mechanism(source: str | Path | Mapping) -> Mechanism
+    builtin_mechanism(name: str) -> Path            # "pendulum", "fourbar", "single_pendulum"
+    solve(mechanism, t, *, outputs=None, points=None, joints=None, drives=None,
+          tol=1e-12, cond_warn=1e4, cond_max=1e10) -> xarray.Dataset      # dim "time"
+    solve_cycle(mechanism, angles, *, driver=None, angle_origin=None, **solve_options)
+          -> xarray.Dataset                                             # dim "angle"
+    interpolate_cycle(cycle: xarray.Dataset, angles) -> xarray.Dataset
+    solve_stepwise(mechanism, t, *, drives=None, tol=1e-12) -> xarray.Dataset  # reference
+
+Result variables (design section 3.3): ``position``, ``velocity``, ``acceleration`` (time, body,
+coord = x, y, theta); ``point_position``, ``point_velocity``, ``point_acceleration`` (time, point,
+axis = x, y); ``joint_force`` (time, joint, axis): force ON the joint's first body (ground pin: ON
+the body), N; ``driver_torque`` (time, driver): torque ON the driven body, N m, counter-clockwise
+positive. On request also ``support_force`` (force ON the ground at ground pins),
+``kinetic_energy``, ``potential_energy``, ``drive_power`` and ``condition_number``.
+"""
+
+from rigval.model.mechanism import (
+    BUILTIN_MECHANISMS,
+    Body,
+    Driver,
+    Harmonic,
+    Joint,
+    Mechanism,
+    builtin_mechanism,
+    load_mechanism,
+)
+from rigval.model.reference import solve_stepwise
+from rigval.model.results import EXTRA_OUTPUTS, OUTPUTS
+from rigval.model.solver import interpolate_cycle, solve, solve_cycle
+
+__all__ = [
+    "BUILTIN_MECHANISMS",
+    "EXTRA_OUTPUTS",
+    "OUTPUTS",
+    "Body",
+    "Driver",
+    "Harmonic",
+    "Joint",
+    "Mechanism",
+    "builtin_mechanism",
+    "interpolate_cycle",
+    "load_mechanism",
+    "solve",
+    "solve_cycle",
+    "solve_stepwise",
+]

@@ -1,0 +1,517 @@
+"""Positions: assembly from the guess, then continuation along the driven angles, batched in time.
+
+The unknowns are the undriven body angles (positions follow linearly, see
+:mod:`rigval.model.loops`). The path through the time steps is followed in three stages:
+
+1. *Assembly* at the first step from the file's guess: Levenberg-Marquardt on the loop closures,
+   robust to a guess far from the assembled configuration.
+2. *Anchors*, sequentially, every ``anchor_spacing`` rad of driven-angle travel (measured with
+   each step's increments wrapped to (-pi, pi], so a jump of whole turns is no travel at all):
+   second-order Taylor predictor in the driven angles, Newton corrector, step halving when Newton
+   fails or lands farther from the prediction than a step can explain (another branch).
+3. *Refinement*, batched over all steps: each step is predicted from its anchor (then from a
+   finer layer of anchors) and corrected by Newton on the whole batch at once.
+
+Newton stops when the angle update is below ``tol`` rad (plus the floating-point resolution of the
+angle) and the loop gap below ``tol`` times the mechanism size: tolerances relative to the size of
+the coordinates.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rigval.acquisition.errors import AssemblyError, MechanismError, SingularityError
+from rigval.model.drives import law_motion
+from rigval.model.linalg import BatchLU, equilibrated_condition, pivot_order
+from rigval.model.loops import LoopSystem, loop_system
+
+if TYPE_CHECKING:
+    from rigval.model.mechanism import Mechanism
+
+__all__ = ["Tolerances", "assemble", "assembly_rank", "check_constraint_count",
+           "condition_numbers", "full_angles", "involved_joints", "newton", "taylor", "track"]
+
+logger = logging.getLogger(__name__)
+
+_EPS = np.finfo(float).eps
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Numerical settings of the position solve.
+
+    Attributes
+    ----------
+    tol : float
+        Newton tolerance: angle updates in rad and loop gaps relative to the mechanism size.
+    cond_warn : float
+        Condition number of ``C_e`` (column-equilibrated, reduced) past which a NumericsWarning
+        is issued.
+    cond_max : float
+        Condition number past which a SingularityError is raised.
+    anchor_spacing : float
+        Driven-angle travel between sequential anchors, rad.
+    refine_spacing : float
+        Driven-angle travel between the batched second-layer anchors, rad.
+    max_iter : int
+        Newton iterations per attempt.
+    """
+
+    tol: float = 1e-12
+    cond_warn: float = 1e4
+    cond_max: float = 1e10
+    anchor_spacing: float = 0.5
+    refine_spacing: float = 0.05
+    max_iter: int = 12
+
+
+def full_angles(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> np.ndarray:
+    """Body angles (..., n_bodies) from driven (..., n_d) and undriven (..., n_u) angles, rad."""
+    n_bodies = system.loop_points.shape[1]
+    theta = np.empty((*theta_d.shape[:-1], n_bodies))
+    theta[..., system.driven] = theta_d
+    theta[..., system.undriven] = theta_u
+    return theta
+
+
+def _converged(step: np.ndarray, theta_u: np.ndarray, gap: np.ndarray, system: LoopSystem,
+               tol: float) -> np.ndarray:
+    """Per-row test: angle update within tol (plus angle resolution) and gap within tol * size."""
+    limit = tol + 8 * _EPS * np.abs(theta_u)
+    ok = np.all(np.abs(step) <= limit, axis=-1)
+    return ok & (gap <= max(tol, 64 * _EPS) * system.length_scale)
+
+
+def newton(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray, tol: float,
+           max_iter: int, order: np.ndarray | None = None
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Newton-Raphson on the loop closures for a batch of steps.
+
+    Parameters
+    ----------
+    system : LoopSystem
+        Reduced constraints.
+    theta_d : numpy.ndarray
+        (n, n_d) driven angles, rad.
+    theta_u : numpy.ndarray
+        (n, n_u) starting undriven angles, rad.
+    tol : float
+        Tolerance (see :class:`Tolerances`).
+    max_iter : int
+        Iterations at most.
+    order : numpy.ndarray, optional
+        Pivot order per step for :class:`BatchLU`.
+
+    Returns
+    -------
+    theta_u : numpy.ndarray
+        (n, n_u) final angles, rad.
+    converged : numpy.ndarray
+        (n,) bool.
+    gap : numpy.ndarray
+        (n,) largest loop gap at the final angles, m.
+    """
+    theta_u = theta_u.copy()
+    converged = np.zeros(theta_u.shape[0], dtype=bool)
+    active = np.arange(theta_u.shape[0])
+    gap = np.full(theta_u.shape[0], np.inf)
+    for _ in range(max_iter):
+        if active.size == 0:
+            break
+        z = np.exp(1j * full_angles(system, theta_d[active], theta_u[active]))
+        phi = system.residual(z)
+        gap[active] = np.max(np.abs(phi), axis=-1)
+        lu = BatchLU(system.jacobian(z, system.undriven),
+                     None if order is None else order[active])
+        step = lu.solve(phi)
+        step[~np.isfinite(step)] = np.inf
+        theta_u[active] -= np.where(np.isfinite(step), step, 0.0)
+        done = _converged(step, theta_u[active], gap[active], system, tol)
+        converged[active[done]] = True
+        active = active[~done]
+    if active.size:
+        z = np.exp(1j * full_angles(system, theta_d[active], theta_u[active]))
+        gap[active] = np.max(np.abs(system.residual(z)), axis=-1)
+    return theta_u, converged, gap
+
+
+@dataclass(frozen=True)
+class Taylor:
+    """Second-order expansion of the undriven angles in the driven angles at some configurations.
+
+    ``theta_u(theta_d + d) = theta_u + T d + 1/2 sum_jk Q[:, j, k] d_j d_k``.
+    """
+
+    theta_d: np.ndarray
+    theta_u: np.ndarray
+    first: np.ndarray
+    second: np.ndarray
+
+    def predict(self, rows: np.ndarray, delta: np.ndarray) -> np.ndarray:
+        """Predicted undriven angles at driven-angle increments ``delta`` from anchors ``rows``."""
+        lin = np.einsum("nij,nj->ni", self.first[rows], delta)
+        quad = np.einsum("nijk,nj,nk->ni", self.second[rows], delta, delta)
+        return self.theta_u[rows] + lin + 0.5 * quad
+
+
+def taylor(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> Taylor:
+    """Taylor coefficients of the solution manifold at assembled configurations (batched)."""
+    z = np.exp(1j * full_angles(system, theta_d, theta_u))
+    jac_u = system.jacobian(z, system.undriven)
+    jac_d = system.jacobian(z, system.driven)
+    inv = np.linalg.inv(jac_u) if jac_u.shape[-1] == jac_u.shape[-2] else np.linalg.pinv(jac_u)
+    first = -inv @ jac_d
+    n_bodies = z.shape[-1]
+    velocity = np.zeros((*z.shape[:-1], n_bodies, system.driven.size))
+    velocity[:, system.undriven] = first
+    velocity[:, system.driven] = np.eye(system.driven.size)
+    curvature = system.curvature(z)
+    second = -np.einsum("nil,nlm,nmj,nmk->nijk", inv, curvature, velocity, velocity)
+    return Taylor(theta_d, theta_u, first, second)
+
+
+def joint_gaps_text(mechanism: Mechanism, gaps: np.ndarray, threshold: float) -> tuple[list[str],
+                                                                                        str]:
+    """Names of joints whose gap exceeds ``threshold`` (largest first) and a readable summary."""
+    order = np.argsort(-gaps)
+    names = [mechanism.joints[k].name for k in order if gaps[k] > threshold]
+    text = ", ".join(f"{mechanism.joints[k].name} {gaps[k]:.3g} m" for k in order
+                     if gaps[k] > threshold)
+    return names, text
+
+
+def involved_joints(mechanism: Mechanism, system: LoopSystem, theta: np.ndarray) -> list[str]:
+    """Joints carrying the self-stress of a near-singular configuration (largest first).
+
+    The left singular vector of the smallest singular value of ``J_u`` is a loop-force mode that
+    the undriven angles cannot resist; mapped to the joints (``N^T u``) it names the joints whose
+    forces grow without bound.
+    """
+    z = np.exp(1j * theta)
+    jac = system.jacobian(z, system.undriven)
+    if jac.shape[-1] == 0:
+        return []
+    u = np.linalg.svd(jac)[0][:, -1]
+    n_loops = system.loop_points.shape[0]
+    mode = np.abs((u[:n_loops] + 1j * u[n_loops:]) @ system.loop_basis)
+    order = np.argsort(-mode)
+    return [mechanism.joints[k].name for k in order if mode[k] > 0.05 * mode.max()]
+
+
+def assemble(mechanism: Mechanism, system: LoopSystem, theta_d: np.ndarray, guess_u: np.ndarray,
+             tol: float, time_s: float | None = None) -> np.ndarray:
+    """Assemble one configuration from a guess (Levenberg-Marquardt, then Newton).
+
+    Parameters
+    ----------
+    mechanism, system
+        The mechanism and its reduced constraints.
+    theta_d : numpy.ndarray
+        (n_d,) driven angles, rad.
+    guess_u : numpy.ndarray
+        (n_u,) guess of the undriven angles, rad.
+    tol : float
+        Newton tolerance.
+    time_s : float, optional
+        Time of this configuration, for error messages.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n_u,) assembled undriven angles, rad.
+
+    Raises
+    ------
+    AssemblyError
+        Naming the joints whose gaps stay large.
+    """
+    theta_u = np.asarray(guess_u, dtype=float).copy()
+    if theta_u.size == 0:
+        return theta_u
+
+    def cost(angles: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        z = np.exp(1j * full_angles(system, theta_d, angles))
+        phi = system.residual(z)
+        return float(phi @ phi), phi, system.jacobian(z, system.undriven)
+
+    value, phi, jac = cost(theta_u)
+    damping = 1e-3 * float(np.max(np.sum(jac**2, axis=0)))
+    scale2 = system.length_scale**2
+    for _ in range(200):
+        if value <= (tol * system.length_scale) ** 2:
+            break
+        normal = jac.T @ jac
+        gradient = jac.T @ phi
+        step = np.linalg.solve(normal + damping * np.diag(np.diag(normal) + 1e-12 * scale2),
+                               gradient)
+        trial = theta_u - step
+        trial_value, trial_phi, trial_jac = cost(trial)
+        if trial_value < value:
+            theta_u, value, phi, jac = trial, trial_value, trial_phi, trial_jac
+            damping = max(damping / 5.0, 1e-12)
+        else:
+            damping *= 4.0
+            if damping > 1e12:
+                break
+    polished, ok, _gap = newton(system, theta_d[None], theta_u[None], tol, 8)
+    if ok[0]:
+        return polished[0]
+    gaps = system.joint_residuals(np.exp(1j * full_angles(system, theta_d, theta_u)))
+    names, text = joint_gaps_text(mechanism, gaps, 1e3 * tol * system.length_scale)
+    raise AssemblyError(
+        f"the mechanism cannot be assembled: joints stay open ({text or 'none'})",
+        where={"file": mechanism.source, "time_s": time_s, "joints": names},
+        hint="check the joint points and ground positions (link lengths that cannot close the "
+             "loop), the drive angles, and the bodies' guess angles", joints=names,
+        residual_m=float(np.max(gaps)))
+
+
+def _unwrap_path(theta_d: np.ndarray) -> np.ndarray:
+    """Driven angles along the continuation path: each step's increment wrapped to (-pi, pi]."""
+    increments = np.diff(theta_d, axis=0)
+    increments = increments - 2 * np.pi * np.round(increments / (2 * np.pi))
+    path = np.empty_like(theta_d)
+    path[0] = theta_d[0]
+    path[1:] = theta_d[0] + np.cumsum(increments, axis=0)
+    return path
+
+
+def _anchor_indices(path: np.ndarray, spacing: float) -> np.ndarray:
+    """Return the steps where the driven-angle travel since the last anchor reaches ``spacing``."""
+    travel = np.concatenate([[0.0], np.cumsum(np.max(np.abs(np.diff(path, axis=0)), axis=1)
+                                              if path.shape[1] else np.zeros(len(path) - 1))])
+    marks = np.floor(travel / spacing)
+    picks = np.flatnonzero(np.diff(marks) > 0) + 1
+    return np.unique(np.concatenate([[0], picks]))
+
+
+class _Tracker:
+    """Continuation of one mechanism's assembly along a path of driven angles."""
+
+    def __init__(self, mechanism: Mechanism, system: LoopSystem, times: np.ndarray,
+                 tolerances: Tolerances) -> None:
+        self.mechanism = mechanism
+        self.system = system
+        self.times = times
+        self.tols = tolerances
+
+    def step(self, theta_d0: np.ndarray, theta_u0: np.ndarray, path_delta: np.ndarray,
+             theta_d1: np.ndarray, index: int) -> np.ndarray:
+        """Follow the path from one assembled configuration to the next, halving on trouble."""
+        fraction, size = 0.0, 1.0
+        travel = float(np.max(np.abs(path_delta))) if path_delta.size else 0.0
+        if travel > self.tols.anchor_spacing:
+            size = self.tols.anchor_spacing / travel
+        current_d, current_u = theta_d0, theta_u0
+        last_gap = np.inf
+        while fraction < 1.0:
+            target = min(1.0, fraction + size)
+            delta = (target - fraction) * path_delta
+            goal_d = theta_d1 if target >= 1.0 else theta_d0 + target * path_delta
+            local = taylor(self.system, current_d[None], current_u[None])
+            guess = local.predict(np.zeros(1, dtype=int), delta[None])
+            found, ok, gap = newton(self.system, goal_d[None], guess, self.tols.tol,
+                                    self.tols.max_iter)
+            moved = float(np.max(np.abs(found - guess))) if found.size else 0.0
+            bound = max(0.25 * float(np.max(np.abs(delta))), 1e-6)
+            if ok[0] and moved <= bound and np.all(np.isfinite(found)):
+                fraction, current_d, current_u = target, goal_d, found[0]
+                size = min(2 * size, 1.0)
+                continue
+            last_gap = float(gap[0])
+            size /= 2.0
+            if size * travel < 1e-9 or size < 1e-12:
+                self.fail(index, current_d, current_u, goal_d, found[0], last_gap)
+        return current_u
+
+    def fail(self, index: int, good_d: np.ndarray, good_u: np.ndarray, goal_d: np.ndarray,
+             tried_u: np.ndarray, gap: float) -> None:
+        """Raise the error for a step the continuation cannot reach."""
+        system, mechanism = self.system, self.mechanism
+        good = full_angles(system, good_d, good_u)
+        cond = float(equilibrated_condition(system.jacobian(np.exp(1j * good),
+                                                            system.undriven)[None])[0])
+        time_s = float(self.times[index])
+        tried = full_angles(system, goal_d, np.where(np.isfinite(tried_u), tried_u, good_u))
+        gaps = system.joint_residuals(np.exp(1j * tried))
+        residual = float(np.max(gaps)) if np.isfinite(gap) else float("inf")
+        if cond > self.tols.cond_warn:
+            joints = involved_joints(mechanism, system, good)
+            raise SingularityError(
+                f"C_e loses rank: the mechanism reaches a toggle or limit position before t = "
+                f"{time_s:.9g} s (condition {cond:.3g}) and cannot follow the driven angles "
+                f"beyond it; joints involved: {', '.join(joints)}; residual {residual:.3g} m",
+                where={"file": mechanism.source, "time_s": time_s, "joints": joints},
+                hint="keep the drives inside the mechanism's range of motion, or change the "
+                     "geometry", joints=joints, residual_m=residual, condition=cond)
+        names, text = joint_gaps_text(mechanism, gaps, 1e3 * self.tols.tol * system.length_scale)
+        raise AssemblyError(
+            f"the mechanism cannot follow the drives at t = {time_s:.9g} s: joints stay open "
+            f"({text or 'none'})",
+            where={"file": mechanism.source, "time_s": time_s, "joints": names},
+            hint="check that the drive angles are reachable and continuous", joints=names,
+            residual_m=residual)
+
+
+def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: np.ndarray,
+          tolerances: Tolerances, guess_u: np.ndarray | None = None) -> np.ndarray:
+    """Undriven angles at every step, following the assembly branch of the guess.
+
+    Parameters
+    ----------
+    mechanism, system
+        The mechanism and its reduced constraints.
+    times : numpy.ndarray
+        (n,) times, s (for messages only).
+    theta_d : numpy.ndarray
+        (n, n_d) driven angles, rad.
+    tolerances : Tolerances
+        Numerical settings.
+    guess_u : numpy.ndarray, optional
+        Undriven angles near the first step's configuration (default: the bodies' guesses).
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, n_u) undriven angles, rad, continuous along the steps.
+    """
+    n = theta_d.shape[0]
+    if guess_u is None:
+        guess_u = np.array([mechanism.bodies[i].guess[2] for i in system.undriven])
+    theta_u = np.empty((n, system.undriven.size))
+    if n == 0 or system.undriven.size == 0:
+        return theta_u
+    tracker = _Tracker(mechanism, system, times, tolerances)
+    theta_u[0] = assemble(mechanism, system, theta_d[0], guess_u, tolerances.tol,
+                          float(times[0]))
+    path = _unwrap_path(theta_d)
+    anchors = _anchor_indices(path, tolerances.anchor_spacing)
+    for prev, nxt in itertools.pairwise(anchors):
+        theta_u[nxt] = tracker.step(theta_d[prev], theta_u[prev], path[nxt] - path[prev],
+                                    theta_d[nxt], int(nxt))
+    solved = np.zeros(n, dtype=bool)
+    solved[anchors] = True
+    for spacing in (tolerances.refine_spacing, 0.0):
+        targets = _anchor_indices(path, spacing) if spacing > 0 else np.arange(n)
+        targets = targets[~solved[targets]]
+        if targets.size == 0:
+            continue
+        known = np.flatnonzero(solved)
+        _refine(tracker, path, theta_d, theta_u, known, targets)
+        solved[targets] = True
+    return theta_u
+
+
+def _refine(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, theta_u: np.ndarray,
+            known: np.ndarray, targets: np.ndarray) -> None:
+    """Solve ``targets`` in one batch from the nearest preceding solved step (in place)."""
+    system, tols = tracker.system, tracker.tols
+    base = known[np.searchsorted(known, targets, side="right") - 1]
+    expansion = taylor(system, theta_d[known], theta_u[known])
+    rows = np.searchsorted(known, base)
+    delta = path[targets] - path[base]
+    guess = expansion.predict(rows, delta)
+    square = system.n_equations == system.undriven.size
+    order = None
+    if square:
+        z = np.exp(1j * full_angles(system, theta_d[known], theta_u[known]))
+        order = pivot_order(system.jacobian(z, system.undriven))[rows]
+    found, ok, _gap = newton(system, theta_d[targets], guess, tols.tol, tols.max_iter, order)
+    moved = np.max(np.abs(found - guess), axis=1)
+    bound = np.maximum(0.25 * np.max(np.abs(delta), axis=1), 1e-6)
+    good = ok & (moved <= bound)
+    theta_u[targets[good]] = found[good]
+    for target, start in zip(targets[~good], base[~good], strict=True):
+        theta_u[target] = tracker.step(theta_d[start], theta_u[start],
+                                       path[target] - path[start], theta_d[target], int(target))
+    if np.any(~good):
+        logger.debug("%d steps needed sequential continuation", int(np.sum(~good)))
+
+
+def assembly_rank(mechanism: Mechanism) -> tuple[int, int]:
+    """Rank of the loop Jacobian at the mechanism assembled at t = 0, and the undriven count.
+
+    Raises
+    ------
+    MechanismError
+        When the mechanism cannot be assembled at t = 0.
+    """
+    system = loop_system(mechanism)
+    theta_d = np.array([law_motion(d, np.zeros(1))[0][0] for d in mechanism.drivers])
+    guess = np.array([mechanism.bodies[i].guess[2] for i in system.undriven])
+    try:
+        theta_u = assemble(mechanism, system, theta_d, guess, 1e-12, 0.0)
+    except AssemblyError as exc:
+        raise MechanismError(
+            f"too many constraints ({2 * len(mechanism.joints) + len(mechanism.drivers)} "
+            f"equations for {3 * len(mechanism.bodies)} coordinates) and the mechanism cannot "
+            f"be assembled at t = 0 to check whether they are redundant: {exc.message}",
+            where={"file": mechanism.source, "key": "drivers"},
+            hint="remove surplus drivers or joints, or fix the guesses") from exc
+    z = np.exp(1j * full_angles(system, theta_d, theta_u))
+    jac = system.jacobian(z, system.undriven)
+    if jac.shape[-1] == 0:
+        return 0, 0
+    sv = np.linalg.svd(jac, compute_uv=False)
+    rank = int(np.sum(sv > 1e-9 * sv[0]))
+    return rank, system.undriven.size
+
+
+def check_constraint_count(mechanism: Mechanism) -> Mechanism:
+    """Check that joints and drivers determine every coordinate, and detect redundancy.
+
+    ``2 n_joints + n_drivers`` equations must match ``3 n_bodies`` coordinates. Fewer is always an
+    error (degrees of freedom without a driver). More is accepted only when the surplus equations
+    are redundant but consistent (for example a parallelogram with a parallel link): the mechanism
+    is assembled at t = 0 and the rank of the loop Jacobian must equal the number of undriven
+    angles; the surplus is recorded in ``Mechanism.redundant_constraints``.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        Parsed mechanism.
+
+    Returns
+    -------
+    Mechanism
+        The same mechanism, with ``redundant_constraints`` set.
+
+    Raises
+    ------
+    MechanismError
+        When the count does not match and the surplus is not redundancy.
+    """
+    n_eq = 2 * len(mechanism.joints) + len(mechanism.drivers)
+    n_coord = 3 * len(mechanism.bodies)
+    where = {"file": mechanism.source, "key": "drivers"}
+    if n_eq < n_coord:
+        raise MechanismError(
+            f"too few constraints: {len(mechanism.joints)} joints (2 equations each) and "
+            f"{len(mechanism.drivers)} drivers give {n_eq} equations for {n_coord} coordinates "
+            f"({len(mechanism.bodies)} bodies x 3)", where=where,
+            hint=f"add {n_coord - n_eq} [[drivers]] (one per degree of freedom) or the missing "
+                 "joints")
+    if n_eq == n_coord:
+        return mechanism
+    rank, n_unknown = assembly_rank(mechanism)
+    surplus = n_eq - n_coord
+    if rank < n_unknown:
+        raise MechanismError(
+            f"too many constraints: {n_eq} equations for {n_coord} coordinates, and they are "
+            f"not redundant at t = 0 (loop Jacobian rank {rank} < {n_unknown} undriven angles)",
+            where=where, hint=f"remove {surplus} driver(s) or joint(s)")
+    logger.info("%s: %d redundant constraint equations", mechanism.name, surplus)
+    return replace(mechanism, redundant_constraints=surplus)
+
+
+def condition_numbers(system: LoopSystem, theta: np.ndarray) -> np.ndarray:
+    """Equilibrated condition number of the reduced ``C_e`` at each configuration, (n,)."""
+    jac = system.jacobian(np.exp(1j * theta), system.undriven)
+    return equilibrated_condition(jac)
+

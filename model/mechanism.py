@@ -1,0 +1,473 @@
+"""Mechanism files (schema ``rigval-mechanism/1``): parse, check, hold in frozen dataclasses.
+
+A mechanism is a set of rigid bodies in the plane, joined by revolute joints and pinned to the
+ground, whose remaining degrees of freedom are taken by drivers that prescribe a body's absolute
+angle as a law of time. The file format, key by key, is described in ``docs/mechanism.md``.
+
+Every error is a :class:`~rigval.acquisition.errors.MechanismError` whose ``where`` names the file
+and the key path (``joints[3].bodies[1]``) and whose hint says what to change.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+from rigval.acquisition.errors import MechanismError
+from rigval.model.assembly import check_constraint_count
+
+__all__ = [
+    "BUILTIN_MECHANISMS",
+    "SCHEMA",
+    "Body",
+    "Driver",
+    "Harmonic",
+    "Joint",
+    "Mechanism",
+    "builtin_mechanism",
+    "load_mechanism",
+]
+
+logger = logging.getLogger(__name__)
+
+#: The schema string every mechanism file must carry.
+SCHEMA = "rigval-mechanism/1"
+
+#: Mechanism files shipped with rigval (``rigval/model/mechanisms/<name>.toml``).
+BUILTIN_MECHANISMS = ("pendulum", "fourbar", "single_pendulum")
+
+_TOP_KEYS = {"schema", "name", "description", "gravity", "bodies", "joints", "drivers"}
+_BODY_KEYS = {"name", "description", "mass", "inertia", "guess", "points"}
+_JOINT_KEYS = {"revolute": {"point", "type", "bodies", "description"},
+               "ground": {"point", "type", "body", "at", "description"}}
+_DRIVER_KEYS = {"name", "body", "law", "theta0", "omega", "harmonics", "description"}
+_HARMONIC_KEYS = {"amplitude", "omega", "phase"}
+
+
+@dataclass(frozen=True)
+class Body:
+    """A rigid body.
+
+    Attributes
+    ----------
+    name : str
+        Unique body name.
+    mass : float
+        Mass, kg.
+    inertia : float
+        Moment of inertia about the centre of gravity, kg m2.
+    points : mapping of str to (float, float)
+        Named points in the body frame, measured from the centre of gravity, m.
+    guess : (float, float, float)
+        Assembly guess ``(x, y, theta)`` at t = 0 (m, m, rad); its angle selects the
+        assembly branch.
+    description : str
+        Free text.
+    """
+
+    name: str
+    mass: float
+    inertia: float
+    points: Mapping[str, tuple[float, float]]
+    guess: tuple[float, float, float]
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A revolute joint between two bodies, or a ground pin holding a body's point fixed.
+
+    Attributes
+    ----------
+    name : str
+        The joint's point name (a joint is named by its point).
+    kind : {"revolute", "ground"}
+        Joint type.
+    bodies : tuple of str
+        ``(first, second)`` for a revolute joint, ``(body,)`` for a ground pin. Joint forces are
+        reported ON the first body.
+    at : (float, float) or None
+        Global position of a ground pin, m; None for a revolute joint.
+    """
+
+    name: str
+    kind: str
+    bodies: tuple[str, ...]
+    at: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class Harmonic:
+    """One harmonic term ``amplitude * sin(omega * t + phase)`` of a drive law (rad, rad/s, rad)."""
+
+    amplitude: float
+    omega: float
+    phase: float
+
+
+@dataclass(frozen=True)
+class Driver:
+    """A drive prescribing a body's absolute angle.
+
+    ``theta(t) = theta0 + omega t + sum(amplitude sin(omega_k t + phase))``, rad.
+
+    Attributes
+    ----------
+    name : str
+        Unique driver name (``driver_torque`` is labelled with it).
+    body : str
+        The driven body.
+    theta0 : float
+        Angle at t = 0 without the harmonics, rad.
+    omega : float
+        Mean angular speed, rad/s.
+    harmonics : tuple of Harmonic
+        Harmonic terms.
+    law : str
+        ``"harmonic"`` (the only law of schema version 1).
+    """
+
+    name: str
+    body: str
+    theta0: float
+    omega: float
+    harmonics: tuple[Harmonic, ...] = ()
+    law: str = "harmonic"
+
+
+@dataclass(frozen=True)
+class Mechanism:
+    """A checked planar mechanism: bodies, joints, drivers and gravity.
+
+    Attributes
+    ----------
+    name : str
+        Human-readable name.
+    bodies, joints, drivers : tuple
+        In file order.
+    gravity : (float, float)
+        Gravitational acceleration, m s-2 (``(0, -9.81)`` with y up).
+    source : str
+        File path, or ``"<dict>"`` for a mechanism built from a mapping.
+    redundant_constraints : int
+        Number of redundant (dependent but consistent) constraint equations, found by the rank of
+        the constraint Jacobian at the assembled configuration at t = 0; 0 for most mechanisms.
+    """
+
+    name: str
+    bodies: tuple[Body, ...]
+    joints: tuple[Joint, ...]
+    drivers: tuple[Driver, ...]
+    gravity: tuple[float, float] = (0.0, -9.81)
+    source: str = "<dict>"
+    redundant_constraints: int = 0
+
+    @property
+    def body_names(self) -> tuple[str, ...]:
+        """Body names in file order."""
+        return tuple(b.name for b in self.bodies)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """Joint names (their points) in file order."""
+        return tuple(j.name for j in self.joints)
+
+    @property
+    def driver_names(self) -> tuple[str, ...]:
+        """Driver names in file order."""
+        return tuple(d.name for d in self.drivers)
+
+    @property
+    def point_names(self) -> tuple[str, ...]:
+        """Every named point once, in order of first appearance (body order, then point order)."""
+        seen: dict[str, None] = {}
+        for body in self.bodies:
+            for point in body.points:
+                seen.setdefault(point, None)
+        return tuple(seen)
+
+    def point_owner(self, point: str) -> Body:
+        """Return the first body that defines ``point`` (joint points coincide on both bodies)."""
+        for body in self.bodies:
+            if point in body.points:
+                return body
+        raise KeyError(point)
+
+
+def builtin_mechanism(name: str) -> Path:
+    """Return the path of a mechanism file shipped with rigval.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`BUILTIN_MECHANISMS` (``"pendulum"``, ``"fourbar"``, ``"single_pendulum"``),
+        with or without ``.toml``.
+
+    Returns
+    -------
+    pathlib.Path
+        The installed file.
+    """
+    stem = name.removesuffix(".toml")
+    if stem not in BUILTIN_MECHANISMS:
+        raise MechanismError(f"no built-in mechanism named {name!r}",
+                             where={"name": name},
+                             hint=f"use one of {', '.join(BUILTIN_MECHANISMS)}")
+    return Path(str(resources.files("rigval.model") / "mechanisms" / f"{stem}.toml"))
+
+
+def load_mechanism(source: str | Path | Mapping[str, Any]) -> Mechanism:
+    """Read and check a mechanism file, or build a mechanism from a mapping of the same layout.
+
+    Parameters
+    ----------
+    source : str, pathlib.Path or mapping
+        Path of a TOML file of schema ``rigval-mechanism/1``, or the parsed content as a mapping.
+
+    Returns
+    -------
+    Mechanism
+        The checked mechanism.
+
+    Raises
+    ------
+    MechanismError
+        For an unreadable file, a wrong schema, unknown keys, bodies or points, duplicate names,
+        bad values, a body not connected to the ground, or a count of constraint equations that
+        does not match the coordinates (too few drivers; too many that are not redundant).
+        ``where`` names the file and the key path.
+    """
+    if isinstance(source, Mapping):
+        data, origin = dict(source), "<dict>"
+    else:
+        path = Path(source)
+        try:
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError as exc:
+            raise MechanismError("mechanism file not found", where={"file": str(path)},
+                                 hint="check the path") from exc
+        except (OSError, UnicodeDecodeError) as exc:
+            raise MechanismError(f"cannot read the mechanism file: {exc}",
+                                 where={"file": str(path)}) from exc
+        except tomllib.TOMLDecodeError as exc:
+            raise MechanismError(f"not valid TOML: {exc}", where={"file": str(path)},
+                                 hint="fix the TOML syntax at the position given") from exc
+        origin = str(path)
+    return check_constraint_count(_Parser(origin).parse(data))
+
+
+class _Parser:
+    """Turns a mapping into a :class:`Mechanism`, naming the key path in every error."""
+
+    def __init__(self, origin: str) -> None:
+        self.origin = origin
+
+    def fail(self, key: str, message: str, hint: str | None = None) -> MechanismError:
+        return MechanismError(message, where={"file": self.origin, "key": key}, hint=hint)
+
+    def check_keys(self, table: Any, key: str, allowed: set[str], required: Sequence[str]) -> None:
+        if not isinstance(table, Mapping):
+            raise self.fail(key, f"expected a table, got {type(table).__name__}")
+        unknown = sorted(set(table) - allowed)
+        if unknown:
+            raise self.fail(f"{key}.{unknown[0]}" if key else unknown[0],
+                            f"unknown key {unknown[0]!r}",
+                            hint=f"allowed keys here are {', '.join(sorted(allowed))}")
+        for name in required:
+            if name not in table:
+                raise self.fail(f"{key}.{name}" if key else name, f"missing key {name!r}",
+                                hint="see docs/mechanism.md for the format")
+
+    def number(self, value: Any, key: str, *, minimum: float | None = None) -> float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise self.fail(key, f"expected a number, got {value!r}")
+        number = float(value)
+        if not math.isfinite(number):
+            raise self.fail(key, f"expected a finite number, got {value!r}")
+        if minimum is not None and number < minimum:
+            raise self.fail(key, f"expected a value >= {minimum}, got {number}")
+        return number
+
+    def vector(self, value: Any, key: str, size: int) -> tuple[float, ...]:
+        if not isinstance(value, Sequence) or isinstance(value, str) or len(value) != size:
+            raise self.fail(key, f"expected a list of {size} numbers, got {value!r}")
+        return tuple(self.number(v, f"{key}[{i}]") for i, v in enumerate(value))
+
+    def text(self, value: Any, key: str) -> str:
+        if not isinstance(value, str) or not value.strip():
+            raise self.fail(key, f"expected a non-empty string, got {value!r}")
+        return value
+
+    def array(self, data: Mapping[str, Any], key: str) -> list[Any]:
+        value = data.get(key, [])
+        if not isinstance(value, list):
+            raise self.fail(key, f"expected an array of tables [[{key}]], got {value!r}")
+        return value
+
+    def parse(self, data: Mapping[str, Any]) -> Mechanism:
+        self.check_keys(data, "", _TOP_KEYS, ("schema", "bodies", "joints"))
+        if data["schema"] != SCHEMA:
+            raise self.fail("schema", f"unsupported schema {data['schema']!r}, expected {SCHEMA!r}",
+                            hint=f'write schema = "{SCHEMA}" and the format of docs/mechanism.md')
+        default_name = Path(self.origin).stem if self.origin != "<dict>" else "unnamed mechanism"
+        name = self.text(data.get("name", default_name), "name")
+        gravity = self.vector(data.get("gravity", [0.0, -9.81]), "gravity", 2)
+        bodies = self.bodies(self.array(data, "bodies"))
+        joints = self.joints(self.array(data, "joints"), bodies)
+        drivers = self.drivers(self.array(data, "drivers"), bodies)
+        self.check_shared_points(bodies, joints)
+        self.check_grounded(bodies, joints)
+        return Mechanism(name=name, bodies=bodies, joints=joints, drivers=drivers,
+                         gravity=(gravity[0], gravity[1]), source=self.origin)
+
+    def bodies(self, tables: list[Any]) -> tuple[Body, ...]:
+        if not tables:
+            raise self.fail("bodies", "no bodies", hint="add at least one [[bodies]] table")
+        bodies: list[Body] = []
+        for index, table in enumerate(tables):
+            key = f"bodies[{index}]"
+            self.check_keys(table, key, _BODY_KEYS, ("name", "mass", "inertia", "guess", "points"))
+            name = self.text(table["name"], f"{key}.name")
+            if name in (b.name for b in bodies):
+                raise self.fail(f"{key}.name", f"duplicate body name {name!r}",
+                                hint="give every body a unique name")
+            points = table["points"]
+            if not isinstance(points, Mapping) or not points:
+                raise self.fail(f"{key}.points", f"expected a table of named points, got "
+                                f"{points!r}",
+                                hint='write points = { P1 = [x, y], ... } in the body frame, m')
+            parsed = {self.text(p, f"{key}.points"): self.vector(v, f"{key}.points.{p}", 2)
+                      for p, v in points.items()}
+            guess = self.vector(table["guess"], f"{key}.guess", 3)
+            bodies.append(Body(
+                name=name,
+                mass=self.number(table["mass"], f"{key}.mass", minimum=0.0),
+                inertia=self.number(table["inertia"], f"{key}.inertia", minimum=0.0),
+                points=MappingProxyType({p: (v[0], v[1]) for p, v in parsed.items()}),
+                guess=(guess[0], guess[1], guess[2]),
+                description=str(table.get("description", "")),
+            ))
+        return tuple(bodies)
+
+    def body_ref(self, value: Any, key: str, bodies: tuple[Body, ...]) -> Body:
+        name = self.text(value, key)
+        for body in bodies:
+            if body.name == name:
+                return body
+        raise self.fail(key, f"unknown body {name!r}; bodies are "
+                        f"{', '.join(b.name for b in bodies)}",
+                        hint="use one of the body names of [[bodies]]")
+
+    def point_ref(self, point: str, body: Body, key: str) -> None:
+        if point not in body.points:
+            raise self.fail(key, f"body {body.name!r} has no point {point!r}; its points are "
+                            f"{', '.join(body.points)}",
+                            hint=f"add {point} to the points of body {body.name!r} or fix the name")
+
+    def joints(self, tables: list[Any], bodies: tuple[Body, ...]) -> tuple[Joint, ...]:
+        joints: list[Joint] = []
+        for index, table in enumerate(tables):
+            key = f"joints[{index}]"
+            if not isinstance(table, Mapping):
+                raise self.fail(key, f"expected a table, got {table!r}")
+            kind = table.get("type")
+            if kind not in _JOINT_KEYS:
+                raise self.fail(f"{key}.type", f"unknown joint type {kind!r}",
+                                hint='use type = "revolute" or type = "ground"')
+            required = ("point", "type", "bodies") if kind == "revolute" else (
+                "point", "type", "body", "at")
+            self.check_keys(table, key, _JOINT_KEYS[kind], required)
+            point = self.text(table["point"], f"{key}.point")
+            if point in (j.name for j in joints):
+                raise self.fail(f"{key}.point", f"duplicate joint at point {point!r}",
+                                hint="a point carries one joint; name the joints' points apart")
+            if kind == "revolute":
+                pair = table["bodies"]
+                if not isinstance(pair, list) or len(pair) != 2:
+                    raise self.fail(f"{key}.bodies", f"expected two body names, got {pair!r}")
+                first = self.body_ref(pair[0], f"{key}.bodies[0]", bodies)
+                second = self.body_ref(pair[1], f"{key}.bodies[1]", bodies)
+                if first is second:
+                    raise self.fail(f"{key}.bodies", f"a joint needs two different bodies, got "
+                                    f"{first.name!r} twice")
+                self.point_ref(point, first, f"{key}.point")
+                self.point_ref(point, second, f"{key}.point")
+                joints.append(Joint(point, "revolute", (first.name, second.name)))
+            else:
+                body = self.body_ref(table["body"], f"{key}.body", bodies)
+                self.point_ref(point, body, f"{key}.point")
+                at = self.vector(table["at"], f"{key}.at", 2)
+                joints.append(Joint(point, "ground", (body.name,), (at[0], at[1])))
+        return tuple(joints)
+
+    def drivers(self, tables: list[Any], bodies: tuple[Body, ...]) -> tuple[Driver, ...]:
+        drivers: list[Driver] = []
+        for index, table in enumerate(tables):
+            key = f"drivers[{index}]"
+            self.check_keys(table, key, _DRIVER_KEYS, ("name", "body", "law", "theta0", "omega"))
+            name = self.text(table["name"], f"{key}.name")
+            if name in (d.name for d in drivers):
+                raise self.fail(f"{key}.name", f"duplicate driver name {name!r}",
+                                hint="give every driver a unique name")
+            body = self.body_ref(table["body"], f"{key}.body", bodies)
+            if body.name in (d.body for d in drivers):
+                raise self.fail(f"{key}.body", f"body {body.name!r} already has a driver",
+                                hint="a body's angle can be prescribed once; remove one driver")
+            if table["law"] != "harmonic":
+                raise self.fail(f"{key}.law", f"unknown drive law {table['law']!r}",
+                                hint='use law = "harmonic"; pass measured drive angles to '
+                                     'rigval.model.solve(..., drives=...)')
+            harmonics = []
+            terms = table.get("harmonics", [])
+            if not isinstance(terms, list):
+                raise self.fail(f"{key}.harmonics", f"expected a list of tables, got {terms!r}")
+            for h_index, term in enumerate(terms):
+                h_key = f"{key}.harmonics[{h_index}]"
+                self.check_keys(term, h_key, _HARMONIC_KEYS, ("amplitude", "omega"))
+                harmonics.append(Harmonic(
+                    amplitude=self.number(term["amplitude"], f"{h_key}.amplitude"),
+                    omega=self.number(term["omega"], f"{h_key}.omega"),
+                    phase=self.number(term.get("phase", 0.0), f"{h_key}.phase"),
+                ))
+            drivers.append(Driver(
+                name=name, body=body.name,
+                theta0=self.number(table["theta0"], f"{key}.theta0"),
+                omega=self.number(table["omega"], f"{key}.omega"),
+                harmonics=tuple(harmonics),
+            ))
+        return tuple(drivers)
+
+    def check_shared_points(self, bodies: tuple[Body, ...], joints: tuple[Joint, ...]) -> None:
+        """Check that a point named on several bodies is the revolute joint between them."""
+        revolute = {j.name: set(j.bodies) for j in joints if j.kind == "revolute"}
+        for point in {p for b in bodies for p in b.points}:
+            owners = [b.name for b in bodies if point in b.points]
+            if len(owners) > 1 and revolute.get(point) != set(owners):
+                raise self.fail("bodies", f"point {point!r} is named on bodies "
+                                f"{', '.join(owners)} but is not a joint between them",
+                                hint="a point name shared by two bodies must be the revolute "
+                                     "joint joining them; rename the other points")
+
+    def check_grounded(self, bodies: tuple[Body, ...], joints: tuple[Joint, ...]) -> None:
+        """Every body must be connected to the ground through joints."""
+        reached = {j.bodies[0] for j in joints if j.kind == "ground"}
+        changed = True
+        while changed:
+            changed = False
+            for joint in joints:
+                if joint.kind == "revolute" and reached.intersection(joint.bodies) \
+                        and not reached.issuperset(joint.bodies):
+                    reached.update(joint.bodies)
+                    changed = True
+        loose = [b.name for b in bodies if b.name not in reached]
+        if loose:
+            raise self.fail("joints", f"bodies {', '.join(loose)} are not connected to the "
+                            "ground through any chain of joints",
+                            hint="add a ground pin or a revolute joint linking them to the rest")

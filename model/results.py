@@ -1,0 +1,227 @@
+"""The model result Dataset (design section 3.3): names, dims, units, sign conventions.
+
+=========================  ======================  =========  =====================================
+variable                   dims                    units      meaning
+=========================  ======================  =========  =====================================
+``position``               time, body, coord       m, rad     centre of gravity x, y and angle
+``velocity``               time, body, coord       m s-1 ...  its derivative (rad s-1 for theta)
+``acceleration``           time, body, coord       m s-2 ...  second derivative (rad s-2 for theta)
+``point_position``         time, point, axis       m          named points, global frame (eq. 10)
+``point_velocity``         time, point, axis       m s-1      eq. 11
+``point_acceleration``     time, point, axis       m s-2      eq. 12
+``joint_force``            time, joint, axis       N          force ON the joint's first body
+``driver_torque``          time, driver            N m        torque ON the driven body, CCW +
+``support_force``          time, support, axis     N          force ON the ground at ground pins
+``kinetic_energy``         time                    J          whole mechanism
+``potential_energy``       time                    J          whole mechanism, gravity
+``drive_power``            time, driver            W          driver torque x driven angular speed
+``condition_number``       time                    1          of the reduced ``C_e``
+=========================  ======================  =========  =====================================
+
+``coord`` is the position's own units per entry, so ``position``, ``velocity`` and
+``acceleration`` carry ``units`` for x and y and ``theta_units`` for theta.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+import xarray as xr
+
+from rigval.acquisition.errors import ChannelNotFoundError
+from rigval.model.dynamics import mechanical_energy
+from rigval.model.kinematics import point_motion
+from rigval.model.mechanism import Mechanism
+
+__all__ = ["EXTRA_OUTPUTS", "OUTPUTS", "Selection", "Solution", "build_dataset", "select"]
+
+#: The contract variables, computed by default.
+OUTPUTS = ("position", "velocity", "acceleration", "point_position", "point_velocity",
+           "point_acceleration", "joint_force", "driver_torque")
+#: Further variables computed only when asked for.
+EXTRA_OUTPUTS = ("support_force", "kinetic_energy", "potential_energy", "drive_power",
+                 "condition_number")
+
+_NEEDS_VELOCITY = {"velocity", "point_velocity", "acceleration", "point_acceleration",
+                   "joint_force", "driver_torque", "support_force", "kinetic_energy",
+                   "drive_power"}
+_NEEDS_ACCELERATION = {"acceleration", "point_acceleration", "joint_force", "driver_torque",
+                       "support_force", "drive_power"}
+_NEEDS_FORCES = {"joint_force", "driver_torque", "support_force", "drive_power"}
+
+
+@dataclass(frozen=True)
+class Selection:
+    """What a caller asked for, checked against the mechanism."""
+
+    outputs: tuple[str, ...]
+    points: tuple[str, ...]
+    joints: tuple[str, ...]
+
+    @property
+    def velocity(self) -> bool:
+        """Whether any requested output needs velocities."""
+        return bool(_NEEDS_VELOCITY.intersection(self.outputs))
+
+    @property
+    def acceleration(self) -> bool:
+        """Whether any requested output needs accelerations."""
+        return bool(_NEEDS_ACCELERATION.intersection(self.outputs))
+
+    @property
+    def forces(self) -> bool:
+        """Whether any requested output needs the Lagrange multipliers."""
+        return bool(_NEEDS_FORCES.intersection(self.outputs))
+
+
+def _names(requested: Iterable[str] | str | None, available: tuple[str, ...], what: str
+           ) -> tuple[str, ...]:
+    if requested is None:
+        return available
+    names = (requested,) if isinstance(requested, str) else tuple(requested)
+    for name in names:
+        if name not in available:
+            raise ChannelNotFoundError(f"no {what} named {name!r}", where={"key": what + "s"},
+                                       available=list(available))
+    return names
+
+
+def select(mechanism: Mechanism, outputs: Iterable[str] | str | None,
+           points: Iterable[str] | str | None, joints: Iterable[str] | str | None) -> Selection:
+    """Check a request: output variable names, point names and joint names (None: all)."""
+    chosen = _names(outputs, OUTPUTS + EXTRA_OUTPUTS, "output") if outputs is not None else OUTPUTS
+    return Selection(chosen, _names(points, mechanism.point_names, "point"),
+                     _names(joints, mechanism.joint_names, "joint"))
+
+
+@dataclass
+class Solution:
+    """Arrays of one solve, (n, ...) per time step; complex numbers for planar vectors."""
+
+    times: np.ndarray
+    theta: np.ndarray
+    position: np.ndarray
+    omega: np.ndarray | None = None
+    velocity: np.ndarray | None = None
+    alpha: np.ndarray | None = None
+    acceleration: np.ndarray | None = None
+    joint: np.ndarray | None = None
+    driver: np.ndarray | None = None
+    condition: np.ndarray | None = None
+    omega_driven: np.ndarray | None = None
+
+
+def _planar(values: np.ndarray) -> np.ndarray:
+    return np.stack([values.real, values.imag], axis=-1)
+
+
+def _body_var(linear: np.ndarray, angular: np.ndarray, units: tuple[str, str], name: str
+              ) -> xr.Variable:
+    data = np.concatenate([_planar(linear), angular[..., None]], axis=-1)
+    return xr.Variable(("time", "body", "coord"), data,
+                       {"units": units[0], "theta_units": units[1], "long_name": name})
+
+
+def build_dataset(mechanism: Mechanism, solution: Solution, selection: Selection,
+                  attrs: dict[str, object]) -> xr.Dataset:
+    """Assemble the result Dataset from a solution (only the selected variables).
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The solved mechanism.
+    solution : Solution
+        Arrays of the solve.
+    selection : Selection
+        Requested outputs, points and joints.
+    attrs : dict
+        Global attributes to store.
+
+    Returns
+    -------
+    xarray.Dataset
+    """
+    out = set(selection.outputs)
+    coords: dict[str, object] = {
+        "time": ("time", solution.times, {"units": "s", "long_name": "time"})}
+    data: dict[str, xr.Variable] = {}
+    s = solution
+    if "position" in out:
+        data["position"] = _body_var(s.position, s.theta, ("m", "rad"),
+                                     "centre of gravity position and body angle")
+    if "velocity" in out:
+        data["velocity"] = _body_var(s.velocity, s.omega, ("m s-1", "rad s-1"),
+                                     "centre of gravity velocity and angular velocity")
+    if "acceleration" in out:
+        data["acceleration"] = _body_var(s.acceleration, s.alpha, ("m s-2", "rad s-2"),
+                                         "centre of gravity acceleration and angular "
+                                         "acceleration")
+    if {"position", "velocity", "acceleration"} & out:
+        coords["body"] = ("body", list(mechanism.body_names))
+        coords["coord"] = ("coord", ["x", "y", "theta"])
+    if {"point_position", "point_velocity", "point_acceleration"} & out:
+        _add_points(mechanism, s, selection, out, data)
+        coords["point"] = ("point", list(selection.points))
+    if "joint_force" in out:
+        index = [mechanism.joint_names.index(j) for j in selection.joints]
+        data["joint_force"] = xr.Variable(
+            ("time", "joint", "axis"), _planar(-s.joint[:, index]),
+            {"units": "N", "long_name": "joint force on the joint's first body (ground pin: on "
+                                        "the body), global frame"})
+        coords["joint"] = ("joint", list(selection.joints))
+    if "support_force" in out:
+        ground = [k for k, j in enumerate(mechanism.joints) if j.kind == "ground"]
+        data["support_force"] = xr.Variable(
+            ("time", "support", "axis"), _planar(s.joint[:, ground]),
+            {"units": "N", "long_name": "support force on the ground at the ground pins"})
+        coords["support"] = ("support", [mechanism.joints[k].name for k in ground])
+    if "driver_torque" in out:
+        data["driver_torque"] = xr.Variable(
+            ("time", "driver"), -s.driver,
+            {"units": "N m", "long_name": "drive torque on the driven body, counter-clockwise "
+                                          "positive"})
+    if "drive_power" in out:
+        data["drive_power"] = xr.Variable(
+            ("time", "driver"), -s.driver * s.omega_driven,
+            {"units": "W", "long_name": "drive power: drive torque times driven angular speed"})
+    if {"driver_torque", "drive_power"} & out:
+        coords["driver"] = ("driver", list(mechanism.driver_names))
+    if {"kinetic_energy", "potential_energy"} & out:
+        kinetic, potential = mechanical_energy(mechanism, s.position, s.velocity, s.omega)
+        if "kinetic_energy" in out:
+            data["kinetic_energy"] = xr.Variable("time", kinetic, {
+                "units": "J", "long_name": "kinetic energy of the mechanism"})
+        if "potential_energy" in out:
+            data["potential_energy"] = xr.Variable("time", potential, {
+                "units": "J", "long_name": "gravitational potential energy of the mechanism"})
+    if "condition_number" in out:
+        data["condition_number"] = xr.Variable("time", s.condition, {
+            "units": "1", "long_name": "condition number of the reduced constraint Jacobian"})
+    if {"point_position", "point_velocity", "point_acceleration", "joint_force",
+            "support_force"} & out:
+        coords["axis"] = ("axis", ["x", "y"])
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def _add_points(mechanism: Mechanism, s: Solution, selection: Selection, out: set[str],
+                data: dict[str, xr.Variable]) -> None:
+    """Point kinematics, eqs. (10)-(12), for the selected points."""
+    owners = [mechanism.body_names.index(mechanism.point_owner(p).name)
+              for p in selection.points]
+    local = np.array([complex(*mechanism.point_owner(p).points[p]) for p in selection.points])
+    z = np.exp(1j * s.theta[:, owners])
+    want_v = {"point_velocity", "point_acceleration"} & out
+    r, v, a = point_motion(
+        local, s.position[:, owners], z,
+        s.velocity[:, owners] if want_v else None, s.omega[:, owners] if want_v else None,
+        s.acceleration[:, owners] if "point_acceleration" in out else None,
+        s.alpha[:, owners] if "point_acceleration" in out else None)
+    for name, values, units, label in (
+            ("point_position", r, "m", "position"), ("point_velocity", v, "m s-1", "velocity"),
+            ("point_acceleration", a, "m s-2", "acceleration")):
+        if name in out:
+            data[name] = xr.Variable(("time", "point", "axis"), _planar(values),
+                                     {"units": units, "long_name": f"point {label}, global "
+                                                                   "frame"})

@@ -1,0 +1,256 @@
+"""``solve`` and ``solve_cycle``: kinematics and inverse dynamics of a mechanism, batched in time.
+
+Stages run only when a requested output needs them: positions always; velocities for velocities,
+accelerations or forces; accelerations for accelerations or forces; multipliers for forces and
+torques. One factorisation of the reduced ``C_e`` per step serves velocities, accelerations and
+multipliers.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import warnings
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+import numpy as np
+import scipy.interpolate
+import xarray as xr
+
+from rigval.acquisition.errors import ConfigError, DataError, NumericsWarning, SingularityError
+from rigval.model.assembly import Tolerances, full_angles, involved_joints, track
+from rigval.model.drives import (
+    SampledDrive,
+    cycle_period,
+    drive_motion,
+    law_motion,
+    times_at_angles,
+)
+from rigval.model.dynamics import applied_forces, minimum_norm_multipliers, multipliers
+from rigval.model.kinematics import angular_accelerations, angular_velocities
+from rigval.model.linalg import BatchLU, equilibrated_condition, pivot_order
+from rigval.model.loops import LoopSystem, loop_system
+from rigval.model.mechanism import Mechanism, load_mechanism
+from rigval.model.reference import constraint_jacobian
+from rigval.model.results import Solution, build_dataset, select
+
+__all__ = ["interpolate_cycle", "solve", "solve_cycle"]
+
+logger = logging.getLogger(__name__)
+
+#: Matrices factorised with one shared pivot order per group of this many steps.
+_PIVOT_GROUP = 64
+
+
+def _as_mechanism(mechanism: Mechanism | str | Path) -> Mechanism:
+    return mechanism if isinstance(mechanism, Mechanism) else load_mechanism(mechanism)
+
+
+def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
+          outputs: Iterable[str] | str | None = None,
+          points: Iterable[str] | str | None = None,
+          joints: Iterable[str] | str | None = None,
+          drives: Mapping[str, SampledDrive] | None = None,
+          tol: float = 1e-12, cond_warn: float = 1e4, cond_max: float = 1e10) -> xr.Dataset:
+    """Kinematics and inverse dynamics of a mechanism at the times ``t``.
+
+    Parameters
+    ----------
+    mechanism : Mechanism, str or pathlib.Path
+        The mechanism, or the path of its file.
+    t : array_like
+        (n,) times, s. Steps are followed in the given order (continuation), so consecutive
+        samples should be close in drive angle; larger jumps are subdivided automatically.
+    outputs : iterable of str, optional
+        Variables to compute: any of :data:`~rigval.model.results.OUTPUTS` (the default: all of
+        them) and :data:`~rigval.model.results.EXTRA_OUTPUTS`. Only the stages they need run.
+    points : iterable of str, optional
+        Points for the ``point_*`` variables (default: every named point).
+    joints : iterable of str, optional
+        Joints for ``joint_force`` (default: all).
+    drives : mapping, optional
+        Sampled drives replacing the file's laws: driver name -> ``(theta, omega, alpha)`` arrays
+        on ``t`` (rad, rad/s, rad/s2).
+    tol : float
+        Newton tolerance: angle updates in rad, loop gaps relative to the mechanism size.
+    cond_warn : float
+        Condition number of the (column-equilibrated, reduced) ``C_e`` past which a
+        NumericsWarning is issued.
+    cond_max : float
+        Condition number past which a SingularityError is raised.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dim ``time`` and the requested variables (see :mod:`rigval.model.results`).
+
+    Raises
+    ------
+    AssemblyError
+        The mechanism cannot be assembled or cannot follow the drives; names the open joints.
+    SingularityError
+        ``C_e`` loses rank (toggle); names the time, the joints involved and the residual.
+    """
+    mech = _as_mechanism(mechanism)
+    times = np.asarray(t, dtype=float)
+    if times.ndim != 1 or not np.all(np.isfinite(times)):
+        raise DataError("t must be a 1-D array of finite times in s", where={"key": "t"},
+                        hint="pass sample times as a 1-D float array")
+    selection = select(mech, outputs, points, joints)
+    tolerances = Tolerances(tol=tol, cond_warn=cond_warn, cond_max=cond_max)
+    motion = drive_motion(mech, times, drives)
+    system = loop_system(mech)
+    theta_u = track(mech, system, times, motion.theta, tolerances)
+    theta = full_angles(system, motion.theta, theta_u)
+    z = np.exp(1j * theta)
+    solution = Solution(times=times, theta=theta, position=system.positions(z))
+    lu = _factorise(system, z)
+    solution.condition = _check_condition(mech, system, times, theta, tolerances)
+    if selection.velocity:
+        solution.omega = angular_velocities(system, z, lu, motion.omega)
+        solution.omega_driven = motion.omega
+        solution.velocity = -(1j * solution.omega * z) @ system.position_map.T
+    if selection.acceleration:
+        solution.alpha = angular_accelerations(system, z, lu, solution.omega, motion.alpha)
+        solution.acceleration = -((1j * solution.alpha - solution.omega**2) * z) \
+            @ system.position_map.T
+    if selection.forces:
+        force, moment = applied_forces(mech, solution.acceleration, solution.alpha)
+        if mech.redundant_constraints:
+            warnings.warn(
+                f"{mech.name}: {mech.redundant_constraints} redundant constraint equations; "
+                "joint forces and drive torques are not unique, the minimum-norm multipliers "
+                "are returned", NumericsWarning, stacklevel=2)
+            solution.joint, solution.driver = minimum_norm_multipliers(
+                constraint_jacobian(system, theta), force, moment, len(mech.joints))
+        else:
+            solution.joint, solution.driver = multipliers(system, z, lu, force, moment)
+    attrs = {"title": f"rigval model: {mech.name}", "mechanism": mech.name,
+             "mechanism_source": mech.source, "newton_tol": tol,
+             "redundant_constraints": mech.redundant_constraints,
+             "max_condition_number": float(np.max(solution.condition, initial=1.0)),
+             "sign_convention": "M e'' = Q_e - C_e^T lambda; joint_force = -lambda on the "
+                                "first body; driver_torque = -lambda_driver"}
+    return build_dataset(mech, solution, selection, attrs)
+
+
+def _factorise(system: LoopSystem, z: np.ndarray) -> BatchLU:
+    """Factor ``J_u`` at every step, pivot order shared within small groups of steps."""
+    jac = system.jacobian(z, system.undriven)
+    if jac.shape[-1] != jac.shape[-2] or jac.shape[-1] == 0:
+        return BatchLU(jac)
+    heads = jac[::_PIVOT_GROUP]
+    order = np.repeat(pivot_order(heads), _PIVOT_GROUP, axis=0)[: jac.shape[0]]
+    return BatchLU(jac, order)
+
+
+def _check_condition(mechanism: Mechanism, system: LoopSystem, times: np.ndarray,
+                     theta: np.ndarray, tolerances: Tolerances) -> np.ndarray:
+    """Condition of the reduced ``C_e`` per step; warn or raise past the thresholds."""
+    cond = equilibrated_condition(system.jacobian(np.exp(1j * theta), system.undriven))
+    if cond.size == 0:
+        return cond
+    worst = int(np.argmax(cond))
+    if cond[worst] > tolerances.cond_max:
+        joints = involved_joints(mechanism, system, theta[worst])
+        raise SingularityError(
+            f"C_e loses rank at t = {times[worst]:.9g} s (condition {cond[worst]:.3g} > "
+            f"{tolerances.cond_max:.3g}): a toggle or lock-up position; joints involved: "
+            f"{', '.join(joints)}; residual 0 m (assembled, but forces are unbounded)",
+            where={"file": mechanism.source, "time_s": float(times[worst]), "joints": joints},
+            hint="keep the drives away from the limit position or change the geometry",
+            joints=joints, residual_m=0.0, condition=float(cond[worst]))
+    if cond[worst] > tolerances.cond_warn:
+        joints = involved_joints(mechanism, system, theta[worst])
+        warnings.warn(
+            f"{mechanism.name}: C_e is ill-conditioned near t = {times[worst]:.9g} s (condition "
+            f"{cond[worst]:.3g} > {tolerances.cond_warn:.3g}), close to a toggle position; "
+            f"forces in joints {', '.join(joints)} are large and sensitive",
+            NumericsWarning, stacklevel=3)
+    return cond
+
+
+def solve_cycle(mechanism: Mechanism | str | Path, angles: int | np.ndarray, *,
+                driver: str | None = None, angle_origin: float | None = None,
+                **options: object) -> xr.Dataset:
+    """Solve at main-drive angles over one revolution (all drive laws must repeat with it).
+
+    Parameters
+    ----------
+    mechanism : Mechanism, str or pathlib.Path
+        The mechanism or its file.
+    angles : int or array_like
+        Number of equally spaced angles in [0, 2 pi), or the angles themselves (rad, past the
+        origin, within one revolution).
+    driver : str, optional
+        Main driver (default: the first one); its angle is the cycle coordinate (phi_F).
+    angle_origin : float, optional
+        Main driver's body angle at angle 0, rad (default: its angle at t = 0).
+    **options
+        Passed to :func:`solve` (``outputs``, ``points``, ``joints``, ``tol``, ...).
+
+    Returns
+    -------
+    xarray.Dataset
+        The :func:`solve` variables with dim ``angle`` (rad) instead of ``time``; ``time`` (s,
+        within the revolution starting at the origin) is a coordinate along ``angle``.
+    """
+    mech = _as_mechanism(mechanism)
+    if "drives" in options:
+        raise ConfigError("solve_cycle evaluates the file's drive laws; sampled drives are not "
+                          "periodic", where={"key": "drives"},
+                          hint="use solve() with the sample times for measured drives")
+    main, period = cycle_period(mech, driver)
+    if isinstance(angles, int | np.integer):
+        if angles < 1:
+            raise ConfigError(f"need at least one angle, got {angles}", where={"key": "angles"})
+        phi = np.arange(int(angles)) * (2.0 * math.pi / int(angles))
+    else:
+        phi = np.asarray(angles, dtype=float)
+        if phi.ndim != 1 or np.any(phi < 0) or np.any(phi >= 2 * math.pi + 1e-12):
+            raise ConfigError("angles must be a 1-D array within one revolution [0, 2 pi)",
+                              where={"key": "angles"}, hint="wrap the angles with np.mod")
+    origin = float(law_motion(main, np.zeros(1))[0][0]) if angle_origin is None \
+        else float(angle_origin)
+    times = times_at_angles(main, phi, origin)
+    ds = solve(mech, times, **options)  # type: ignore[arg-type]
+    ds = ds.assign_coords(angle=("time", phi, {
+        "units": "rad", "long_name": f"angle of driver {main.name} past {origin:.6g} rad"}))
+    ds = ds.swap_dims(time="angle")
+    ds.attrs.update(cycle_driver=main.name, cycle_period_s=period, angle_origin_rad=origin)
+    return ds
+
+
+def interpolate_cycle(cycle: xr.Dataset, angles: np.ndarray) -> xr.Dataset:
+    """Interpolate a :func:`solve_cycle` result to other angles with periodic cubic splines.
+
+    Parameters
+    ----------
+    cycle : xarray.Dataset
+        Result of :func:`solve_cycle` on equally or unequally spaced angles covering a revolution.
+    angles : array_like
+        Angles past the origin, rad (any values; taken modulo 2 pi).
+
+    Returns
+    -------
+    xarray.Dataset
+        Every variable with dim ``angle`` interpolated; dim ``angle`` holds the given angles.
+    """
+    grid = cycle["angle"].to_numpy()
+    order = np.argsort(grid)
+    grid = grid[order]
+    closed = np.concatenate([grid, [grid[0] + 2 * math.pi]])
+    target = np.mod(np.asarray(angles, dtype=float) - grid[0], 2 * math.pi) + grid[0]
+    out = {}
+    for name, var in cycle.data_vars.items():
+        if "angle" not in var.dims:
+            continue
+        values = np.moveaxis(var.to_numpy(), var.dims.index("angle"), 0)[order]
+        values = np.concatenate([values, values[:1]], axis=0)
+        spline = scipy.interpolate.CubicSpline(closed, values, axis=0, bc_type="periodic")
+        data = np.moveaxis(spline(target), 0, var.dims.index("angle"))
+        out[name] = xr.Variable(var.dims, data, var.attrs)
+    coords = {k: v for k, v in cycle.coords.items() if "angle" not in v.dims}
+    coords["angle"] = ("angle", np.asarray(angles, dtype=float), cycle["angle"].attrs)
+    return xr.Dataset(out, coords=coords, attrs=cycle.attrs)
