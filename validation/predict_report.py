@@ -1,0 +1,377 @@
+"""The report folder of a prediction: HTML page with figures, CSV tables and netCDF data.
+
+:func:`write_predict_report` writes into one folder
+
+``report.html``
+    Self-contained page: drive laws, tip kinematics and path, drive torques and power, support
+    forces on the frame with their peaks, joint forces, and the sweep (table and plots).
+``cycle.csv``
+    One row per main-drive angle: every curve of the page.
+``peaks.csv``
+    Peak support forces and torques with the angles where they occur.
+``sweep.csv``
+    One row per sweep point (when a sweep was run).
+``prediction.nc``
+    The prediction (group ``/prediction``) and the sweep (``/sweep``) as an ``xarray.DataTree``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+from matplotlib.figure import Figure
+
+from rigval.validation.html import Page
+from rigval.validation.plots import plot_point_kinematics, plot_support_forces
+
+__all__ = ["PredictReportFiles", "cycle_table", "peak_table", "sweep_table",
+           "write_predict_report"]
+
+logger = logging.getLogger(__name__)
+
+_MARK_EVERY_DEG = 45
+
+
+@dataclass(frozen=True)
+class PredictReportFiles:
+    """Paths of the files a prediction report wrote.
+
+    Attributes
+    ----------
+    html, cycle_csv, peaks_csv, netcdf : pathlib.Path
+        The page, the per-angle table, the peak table and the data file.
+    sweep_csv : pathlib.Path or None
+        The sweep table, when a sweep was run.
+    """
+
+    html: Path
+    cycle_csv: Path
+    peaks_csv: Path
+    netcdf: Path
+    sweep_csv: Path | None
+
+
+def cycle_table(prediction: xr.Dataset) -> pd.DataFrame:
+    """Return one row per main-drive angle with every predicted curve (SI units in the names).
+
+    Parameters
+    ----------
+    prediction : xarray.Dataset
+        A result of :func:`rigval.validation.predict.predict`.
+    """
+    columns: dict[str, np.ndarray] = {
+        "angle_deg": np.degrees(prediction["angle"].values),
+        "time_s": prediction["time"].values,
+    }
+    for point in prediction["point"].values:
+        for name, unit in (("point_position", "m"), ("point_velocity", "m_s"),
+                           ("point_acceleration", "m_s2")):
+            for axis in ("x", "y"):
+                key = f"{point}_{name.removeprefix('point_')}_{axis}_{unit}"
+                columns[key] = prediction[name].sel(point=point, axis=axis).values
+        columns[f"{point}_speed_m_s"] = prediction["point_speed"].sel(point=point).values
+        columns[f"{point}_acceleration_magnitude_m_s2"] = \
+            prediction["point_acceleration_magnitude"].sel(point=point).values
+    for driver in prediction["driver"].values:
+        columns[f"{driver}_angle_rad"] = prediction["drive_angle"].sel(driver=driver).values
+        columns[f"{driver}_speed_rad_s"] = prediction["drive_speed"].sel(driver=driver).values
+        columns[f"{driver}_acceleration_rad_s2"] = \
+            prediction["drive_acceleration"].sel(driver=driver).values
+        columns[f"{driver}_torque_N_m"] = prediction["driver_torque"].sel(driver=driver).values
+        columns[f"{driver}_power_W"] = prediction["drive_power"].sel(driver=driver).values
+    for group, variable in (("support", "support_force"), ("joint", "joint_force")):
+        for name in prediction[group].values:
+            for axis in ("x", "y"):
+                label = "support" if group == "support" else "joint"
+                columns[f"{label}_{name}_{axis}_N"] = \
+                    prediction[variable].sel({group: name, "axis": axis}).values
+    return pd.DataFrame(columns)
+
+
+def peak_table(prediction: xr.Dataset) -> pd.DataFrame:
+    """Return the peak support forces (per pin and component) and drive torques with their angles.
+
+    Parameters
+    ----------
+    prediction : xarray.Dataset
+        A result of :func:`rigval.validation.predict.predict`.
+    """
+    rows = []
+    for support in prediction["support"].values:
+        for component in prediction["component"].values:
+            rows.append({
+                "quantity": "support force on frame", "where": str(support),
+                "component": str(component),
+                "peak": float(prediction["support_force_peak"].sel(support=support,
+                                                                    component=component)),
+                "unit": "N",
+                "angle_deg": math.degrees(float(prediction["support_force_peak_angle"].sel(
+                    support=support, component=component))),
+            })
+    for driver in prediction["driver"].values:
+        rows.append({
+            "quantity": "drive torque", "where": str(driver), "component": "abs",
+            "peak": float(prediction["torque_peak"].sel(driver=driver)), "unit": "N m",
+            "angle_deg": math.degrees(float(prediction["torque_peak_angle"].sel(driver=driver))),
+            "rms": float(prediction["torque_rms"].sel(driver=driver)),
+        })
+    tip = prediction.attrs.get("tip_point", "tip")
+    rows.append({
+        "quantity": "tip acceleration", "where": tip, "component": "magnitude",
+        "peak": float(prediction["tip_acceleration_peak"]), "unit": "m s-2",
+        "angle_deg": math.degrees(float(prediction["tip_acceleration_peak_angle"])),
+    })
+    return pd.DataFrame(rows)
+
+
+def sweep_table(result: xr.Dataset) -> pd.DataFrame:
+    """Return one row per sweep point: parameter values and every summary (per pin, per drive).
+
+    Parameters
+    ----------
+    result : xarray.Dataset
+        A result of :func:`rigval.validation.predict.sweep`.
+    """
+    dims = _sweep_dims(result)
+    frame = pd.DataFrame(index=pd.MultiIndex.from_product(
+        [result[d].values for d in dims], names=dims)).reset_index()
+    for name, variable in result.data_vars.items():
+        unit = variable.attrs.get("units", "")
+        extra = [d for d in variable.dims if d not in dims]
+        if not extra:
+            frame[f"{name} [{unit}]"] = variable.transpose(*dims).values.ravel()
+            continue
+        for label in result[extra[0]].values:
+            values = variable.sel({extra[0]: label}).transpose(*dims).values.ravel()
+            frame[f"{name} {label} [{unit}]"] = values
+    return frame
+
+
+def _sweep_dims(result: xr.Dataset) -> list[str]:
+    return [str(d) for d in result.dims if d not in ("support", "driver")]
+
+
+def _tip_path_figure(prediction: xr.Dataset, tip: str) -> Figure:
+    """Plot the tip path in the plane, the main-drive angle marked every 45 degrees."""
+    position = prediction["point_position"].sel(point=tip)
+    x, y = position.sel(axis="x").values, position.sel(axis="y").values
+    fig = Figure(figsize=(6.0, 5.0), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot(np.append(x, x[0]), np.append(y, y[0]), color="#c8322b", lw=1.6)
+    degrees = np.degrees(prediction["angle"].values)
+    marks = np.flatnonzero(np.isclose(np.mod(degrees, _MARK_EVERY_DEG), 0.0, atol=1e-9))
+    ax.plot(x[marks], y[marks], "o", color="#1b1f24", ms=4)
+    for i in marks:
+        ax.annotate(f"{degrees[i]:.0f}°", (x[i], y[i]), textcoords="offset points",
+                    xytext=(5, 4), fontsize=8)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel(f"$x_{{{tip}}}$ [m]")
+    ax.set_ylabel(f"$y_{{{tip}}}$ [m]")
+    ax.grid(True, lw=0.4, alpha=0.6)
+    span = float(prediction["tip_vertical_range"])
+    ax.set_title(f"path of {tip} in the plane (vertical range {span * 1e3:.1f} mm; "
+                 r"labels: $\varphi_F$)")
+    return fig
+
+
+def _angle_panels(prediction: xr.Dataset, panels: list[tuple[str, str, float]],
+                  title: str) -> Figure:
+    """Curves over phi_F: one panel per (variable, label, scale), one line per label of dim 1."""
+    degrees = np.append(np.degrees(prediction["angle"].values), 360.0)
+    fig = Figure(figsize=(9.0, 2.6 * len(panels) + 0.6), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(len(panels), 1, sharex=True))
+    for ax, (name, label, scale) in zip(axes, panels, strict=True):
+        variable = prediction[name]
+        other = [d for d in variable.dims if d != "angle"]
+        if not other:
+            values = variable.values
+            ax.plot(degrees, np.append(values, values[0]) * scale, lw=1.4)
+        else:
+            for item in variable[other[0]].values:
+                values = variable.sel({other[0]: item}).values
+                ax.plot(degrees, np.append(values, values[0]) * scale, lw=1.4, label=str(item))
+            ax.legend(fontsize=8, ncol=4)
+        ax.set_ylabel(label)
+        ax.set_xlim(0.0, 360.0)
+        ax.set_xticks(np.arange(0, 361, 45))
+        ax.grid(True, lw=0.4, alpha=0.6)
+    axes[-1].set_xlabel(r"main shaft angle $\varphi_F$ [deg]")
+    axes[0].set_title(title)
+    return fig
+
+
+def _joint_force_figure(prediction: xr.Dataset) -> Figure:
+    """Horizontal and vertical forces of the chosen joints over phi_F."""
+    force = prediction["joint_force"]
+    degrees = np.append(np.degrees(prediction["angle"].values), 360.0)
+    fig = Figure(figsize=(9.0, 5.6), layout="constrained")
+    axes = fig.subplots(2, 1, sharex=True)
+    for ax, axis in zip(axes, ("x", "y"), strict=True):
+        for joint in force["joint"].values:
+            values = force.sel(joint=joint, axis=axis).values
+            ax.plot(degrees, np.append(values, values[0]) / 1e3, lw=1.3, label=str(joint))
+        ax.set_ylabel(f"{axis} force on first body [kN]")
+        ax.legend(fontsize=8, ncol=4)
+        ax.set_xlim(0.0, 360.0)
+        ax.set_xticks(np.arange(0, 361, 45))
+        ax.grid(True, lw=0.4, alpha=0.6)
+    axes[-1].set_xlabel(r"main shaft angle $\varphi_F$ [deg]")
+    axes[0].set_title("joint forces (on the joint's first body)")
+    return fig
+
+
+def _sweep_quantities(result: xr.Dataset) -> list[tuple[str, xr.DataArray, str]]:
+    """Return the summaries one per panel: (title, values over the sweep dims, unit)."""
+    panels = []
+    for name, variable in result.data_vars.items():
+        unit = variable.attrs.get("units", "")
+        extra = [d for d in variable.dims if d in ("support", "driver")]
+        if not extra:
+            panels.append((str(name), variable, unit))
+            continue
+        for label in result[extra[0]].values:
+            panels.append((f"{name} {label}", variable.sel({extra[0]: label}), unit))
+    return panels
+
+
+def _sweep_figure(result: xr.Dataset) -> Figure:
+    """Line plots (one parameter) or filled contours (two parameters) of every summary."""
+    dims = _sweep_dims(result)
+    panels = _sweep_quantities(result)
+    columns = 3 if len(panels) > 4 else 2
+    rows = math.ceil(len(panels) / columns)
+    fig = Figure(figsize=(4.0 * columns, 3.2 * rows), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows, columns, squeeze=False)).ravel()
+    for ax, (title, values, unit) in zip(axes, panels, strict=False):
+        if len(dims) == 1:
+            ax.plot(result[dims[0]].values, values.values, "o-", ms=3, lw=1.3)
+            ax.set_xlabel(_axis_label(result, dims[0]))
+            ax.set_ylabel(f"[{unit}]")
+            ax.grid(True, lw=0.4, alpha=0.6)
+        else:
+            data = values.transpose(dims[1], dims[0]).values
+            filled = ax.contourf(result[dims[0]].values, result[dims[1]].values, data, levels=14,
+                                 cmap="viridis")
+            ax.contour(result[dims[0]].values, result[dims[1]].values, data, levels=7,
+                       colors="white", linewidths=0.5)
+            fig.colorbar(filled, ax=ax, label=f"[{unit}]")
+            ax.set_xlabel(_axis_label(result, dims[0]))
+            ax.set_ylabel(_axis_label(result, dims[1]))
+        ax.set_title(title.replace("_", " "), fontsize=9)
+    for ax in axes[len(panels):]:
+        ax.set_visible(False)
+    return fig
+
+
+def _axis_label(result: xr.Dataset, dim: str) -> str:
+    return f"{dim} [{result[dim].attrs.get('units', '')}]"
+
+
+def _write_netcdf(prediction: xr.Dataset, sweep: xr.Dataset | None, path: Path) -> None:
+    children = {"prediction": prediction}
+    if sweep is not None:
+        children["sweep"] = sweep.rename({d: d.replace(".", "_") for d in _sweep_dims(sweep)})
+    tree = xr.DataTree.from_dict({"/": xr.Dataset(attrs={
+        "Conventions": "CF-1.10", "title": prediction.attrs.get("title", "rigval prediction")}),
+        **{f"/{k}": v for k, v in children.items()}})
+    encoding = {f"/{k}": {name: {"zlib": True, "complevel": 4} for name in v.data_vars}
+                for k, v in children.items()}
+    tree.to_netcdf(path, engine="h5netcdf", encoding=encoding)
+
+
+def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
+                         sweep: xr.Dataset | None = None, command: str | None = None
+                         ) -> PredictReportFiles:
+    """Write the report folder of a prediction (and optionally a sweep).
+
+    Parameters
+    ----------
+    prediction : xarray.Dataset
+        A result of :func:`rigval.validation.predict.predict`.
+    out_dir : str or pathlib.Path
+        Folder to write into (created if missing).
+    sweep : xarray.Dataset, optional
+        A result of :func:`rigval.validation.predict.sweep`.
+    command : str, optional
+        The command line that produced the report (shown on the page).
+
+    Returns
+    -------
+    PredictReportFiles
+        The paths written.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    tip = str(prediction.attrs.get("tip_point", "P1"))
+    cycles = cycle_table(prediction)
+    peaks = peak_table(prediction)
+    files = PredictReportFiles(html=out / "report.html", cycle_csv=out / "cycle.csv",
+                               peaks_csv=out / "peaks.csv", netcdf=out / "prediction.nc",
+                               sweep_csv=out / "sweep.csv" if sweep is not None else None)
+    cycles.to_csv(files.cycle_csv, index=False)
+    peaks.to_csv(files.peaks_csv, index=False)
+    page = Page(f"Prediction: {prediction.attrs.get('mechanism', '')}",
+                subtitle=f"{prediction.attrs.get('frequency_hz', float('nan')):.4g} Hz, "
+                         f"{prediction.attrs.get('n_points')} points per cycle")
+    page.section("Excitation")
+    page.paragraph("The model's answer to drive settings, without measurement (paper section 5). "
+                   "Angles are the main-drive angle phi_F from its position at t = 0.")
+    facts = {"mechanism": prediction.attrs.get("mechanism"),
+             "mechanism file": prediction.attrs.get("mechanism_source"),
+             "cycle frequency [Hz]": prediction.attrs.get("frequency_hz"),
+             "main drive": prediction.attrs.get("main_drive")}
+    if command:
+        facts["command"] = command
+    page.facts(facts)
+    page.preformatted(str(prediction.attrs.get("drive_laws", "")))
+    page.section(f"Tip {tip}")
+    page.facts({
+        f"vertical range of the {tip} path [m]": float(prediction["tip_vertical_range"]),
+        f"peak |a_{tip}| [m/s2]": float(prediction["tip_acceleration_peak"]),
+        "at phi_F [deg]": math.degrees(float(prediction["tip_acceleration_peak_angle"])),
+    })
+    page.figure(plot_point_kinematics(prediction, tip),
+                caption=f"{tip}: vertical position, absolute speed and acceleration over a cycle")
+    page.figure(_tip_path_figure(prediction, tip), caption=f"path of {tip} in the plane")
+    page.section("Drive torques and power")
+    page.table(peaks[peaks["quantity"] == "drive torque"].to_dict("records"),
+               columns=["where", "peak", "angle_deg", "rms", "unit"],
+               caption="drive torques: peak |T|, the angle where it occurs, RMS")
+    page.facts({"net drive work per cycle [J] (0 without losses)":
+                float(prediction["cycle_work"])})
+    page.figure(_angle_panels(prediction, [("driver_torque", "torque [kN m]", 1e-3),
+                                           ("drive_power", "power [kW]", 1e-3)],
+                              "drive torques (on the driven body) and drive power"),
+                caption="drive torques and power over a cycle")
+    page.section("Support forces on the frame")
+    page.paragraph("Force exerted ON THE FRAME at each ground pin (minus the model's joint "
+                   "force on the body).")
+    page.table(peaks[peaks["quantity"] == "support force on frame"].to_dict("records"),
+               columns=["where", "component", "peak", "angle_deg", "unit"],
+               caption="peak absolute support forces and the angles where they occur")
+    page.figure(plot_support_forces(prediction), caption="support forces on the frame")
+    if prediction.sizes.get("joint", 0):
+        page.section("Joint forces")
+        page.figure(_joint_force_figure(prediction), caption="forces of the chosen joints")
+    if sweep is not None:
+        table = sweep_table(sweep)
+        assert files.sweep_csv is not None
+        table.to_csv(files.sweep_csv, index=False)
+        page.section("Sweep")
+        page.facts({"parameters": ", ".join(_sweep_dims(sweep)),
+                    "points": sweep.attrs.get("points"),
+                    "model solves": sweep.attrs.get("model_solves"),
+                    "elapsed [s]": sweep.attrs.get("elapsed_s"),
+                    "points per cycle": sweep.attrs.get("n_points")})
+        page.figure(_sweep_figure(sweep), caption="sweep summaries")
+        page.table(table.to_dict("records"), caption="sweep summaries per point")
+    page.write(files.html)
+    _write_netcdf(prediction, sweep, files.netcdf)
+    logger.info("wrote the prediction report to %s", out)
+    return files
