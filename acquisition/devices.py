@@ -18,12 +18,12 @@ trustworthy the stream's start time is. Facts and sources: ``research/data_forma
 from __future__ import annotations
 
 import logging
-import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from rigval.acquisition.errors import ChannelNotFoundError, DataWarning
+from rigval.acquisition.errors import ChannelNotFoundError
+from rigval.acquisition.warn import warn_data
 
 __all__ = [
     "DEVICES",
@@ -269,11 +269,10 @@ def module_attrs(module_name: str, fs: float, where: Mapping[str, Any]) -> dict[
     if module.master_rate is not None:
         divider = rate_divider(module, fs)
         if divider is None:
-            warnings.warn(DataWarning(
+            warn_data(
                 f"{fs:.9g} S/s is not a rate the {module.name} can run at "
                 f"({module.master_rate:g} S/s / n, n = 1...{module.max_divider})",
-                where=where, hint="check the device and module given for this file"),
-                stacklevel=3)
+                where=where, hint="check the device and module given for this file", stacklevel=3)
         else:
             attrs["rate_divider"] = divider
     return attrs

@@ -21,7 +21,7 @@ from rigval.acquisition.errors import ConfigError, DataFileError
 __all__ = ["iter_stream", "read", "read_stream"]
 
 
-def read(path: str | os.PathLike[str], *, format: str | None = None,  # noqa: A002
+def read(path: str | os.PathLike[str], *, format: str | None = None,
          channels: Sequence[str] | None = None,
          time_range: tuple[float | None, float | None] | None = None,
          device: str | None = None, **reader_options: Any) -> dict[str, xr.Dataset]:
@@ -76,10 +76,11 @@ def read(path: str | os.PathLike[str], *, format: str | None = None,  # noqa: A0
 
 def _readers() -> dict[str, Callable[..., dict[str, xr.Dataset]]]:
     """Return format -> reader function (imported here to keep ``import rigval`` light)."""
+    from rigval.acquisition.lvm import read_lvm
     from rigval.acquisition.tdms import read_tdms
     from rigval.acquisition.text_csv import read_csv
 
-    return {"tdms": read_tdms, "csv": read_csv}
+    return {"tdms": read_tdms, "csv": read_csv, "lvm": read_lvm}
 
 
 def read_stream(path: str | os.PathLike[str], **options: Any) -> xr.Dataset:

@@ -10,7 +10,7 @@ file says                       rigval does (and records in ``time_fallbacks``)
 ==============================  ==========================================================
 no ``wf_start_offset``          offset 0 s (SignalExpress, LabVIEW Biomedical)
 no ``wf_increment``             the ``fs`` option, else sample index with a DataWarning
-``wf_increment`` with 6 digits  the exact interval (:func:`~rigval.acquisition.timebase.exact_increment`)
+``wf_increment`` with 6 digits  the exact interval (``timebase.exact_increment``)
 ``wf_start_time`` = 1904        relative time; ``start_time`` from ``NI_ExpStartTimeStamp``,
                                 the group/file ``DateTime``, else 1904-01-01
 no ``wf_start_time``            as 1904
@@ -29,7 +29,6 @@ import io
 import json
 import logging
 import os
-import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,7 +40,7 @@ from nptdms import TdmsFile
 
 from rigval.acquisition.detect import checked_path, source_checksum
 from rigval.acquisition.devices import DeviceProfile, get_device, module_attrs
-from rigval.acquisition.errors import ChannelNotFoundError, DataFileError, DataWarning
+from rigval.acquisition.errors import ChannelNotFoundError, DataFileError
 from rigval.acquisition.schema import Channel, stream_dataset
 from rigval.acquisition.tdms_layout import (
     ChannelLayout,
@@ -51,6 +50,7 @@ from rigval.acquisition.tdms_layout import (
     scan_tdms,
 )
 from rigval.acquisition.timebase import Block, TimeBase, exact_increment
+from rigval.acquisition.warn import warn_data
 
 __all__ = ["TdmsStreamPlan", "iter_tdms", "plan_tdms", "read_tdms"]
 
@@ -398,7 +398,7 @@ def _plan(layout: TdmsLayout, group: str, members: list[tuple[str, _ChannelTime]
         names[name] = path
         offset = 0.0
         if not info.relative and info.start is not None and ref.start is not None:
-            offset = info.start.seconds_since(ref.start)
+            offset = round(info.start.seconds_since(ref.start), 12)
         offsets[name] = offset
     lengths = {n: layout.channels[p].length for n, p in names.items()}
     n = min(lengths.values())
@@ -523,9 +523,9 @@ def _warn_truncation(layout: TdmsLayout, plan: TdmsStreamPlan) -> None:
                 + (f" ({layout.problem})" if layout.problem else ""))
         if dropped:
             text += f"; values past the last whole sample not used: {dropped}"
-        warnings.warn(DataWarning(text, where={"file": str(layout.path)},
+        warn_data(text, where={"file": str(layout.path)},
                                   hint="the file was cut short (crash, copy or still being "
-                                       "written)"), stacklevel=4)
+                                       "written)", stacklevel=4)
 
 
 def _build(layout: TdmsLayout, plan: TdmsStreamPlan, data: Mapping[str, np.ndarray],
@@ -565,18 +565,18 @@ def _check_warnings(layout: TdmsLayout, plans: list[TdmsStreamPlan]) -> None:
         _warn_truncation(layout, plan)
         for note in plan.notes:
             if "time is the sample index" in note or "restart at sample" in note:
-                warnings.warn(DataWarning(f"stream {plan.name!r}: {note}",
+                warn_data(f"stream {plan.name!r}: {note}",
                                           where={"file": str(layout.path)},
-                                          hint="pass fs=... if the rate is known"), stacklevel=3)
+                                          hint="pass fs=... if the rate is known", stacklevel=3)
             else:
                 logger.info("%s, stream %r: %s", layout.path, plan.name, note)
         for name, path in plan.channels.items():
             scale = _unsupported_scale(layout.channels[path].properties)
             if scale is not None:
-                warnings.warn(DataWarning(
+                warn_data(
                     f"scale type {scale!r} is not applied by nptdms: channel {name!r} holds raw "
                     "values", where={"file": str(layout.path), "channel": path},
-                    hint="convert the raw values in processing"), stacklevel=3)
+                    hint="convert the raw values in processing", stacklevel=3)
 
 
 def read_tdms(path: str | os.PathLike[str], *, group: str | Sequence[str] | None = None,

@@ -142,7 +142,7 @@ def sniff_csv(lines: list[str], *, delimiter: str | None = None, decimal: str | 
     lines : list of str
         The file's lines.
     delimiter, decimal : str, optional
-        Override the guesses (``"\\t"`` for tab).
+        Override the guesses (a tab character for tab).
     header_row, units_row : int, optional
         0-based line numbers of the names and units rows (override the guesses; data then start
         on the next line).

@@ -95,25 +95,32 @@ class TimeBase:
         return (start, stop) if start < stop else (0, 0)
 
 
-def exact_increment(dt: float) -> float | None:
-    """Return the exact sample interval behind a ``wf_increment`` rounded to 6 significant digits.
+def exact_increment(dt: float, decimals: int | None = None) -> float | None:
+    """Return the exact sample interval behind a rounded ``wf_increment`` or ``Delta_X``.
 
-    Some writers store ``wf_increment`` with 6 significant digits (1.04167e-05 s for 96 kHz; an
-    error of 33 us after 1e6 samples). If ``dt`` has at most 6 significant digits and ``1 / fs``
-    rounds to it for an integer rate ``fs`` in Hz or for ``master / n`` of an NI delta-sigma master
-    rate, while ``1 / fs`` itself needs more digits, that interval is returned.
+    Some writers store the interval with 6 significant digits (TDMS ``wf_increment`` 1.04167e-05 s
+    for 96 kHz; 33 us error after 1e6 samples), LVM files with 6 decimals (``Delta_X`` 0.000977 for
+    1/1024 s, -0.045 %). If ``1 / fs`` rounds to ``dt`` for an integer rate ``fs`` in Hz or for
+    ``master / n`` of an NI delta-sigma master rate, while ``1 / fs`` itself differs from ``dt``,
+    that interval is returned.
 
     Parameters
     ----------
     dt : float
-        ``wf_increment`` as stored, s.
+        Interval as stored, s.
+    decimals : int, optional
+        The writer rounds to this many decimals (LVM: 6); default: 6 significant digits.
 
     Returns
     -------
     float or None
         The exact interval, or None when ``dt`` shows no sign of rounding.
     """
-    if not (math.isfinite(dt) and dt > 0) or float(f"{dt:.6g}") != dt:
+
+    def rounded(value: float) -> float:
+        return round(value, decimals) if decimals is not None else float(f"{value:.6g}")
+
+    if not (math.isfinite(dt) and dt > 0) or rounded(dt) != dt:
         return None
     candidates = [round(1.0 / dt)]
     candidates += [master / round(master * dt) for master in _MASTER_RATES
@@ -122,6 +129,6 @@ def exact_increment(dt: float) -> float | None:
         if fs <= 0:
             continue
         exact = 1.0 / fs
-        if exact != dt and float(f"{exact:.6g}") == dt:
+        if exact != dt and rounded(exact) == dt:
             return exact
     return None

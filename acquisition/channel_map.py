@@ -1,0 +1,399 @@
+"""The channel map of a scene: which file a stream comes from and which channel is which sensor.
+
+A scene's ``[streams.X]`` table (``docs/scene.md``) names a data file, its device and reader
+options, and in ``[streams.X.channels.NAME]`` the sensors with their calibration. This module
+parses such a table (a plain ``dict`` from :mod:`tomllib`) into frozen dataclasses, checking every
+key and value; each error is a :class:`~rigval.acquisition.errors.SceneError` whose ``where``
+names the key path (``streams.cdaq.channels.acc1.charge_sensitivity``).
+
+:func:`load_stream` then reads the stream with :func:`~rigval.acquisition.read.read_stream`,
+keeps the mapped channels under their scene names and records the sensor and its parameters in
+each channel's attributes (``sensor``, ``sensor_params`` as JSON, ``scene_key``).
+
+Sensor kinds and parameters (required ones marked ``*``; units in brackets):
+
+=====================  =================================================================
+sensor                 parameters
+=====================  =================================================================
+charge_accelerometer   charge_sensitivity* [pC/g], amplifier_gain* [V/pC],
+                       highpass_hz [Hz], correct_highpass (bool, default false)
+strain_bridge          bridge* (quarter_I, quarter_II, half_I, half_II, full_I, full_II,
+                       full_III), gauge_factor*, excitation [V], gauge_resistance [ohm]
+                       (120), lead_resistance [ohm] (0), poisson (0.3),
+                       youngs_modulus [Pa], null_offset ("none" | "first_second")
+torsion_bridge         bridge* ("full" | "half"), gauge_factor*, excitation [V],
+                       outer_diameter* [m], inner_diameter [m] (0), shear_modulus* [Pa],
+                       null_offset ("none" | "first_second")
+encoder                counts_per_rev* (int, after x4 decoding)
+reference_pulse        threshold [V] (default: 50 % of the range), edge ("rising" | "falling")
+voltage                none (the channel is used in volts)
+physical               units* (UDUNITS string of the already-scaled values)
+=====================  =================================================================
+
+Every channel also accepts ``source`` (the channel name in the file; default the table name),
+``module`` (``"NI 9237"``: overrides the device's module for the input delay) and
+``description``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import xarray as xr
+
+from rigval.acquisition.devices import DEVICES, MODULES, get_device, get_module
+from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, SceneError
+
+__all__ = ["SENSORS", "ChannelSpec", "StreamSpec", "load_stream", "parse_stream",
+           "parse_streams"]
+
+_COMMON = {"source", "sensor", "module", "description"}
+_STREAM_KEYS = {"file", "device", "reader", "channels", "description"}
+
+
+@dataclass(frozen=True)
+class _Param:
+    """Rule for one sensor parameter."""
+
+    kind: str  # "positive", "nonnegative", "number", "bool", "int", "choice", "text"
+    required: bool = False
+    default: Any = None
+    choices: tuple[str, ...] = ()
+
+
+_NULL = _Param("choice", default="none", choices=("none", "first_second"))
+
+#: Sensor kind -> parameter name -> rule.
+SENSORS: Mapping[str, Mapping[str, _Param]] = MappingProxyType({
+    "charge_accelerometer": {
+        "charge_sensitivity": _Param("positive", True),
+        "amplifier_gain": _Param("positive", True),
+        "highpass_hz": _Param("nonnegative"),
+        "correct_highpass": _Param("bool", default=False),
+    },
+    "strain_bridge": {
+        "bridge": _Param("choice", True, choices=("quarter_I", "quarter_II", "half_I", "half_II",
+                                                  "full_I", "full_II", "full_III")),
+        "gauge_factor": _Param("positive", True),
+        "excitation": _Param("positive"),
+        "gauge_resistance": _Param("positive", default=120.0),
+        "lead_resistance": _Param("nonnegative", default=0.0),
+        "poisson": _Param("nonnegative", default=0.3),
+        "youngs_modulus": _Param("positive"),
+        "null_offset": _NULL,
+    },
+    "torsion_bridge": {
+        "bridge": _Param("choice", True, choices=("full", "half")),
+        "gauge_factor": _Param("positive", True),
+        "excitation": _Param("positive"),
+        "outer_diameter": _Param("positive", True),
+        "inner_diameter": _Param("nonnegative", default=0.0),
+        "shear_modulus": _Param("positive", True),
+        "null_offset": _NULL,
+    },
+    "encoder": {"counts_per_rev": _Param("int", True)},
+    "reference_pulse": {
+        "threshold": _Param("number"),
+        "edge": _Param("choice", default="rising", choices=("rising", "falling")),
+    },
+    "voltage": {},
+    "physical": {"units": _Param("text", True)},
+})
+
+
+@dataclass(frozen=True)
+class ChannelSpec:
+    """One mapped channel: a physical channel named as a sensor with its calibration.
+
+    Attributes
+    ----------
+    name : str
+        Name in the scene (``acc1``); the variable name after :func:`load_stream`.
+    source : str
+        Channel name in the file (TDMS channel, CSV/LVM column).
+    sensor : str
+        Sensor kind (a key of :data:`SENSORS`).
+    params : mapping
+        Validated parameters with defaults filled in (read-only), in the units of the table in
+        the module docstring.
+    module : str or None
+        Module override (``"NI 9237"``).
+    description : str
+        Free text.
+    key : str
+        Key path of the table (``streams.cdaq.channels.acc1``).
+    """
+
+    name: str
+    source: str
+    sensor: str
+    params: Mapping[str, Any]
+    module: str | None
+    description: str
+    key: str
+
+
+@dataclass(frozen=True)
+class StreamSpec:
+    """One stream of a scene: a data file, its device, reader options and channel map.
+
+    Attributes
+    ----------
+    name : str
+        Stream name in the scene (``cdaq``).
+    file : pathlib.Path
+        Data file (relative paths resolved against the ``base_dir`` given to the parser).
+    device : str or None
+        Device profile name.
+    reader : mapping
+        Reader options passed to :func:`~rigval.acquisition.read.read` (read-only).
+    channels : mapping
+        Scene channel name -> :class:`ChannelSpec` (read-only, in table order).
+    key : str
+        Key path of the table (``streams.cdaq``).
+    """
+
+    name: str
+    file: Path
+    device: str | None
+    reader: Mapping[str, Any]
+    channels: Mapping[str, ChannelSpec]
+    key: str
+
+    def channel(self, name: str) -> ChannelSpec:
+        """Return a mapped channel by scene name.
+
+        Raises
+        ------
+        ChannelNotFoundError
+            Listing the mapped channels.
+        """
+        try:
+            return self.channels[name]
+        except KeyError:
+            raise ChannelNotFoundError(f"stream {self.name!r} maps no channel {name!r}",
+                                       where={"key": f"{self.key}.channels"},
+                                       available=list(self.channels)) from None
+
+
+def _check_value(value: Any, rule: _Param, key: str) -> Any:
+    """Validate one parameter value; return it normalised (floats for numbers)."""
+    def fail(expected: str) -> SceneError:
+        return SceneError(f"{key} must be {expected}, got {value!r}", where={"key": key})
+
+    if rule.kind == "bool":
+        if not isinstance(value, bool):
+            raise fail("true or false")
+        return value
+    if rule.kind == "text":
+        if not isinstance(value, str) or not value.strip():
+            raise fail("a non-empty string")
+        return value
+    if rule.kind == "choice":
+        if value not in rule.choices:
+            raise fail("one of " + ", ".join(repr(c) for c in rule.choices))
+        return value
+    if rule.kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+            raise fail("a positive integer")
+        return value
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise fail("a finite number")
+    if rule.kind == "positive" and value <= 0:
+        raise fail("positive")
+    if rule.kind == "nonnegative" and value < 0:
+        raise fail("zero or positive")
+    return float(value)
+
+
+def _parse_channel(name: str, table: Any, key: str) -> ChannelSpec:
+    """Parse one ``[streams.X.channels.NAME]`` table."""
+    if not isinstance(table, Mapping):
+        raise SceneError(f"{key} must be a table", where={"key": key})
+    sensor = table.get("sensor")
+    if sensor not in SENSORS:
+        raise SceneError(f"{key}.sensor must be one of {', '.join(SENSORS)}, got {sensor!r}",
+                         where={"key": f"{key}.sensor"})
+    rules = SENSORS[sensor]
+    unknown = sorted(set(table) - _COMMON - set(rules))
+    if unknown:
+        raise SceneError(f"{key}.{unknown[0]}: unknown key for a {sensor} channel",
+                         where={"key": f"{key}.{unknown[0]}"},
+                         hint="known keys: " + ", ".join(sorted(_COMMON | set(rules))))
+    params: dict[str, Any] = {}
+    for param, rule in rules.items():
+        if param in table:
+            params[param] = _check_value(table[param], rule, f"{key}.{param}")
+        elif rule.required:
+            raise SceneError(f"{key}.{param} is required for a {sensor} channel",
+                             where={"key": f"{key}.{param}"})
+        elif rule.default is not None:
+            params[param] = rule.default
+    if sensor == "torsion_bridge" and params["inner_diameter"] >= params["outer_diameter"]:
+        raise SceneError(f"{key}.inner_diameter must be smaller than outer_diameter "
+                         f"({params['inner_diameter']} >= {params['outer_diameter']} m)",
+                         where={"key": f"{key}.inner_diameter"})
+    source = table.get("source", name)
+    if not isinstance(source, str) or not source:
+        raise SceneError(f"{key}.source must be a channel name, got {source!r}",
+                         where={"key": f"{key}.source"})
+    module = table.get("module")
+    if module is not None:
+        try:
+            module = get_module(str(module)).name
+        except ChannelNotFoundError:
+            raise SceneError(f"{key}.module: unknown module {module!r}",
+                             where={"key": f"{key}.module"},
+                             hint="known: " + ", ".join(MODULES)) from None
+    description = table.get("description", "")
+    return ChannelSpec(name, source, sensor, MappingProxyType(params), module, str(description),
+                       key)
+
+
+def parse_stream(table: Mapping[str, Any], key: str,
+                 base_dir: str | os.PathLike[str] | None = None) -> StreamSpec:
+    """Parse one ``[streams.X]`` table into a :class:`StreamSpec`.
+
+    Parameters
+    ----------
+    table : mapping
+        The table as :func:`tomllib.load` returns it.
+    key : str
+        Its key path, ``streams.X``; the last part is the stream name.
+    base_dir : str or path-like, optional
+        Folder relative file paths are resolved against (the scene file's folder).
+
+    Returns
+    -------
+    StreamSpec
+        The validated stream.
+
+    Raises
+    ------
+    SceneError
+        Naming the key path of the first bad key or value.
+    """
+    if not isinstance(table, Mapping):
+        raise SceneError(f"{key} must be a table", where={"key": key})
+    unknown = sorted(set(table) - _STREAM_KEYS)
+    if unknown:
+        raise SceneError(f"{key}.{unknown[0]}: unknown key", where={"key": f"{key}.{unknown[0]}"},
+                         hint="known keys: " + ", ".join(sorted(_STREAM_KEYS)))
+    file = table.get("file")
+    if not isinstance(file, str) or not file:
+        raise SceneError(f"{key}.file is required: the stream's data file",
+                         where={"key": f"{key}.file"})
+    path = Path(file)
+    if base_dir is not None and not path.is_absolute():
+        path = Path(base_dir) / path
+    device = table.get("device")
+    if device is not None:
+        try:
+            device = get_device(str(device)).name
+        except ChannelNotFoundError:
+            raise SceneError(f"{key}.device: unknown device {device!r}",
+                             where={"key": f"{key}.device"},
+                             hint="known: " + ", ".join(DEVICES)) from None
+    reader = table.get("reader", {})
+    if not isinstance(reader, Mapping):
+        raise SceneError(f"{key}.reader must be a table of reader options",
+                         where={"key": f"{key}.reader"})
+    for reserved in ("channels", "device", "time_range"):
+        if reserved in reader:
+            raise SceneError(f"{key}.reader.{reserved} is set by the scene, not the reader table",
+                             where={"key": f"{key}.reader.{reserved}"})
+    channels_table = table.get("channels", {})
+    if not isinstance(channels_table, Mapping):
+        raise SceneError(f"{key}.channels must be a table", where={"key": f"{key}.channels"})
+    channels = {name: _parse_channel(name, sub, f"{key}.channels.{name}")
+                for name, sub in channels_table.items()}
+    sources = [c.source for c in channels.values()]
+    doubled = sorted({s for s in sources if sources.count(s) > 1})
+    if doubled:
+        raise SceneError(f"{key}.channels: file channel {doubled[0]!r} is mapped twice",
+                         where={"key": f"{key}.channels"})
+    return StreamSpec(key.rsplit(".", 1)[-1], path, device, MappingProxyType(dict(reader)),
+                      MappingProxyType(channels), key)
+
+
+def parse_streams(table: Mapping[str, Any], key: str = "streams",
+                  base_dir: str | os.PathLike[str] | None = None) -> dict[str, StreamSpec]:
+    """Parse the scene's ``[streams]`` table: stream name -> :class:`StreamSpec`.
+
+    Raises
+    ------
+    SceneError
+        If the table is empty or any stream is invalid (naming the key path).
+    """
+    if not isinstance(table, Mapping) or not table:
+        raise SceneError(f"{key} must be a table with at least one stream", where={"key": key})
+    return {name: parse_stream(sub, f"{key}.{name}", base_dir) for name, sub in table.items()}
+
+
+def load_stream(spec: StreamSpec, *, time_range: tuple[float | None, float | None] | None = None,
+                checksum: bool = True) -> xr.Dataset:
+    """Read a scene stream: the mapped channels under their scene names, with sensor metadata.
+
+    Parameters
+    ----------
+    spec : StreamSpec
+        From :func:`parse_stream`.
+    time_range : tuple of float or None, optional
+        ``(t_from, t_to)`` in s since the stream's first sample.
+    checksum : bool
+        Compute ``source_sha256``.
+
+    Returns
+    -------
+    xarray.Dataset
+        The stream; channel ``attrs`` gain ``sensor``, ``sensor_params`` (JSON), ``scene_key``
+        and, with a module override, ``module``/``input_delay_s``; ``attrs["stream"]`` is the
+        scene name.
+
+    Raises
+    ------
+    SceneError
+        A reader option the reader does not know, or a mapped channel missing from the file
+        (listing the file's channels).
+    DataFileError
+        The file cannot be read.
+    """
+    from rigval.acquisition.read import read_stream
+
+    modules = {c.source: c.module for c in spec.channels.values() if c.module}
+    options = dict(spec.reader)
+    if modules:
+        options["modules"] = {**dict(options.get("modules", {})), **modules}
+    sources = [c.source for c in spec.channels.values()] or None
+    try:
+        ds = read_stream(spec.file, device=spec.device, channels=sources, time_range=time_range,
+                         checksum=checksum, **options)
+    except ChannelNotFoundError as error:
+        raise SceneError(f"{spec.key}: {error.message}", where={**error.where, "key": spec.key},
+                         hint="available: " + ", ".join(map(str, error.extra.get("available",
+                                                                                  [])))) from None
+    except SceneError:
+        raise
+    except ConfigError as error:
+        raise SceneError(f"{spec.key}.reader: {error.message}",
+                         where={**error.where, "key": f"{spec.key}.reader"},
+                         hint=error.hint) from None
+    rename = {c.source: c.name for c in spec.channels.values() if c.source != c.name}
+    ds = ds.rename(rename)
+    for channel in spec.channels.values():
+        ds[channel.name].attrs.update({
+            "sensor": channel.sensor,
+            "sensor_params": json.dumps(dict(channel.params)),
+            "scene_key": channel.key,
+        })
+        if channel.description:
+            ds[channel.name].attrs["description"] = channel.description
+    ds.attrs["stream"] = spec.name
+    return ds

@@ -1,0 +1,89 @@
+"""``rigval info FILE...``: what a data file holds, read from its metadata where possible.
+
+For each file: format, streams (group, rate, samples, duration, start time), channels (samples,
+units, start offsets), gaps, time-axis fallbacks, and any damage found. A file that cannot be read
+is reported with its reason and the command goes on with the next one; the exit code is then 3.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register the ``info`` subcommand."""
+    parser = subparsers.add_parser(
+        "info", help="describe TDMS, LVM and CSV files (streams, channels, rates, gaps)",
+        description="Describe data files: groups, channels, rates, lengths, units, start times "
+                    "and gaps. TDMS files are described from their metadata only.")
+    parser.add_argument("files", nargs="+", metavar="FILE", help="data files")
+    parser.add_argument("--json", action="store_true", help="print one JSON document")
+    parser.add_argument("--all-groups", action="store_true",
+                        help="include SignalExpress decimated groups")
+    parser.set_defaults(func=run)
+
+
+def _print_text(info: dict[str, Any]) -> None:
+    """Print one file's description as indented text."""
+    head = f"{info['file']}: {info['format'].upper()}, {info['bytes']} bytes"
+    if info["format"] == "tdms":
+        head += (f", {info['segments']} segments, version {info['tdms_version']}"
+                 + (", big-endian" if info["big_endian"] else "")
+                 + (", DAQmx raw data" if info["daqmx_raw"] else ""))
+    print(head)
+    if info.get("problem"):
+        print(f"  problem: {info['problem']}")
+    for group in info.get("skipped_groups", []):
+        print(f"  skipped group (decimated): {group}")
+    for stream in info["streams"]:
+        print(f"  stream {stream['name']!r}: {stream['fs_hz']:.9g} Hz, {stream['samples']} "
+              f"samples, {stream['duration_s']:.6g} s, start {stream['start_time']}")
+        for gap in stream["gaps"]:
+            print(f"    gap after {gap['after_s']:.6f} s: {gap['duration_s']:.6g} s, "
+                  f"{gap['missing_samples']} samples missing")
+        for note in stream["time_fallbacks"]:
+            print(f"    time: {note}")
+        for channel in stream["channels"]:
+            line = (f"    {channel['name']!r}: {channel['samples']} samples, "
+                    f"units {channel['units'] or '-'!r}")
+            if channel.get("expected_samples", channel["samples"]) != channel["samples"]:
+                line += f" (file announces {channel['expected_samples']})"
+            if channel.get("time_offset_s"):
+                line += f", starts {channel['time_offset_s']:.6g} s after the stream"
+            if channel.get("empty_cells"):
+                line += f", {channel['empty_cells']} empty cells"
+            print(line)
+    for warning in info["warnings"]:
+        print(f"  warning: {warning}")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Describe each file; return 0, or 3 if any file could not be read."""
+    from rigval.acquisition.errors import RigvalError
+    from rigval.acquisition.summary import describe
+
+    results: list[dict[str, Any]] = []
+    status = 0
+    for path in args.files:
+        try:
+            info = describe(path, include_decimated=args.all_groups)
+        except RigvalError as error:
+            print(f"rigval: {path}: {error}", file=sys.stderr)
+            status = 3
+            continue
+        except Exception as error:  # never a traceback for a damaged file
+            print(f"rigval: {path}: cannot describe the file ({type(error).__name__}: {error})",
+                  file=sys.stderr)
+            status = 3
+            continue
+        results.append(info)
+        if not args.json:
+            _print_text(info)
+    if args.json:
+        print(json.dumps(results, indent=2, default=str))
+    return status
