@@ -331,26 +331,28 @@ def dtw_path(x: np.ndarray, y: np.ndarray, radius: int) -> tuple[np.ndarray, np.
     Notes
     -----
     The accumulated cost is swept one anti-diagonal at a time (each a vectorised step over at most
-    ``2 radius + 1`` cells), so time is O(n radius) and memory is one byte per band cell plus three
+    ``radius + 1`` cells), so time is O(n radius) and memory is one byte per band cell plus three
     vectors.
     """
     n = x.size
-    width = 2 * radius + 1
-    choices = np.zeros((n + 1, width), dtype=np.int8)
+    # choices[k, i - first(k)]: the step into cell (i, k - i) of anti-diagonal k (1-based cells)
+    choices = np.zeros((2 * n + 1, radius + 1), dtype=np.int8)
     before_last = np.full(n + 1, np.inf)
     before_last[0] = 0.0
     last = np.full(n + 1, np.inf)
+    current = np.empty(n + 1)
     for k in range(2, 2 * n + 1):
-        lo = max(1, k - n, (k - radius + 1) // 2)
-        hi = min(n, k - 1, (k + radius) // 2)
-        current = np.full(n + 1, np.inf)
-        rows = np.arange(lo, hi + 1)
-        cost = (x[lo - 1:hi] - y[k - hi - 1:k - lo][::-1]) ** 2
-        candidates = np.stack((last[lo - 1:hi], last[lo:hi + 1], before_last[lo - 1:hi]))
-        choice = np.argmin(candidates, axis=0)
-        current[lo:hi + 1] = cost + np.take_along_axis(candidates, choice[None, :], 0)[0]
-        choices[rows, k - 2 * rows + radius] = choice
-        before_last, last = last, current
+        first = (k - radius + 1) // 2
+        lo, hi = max(1, k - n, first), min(n, k - 1, (k + radius) // 2)
+        vertical, horizontal = last[lo - 1:hi], last[lo:hi + 1]
+        diagonal = before_last[lo - 1:hi]
+        shortcut = np.minimum(horizontal, diagonal)
+        best = np.minimum(vertical, shortcut)
+        choices[k, lo - first:hi - first + 1] = np.where(
+            vertical <= shortcut, 0, np.where(horizontal <= diagonal, 1, 2))
+        current.fill(np.inf)
+        current[lo:hi + 1] = (x[lo - 1:hi] - y[k - hi - 1:k - lo][::-1]) ** 2 + best
+        before_last, last, current = last, current, before_last
     return _backtrack(choices, n, radius)
 
 
@@ -359,13 +361,11 @@ def _backtrack(choices: np.ndarray, n: int, radius: int) -> tuple[np.ndarray, np
     i = j = n
     path_i, path_j = [i], [j]
     while i > 1 or j > 1:
-        step = choices[i, j - i + radius]
-        if step == 0:
+        k = i + j
+        step = choices[k, i - (k - radius + 1) // 2]
+        if step != 1:
             i -= 1
-        elif step == 1:
-            j -= 1
-        else:
-            i -= 1
+        if step != 0:
             j -= 1
         path_i.append(i)
         path_j.append(j)
