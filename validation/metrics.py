@@ -2,17 +2,17 @@
 
 The metric functions (each returns a frozen record with ``as_dict()``):
 
-=======================  =========================================================================
-:func:`iso18571`         ISO/TS 18571 rating of time signals (corridor, phase, magnitude, slope)
-:func:`iso18571_periodic` the same over one revolution (circular shift, no end effects)
-:func:`sprague_geers`    Sprague & Geers magnitude, phase, comprehensive
-:func:`russell`          Russell magnitude, phase, comprehensive
-:func:`nrmse`            RMSE normalised by the measured range, RMS or peak (named in the result)
-:func:`pearson_r`        Pearson correlation
-:func:`peak_error`       peak value error and the location of the peaks
-:func:`circular_lag`     lag of the model over one revolution by circular cross-correlation, deg
-:func:`vv20`             ASME V&V 20 comparison error and validation uncertainty, peak and RMS
-=======================  =========================================================================
+=========================  ========================================================================
+:func:`iso18571`           ISO/TS 18571 rating of time signals (corridor, phase, magnitude, slope)
+:func:`iso18571_periodic`  the same over one revolution (circular shift, no end effects)
+:func:`sprague_geers`      Sprague & Geers magnitude, phase, comprehensive
+:func:`russell`            Russell magnitude, phase, comprehensive
+:func:`nrmse`              RMSE normalised by the measured range, RMS or peak (named in the result)
+:func:`pearson_r`          Pearson correlation
+:func:`peak_error`         peak value error and the location of the peaks
+:func:`circular_lag`       lag of the model over one revolution by circular cross-correlation, deg
+:func:`vv20`               ASME V&V 20 comparison error and validation uncertainty, peak and RMS
+=========================  ========================================================================
 
 :func:`compare` runs a chosen set of them on one revolution and returns one flat dict of scores;
 :func:`baseline` runs the same set on each measured cycle against the cycle mean (the
