@@ -174,9 +174,14 @@ def _clock(date: str, time: str) -> str:
     return f"{date.strip().replace('/', '-')}T{hms}" + (f".{fraction[:9]}" if fraction else "")
 
 
-def _to_utc(text: str, timezone: str | None) -> np.datetime64:
+def _to_utc(text: str, timezone: str | None, file: Path) -> np.datetime64:
     """Return a local LVM time stamp as naive UTC datetime64[ns]."""
-    stamp = pd.Timestamp(text)
+    try:
+        stamp = pd.Timestamp(text)
+    except ValueError:
+        raise DataFileError(f"cannot read the header Date/Time {text!r}",
+                            where={"file": str(file)},
+                            hint="Date must be YYYY/MM/DD and Time HH:MM:SS.fff") from None
     if timezone:
         try:
             stamp = stamp.tz_localize(timezone).tz_convert("UTC").tz_localize(None)
@@ -234,7 +239,7 @@ def _columns(lvm: _LvmFile, decimal: str, timezone: str | None, file: Path) -> l
                 x = _numbers(grid[:count, x_col], decimal, file, names[x_col] or "X_Value")
             date = _header_cell(seg.header, "Date", j) or lvm.tags.get("Date")
             clock = _header_cell(seg.header, "Time", j) or lvm.tags.get("Time")
-            start = _to_utc(_clock(date, clock), timezone) if date and clock else None
+            start = _to_utc(_clock(date, clock), timezone, file) if date and clock else None
             x0_text = _header_cell(seg.header, "X0", j)
             dt_text = _header_cell(seg.header, "Delta_X", j)
             out.append(_Column(
