@@ -6,6 +6,7 @@ model's drives are excited and what is compared with what (format ``rigval-scene
 :class:`~rigval.acquisition.errors.SceneError` whose ``where["key"]`` is the key path, e.g.
 ``comparisons[2].model.item``. Paths in a scene are relative to the scene file.
 
+The ``[streams.X]`` tables are parsed by :mod:`rigval.acquisition.channel_map` (the channel maps).
 Checks made here, before any data is read: files exist; every ``stream.channel`` reference names a
 declared channel of the right sensor kind; each sensor has its required calibration keys and no
 unknown ones; each comparison's model output exists in the mechanism (quantity, item, axis); the
@@ -16,6 +17,7 @@ is read (:func:`rigval.validation.pipeline.run_scene`), also as a :class:`SceneE
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import logging
 import math
@@ -29,6 +31,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from rigval.acquisition.channel_map import ChannelSpec, StreamSpec, parse_streams
 from rigval.acquisition.errors import ConfigError, SceneError, UnitError
 from rigval.validation.metrics import DEFAULT_METRICS, METRICS, compare
 from rigval.validation.thresholds import parse_threshold
@@ -37,11 +40,9 @@ from rigval.validation.units import dimension, multiply
 __all__ = [
     "MODEL_QUANTITIES",
     "SCHEMA",
-    "SENSORS",
     "AlignmentSpec",
     "AngleSpec",
     "ChannelRef",
-    "ChannelSpec",
     "ComparisonSpec",
     "DriverSpec",
     "MechanismNames",
@@ -50,7 +51,7 @@ __all__ = [
     "PredictionSpec",
     "PulseSpec",
     "Scene",
-    "StreamSpec",
+    "channel_units",
     "check_mechanism_names",
     "load_scene",
     "mechanism_names",
@@ -62,55 +63,22 @@ logger = logging.getLogger(__name__)
 SCHEMA = "rigval-scene/1"
 
 
-@dataclass(frozen=True)
-class SensorKind:
-    """What a sensor kind needs and yields.
-
-    Parameters
-    ----------
-    required : tuple of str
-        Calibration keys that must be given.
-    optional : mapping of str to object
-        Optional keys and their defaults.
-    units : callable
-        Unit of the converted channel, from its calibration parameters.
-    """
-
-    required: tuple[str, ...]
-    optional: Mapping[str, Any]
-    units: Callable[[Mapping[str, Any]], str]
-
-
-#: Sensor kinds a channel may declare (``sensor = ...``), their keys and their converted unit.
-SENSORS: Mapping[str, SensorKind] = MappingProxyType({
-    "charge_accelerometer": SensorKind(
-        ("charge_sensitivity", "amplifier_gain"),
-        {"highpass_hz": None, "correct_highpass": False},
-        lambda p: "m s-2"),
-    "strain_bridge": SensorKind(
-        ("bridge", "gauge_factor", "excitation"),
-        {"gauge_resistance": 120.0, "lead_resistance": 0.0, "poisson": 0.3,
-         "youngs_modulus": None, "null_offset": "none"},
-        lambda p: "Pa" if p.get("youngs_modulus") is not None else "1"),
-    "torsion_bridge": SensorKind(
-        ("bridge", "gauge_factor", "excitation", "outer_diameter", "shear_modulus"),
-        {"inner_diameter": 0.0, "null_offset": "none"},
-        lambda p: "N m"),
-    "encoder": SensorKind(("counts_per_rev",), {}, lambda p: "rad"),
-    "reference_pulse": SensorKind((), {}, lambda p: "V"),
-    "physical": SensorKind(("units",), {}, lambda p: str(p["units"])),
+#: Unit of a converted channel per sensor kind (``strain_bridge``: stress with E, else strain).
+_SENSOR_UNITS: Mapping[str, Callable[[Mapping[str, Any]], str]] = MappingProxyType({
+    "charge_accelerometer": lambda p: "m s-2",
+    "strain_bridge": lambda p: "Pa" if p.get("youngs_modulus") is not None else "1",
+    "torsion_bridge": lambda p: "N m",
+    "encoder": lambda p: "rad",
+    "reference_pulse": lambda p: "V",
+    "voltage": lambda p: "V",
+    "physical": lambda p: str(p["units"]),
 })
 
-_CHOICES: Mapping[str, tuple[str, ...]] = {
-    "strain_bridge.bridge": ("quarter_I", "quarter_II", "half_I", "half_II", "full_I", "full_II",
-                             "full_III"),
-    "strain_bridge.null_offset": ("none", "first_second"),
-    "torsion_bridge.bridge": ("full", "half"),
-    "torsion_bridge.null_offset": ("none", "first_second"),
-}
-_POSITIVE = ("charge_sensitivity", "amplifier_gain", "gauge_factor", "excitation",
-             "gauge_resistance", "outer_diameter", "shear_modulus", "youngs_modulus",
-             "counts_per_rev", "highpass_hz")
+
+def channel_units(channel: ChannelSpec) -> str:
+    """Return the unit of a channel after conversion (UDUNITS), from its sensor kind."""
+    return _SENSOR_UNITS[channel.sensor](channel.params)
+
 
 #: Model quantities a comparison may name (design section 3.3): item kind, axes, unit per axis.
 MODEL_QUANTITIES: Mapping[str, tuple[str, tuple[str, ...] | None, Mapping[str, str]]] = (
@@ -149,62 +117,6 @@ class ChannelRef:
 
 
 @dataclass(frozen=True)
-class ChannelSpec:
-    """One channel of a stream: where it is in the file and how it becomes physical.
-
-    Parameters
-    ----------
-    name : str
-        Channel name in the scene (the table key).
-    source : str
-        Channel name in the file (TDMS channel or CSV column).
-    sensor : str
-        Sensor kind, one of :data:`SENSORS`.
-    params : mapping
-        Calibration parameters with defaults filled in (SI units, see ``docs/scene.md``).
-    units : str
-        Unit of the channel after conversion.
-    key : str
-        Key path of the table, e.g. ``streams.cdaq.channels.acc1``.
-    """
-
-    name: str
-    source: str
-    sensor: str
-    params: Mapping[str, Any]
-    units: str
-    key: str
-
-
-@dataclass(frozen=True)
-class StreamSpec:
-    """One device's file and the channels used from it.
-
-    Parameters
-    ----------
-    name : str
-        Stream name (the table key).
-    file : pathlib.Path
-        Data file, absolute.
-    device : str
-        Device profile, e.g. ``"cDAQ-9172"`` or ``"WLS-9163"``.
-    reader : mapping
-        Reader options passed to :func:`rigval.acquisition.read`.
-    channels : mapping of str to ChannelSpec
-        The channels used, by scene name.
-    table : mapping
-        The stream's TOML table as written (for the acquisition channel-map parser).
-    """
-
-    name: str
-    file: Path
-    device: str
-    reader: Mapping[str, Any]
-    channels: Mapping[str, ChannelSpec]
-    table: Mapping[str, Any] = field(repr=False)
-
-
-@dataclass(frozen=True)
 class PulseSpec:
     """A non-reference stream's reference pulse channel.
 
@@ -214,10 +126,13 @@ class PulseSpec:
         The pulse channel.
     per_revolution : int
         Pulses per main-shaft revolution (2 for a lifting shaft turning twice as fast).
+    angle : float
+        phi_F in rad at which the sensor fires (its mounting position; 0 at the reference).
     """
 
     channel: ChannelRef
     per_revolution: int
+    angle: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -467,6 +382,10 @@ class Scene:
         """Return the channel a reference names."""
         return self.streams[ref.stream].channels[ref.channel]
 
+    def units(self, ref: ChannelRef) -> str:
+        """Return the unit of a channel after conversion."""
+        return channel_units(self.channel(ref))
+
     def model_outputs(self) -> tuple[ModelOutput, ...]:
         """Distinct model outputs the comparisons need, in order of first use."""
         return tuple(dict.fromkeys(c.model for c in self.comparisons))
@@ -557,58 +476,21 @@ def _ref(value: Any, key: str, streams: Mapping[str, StreamSpec],
     return ChannelRef(stream, channel)
 
 
-def _channel(name: str, table: Mapping[str, Any], key: str) -> ChannelSpec:
-    sensor = _get(table, "sensor", key, str, choices=tuple(SENSORS))
-    kind = SENSORS[sensor]
-    _check_keys(table, key, {"source", "sensor", "long_name", *kind.required, *kind.optional})
-    params: dict[str, Any] = {}
-    for name_ in kind.required:
-        params[name_] = _get(table, name_, key, str if name_ in ("bridge", "units") else
-                             int if name_ == "counts_per_rev" else float)
-    for name_, default in kind.optional.items():
-        expected: type | tuple[type, ...] = (
-            bool if isinstance(default, bool) else str if isinstance(default, str) else float)
-        params[name_] = _get(table, name_, key, expected, default)
-    for name_, value in params.items():
-        choices = _CHOICES.get(f"{sensor}.{name_}")
-        if choices and value not in choices:
-            raise _error(f"{key}.{name_}", f"expected one of {', '.join(choices)}, got {value!r}")
-        if name_ in _POSITIVE and value is not None and not value > 0:
-            raise _error(f"{key}.{name_}", f"must be positive, got {value!r}")
-    if sensor == "torsion_bridge" and not 0 <= params["inner_diameter"] < params["outer_diameter"]:
-        raise _error(f"{key}.inner_diameter", f"must lie in [0, outer_diameter = "
-                     f"{params['outer_diameter']}), got {params['inner_diameter']}")
-    if "long_name" in table:
-        params["long_name"] = _get(table, "long_name", key, str)
-    units = kind.units(params)
-    try:
-        dimension(units)
-    except UnitError as error:
-        raise _error(f"{key}.units", error.message, hint=error.hint) from None
-    return ChannelSpec(name=name, source=_get(table, "source", key, str, name), sensor=sensor,
-                       params=MappingProxyType(params), units=units, key=key)
-
-
 def _streams(doc: Mapping[str, Any], scene_dir: Path) -> dict[str, StreamSpec]:
-    tables = _table(_get(doc, "streams", "", dict), "streams")
-    if not tables:
-        raise _error("streams", "no streams declared", hint="add a [streams.NAME] table per file")
-    streams = {}
-    for name, raw in tables.items():
-        key = f"streams.{name}"
-        table = _table(raw, key)
-        _check_keys(table, key, {"file", "device", "reader", "channels"})
-        file = _file(scene_dir, _get(table, "file", key, str), f"{key}.file")
-        channels_table = _table(_get(table, "channels", key, dict), f"{key}.channels")
-        channels = {ch: _channel(ch, _table(t, f"{key}.channels.{ch}"), f"{key}.channels.{ch}")
-                    for ch, t in channels_table.items()}
-        if not channels:
-            raise _error(f"{key}.channels", "no channels declared")
-        streams[name] = StreamSpec(
-            name=name, file=file, device=_get(table, "device", key, str),
-            reader=MappingProxyType(dict(_get(table, "reader", key, dict, {}))),
-            channels=MappingProxyType(channels), table=MappingProxyType(dict(table)))
-    return streams
+    """Parse ``[streams]`` with the acquisition channel map; check files and units here."""
+    streams = parse_streams(_get(doc, "streams", "", dict), base_dir=scene_dir)
+    for spec in streams.values():
+        _file(scene_dir, str(spec.file), f"{spec.key}.file")
+        if not spec.channels:
+            raise _error(f"{spec.key}.channels", "no channels declared",
+                         hint=f"add [{spec.key}.channels.NAME] tables")
+        for channel in spec.channels.values():
+            try:
+                dimension(channel_units(channel))
+            except UnitError as error:
+                raise _error(f"{channel.key}.units", error.message, hint=error.hint) from None
+    return {name: dataclasses.replace(spec, file=spec.file.resolve())
+            for name, spec in streams.items()}
 
 
 def _alignment(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> AlignmentSpec:
@@ -632,13 +514,13 @@ def _alignment(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> Ali
             raise _error(pkey, f"expected a non-reference stream, got {stream!r}",
                          hint=f"streams: {', '.join(streams)}; reference: {reference}")
         entry = _table(raw, pkey)
-        _check_keys(entry, pkey, {"channel", "per_revolution"})
+        _check_keys(entry, pkey, {"channel", "per_revolution", "angle"})
         channel = _ref(f"{stream}.{_get(entry, 'channel', pkey, str)}", f"{pkey}.channel",
                        streams, ("reference_pulse",))
         per_rev = _get(entry, "per_revolution", pkey, int, 1)
         if per_rev < 1:
             raise _error(f"{pkey}.per_revolution", f"must be at least 1, got {per_rev}")
-        pulses[stream] = PulseSpec(channel, per_rev)
+        pulses[stream] = PulseSpec(channel, per_rev, _get(entry, "angle", pkey, float, 0.0))
     missing = [s for s in streams if s != reference and s not in pulses]
     if missing:
         raise _error(f"{key}.pulses.{missing[0]}", "missing: every stream other than the "
@@ -737,7 +619,8 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
         if name in {s.name for s in specs}:
             raise _error(f"{key}.name", f"duplicate comparison name {name!r}")
         measured = _ref(_get(table, "measured", key, str), f"{key}.measured", streams,
-                        ("charge_accelerometer", "strain_bridge", "torsion_bridge", "physical"))
+                        ("charge_accelerometer", "strain_bridge", "torsion_bridge", "physical",
+                         "voltage"))
         output = _model_output(_get(table, "model", key, dict), f"{key}.model")
         scale = _get(table, "scale", key, float, 1.0)
         if not math.isfinite(scale) or scale == 0:
@@ -753,7 +636,7 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
                              hint=f"metrics: {', '.join(m for m in METRICS if m != 'vv20')}")
         thresholds = _thresholds(_table(_get(table, "thresholds", key, dict, {}),
                                         f"{key}.thresholds"), metrics, f"{key}.thresholds")
-        measured_units = streams[measured.stream].channels[measured.channel].units
+        measured_units = channel_units(streams[measured.stream].channels[measured.channel])
         try:
             model_dim = multiply(output.units, scale_units)
         except UnitError as error:

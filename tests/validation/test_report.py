@@ -52,7 +52,7 @@ def result(tmp_path: Path, mechanisms_dir: Path) -> ValidationResult:
                   "nrmse": 0.05}
         checks = tuple(check_thresholds(scores, spec.thresholds))
         comparisons.append(ComparisonResult(
-            spec=spec, units=scene.channel(spec.measured).units, long_name=spec.name,
+            spec=spec, units=scene.units(spec.measured), long_name=spec.name,
             angle=angle, cycles=cycles, model=truth * 1.02, offset=0.0, scores=scores,
             baseline={"median": {"iso18571_periodic.rating": 0.97},
                       "worst": {"iso18571_periodic.rating": 0.93}},

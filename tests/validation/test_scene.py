@@ -47,10 +47,9 @@ def _key_of(scene_dir: Path, text: str) -> str:
 def test_documented_example_parses(scene_dir: Path) -> None:
     scene = load_scene(_write(scene_dir, _example()))
     assert list(scene.streams) == ["cdaq", "wls1", "wls2"]
-    acc1 = scene.streams["cdaq"].channels["acc1"]
-    assert acc1.units == "m s-2" and acc1.params["charge_sensitivity"] == 10.2
-    assert scene.streams["cdaq"].channels["str1"].units == "Pa"
-    assert scene.streams["wls1"].channels["tor1"].units == "N m"
+    assert scene.streams["cdaq"].channels["acc1"].params["charge_sensitivity"] == 10.2
+    units = {str(c.measured): scene.units(c.measured) for c in scene.comparisons}
+    assert units == {"cdaq.acc1": "m s-2", "wls1.tor1": "N m", "cdaq.str1": "Pa"}
     assert scene.alignment.pulses["wls2"].per_revolution == 2
     assert [c.name for c in scene.comparisons] == ["acc1", "tor1", "str1"]
     assert dict(scene.comparisons[0].thresholds) == {"iso18571_periodic.rating": ">= 0.8",
@@ -121,8 +120,8 @@ def test_bad_scene_names_the_key(scene_dir: Path, case: str) -> None:
 
 def test_channel_missing_from_file_is_reported_later_not_here(scene_dir: Path) -> None:
     text = _example().replace('source = "acc1"', 'source = "not_in_file"')
-    assert load_scene(_write(scene_dir, text)).streams["cdaq"].channels["acc1"].source == \
-        "not_in_file"
+    scene = load_scene(_write(scene_dir, text))
+    assert scene.streams["cdaq"].channels["acc1"].source == "not_in_file"
 
 
 def test_invalid_toml_names_the_file(tmp_path: Path) -> None:

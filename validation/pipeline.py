@@ -1,0 +1,649 @@
+"""The validation pipeline: scene -> read -> convert -> align -> angle domain -> model -> compare.
+
+:func:`run_scene` validates one scene and returns a
+:class:`~rigval.validation.results.ValidationResult` (nothing written); :func:`validate_scene`
+also writes the report folder. Stages, timed one by one:
+
+read
+    Each stream's file, only the channels the scene names (:func:`rigval.acquisition.read`).
+convert
+    Raw channels to physical units (:mod:`rigval.validation.convert`).
+align
+    phi_F(t) from the main encoder (smoothed, never differenced raw), zero at the reference
+    pulse; each other stream's clock fitted on its reference pulses against the events the
+    encoder angle predicts (:mod:`rigval.processing.align`), module input delays removed.
+angle
+    Whole revolutions; each compared channel low-passed (its ``lowpass_hz``, and an anti-alias
+    corner of 0.4 times the grid rate) within gap-free runs, then interpolated at the reference
+    times of the uniform phi_F grid; revolutions touching a gap are dropped for that channel.
+model
+    Only the outputs the comparisons and predictions name, on the phi_F grid: with measured
+    drives, each driver's angle, speed and acceleration from its encoder averaged over the
+    revolutions at each grid angle; with analytic drives, the mechanism file's laws. The model
+    runs on a grid four times finer, so that the error of the chosen grid is measured.
+compare
+    Metrics of the model against the measured mean, the baseline of every revolution against
+    the mean, and the scene's thresholds.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import time
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.interpolate
+import xarray as xr
+
+from rigval.acquisition.channel_map import load_stream
+from rigval.acquisition.errors import ConfigError, DataError
+from rigval.acquisition.schema import append_history, parse_start_time
+from rigval.model.mechanism import Mechanism, load_mechanism
+from rigval.model.solver import solve, solve_cycle
+from rigval.processing.align import (
+    ClockModel,
+    align_stream,
+    channel_time,
+    estimate_clock,
+    identity_clock,
+    input_delay,
+    reference_event_times,
+)
+from rigval.processing.encoder import unwrap_counts
+from rigval.processing.excitation import drive_excitation
+from rigval.processing.filters import contiguous_runs, zero_phase
+from rigval.processing.pulses import classify_pulses, detect_edges
+from rigval.validation.convert import convert_stream
+from rigval.validation.metrics import baseline, check_thresholds, compare
+from rigval.validation.results import (
+    ComparisonResult,
+    NumericsSummary,
+    StreamAlignment,
+    ValidationResult,
+)
+from rigval.validation.scene import ComparisonSpec, ModelOutput, Scene, load_scene
+
+__all__ = ["FINE_FACTOR", "run_scene", "validate_scene"]
+
+logger = logging.getLogger(__name__)
+
+#: The model also runs on a grid this many times finer, to measure the chosen grid's error.
+FINE_FACTOR = 4
+#: Anti-alias corner as a fraction of the angle grid's sample rate (points per rev x rev/s).
+ANTI_ALIAS = 0.4
+#: Pulse periods of raw signal shown per stream in the alignment figure.
+PULSE_PERIODS_SHOWN = 2.5
+
+_ITEM_DIM = {"position": ("body", "coord"), "velocity": ("body", "coord"),
+             "acceleration": ("body", "coord"), "point_position": ("point", "axis"),
+             "point_velocity": ("point", "axis"), "point_acceleration": ("point", "axis"),
+             "joint_force": ("joint", "axis"), "driver_torque": ("driver", None)}
+
+
+class _Stopwatch:
+    """Wall time per named stage, in the order the stages ran."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+
+    @contextmanager
+    def stage(self, name: str) -> Iterator[None]:
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
+            logger.info("stage %s: %.3f s", name, self.seconds[name])
+
+
+@dataclass(frozen=True)
+class _MainAngle:
+    """phi_F on the reference timeline where the encoder angle is defined."""
+
+    time: np.ndarray
+    phi: np.ndarray
+
+    def times_at(self, angles: np.ndarray) -> np.ndarray:
+        """Return the reference times (s) at which phi_F takes the given values (rad)."""
+        return np.interp(angles, self.phi, self.time)
+
+
+# ---------------------------------------------------------------------------------------------
+# read
+
+
+# ---------------------------------------------------------------------------------------------
+# align
+
+
+def _main_angle(scene: Scene, ref: xr.Dataset) -> tuple[_MainAngle, np.ndarray, int]:
+    """phi_F(t) from the main encoder, zero at the reference pulse; also the good pulse times.
+
+    Returns the main angle, the good reference-pulse times (s) and the count of spurious pulses.
+    """
+    encoder = scene.alignment.main_encoder
+    counts_per_rev = scene.channel(encoder).params["counts_per_rev"]
+    counts = unwrap_counts(ref[encoder.channel].to_numpy())
+    direction = 1.0 if counts[-1] >= counts[0] else -1.0
+    excitation = drive_excitation(ref, encoder.channel, counts_per_rev=counts_per_rev,
+                                  name="phi", direction=direction)
+    t = channel_time(ref, encoder.channel)
+    angle = excitation["phi"].to_numpy()
+    finite = np.isfinite(angle)
+    t, angle = t[finite], angle[finite]
+    if angle.size < 2 or np.any(np.diff(angle) <= 0):
+        raise DataError("the main shaft angle does not increase steadily (standstill or reversal)",
+                        where={"channel": str(encoder)},
+                        hint="validate runs at steady speed; cut the record to the running part")
+    pulse = scene.alignment.main_reference_pulse
+    edges = detect_edges(ref[pulse.channel].to_numpy(), channel_time(ref, pulse.channel),
+                         segment=ref["segment"].to_numpy(), valid=ref["valid"].to_numpy())
+    train = classify_pulses(edges)
+    good = train.good[(train.good >= t[0]) & (train.good <= t[-1])]
+    if good.size < scene.angle.min_cycles:
+        raise DataError(f"only {good.size} reference pulses on {pulse} within the encoder record",
+                        where={"channel": str(pulse)},
+                        hint="check the pulse channel (thresholds, wiring) and the record length")
+    at_pulse = np.interp(good, t, angle)
+    phase = float(np.angle(np.mean(np.exp(1j * at_pulse))))
+    phi = angle - phase
+    phi -= 2.0 * np.pi * np.floor(phi[0] / (2.0 * np.pi))
+    return _MainAngle(t, phi), good, int(train.spurious.sum())
+
+
+def _edge_segments(stream: xr.Dataset, edges: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """Segment index of each edge time (from the sample just before it)."""
+    index = np.clip(np.searchsorted(times, edges) - 1, 0, times.size - 1)
+    return stream["segment"].to_numpy()[index]
+
+
+def _residuals(mapped: np.ndarray, events: np.ndarray, period: float
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Residual of each mapped event against its nearest expected event; matched mask."""
+    index = np.clip(np.searchsorted(events, mapped), 1, events.size - 1)
+    nearest = np.where(np.abs(mapped - events[index - 1]) <= np.abs(events[index] - mapped),
+                       index - 1, index)
+    residual = mapped - events[nearest]
+    return residual, np.abs(residual) < 0.25 * period
+
+
+def _pulse_stretch(aligned: xr.Dataset, channel: str, edges: np.ndarray, period: float
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return a few periods of the raw pulse signal from its first edges (reference time)."""
+    t = channel_time(aligned, channel)
+    start = (edges[0] if edges.size else t[0]) - 0.25 * period
+    inside = (t >= start) & (t <= start + PULSE_PERIODS_SHOWN * period)
+    shown = edges[(edges >= start) & (edges <= start + PULSE_PERIODS_SHOWN * period)]
+    return t[inside], aligned[channel].to_numpy()[inside], shown
+
+
+def _stream_summary(name: str, aligned: xr.Dataset, clock: ClockModel, *, is_reference: bool,
+                    pulse_channel: str, residual_time: np.ndarray, residual: np.ndarray,
+                    matched: int, missing: int, spurious: int, edges: np.ndarray,
+                    period: float) -> StreamAlignment:
+    pulse_t, pulse_x, shown = _pulse_stretch(aligned, pulse_channel, edges, period)
+    delays = [float(aligned[v].attrs.get("input_delay_s", 0.0)) for v in aligned.data_vars
+              if v not in ("valid", "segment")]
+    times = aligned["time"].to_numpy()
+    return StreamAlignment(
+        stream=name, device=str(aligned.attrs.get("device", "")), is_reference=is_reference,
+        offset_s=float(clock.offsets_s[0]), drift_ppm=clock.drift * 1e6,
+        residual_rms_s=float(np.sqrt(np.mean(residual**2))) if residual.size else 0.0,
+        events_matched=matched, events_missing=missing, events_spurious=spurious,
+        input_delay_s=max(delays, default=0.0), segments=len(clock.segments),
+        gaps=tuple(json.loads(aligned.attrs.get("gaps", "[]"))),
+        span_s=(float(times[0]), float(times[-1])), residual_time=residual_time,
+        residual_s=residual, pulse_time=pulse_t, pulse_signal=pulse_x, edge_times=shown)
+
+
+def _align(scene: Scene, converted: Mapping[str, xr.Dataset]
+           ) -> tuple[dict[str, xr.Dataset], dict[str, StreamAlignment], _MainAngle]:
+    """Put every stream on the reference timeline; return phi_F and the diagnostics."""
+    reference = scene.alignment.reference
+    ref = align_stream(converted[reference], identity_clock(converted[reference]["segment"]),
+                       name=reference)
+    main, pulses, spurious = _main_angle(scene, ref)
+    period = float(np.median(np.diff(pulses)))
+    expected = main.times_at(2.0 * np.pi * np.arange(math.ceil(main.phi[0] / (2 * np.pi)),
+                                                     math.floor(main.phi[-1] / (2 * np.pi)) + 1))
+    residual, matched = _residuals(pulses, expected, period)
+    aligned = {reference: ref}
+    diagnostics = {reference: _stream_summary(
+        reference, ref, identity_clock(), is_reference=True,
+        pulse_channel=scene.alignment.main_reference_pulse.channel, residual_time=pulses,
+        residual=residual[matched], matched=int(matched.sum()),
+        missing=max(expected.size - int(matched.sum()), 0), spurious=spurious, edges=pulses,
+        period=period)}
+    ref_start = parse_start_time(ref.attrs["start_time"])
+    for name, pulse in scene.alignment.pulses.items():
+        stream = converted[name]
+        channel = pulse.channel.channel
+        fs = float(stream.attrs["fs_nominal"])
+        device_time = stream["time"].to_numpy()
+        dev_time = device_time - input_delay(stream[channel].attrs, fs)
+        edges = detect_edges(stream[channel].to_numpy(), dev_time,
+                             segment=stream["segment"].to_numpy(),
+                             valid=stream["valid"].to_numpy())
+        events = reference_event_times(main.time, main.phi, event_angle=pulse.angle,
+                                       events_per_rev=pulse.per_revolution)
+        coarse = float((parse_start_time(stream.attrs["start_time"]) - ref_start)
+                       / np.timedelta64(1, "s"))
+        segments = _edge_segments(stream, edges, dev_time)
+        clock = estimate_clock(events, edges, segments, coarse_offset_s=coarse,
+                               where={"stream": name, "channel": channel})
+        aligned[name] = align_stream(stream, clock, name=name)
+        mapped = clock.to_reference(edges, segments)
+        ok = np.isfinite(mapped)
+        residual, matched = _residuals(mapped[ok], events, period / pulse.per_revolution)
+        inside = (events >= aligned[name]["time"].values[0]) & (
+            events <= aligned[name]["time"].values[-1])
+        diagnostics[name] = _stream_summary(
+            name, aligned[name], clock, is_reference=False, pulse_channel=channel,
+            residual_time=mapped[ok][matched], residual=residual[matched],
+            matched=int(matched.sum()), missing=max(int(inside.sum()) - int(matched.sum()), 0),
+            spurious=int((~matched).sum()), edges=mapped[ok], period=period)
+    return aligned, diagnostics, main
+
+
+# ---------------------------------------------------------------------------------------------
+# angle domain
+
+
+def _sample(times: np.ndarray, values: np.ndarray, usable: np.ndarray, segment: np.ndarray,
+            targets: np.ndarray, method: str) -> np.ndarray:
+    """Interpolate within gap-free runs of usable samples; NaN for targets outside every run."""
+    out = np.full(targets.shape, np.nan)
+    flat_targets, flat_out = targets.ravel(), out.ravel()
+    for start, stop in contiguous_runs(values.size, segment, usable):
+        if stop - start < 4:
+            continue
+        t = times[start:stop]
+        inside = (flat_targets >= t[0]) & (flat_targets <= t[-1])
+        if not inside.any():
+            continue
+        if method == "cubic":
+            flat_out[inside] = scipy.interpolate.CubicSpline(t, values[start:stop])(
+                flat_targets[inside])
+        else:
+            flat_out[inside] = np.interp(flat_targets[inside], t, values[start:stop])
+    return flat_out.reshape(targets.shape)
+
+
+def _resample_channel(scene: Scene, comparison: ComparisonSpec, aligned: xr.Dataset,
+                      grid_times: np.ndarray, speed_rev_s: float) -> tuple[np.ndarray, float]:
+    """Resample a measured channel onto the phi_F grid, (n_cycle, n_angle); NaN at gaps.
+
+    Returns the resampled cycles and the low-pass corner applied in Hz.
+    """
+    name = comparison.measured.channel
+    fs = float(aligned.attrs["fs_nominal"])
+    values = aligned[name].to_numpy().astype(np.float64)
+    usable = aligned["valid"].to_numpy() & np.isfinite(values)
+    segment = aligned["segment"].to_numpy()
+    corner = ANTI_ALIAS * scene.angle.points_per_revolution * speed_rev_s
+    if comparison.lowpass_hz is not None:
+        corner = min(corner, comparison.lowpass_hz)
+    if corner < 0.45 * fs:
+        values = zero_phase(np.where(usable, values, 0.0), fs, corner, segment=segment,
+                            valid=usable)
+        usable &= np.isfinite(values)
+    else:
+        corner = math.nan
+    cycles = _sample(channel_time(aligned, name), values, usable, segment, grid_times,
+                     scene.angle.interpolation)
+    return cycles, corner
+
+
+# ---------------------------------------------------------------------------------------------
+# model
+
+
+def _model_request(scene: Scene, mechanism: Mechanism) -> dict[str, Any]:
+    """Return the outputs, points and joints the comparisons and predictions need, only."""
+    outputs = {c.model.quantity for c in scene.comparisons}
+    points = {c.model.item for c in scene.comparisons if c.model.quantity.startswith("point_")}
+    joints = {c.model.item for c in scene.comparisons if c.model.quantity == "joint_force"}
+    if scene.predictions.points:
+        outputs |= {"point_position", "point_velocity", "point_acceleration"}
+        points |= set(scene.predictions.points)
+    if scene.predictions.supports is None or scene.predictions.supports:
+        outputs.add("support_force")
+    request: dict[str, Any] = {"outputs": sorted(outputs)}
+    if points:
+        request["points"] = [p for p in mechanism.point_names if p in points]
+    if joints:
+        request["joints"] = [j for j in mechanism.joint_names if j in joints]
+    return request
+
+
+def _measured_drives(scene: Scene, ref: xr.Dataset, fine_times: np.ndarray
+                     ) -> tuple[np.ndarray, dict[str, tuple[np.ndarray, ...]]]:
+    """Drive angle, speed and acceleration per driver, averaged over revolutions per angle.
+
+    Parameters
+    ----------
+    fine_times : numpy.ndarray
+        Reference times of the fine phi_F grid, (n_cycle, n_fine).
+
+    Returns
+    -------
+    times : numpy.ndarray
+        Mean time since the start of the revolution per grid angle (s), for the solver.
+    drives : dict
+        Driver name -> (theta, omega, alpha) on the fine grid.
+    """
+    drives = {}
+    for name, driver in scene.model.drivers.items():
+        counts_per_rev = scene.channel(driver.encoder).params["counts_per_rev"]
+        excitation = drive_excitation(ref, driver.encoder.channel, counts_per_rev=counts_per_rev,
+                                      name=name, direction=float(driver.direction))
+        t = channel_time(ref, driver.encoder.channel)
+        sampled = []
+        for suffix in ("", "_dot", "_ddot"):
+            values = excitation[f"{name}{suffix}"].to_numpy()
+            finite = np.isfinite(values)
+            sampled.append(np.interp(fine_times, t[finite], values[finite]))
+        theta = sampled[0] - sampled[0][0, 0] + driver.angle_at_reference
+        theta -= 2.0 * np.pi * np.round((theta[:, :1] - theta[0, 0]) / (2.0 * np.pi))
+        drives[name] = (theta.mean(axis=0), sampled[1].mean(axis=0), sampled[2].mean(axis=0))
+    times = (fine_times - fine_times[:, :1]).mean(axis=0)
+    return times, drives
+
+
+def _run_model(scene: Scene, mechanism: Mechanism, ref: xr.Dataset, fine_times: np.ndarray,
+               fine_angle: np.ndarray) -> xr.Dataset:
+    """Solve the model on the fine phi_F grid; return it with dim ``angle`` (rad)."""
+    request = _model_request(scene, mechanism)
+    if scene.model.drives == "analytic":
+        return solve_cycle(mechanism, fine_angle.size, **request)
+    times, drives = _measured_drives(scene, ref, fine_times)
+    ds = solve(mechanism, times, drives=drives, **request)
+    for name, (theta, omega, alpha) in drives.items():
+        ds[f"drive_{name}"] = ("time", theta, {"units": "rad", "long_name": f"{name}, mean"})
+        ds[f"drive_{name}_dot"] = ("time", omega, {"units": "rad s-1"})
+        ds[f"drive_{name}_ddot"] = ("time", alpha, {"units": "rad s-2"})
+    ds = ds.assign_coords(angle=("time", fine_angle, {"units": "rad", "long_name": "phi_F"}))
+    return ds.swap_dims(time="angle")
+
+
+def _model_values(model: xr.Dataset, output: ModelOutput) -> np.ndarray:
+    """One model quantity as a vector over ``angle``."""
+    item_dim, axis_dim = _ITEM_DIM[output.quantity]
+    var = model[output.quantity].sel({item_dim: output.item})
+    if axis_dim is not None:
+        var = var.sel({axis_dim: output.axis})
+    return var.to_numpy().astype(np.float64)
+
+
+def _periodic_interp(angle: np.ndarray, values: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    closed = np.append(angle, angle[0] + 2.0 * np.pi)
+    spline = scipy.interpolate.CubicSpline(closed, np.append(values, values[0]),
+                                           bc_type="periodic")
+    return spline(targets)
+
+
+def _grid_error(scene: Scene, fine: xr.Dataset) -> dict[str, float]:
+    """Per comparison: max |model on the grid, interpolated - model on the fine grid| / range."""
+    angle = fine["angle"].to_numpy()
+    errors = {}
+    for comparison in scene.comparisons:
+        values = _model_values(fine, comparison.model)
+        coarse = _periodic_interp(angle[::FINE_FACTOR], values[::FINE_FACTOR], angle)
+        span = float(np.ptp(values)) or 1.0
+        errors[comparison.name] = float(np.max(np.abs(coarse - values)) / span)
+    return errors
+
+
+def _energy_residual(mechanism: Mechanism, points: int) -> dict[str, float]:
+    """Power balance of the model on the file's drive laws: drive power against dE/dt."""
+    try:
+        cycle = solve_cycle(mechanism, points, outputs=["kinetic_energy", "potential_energy",
+                                                         "drive_power"])
+    except ConfigError as error:  # drive laws that do not repeat per revolution
+        logger.info("power balance skipped: %s", error)
+        return {}
+    energy = (cycle["kinetic_energy"] + cycle["potential_energy"]).to_numpy()
+    power = cycle["drive_power"].sum("driver").to_numpy()
+    slope = float(cycle.attrs["cycle_period_s"]) / (2 * np.pi)
+    # dE/dt = (dE/dphi) / (dt/dphi); t(phi) - slope phi is periodic, so both derivatives are
+    # spectral (exact to rounding for these smooth periodic signals)
+    dt_dphi = _periodic_derivative(cycle["time"].to_numpy() - slope * cycle["angle"].to_numpy())
+    balance = power - _periodic_derivative(energy) / (dt_dphi + slope)
+    return {"power balance max |P - dE/dt| / max |P|":
+            float(np.max(np.abs(balance)) / max(float(np.max(np.abs(power))), 1e-300)),
+            "max condition number of C_e": float(cycle.attrs["max_condition_number"]),
+            "Newton tolerance": float(cycle.attrs["newton_tol"])}
+
+
+def _periodic_derivative(values: np.ndarray) -> np.ndarray:
+    """d/dphi of samples of a periodic function on a uniform grid over one revolution."""
+    spectrum = np.fft.rfft(values)
+    order = np.arange(spectrum.size, dtype=np.float64)
+    if values.size % 2 == 0:
+        order[-1] = 0.0  # the Nyquist term has no defined derivative
+    return np.fft.irfft(1j * order * spectrum, n=values.size)
+
+
+# ---------------------------------------------------------------------------------------------
+# compare
+
+
+def _compare(comparison: ComparisonSpec, units: str, long_name: str, angle: np.ndarray,
+             cycles: np.ndarray, model: np.ndarray) -> ComparisonResult:
+    whole = cycles[np.all(np.isfinite(cycles), axis=1)]
+    if whole.shape[0] < 2:
+        raise DataError(f"{comparison.name}: only {whole.shape[0]} whole revolutions without "
+                        "gaps", where={"key": comparison.key, "channel": str(comparison.measured)},
+                        hint="record longer or check the stream's gaps")
+    mean = whole.mean(axis=0)
+    model = model * comparison.scale
+    offset = float(mean.mean() - model.mean()) if comparison.remove_offset else 0.0
+    model = model + offset
+    options = {"metrics": comparison.metrics, "normaliser": comparison.nrmse_normaliser}
+    scores = compare(mean, model, angle, **options)
+    base = baseline(whole, mean, angle=angle, **options)
+    checks = check_thresholds(scores, comparison.thresholds,
+                              key_path=f"{comparison.key}.thresholds")
+    return ComparisonResult(spec=comparison, units=units, long_name=long_name, angle=angle,
+                            cycles=whole, model=model, offset=offset, scores=scores,
+                            baseline={"median": base.median, "worst": base.worst},
+                            checks=tuple(checks))
+
+
+# ---------------------------------------------------------------------------------------------
+# the run's data tree
+
+
+def _measured_float32(ds: xr.Dataset) -> xr.Dataset:
+    out = ds.copy()
+    for name, var in ds.data_vars.items():
+        if var.dtype.kind == "f":
+            out[name] = var.astype(np.float32)
+    return out
+
+
+def _tree(scene: Scene, raw: Mapping[str, xr.Dataset], aligned: Mapping[str, xr.Dataset],
+          angle: np.ndarray, grid_times: np.ndarray, measured: Mapping[str, np.ndarray],
+          results: tuple[ComparisonResult, ...], model: xr.Dataset) -> xr.DataTree:
+    cycle = np.arange(grid_times.shape[0])
+    angle_ds = xr.Dataset(coords={
+        "angle": ("angle", angle, {"units": "rad", "long_name": "main shaft angle phi_F"}),
+        "cycle": ("cycle", cycle, {"long_name": "whole revolution index", "units": "1"})})
+    angle_ds["time_at_angle"] = (("cycle", "angle"), grid_times, {
+        "units": "s", "long_name": "reference time at each grid angle"})
+    for result in results:
+        name = result.name
+        attrs = {"units": result.units, "long_name": result.long_name,
+                 "source": str(result.spec.measured)}
+        angle_ds[name] = (("cycle", "angle"), measured[name].astype(np.float32), attrs)
+        low, high = result.band
+        stats = {"mean": result.mean, "std": result.cycles.std(axis=0, ddof=1), "p5": low,
+                 "p95": high, "min": result.cycles.min(axis=0), "max": result.cycles.max(axis=0)}
+        for stat, values in stats.items():
+            angle_ds[f"{name}_{stat}"] = ("angle", values,
+                                          {**attrs, "cell_methods": f"cycle: {stat}"})
+        angle_ds[f"{name}_n"] = ((), result.cycles.shape[0], {"units": "1"})
+    model_ds = model.copy()
+    for result in results:
+        model_ds[f"compared_{result.name}"] = ("angle", result.model, {
+            "units": result.units, "long_name": f"{result.spec.model} x {result.spec.scale:g}"
+                                                f" + {result.offset:g}"})
+    scores = sorted({k for r in results for k, v in r.scores.items()
+                     if isinstance(v, int | float) and not isinstance(v, bool)})
+    table = {row: np.array([[float(source.get(s, np.nan)) for s in scores]
+                            for source in sources]) for row, sources in (
+        ("model", [r.scores for r in results]),
+        ("baseline_median", [r.baseline["median"] for r in results]),
+        ("baseline_worst", [r.baseline["worst"] for r in results]))}
+    validation = xr.Dataset(
+        {f"metrics_{row}": (("comparison", "score"), values, {"units": "1"})
+         for row, values in table.items()},
+        coords={"comparison": [r.name for r in results], "score": scores})
+    validation["passed"] = ("comparison", np.array([r.passed for r in results], dtype=np.int8),
+                            {"long_name": "all thresholds met", "units": "1"})
+    validation.attrs["thresholds"] = json.dumps({r.name: dict(r.spec.thresholds)
+                                                 for r in results})
+    nodes: dict[str, xr.Dataset] = {}
+    for name, ds in raw.items():
+        nodes[f"/raw/{name}"] = _measured_float32(ds)
+    for name, ds in aligned.items():
+        nodes[f"/aligned/{name}"] = _measured_float32(ds)
+    nodes["/angle"] = angle_ds
+    nodes["/model"] = model_ds
+    nodes["/validation"] = validation
+    tree = xr.DataTree.from_dict(nodes)
+    tree.attrs["title"] = scene.title
+    for stream in raw.values():
+        for line in str(stream.attrs.get("history", "")).splitlines():
+            append_history(tree, line.split(" rigval ", 1)[-1])
+    append_history(tree, f"validation.pipeline {scene.path.name}")
+    return tree
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def run_scene(scene: Scene | str | Path) -> ValidationResult:
+    """Validate one scene: read, convert, align, angle domain, model, compare.
+
+    Parameters
+    ----------
+    scene : Scene, str or pathlib.Path
+        A parsed scene or the path of a scene file.
+
+    Returns
+    -------
+    ValidationResult
+        Everything the report needs; nothing is written.
+
+    Raises
+    ------
+    SceneError
+        For a bad scene, including channels absent from their files and units that do not
+        fit the declared sensors.
+    RigvalError
+        For data that cannot be read, aligned or modelled (``DataFileError``, ``DataError``,
+        ``AlignmentError``, ``ModelError``).
+    """
+    watch = _Stopwatch()
+    with watch.stage("read"):
+        if not isinstance(scene, Scene):
+            scene = load_scene(scene)
+        raw = {name: load_stream(spec) for name, spec in scene.streams.items()}
+    with watch.stage("convert"):
+        converted = {name: convert_stream(raw[name], spec) for name, spec in scene.streams.items()}
+    with watch.stage("align"):
+        aligned, diagnostics, main = _align(scene, converted)
+    with watch.stage("angle"):
+        n = scene.angle.points_per_revolution
+        first = math.ceil(main.phi[0] / (2 * np.pi))
+        last = math.floor(main.phi[-1] / (2 * np.pi))
+        if last - first < scene.angle.min_cycles:
+            raise DataError(f"only {max(last - first, 0)} whole revolutions in the record, the "
+                            f"scene asks for {scene.angle.min_cycles}",
+                            where={"key": "angle.min_cycles"}, hint="record longer")
+        turns = np.arange(first, last)[:, None]
+        fine_angle = np.arange(n * FINE_FACTOR) * (2 * np.pi / (n * FINE_FACTOR))
+        fine_times = main.times_at(2 * np.pi * turns + fine_angle)
+        grid_times = fine_times[:, ::FINE_FACTOR]
+        angle = fine_angle[::FINE_FACTOR]
+        duration = float(grid_times[-1, -1] - grid_times[0, 0]) * n / (n - 1)
+        speed = (last - first) / duration
+        measured, corners = {}, {}
+        for comparison in scene.comparisons:
+            stream = aligned[comparison.measured.stream]
+            measured[comparison.name], corners[comparison.name] = _resample_channel(
+                scene, comparison, stream, grid_times, speed)
+    with watch.stage("model"):
+        mechanism = load_mechanism(scene.mechanism)
+        fine = _run_model(scene, mechanism, aligned[scene.alignment.reference], fine_times,
+                          fine_angle)
+        model = fine.isel(angle=slice(None, None, FINE_FACTOR))
+    with watch.stage("compare"):
+        results = []
+        for comparison in scene.comparisons:
+            channel = scene.channel(comparison.measured)
+            long_name = str(aligned[comparison.measured.stream][channel.name].attrs.get(
+                "long_name", channel.name))
+            result = _compare(comparison, scene.units(comparison.measured), long_name, angle,
+                              measured[comparison.name], _model_values(model, comparison.model))
+            results.append(result)
+        results_t = tuple(results)
+    with watch.stage("numerics"):
+        grid_error = _grid_error(scene, fine)
+        residuals = _energy_residual(mechanism, n)
+        residuals["max condition number (this run)"] = float(
+            model.attrs.get("max_condition_number", math.nan))
+    predictions = _predictions(scene, model)
+    tree = _tree(scene, raw, aligned, angle, grid_times, measured, results_t, model)
+    tree["/angle"].attrs["lowpass_hz"] = json.dumps(corners)
+    numerics = NumericsSummary(dict(watch.seconds), residuals, grid_error, fine_angle.size)
+    logger.info("validated %s in %.2f s: %s", scene.path.name, sum(watch.seconds.values()),
+                "passed" if all(r.passed for r in results_t) else "failed")
+    return ValidationResult(scene=scene, comparisons=results_t, alignment=diagnostics,
+                            predictions=predictions, numerics=numerics, speed_rev_s=speed,
+                            n_cycles=last - first, tree=tree)
+
+
+def _predictions(scene: Scene, model: xr.Dataset) -> xr.Dataset:
+    """Support forces and point kinematics on the phi_F grid (what was not measured)."""
+    variables = {}
+    if "support_force" in model:
+        force = model["support_force"]
+        if scene.predictions.supports is not None:
+            force = force.sel(support=list(scene.predictions.supports))
+        variables["support_force"] = force
+    if scene.predictions.points:
+        for quantity in ("point_position", "point_velocity", "point_acceleration"):
+            variables[quantity] = model[quantity].sel(point=list(scene.predictions.points))
+    return xr.Dataset(variables, coords={"angle": model["angle"]})
+
+
+def validate_scene(scene_path: str | Path, out_dir: str | Path) -> ValidationResult:
+    """Validate a scene and write its report folder.
+
+    Parameters
+    ----------
+    scene_path : str or pathlib.Path
+        The scene file.
+    out_dir : str or pathlib.Path
+        The report folder (created; files in it are overwritten).
+
+    Returns
+    -------
+    ValidationResult
+        With ``passed``, ``metric_rows()``, ``outputs`` (files written), ``inputs`` (files read)
+        and ``speed_rev_s``.
+    """
+    from rigval.validation.report import write_report
+
+    result = run_scene(scene_path)
+    write_report(result, out_dir)
+    return result
