@@ -1,1 +1,36 @@
-"""Sample data: a virtual test rig and the sample runs it writes."""
+"""Sample data: a virtual test rig and the sample runs it writes.
+
+The rig reproduces the set-up of ``shared/rig.md``: the model along a true drive motion, sensor
+models, devices with their own clocks, and the files the devices write (NI-DAQmx TDMS, a European
+LabVIEW CSV), with the truth and a scene that validates the run. See ``sample_data/README.md``.
+
+Public API
+----------
+simulate_rig(out_dir, settings=None, *, truth=None) -> RunFiles
+    Write one run folder.
+RigSettings(speed, duration, seed, imperfections, mechanism, truth_fs, preroll)
+    One run; ``Imperfections`` sets the imperfection levels (``Imperfections.none()``: ideal).
+load_truth(path) -> RunTruth
+    The truth of a run, true signals as one Dataset per stream.
+shipped_runs() -> list of Path
+    Scenes of the runs shipped with rigval.
+"""
+
+from pathlib import Path
+
+from rigval.sample_data.rig import Imperfections, RigSettings, run_stem
+from rigval.sample_data.simulate import RunFiles, simulate_rig
+from rigval.sample_data.truthfile import RunTruth, load_truth
+
+__all__ = ["Imperfections", "RigSettings", "RunFiles", "RunTruth", "load_truth", "run_stem",
+           "runs_dir", "shipped_runs", "simulate_rig"]
+
+
+def runs_dir() -> Path:
+    """Return the folder of the shipped sample runs (``sample_data/runs``)."""
+    return Path(__file__).resolve().parent / "runs"
+
+
+def shipped_runs() -> list[Path]:
+    """Return the scene files of the shipped sample runs, sorted by name."""
+    return sorted(runs_dir().glob("*_scene.toml"))

@@ -1,0 +1,193 @@
+"""Devices of the virtual rig: own clocks, Wi-Fi dropouts and restarts, module delay, ADC codes.
+
+A device samples at ``fs_nominal`` on its own oscillator, which runs ``drift_ppm`` fast: sample k of
+a gap-free segment is taken at true time ``true_start + k / (fs_nominal (1 + drift_ppm 1e-6))``.
+The file records ``wf_start_time`` = true start + a software time-stamp error, and the nominal
+``wf_increment = 1 / fs_nominal``. A wireless carrier loses its link now and then: the task is
+restarted after a gap of tens to hundreds of ms, with a new software start time.
+
+Modules delay their data: a sample taken at true time t holds the input at ``t - delay``. For the
+NI 9237 (delta-sigma) the delay is ``(40 + 5/512) / fs + 4.5 us`` (NI KB, research/data_formats.md
+section 5) and its anti-alias filter turns edges into band-limited steps (10-90 % rise of about one
+sample period); the NI 9215 (SAR) and the counters have no delay worth modelling.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from rigval.acquisition.errors import ConfigError
+
+__all__ = ["MODULES", "ClockSegment", "DeviceClock", "Module", "dropout_segments",
+           "ni9237_delay"]
+
+logger = logging.getLogger(__name__)
+
+_FloatArray = NDArray[np.float64]
+
+
+def ni9237_delay(fs: float) -> float:
+    """Return the NI 9237 input delay ``(40 + 5/512) / fs + 4.5e-6`` in s at rate fs (Hz)."""
+    return (40.0 + 5.0 / 512.0) / fs + 4.5e-6
+
+
+@dataclass(frozen=True)
+class Module:
+    """A C Series module as the virtual rig models it.
+
+    Parameters
+    ----------
+    name : str
+        Model, e.g. ``"NI 9237"``.
+    bits : int
+        ADC resolution (0 for a counter: counts are stored as they are).
+    delta_sigma : bool
+        True for a delta-sigma module (input delay and anti-alias filter).
+    """
+
+    name: str
+    bits: int
+    delta_sigma: bool
+
+    @property
+    def raw_dtype(self) -> np.dtype:
+        """Numpy dtype of the raw samples NI-DAQmx logs for this module."""
+        if self.bits == 0:
+            return np.dtype("<u4")
+        return np.dtype("<i2") if self.bits <= 16 else np.dtype("<i4")
+
+    def delay(self, fs: float) -> float:
+        """Input delay in s at rate fs (Hz)."""
+        return ni9237_delay(fs) if self.delta_sigma else 0.0
+
+    def filter_rise_time(self, fs: float) -> float:
+        """10-90 % rise time (s) of the anti-alias filter (pass band 0.45 fs); 0 for SAR modules."""
+        return 1.0 / fs if self.delta_sigma else 0.0
+
+    def quantise(self, values: ArrayLike, full_scale: float) -> tuple[NDArray, float]:
+        """Return raw ADC codes and the scale slope (unit per code) for a +-full_scale range.
+
+        Codes are ``round(value / slope)`` clipped to the ADC range, ``slope = full_scale /
+        (2**(bits-1) - 1)``; the physical value is ``code * slope``.
+        """
+        if self.bits == 0:
+            raise ConfigError(f"{self.name} is a counter; it stores counts, not ADC codes",
+                              where={"key": "module"})
+        top = 2 ** (self.bits - 1) - 1
+        slope = full_scale / top
+        codes = np.clip(np.rint(np.asarray(values, dtype=np.float64) / slope), -top - 1, top)
+        return codes.astype(self.raw_dtype), slope
+
+
+#: The modules of the reference rig (rig.md).
+MODULES: dict[str, Module] = {
+    "NI 9215": Module("NI 9215", 16, False),
+    "NI 9237": Module("NI 9237", 24, True),
+    "NI 9411": Module("NI 9411", 0, False),
+}
+
+
+@dataclass(frozen=True)
+class ClockSegment:
+    """One gap-free stretch of a device's record.
+
+    Parameters
+    ----------
+    true_start : float
+        True time of the first sample in s.
+    n_samples : int
+        Number of samples.
+    stamp_error : float
+        Error of the software start time stamp the file records (s): recorded minus true.
+    """
+
+    true_start: float
+    n_samples: int
+    stamp_error: float
+
+
+@dataclass(frozen=True)
+class DeviceClock:
+    """A device's sample clock and the gap-free segments it recorded.
+
+    Parameters
+    ----------
+    fs_nominal : float
+        Nominal rate in Hz (what the file's ``wf_increment`` says).
+    drift_ppm : float
+        Oscillator error in ppm (positive: runs fast, samples come early).
+    segments : tuple of ClockSegment
+        Gap-free stretches in time order.
+    """
+
+    fs_nominal: float
+    drift_ppm: float
+    segments: tuple[ClockSegment, ...]
+
+    @property
+    def fs_true(self) -> float:
+        """Actual sampling rate in Hz of true time."""
+        return self.fs_nominal * (1.0 + self.drift_ppm * 1e-6)
+
+    def sample_times(self, segment: int) -> _FloatArray:
+        """Return the true times (s) of the samples of one segment."""
+        seg = self.segments[segment]
+        return seg.true_start + np.arange(seg.n_samples) / self.fs_true
+
+    def all_sample_times(self) -> _FloatArray:
+        """Return the true times (s) of all samples, segments concatenated."""
+        return np.concatenate([self.sample_times(i) for i in range(len(self.segments))])
+
+    def device_times(self) -> _FloatArray:
+        """Return the time axis a reader builds (s from the first recorded start time).
+
+        Each segment starts at its recorded start time (with its stamp error) relative to the
+        first segment's, then advances by ``1 / fs_nominal``.
+        """
+        first = self.segments[0].true_start + self.segments[0].stamp_error
+        return np.concatenate([
+            (seg.true_start + seg.stamp_error - first) + np.arange(seg.n_samples) / self.fs_nominal
+            for seg in self.segments])
+
+
+def dropout_segments(true_start: float, duration: float, fs_true: float, n_dropouts: int,
+                     stamp_error_rms: float, rng: np.random.Generator,
+                     gap_range: tuple[float, float] = (0.05, 0.4)) -> tuple[ClockSegment, ...]:
+    """Split a record into gap-free segments at random Wi-Fi dropouts.
+
+    Parameters
+    ----------
+    true_start : float
+        True time of the first sample in s.
+    duration : float
+        Span of the record in s (true time, gaps included).
+    fs_true : float
+        Actual rate in Hz.
+    n_dropouts : int
+        Number of dropouts; each is followed by a task restart.
+    stamp_error_rms : float
+        Software time-stamp error (s rms) of each start, drawn per segment.
+    rng : numpy.random.Generator
+        Random source.
+    gap_range : tuple of float, default (0.05, 0.4)
+        Range of the gap length in s (link loss plus task restart).
+
+    Returns
+    -------
+    tuple of ClockSegment
+        The segments in time order.
+    """
+    cuts = np.sort(rng.uniform(0.15 * duration, 0.85 * duration, n_dropouts))
+    gaps = rng.uniform(*gap_range, n_dropouts)
+    starts = np.concatenate([[0.0], cuts + gaps])
+    stops = np.concatenate([cuts, [duration]])
+    if np.any(stops <= starts):
+        raise ConfigError(f"{n_dropouts} dropouts do not fit in a {duration} s record",
+                          where={"key": "dropouts"}, hint="use fewer dropouts or a longer run")
+    errors = rng.normal(0.0, stamp_error_rms, n_dropouts + 1)
+    return tuple(ClockSegment(float(true_start + a), int(np.floor((b - a) * fs_true)), float(e))
+                 for a, b, e in zip(starts, stops, errors, strict=True))

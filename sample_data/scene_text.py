@@ -1,0 +1,237 @@
+"""Text files of a virtual-rig run: the scene that validates it and the operator's note.
+
+The scene follows ``docs/scene.md`` (schema ``rigval-scene/1``) and carries the calibration values
+the generator used (certificate sensitivities, gauge-factor lots, shaft and rod data), the nominal
+half-and-half torque split (the true split is a few percent off, as on the real machine) and the
+model drive angles at the main reference pulse.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rigval.sample_data.rig import RigDraw, RigSettings
+
+if TYPE_CHECKING:
+    from rigval.sample_data.simulate import RunFiles
+    from rigval.sample_data.streams import Stream
+
+__all__ = ["note_text", "scene_text"]
+
+logger = logging.getLogger(__name__)
+
+#: Local time offset of the lab (CET, UTC+1) for the operator's note.
+_LOCAL_OFFSET = np.timedelta64(1, "h")
+
+
+def _accelerometer(name: str, draw: RigDraw) -> str:
+    sensor = draw.accelerometers[name]
+    return f"""
+[streams.cdaq.channels.{name}]
+source = "{name}"
+sensor = "charge_accelerometer"
+charge_sensitivity = {sensor.charge_sensitivity!r}   # pC/g, calibration certificate
+amplifier_gain = {sensor.amplifier_gain * 1e-3!r}   # V/pC
+highpass_hz = {sensor.highpass_hz!r}
+correct_highpass = true
+"""
+
+
+def _torsion(stream: str, name: str, draw: RigDraw) -> str:
+    sensor = draw.torsion[name]
+    return f"""
+[streams.{stream}.channels.{name}]
+source = "{name}"
+sensor = "torsion_bridge"
+bridge = "full"
+gauge_factor = {sensor.gauge_factor!r}
+excitation = {sensor.excitation!r}
+outer_diameter = {sensor.outer_diameter!r}
+inner_diameter = {sensor.inner_diameter!r}
+shear_modulus = {sensor.shear_modulus!r}
+"""
+
+
+def _index_comment(draw: RigDraw) -> str:
+    """A comment for a Z-reloaded main-shaft counter (the scene format has no key for it yet)."""
+    if not draw.encoders["enc1"].index_reset:
+        return ""
+    return "# the counter reloads 0 at every index (Z) pulse: counts run 0 ... 8191\n"
+
+
+def _comparison(name: str, measured: str, model: str, scale: float, thresholds: str,
+                extra: str = "") -> str:
+    return f"""
+[[comparisons]]
+name = "{name}"
+measured = "{measured}"
+model = {model}
+scale = {scale!r}
+{extra}thresholds = {thresholds}
+"""
+
+
+def scene_text(settings: RigSettings, draw: RigDraw, files: RunFiles,
+               references: dict[str, float]) -> str:
+    """Return the scene (TOML) that validates a run.
+
+    Parameters
+    ----------
+    settings : RigSettings
+        The run's settings.
+    draw : RigDraw
+        The run's draws (sensor parameters).
+    files : RunFiles
+        The run's paths (file names are written relative to the scene).
+    references : dict of str to float
+        ``theta_F``, ``theta_H``: model drive angles (rad, in [0, 2 pi)) when the main reference
+        pulse fires; ``opt3_phi_F``: main-shaft angle phi_F (rad) when the lifting-shaft pulse
+        fires.
+
+    Returns
+    -------
+    str
+        The scene text.
+    """
+    mechanism = f'"{settings.mechanism}"' if settings.mechanism else '"builtin:pendulum"'
+    bridge = draw.str1
+    area = bridge.area
+    text = f"""# Scene written by the rigval virtual rig (rigval simulate-rig
+# --speed {settings.speed} --duration {settings.duration} --seed {settings.seed});
+# calibration values as the rig used them.
+schema = "rigval-scene/1"
+title = "Folding pendulum, virtual rig, {settings.speed} rev/s, seed {settings.seed}"
+mechanism = {mechanism}
+note = "{files.path('note.txt').name}"
+
+[streams.cdaq]
+file = "{files.path('cdaq.tdms').name}"
+device = "cDAQ-9172"
+reader = {{ group = "cDAQ1 task" }}
+"""
+    text += "".join(_accelerometer(name, draw) for name in ("acc1", "acc2", "acc3"))
+    text += f"""
+[streams.cdaq.channels.str1]
+source = "str1"
+sensor = "strain_bridge"
+bridge = "half_I"                      # axial + Poisson gauge on the neutral axis of rod B
+gauge_factor = {bridge.gauge_factor!r}
+excitation = {bridge.excitation!r}
+gauge_resistance = {bridge.gauge_resistance!r}
+lead_resistance = 0.0
+poisson = {bridge.poisson!r}
+youngs_modulus = {bridge.youngs_modulus!r}
+null_offset = "none"                   # bridge nulled with the machine at rest before the run
+
+[streams.cdaq.channels.enc1]
+source = "enc1"
+sensor = "encoder"
+counts_per_rev = {draw.encoders['enc1'].counts_per_rev}
+{_index_comment(draw)}
+[streams.cdaq.channels.enc2]
+source = "enc2"
+sensor = "encoder"
+counts_per_rev = {draw.encoders['enc2'].counts_per_rev}
+
+[streams.cdaq.channels.opt1]
+source = "opt1"
+sensor = "reference_pulse"
+
+[streams.wls1]
+file = "{files.path('wls1.tdms').name}"
+device = "WLS-9163"
+reader = {{ group = "WLS1 task" }}
+"""
+    text += "".join(_torsion("wls1", name, draw) for name in ("tor1", "tor2"))
+    text += f"""
+[streams.wls1.channels.opt2]
+source = "opt2"
+sensor = "reference_pulse"
+
+[streams.wls2]
+file = "{files.path('wls2.csv').name}"
+device = "WLS-9163"
+reader = {{ decimal = ",", delimiter = ";" }}
+"""
+    text += "".join(_torsion("wls2", name, draw) for name in ("tor3", "tor4"))
+    text += f"""
+[streams.wls2.channels.opt3]
+source = "opt3"
+sensor = "reference_pulse"
+
+[alignment]
+reference = "cdaq"
+main_encoder = "cdaq.enc1"
+main_reference_pulse = "cdaq.opt1"
+
+[alignment.pulses]
+wls1 = {{ channel = "opt2", per_revolution = 1 }}
+wls2 = {{ channel = "opt3", per_revolution = 2, angle = {references['opt3_phi_F']!r} }}
+
+[angle]
+points_per_revolution = 360
+interpolation = "cubic"
+min_cycles = 3
+
+[model]
+drives = "measured"
+
+[model.drivers.theta_F]
+encoder = "cdaq.enc1"
+angle_at_reference = {references['theta_F']!r}
+direction = 1
+
+[model.drivers.theta_H]
+encoder = "cdaq.enc2"
+angle_at_reference = {references['theta_H']!r}
+direction = 1
+"""
+    acc_thresholds = '{ "iso18571_periodic.rating" = ">= 0.8", "nrmse" = "<= 0.15" }'
+    torque_thresholds = '{ "iso18571_periodic.rating" = ">= 0.8" }'
+    for name, point in (("acc1", "P1"), ("acc2", "P2")):
+        text += _comparison(name, f"cdaq.{name}",
+                            f'{{ quantity = "point_acceleration", item = "{point}", axis = "x" }}',
+                            1.0, acc_thresholds, "lowpass_hz = 20.0\nremove_offset = true\n")
+    text += _comparison("str1", "cdaq.str1",
+                        '{ quantity = "joint_force", item = "P5", axis = "x" }', -1.0 / area,
+                        '{ "iso18571_periodic.rating" = ">= 0.58" }',
+                        'scale_units = "m-2"                     # -1/A, A = '
+                        f'{area!r} m2 (paper eq. 24)\nlowpass_hz = 20.0\n')
+    for name, driver, stream in (("tor1", "theta_F", "wls1"), ("tor2", "theta_F", "wls1"),
+                                 ("tor3", "theta_H", "wls2"), ("tor4", "theta_H", "wls2")):
+        text += _comparison(name, f"{stream}.{name}",
+                            f'{{ quantity = "driver_torque", item = "{driver}" }}', 0.5,
+                            torque_thresholds)
+    text += """
+[predictions]
+points = ["P1", "P2"]
+supports = ["P3", "P4", "P10", "P11"]
+"""
+    return text
+
+
+def note_text(settings: RigSettings, draw: RigDraw, streams: dict[str, Stream],
+              files: RunFiles) -> str:
+    """Return the operator's short note of the run, as users keep one next to the files."""
+    local = draw.start_time + _LOCAL_OFFSET
+    day = np.datetime_as_string(local, unit="D")
+    clock = np.datetime_as_string(local, unit="m")[-5:]
+    year, month, dom = day.split("-")
+    restarts = {name: len(streams[name].clock.segments) - 1 for name in ("wls1", "wls2")}
+    link = "; ".join(f"{name.upper()}: {n} Wi-Fi dropout(s), task restarted"
+                     for name, n in restarts.items() if n) or "no Wi-Fi dropouts noticed"
+    rpm = settings.speed * 60.0
+    return (f"Folding pendulum test rig - measurement run\r\n"
+            f"Date: {dom}.{month}.{year}, start about {clock} (local time)\r\n"
+            f"Main drive setting: {settings.speed} rev/s ({rpm:.0f} rpm), lifting drive 2:1\r\n"
+            f"Recording: about {settings.duration:.0f} s on each device, started by hand\r\n"
+            f"  cDAQ-9172 (USB) -> {files.path('cdaq.tdms').name}\r\n"
+            f"  WLS-9163 #1 main shafts (Wi-Fi) -> {files.path('wls1.tdms').name}\r\n"
+            f"  WLS-9163 #2 lifting shafts (Wi-Fi, laptop 2) -> {files.path('wls2.csv').name}\r\n"
+            f"Bridges nulled with the machine at rest before start.\r\n"
+            f"Link: {link}.\r\n"
+            f"(virtual rig: rigval simulate-rig --speed {settings.speed} "
+            f"--duration {settings.duration} --seed {settings.seed})\r\n")

@@ -1,0 +1,275 @@
+"""Run the virtual rig and write a run folder: measurement files, truth, scene and note.
+
+Layout of a run folder for stem ``run_0p8`` (speed 0.8 rev/s):
+
+=========================  =====================================================================
+file                       content
+=========================  =====================================================================
+``run_0p8_cdaq.tdms``      cDAQ-9172, NI-DAQmx raw TDMS, group ``cDAQ1 task``: acc1-3, str1, opt1
+                           (int16/int32 codes with linear scaling), enc1, enc2 (uint32 counts)
+``run_0p8_wls1.tdms``      WLS-9163 #1, group ``WLS1 task``: tor1, tor2, opt2 (int32 codes, V/V);
+                           a restart after a dropout appends segments with a new wf_start_time
+``run_0p8_wls2.csv``       WLS-9163 #2 as a LabVIEW app on a European PC writes it: tor3, tor4,
+                           opt3; ``;`` separator, decimal comma, time column in s
+``run_0p8_scene.toml``     the scene that validates the run (docs/scene.md)
+``run_0p8_note.txt``       the operator's note
+``run_0p8_truth.json``     clock parameters, gaps, sensor parameters, pulse truth, drive law
+``run_0p8_truth.npz``      true physical value of every analog channel at its samples (float32)
+=========================  =====================================================================
+
+Read the truth back with :func:`rigval.sample_data.load_truth`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rigval.acquisition.errors import ConfigError
+from rigval.sample_data.drive import DriveMotion, Harmonic
+from rigval.sample_data.rig import RigDraw, RigSettings, draw_rig, run_stem
+from rigval.sample_data.scene_text import note_text, scene_text
+from rigval.sample_data.streams import Stream, sample_streams
+from rigval.sample_data.tdms_writer import Acquisition, RawChannel, write_daqmx_tdms
+from rigval.sample_data.truth import TruthGrid, model_truth
+from rigval.sample_data.writers import write_european_csv, write_json, write_npz
+
+__all__ = ["GROUPS", "RunFiles", "TruthProvider", "default_mechanism", "mechanism_drivers",
+           "simulate_rig"]
+
+logger = logging.getLogger(__name__)
+
+#: TDMS group (task name) of each TDMS stream.
+GROUPS = {"cdaq": "cDAQ1 task", "wls1": "WLS1 task"}
+#: Version of the truth file layout.
+TRUTH_SCHEMA = "rigval-rig-truth/1"
+
+#: A function giving the model truth grid for a drive motion at uniform true times.
+TruthProvider = Callable[[DriveMotion, NDArray[np.float64]], TruthGrid]
+
+
+@dataclass(frozen=True)
+class RunFiles:
+    """Paths of one written run.
+
+    Parameters
+    ----------
+    folder : Path
+        The run folder.
+    stem : str
+        File-name stem, e.g. ``run_0p8``.
+    """
+
+    folder: Path
+    stem: str
+
+    def path(self, suffix: str) -> Path:
+        """Return the path of one file, e.g. ``path("cdaq.tdms")``."""
+        return self.folder / f"{self.stem}_{suffix}"
+
+    @property
+    def files(self) -> tuple[Path, ...]:
+        """All files of the run, in a fixed order."""
+        return tuple(self.path(s) for s in ("cdaq.tdms", "wls1.tdms", "wls2.csv", "scene.toml",
+                                             "note.txt", "truth.json", "truth.npz"))
+
+
+def default_mechanism() -> Path:
+    """Return the path of rigval's built-in ``pendulum.toml``."""
+    return Path(str(resources.files("rigval.model") / "mechanisms" / "pendulum.toml"))
+
+
+def mechanism_drivers(path: str | Path) -> dict[str, tuple[float, tuple[Harmonic, ...]]]:
+    """Read the drivers theta_F and theta_H of a mechanism file as drive-motion parameters.
+
+    Parameters
+    ----------
+    path : str or Path
+        Mechanism file (schema ``rigval-mechanism/1``).
+
+    Returns
+    -------
+    dict
+        ``{name: (theta0, harmonics)}``; each harmonic's order is its angular frequency over the
+        main driver's speed.
+
+    Raises
+    ------
+    ConfigError
+        If the file lacks a driver theta_F or theta_H, or a harmonic is not a whole multiple of
+        the main speed.
+    """
+    data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    drivers = {d.get("name"): d for d in data.get("drivers", [])}
+    missing = {"theta_F", "theta_H"} - drivers.keys()
+    if missing:
+        raise ConfigError(f"mechanism has no driver {sorted(missing)}; the rig drives theta_F "
+                          f"and theta_H", where={"file": str(path), "key": "drivers"})
+    main_speed = float(drivers["theta_F"]["omega"])
+    out = {}
+    for name in ("theta_F", "theta_H"):
+        harmonics = []
+        for k, term in enumerate(drivers[name].get("harmonics", [])):
+            order = float(term["omega"]) / main_speed
+            if abs(order - round(order)) > 1e-9 or round(order) < 1:
+                raise ConfigError(f"harmonic omega {term['omega']} is not a whole multiple of "
+                                  f"the main speed {main_speed}",
+                                  where={"file": str(path),
+                                         "key": f"drivers.{name}.harmonics[{k}]"})
+            harmonics.append(Harmonic(round(order), float(term["amplitude"]),
+                                      float(term["phase"])))
+        out[name] = (float(drivers[name]["theta0"]), tuple(harmonics))
+    return out
+
+
+def _stamp(draw: RigDraw, seconds: float) -> np.datetime64:
+    return draw.start_time + np.timedelta64(round(seconds * 1e9), "ns")
+
+
+def _write_tdms(stream: Stream, draw: RigDraw, path: Path) -> None:
+    clock = stream.clock
+    acquisitions = [
+        Acquisition(GROUPS[stream.name], _stamp(draw, seg.true_start + seg.stamp_error),
+                    1.0 / clock.fs_nominal,
+                    tuple(RawChannel(c.name, c.raw[i], c.slope, 0.0, c.unit)
+                          for c in stream.channels))
+        for i, seg in enumerate(clock.segments)]
+    write_daqmx_tdms(path, acquisitions, file_name=path.stem)
+
+
+def _write_csv(stream: Stream, path: Path) -> None:
+    columns = []
+    for c in stream.channels:
+        values = np.concatenate(c.raw).astype(np.float64) * c.slope
+        columns.append((c.name, c.unit or "1", values, "%.6E"))
+    write_european_csv(path, stream.clock.device_times(), columns)
+
+
+def _jsonable(value: Any) -> Any:
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, tuple | list):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _truth_record(settings: RigSettings, draw: RigDraw, streams: dict[str, Stream],
+                  pulses: dict[str, dict[str, list[float]]], files: RunFiles,
+                  references: dict[str, float]) -> dict[str, Any]:
+    sensors: dict[str, Any] = {**draw.accelerometers, "str1": draw.str1, **draw.torsion,
+                               **draw.encoders, **draw.optical}
+    out_streams = {}
+    for name, stream in streams.items():
+        clock = stream.clock
+        file = files.path("wls2.csv" if name == "wls2" else f"{name}.tdms").name
+        first = clock.segments[0].true_start + clock.segments[0].stamp_error
+        segments = [{"true_start_s": s.true_start, "n_samples": s.n_samples,
+                     "stamp_error_s": s.stamp_error,
+                     "recorded_start_time": str(_stamp(draw, s.true_start + s.stamp_error)),
+                     "device_start_s": s.true_start + s.stamp_error - first}
+                    for s in clock.segments]
+        gaps = [{"after_true_s": a.true_start + a.n_samples / clock.fs_true,
+                 "duration_true_s": b.true_start - a.true_start - a.n_samples / clock.fs_true,
+                 "samples_missing": round((b.true_start - a.true_start) * clock.fs_true)
+                 - a.n_samples}
+                for a, b in zip(clock.segments[:-1], clock.segments[1:], strict=True)]
+        out_streams[name] = {
+            "file": file, "device": stream.device, "group": GROUPS.get(name),
+            "fs_nominal": clock.fs_nominal, "fs_true": clock.fs_true,
+            "drift_ppm": clock.drift_ppm, "segments": segments, "gaps": gaps,
+            "channels": {c.name: {"module": c.module, "file_unit": c.unit, "slope": c.slope,
+                                  "input_delay_s": c.delay, "truth_unit": c.truth_unit,
+                                  "sensor": _jsonable(sensors[c.name])}
+                         for c in stream.channels}}
+    return {
+        "schema": TRUTH_SCHEMA,
+        "settings": _jsonable(dataclasses.replace(settings, mechanism=None)),
+        "mechanism": str(settings.mechanism) if settings.mechanism else "builtin:pendulum",
+        "true_time_zero": str(draw.start_time),
+        "time_note": "true time t in s from true_time_zero; sample k of a segment is at "
+                     "true_start_s + k / fs_true; a module delays its data by input_delay_s",
+        "drive": _jsonable(draw.drive),
+        "angle_at_reference": references,
+        "frame_mode": draw.frame,
+        "streams": out_streams,
+        "pulses": pulses,
+        "arrays": files.path("truth.npz").name,
+    }
+
+
+def _references(drive: DriveMotion) -> dict[str, float]:
+    """Drive angles at the main reference pulse and phi_F at the lifting-shaft pulse (rad)."""
+    t_ref = drive.crossing_times("theta_F", np.array([drive.theta_f0]))
+    angles = drive.angles(t_ref)
+    t_lift = drive.crossing_times("theta_H", np.array([drive.theta_h0]))
+    phi_f = drive.angles(t_lift)["theta_F"][0][0] - drive.theta_f0
+    return {"theta_F": float(np.mod(angles["theta_F"][0][0], 2.0 * np.pi)),
+            "theta_H": float(np.mod(angles["theta_H"][0][0], 2.0 * np.pi)),
+            "opt3_phi_F": float(np.mod(phi_f + np.pi, 2.0 * np.pi) - np.pi)}
+
+
+def simulate_rig(out_dir: str | Path, settings: RigSettings | None = None, *,
+                 truth: TruthProvider | None = None) -> RunFiles:
+    """Run the virtual rig and write one run folder.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Folder to write into (created if needed; files of the same stem are overwritten).
+    settings : RigSettings, optional
+        Speed, duration, seed and imperfections; default ``RigSettings()``.
+    truth : callable, optional
+        ``truth(drive, t) -> TruthGrid``: the model truth along the drive motion at uniform true
+        times. Default: :func:`rigval.sample_data.truth.model_truth` on the settings' mechanism.
+
+    Returns
+    -------
+    RunFiles
+        The paths written.
+    """
+    settings = settings or RigSettings()
+    mechanism = Path(settings.mechanism) if settings.mechanism else default_mechanism()
+    draw = draw_rig(settings, mechanism_drivers(mechanism))
+    starts = [c.segments[0].true_start for c in draw.clocks.values()]
+    stops = [c.segments[-1].true_start + c.segments[-1].n_samples / c.fs_true
+             for c in draw.clocks.values()]
+    t0 = min(starts) - settings.preroll
+    n = int(np.ceil((max(stops) + 0.5 - t0) * settings.truth_fs)) + 1
+    t_grid = t0 + np.arange(n) / settings.truth_fs
+    if truth is None:
+        grid = model_truth(mechanism, draw.drive, t_grid)
+    else:
+        grid = truth(draw.drive, t_grid)
+    streams, pulses = sample_streams(draw, grid)
+
+    folder = Path(out_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    files = RunFiles(folder, run_stem(settings.speed))
+    _write_tdms(streams["cdaq"], draw, files.path("cdaq.tdms"))
+    _write_tdms(streams["wls1"], draw, files.path("wls1.tdms"))
+    _write_csv(streams["wls2"], files.path("wls2.csv"))
+    references = _references(draw.drive)
+    write_json(files.path("truth.json"),
+               _truth_record(settings, draw, streams, pulses, files, references))
+    write_npz(files.path("truth.npz"),
+              {f"{s.name}.{c.name}": c.truth.astype(np.float32)
+               for s in streams.values() for c in s.channels if c.truth is not None})
+    files.path("scene.toml").write_text(scene_text(settings, draw, files, references),
+                                        encoding="utf-8")
+    files.path("note.txt").write_text(note_text(settings, draw, streams, files),
+                                      encoding="utf-8")
+    logger.info("virtual rig run written to %s (%s_*)", folder, files.stem)
+    return files

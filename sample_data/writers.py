@@ -1,0 +1,93 @@
+"""File writers of the virtual rig other than TDMS: the European LabVIEW CSV and the truth files.
+
+Every writer is deterministic (no wall-clock time stamps, fixed zip entry dates, sorted JSON
+keys), so a run regenerated from the same seed is byte-identical.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import logging
+import zipfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["write_european_csv", "write_json", "write_npz"]
+
+logger = logging.getLogger(__name__)
+
+#: Fixed date of every zip entry (the earliest a zip file can hold).
+_ZIP_DATE = (1980, 1, 1, 0, 0, 0)
+
+
+def write_european_csv(path: str | Path, time: NDArray[np.float64],
+                       columns: Sequence[tuple[str, str, NDArray[np.float64], str]]) -> Path:
+    """Write a CSV as a LabVIEW application on a European PC writes it.
+
+    ``;`` separates fields, ``,`` is the decimal mark, lines end in CRLF, and one header row
+    names each column with its unit in brackets (``tor3 [V/V]``). The first column is the time in
+    s on the device's clock (``Time [s]``).
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file (overwritten).
+    time : numpy.ndarray
+        Time column in s.
+    columns : sequence of (name, unit, values, format)
+        Data columns: name, unit, values (same length as ``time``) and a printf format such as
+        ``"%.6E"``.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    path = Path(path)
+    header = ";".join(["Time [s]"] + [f"{name} [{unit}]" for name, unit, _, _ in columns])
+    table = np.column_stack([time] + [values for _, _, values, _ in columns])
+    buffer = io.StringIO()
+    np.savetxt(buffer, table, fmt=["%.6f"] + [fmt for _, _, _, fmt in columns], delimiter=";",
+               newline="\r\n")
+    path.write_bytes((header + "\r\n" + buffer.getvalue().replace(".", ",")).encode("ascii"))
+    return path
+
+
+def write_npz(path: str | Path, arrays: Mapping[str, NDArray]) -> Path:
+    """Write arrays to a compressed ``.npz`` (readable with :func:`numpy.load`) with fixed dates.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file (overwritten).
+    arrays : mapping of str to numpy.ndarray
+        Arrays by name, written in sorted name order.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    path = Path(path)
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+        for name in sorted(arrays):
+            buffer = io.BytesIO()
+            np.lib.format.write_array(buffer, np.ascontiguousarray(arrays[name]),
+                                      allow_pickle=False)
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=_ZIP_DATE)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o644 << 16
+            archive.writestr(info, buffer.getvalue(), compresslevel=6)
+    return path
+
+
+def write_json(path: str | Path, content: Mapping[str, Any]) -> Path:
+    """Write JSON with sorted keys and two-space indentation (deterministic bytes)."""
+    path = Path(path)
+    path.write_text(json.dumps(content, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    return path
