@@ -250,16 +250,15 @@ def _sweep_figure(result: xr.Dataset) -> Figure:
     axes = np.atleast_1d(fig.subplots(rows, columns, squeeze=False)).ravel()
     for ax, (title, values, unit) in zip(axes, panels, strict=False):
         if len(dims) == 1:
-            ax.plot(result[dims[0]].values, values.values, "o-", ms=3, lw=1.3)
+            ax.plot(_axis_values(result, dims[0]), values.values, "o-", ms=3, lw=1.3)
             ax.set_xlabel(_axis_label(result, dims[0]))
             ax.set_ylabel(f"[{unit}]")
             ax.grid(True, lw=0.4, alpha=0.6)
         else:
             data = values.transpose(dims[1], dims[0]).values
-            filled = ax.contourf(result[dims[0]].values, result[dims[1]].values, data, levels=14,
-                                 cmap="viridis")
-            ax.contour(result[dims[0]].values, result[dims[1]].values, data, levels=7,
-                       colors="white", linewidths=0.5)
+            grid = (_axis_values(result, dims[0]), _axis_values(result, dims[1]))
+            filled = ax.contourf(*grid, data, levels=14, cmap="viridis")
+            ax.contour(*grid, data, levels=7, colors="white", linewidths=0.5)
             fig.colorbar(filled, ax=ax, label=f"[{unit}]")
             ax.set_xlabel(_axis_label(result, dims[0]))
             ax.set_ylabel(_axis_label(result, dims[1]))
@@ -269,8 +268,15 @@ def _sweep_figure(result: xr.Dataset) -> Figure:
     return fig
 
 
+def _axis_values(result: xr.Dataset, dim: str) -> np.ndarray:
+    """Return a sweep coordinate for plotting: angles in degrees, the rest as stored."""
+    values = result[dim].values
+    return np.degrees(values) if result[dim].attrs.get("units") == "rad" else values
+
+
 def _axis_label(result: xr.Dataset, dim: str) -> str:
-    return f"{dim} [{result[dim].attrs.get('units', '')}]"
+    unit = result[dim].attrs.get("units", "")
+    return f"{dim} [{'deg' if unit == 'rad' else unit}]"
 
 
 def _write_netcdf(prediction: xr.Dataset, sweep: xr.Dataset | None, path: Path) -> None:

@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     """Predict, optionally sweep, write the report and print where it is; return the exit code."""
     import xarray as xr
 
-    from rigval.acquisition.errors import ConfigError, DataFileError
+    from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
     from rigval.validation.predict import (
         SUMMARIES,
         make_excitation,
@@ -87,16 +87,21 @@ def run(args: argparse.Namespace) -> int:
                                 hint="give a netCDF file with the drive angles") from None
     else:
         drives = list(args.drive)
-    excitation = make_excitation(mechanism, drives, main=args.main, base_dir=Path.cwd())
-    prediction = predict(mechanism, excitation, n_points=args.points, tip=args.tip,
-                         joints=args.joint)
-    swept = None
-    if args.sweep:
-        summary = tuple(SUMMARIES) if args.summary is None else tuple(
-            s.strip() for s in args.summary.split(",") if s.strip())
-        parameters = dict(parse_sweep_option(text) for text in args.sweep)
-        swept = sweep(mechanism, parameters, drives=excitation, summary=summary,
-                      n_points=args.sweep_points, tip=args.tip)
+    try:  # a name that does not exist in the mechanism is a usage error here (exit 2)
+        excitation = make_excitation(mechanism, drives, main=args.main, base_dir=Path.cwd())
+        prediction = predict(mechanism, excitation, n_points=args.points, tip=args.tip,
+                             joints=args.joint)
+        swept = None
+        if args.sweep:
+            summary = tuple(SUMMARIES) if args.summary is None else tuple(
+                s.strip() for s in args.summary.split(",") if s.strip())
+            parameters = dict(parse_sweep_option(text) for text in args.sweep)
+            swept = sweep(mechanism, parameters, drives=excitation, summary=summary,
+                          n_points=args.sweep_points, tip=args.tip)
+    except ChannelNotFoundError as error:
+        available = ", ".join(map(str, error.extra.get("available", [])))
+        raise ConfigError(f"{error.message} (available: {available or 'none'})",
+                          where=error.where, hint=error.hint) from error
     command = "rigval predict " + " ".join(shlex.quote(a) for a in sys.argv[2:]) \
         if len(sys.argv) > 2 else None
     files = write_predict_report(prediction, args.out, sweep=swept, command=command)
