@@ -80,8 +80,8 @@ def main() -> None:
 
 def predict_excitation(mechanism, frequency: float, phase: float):
     """Return the file's excitation at ``frequency`` (Hz) with the lifting drive shifted."""
-    return make_excitation(mechanism, [f"theta_F={{frequency = {frequency!r}}}",
-                                       f"theta_H={{phase = {phase!r}}}"])
+    return make_excitation(mechanism, [f"theta_F={{frequency = {float(frequency)!r}}}",
+                                       f"theta_H={{phase = {float(phase)!r}}}"])
 
 
 if __name__ == "__main__":
