@@ -8,7 +8,9 @@ model drive angles at the main reference pulse.
 
 from __future__ import annotations
 
+import datetime
 import logging
+import zoneinfo
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -19,12 +21,19 @@ if TYPE_CHECKING:
     from rigval.sample_data.simulate import RunFiles
     from rigval.sample_data.streams import Stream
 
-__all__ = ["note_text", "scene_text"]
+__all__ = ["LAB_TIMEZONE", "local_time", "note_text", "scene_text"]
 
 logger = logging.getLogger(__name__)
 
-#: Local time offset of the lab (CET, UTC+1) for the operator's note.
-_LOCAL_OFFSET = np.timedelta64(1, "h")
+#: Time zone of the lab: the operator's note and the WLS #2 laptop use local time.
+LAB_TIMEZONE = "Europe/Berlin"
+
+
+def local_time(utc: np.datetime64) -> datetime.datetime:
+    """Return a UTC time as an aware local date-time of the lab."""
+    stamp = datetime.datetime.fromtimestamp(
+        int(np.datetime64(utc, "us").astype(np.int64)) / 1e6, tz=datetime.UTC)
+    return stamp.astimezone(zoneinfo.ZoneInfo(LAB_TIMEZONE))
 
 
 def _accelerometer(name: str, draw: RigDraw) -> str:
@@ -56,7 +65,7 @@ shear_modulus = {sensor.shear_modulus!r}
 
 
 def _index_comment(draw: RigDraw) -> str:
-    """A comment for a Z-reloaded main-shaft counter (the scene format has no key for it yet)."""
+    """Return a comment for a Z-reloaded main counter (the scene format has no key for it yet)."""
     if not draw.encoders["enc1"].index_reset:
         return ""
     return "# the counter reloads 0 at every index (Z) pulse: counts run 0 ... 8191\n"
@@ -154,7 +163,7 @@ sensor = "reference_pulse"
 [streams.wls2]
 file = "{files.path('wls2.csv').name}"
 device = "WLS-9163"
-reader = {{ decimal = ",", delimiter = ";" }}
+reader = {{ decimal = ",", delimiter = ";", timezone = "{LAB_TIMEZONE}" }}
 """
     text += "".join(_torsion("wls2", name, draw) for name in ("tor3", "tor4"))
     text += f"""
@@ -216,16 +225,13 @@ supports = ["P3", "P4", "P10", "P11"]
 def note_text(settings: RigSettings, draw: RigDraw, streams: dict[str, Stream],
               files: RunFiles) -> str:
     """Return the operator's short note of the run, as users keep one next to the files."""
-    local = draw.start_time + _LOCAL_OFFSET
-    day = np.datetime_as_string(local, unit="D")
-    clock = np.datetime_as_string(local, unit="m")[-5:]
-    year, month, dom = day.split("-")
+    local = local_time(draw.start_time)
     restarts = {name: len(streams[name].clock.segments) - 1 for name in ("wls1", "wls2")}
     link = "; ".join(f"{name.upper()}: {n} Wi-Fi dropout(s), task restarted"
                      for name, n in restarts.items() if n) or "no Wi-Fi dropouts noticed"
     rpm = settings.speed * 60.0
     return (f"Folding pendulum test rig - measurement run\r\n"
-            f"Date: {dom}.{month}.{year}, start about {clock} (local time)\r\n"
+            f"Date: {local:%d.%m.%Y}, start about {local:%H:%M} (local time)\r\n"
             f"Main drive setting: {settings.speed} rev/s ({rpm:.0f} rpm), lifting drive 2:1\r\n"
             f"Recording: about {settings.duration:.0f} s on each device, started by hand\r\n"
             f"  cDAQ-9172 (USB) -> {files.path('cdaq.tdms').name}\r\n"

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 from rigval.acquisition.errors import ConfigError
 from rigval.sample_data.drive import DriveMotion, Harmonic
 from rigval.sample_data.rig import RigDraw, RigSettings, draw_rig, run_stem
-from rigval.sample_data.scene_text import note_text, scene_text
+from rigval.sample_data.scene_text import local_time, note_text, scene_text
 from rigval.sample_data.streams import Stream, sample_streams
 from rigval.sample_data.tdms_writer import Acquisition, RawChannel, write_daqmx_tdms
 from rigval.sample_data.truth import TruthGrid, model_truth
@@ -146,12 +146,16 @@ def _write_tdms(stream: Stream, draw: RigDraw, path: Path) -> None:
     write_daqmx_tdms(path, acquisitions, file_name=path.stem)
 
 
-def _write_csv(stream: Stream, path: Path) -> None:
+def _write_csv(stream: Stream, draw: RigDraw, path: Path) -> None:
+    first = stream.clock.segments[0]
+    start = local_time(_stamp(draw, first.true_start + first.stamp_error))
+    stamp = start.strftime("%d.%m.%Y %H:%M:%S,") + f"{start.microsecond // 1000:03d}"
+    header = [("Device", "WLS-9163 #2, NI 9237 (lifting shafts)"), ("Start time", stamp)]
     columns = []
     for c in stream.channels:
         values = np.concatenate(c.raw).astype(np.float64) * c.slope
         columns.append((c.name, c.unit or "1", values, "%.6E"))
-    write_european_csv(path, stream.clock.device_times(), columns)
+    write_european_csv(path, header, stream.clock.device_times(), columns)
 
 
 def _jsonable(value: Any) -> Any:
@@ -260,7 +264,7 @@ def simulate_rig(out_dir: str | Path, settings: RigSettings | None = None, *,
     files = RunFiles(folder, run_stem(settings.speed))
     _write_tdms(streams["cdaq"], draw, files.path("cdaq.tdms"))
     _write_tdms(streams["wls1"], draw, files.path("wls1.tdms"))
-    _write_csv(streams["wls2"], files.path("wls2.csv"))
+    _write_csv(streams["wls2"], draw, files.path("wls2.csv"))
     references = _references(draw.drive)
     write_json(files.path("truth.json"),
                _truth_record(settings, draw, streams, pulses, files, references))

@@ -25,18 +25,22 @@ logger = logging.getLogger(__name__)
 _ZIP_DATE = (1980, 1, 1, 0, 0, 0)
 
 
-def write_european_csv(path: str | Path, time: NDArray[np.float64],
+def write_european_csv(path: str | Path, header: Sequence[tuple[str, str]],
+                       time: NDArray[np.float64],
                        columns: Sequence[tuple[str, str, NDArray[np.float64], str]]) -> Path:
     """Write a CSV as a LabVIEW application on a European PC writes it.
 
-    ``;`` separates fields, ``,`` is the decimal mark, lines end in CRLF, and one header row
-    names each column with its unit in brackets (``tor3 [V/V]``). The first column is the time in
-    s on the device's clock (``Time [s]``).
+    ``;`` separates fields, ``,`` is the decimal mark, lines end in CRLF. A few ``key;value``
+    lines (device, start time) come first, then one row names each column with its unit in
+    brackets (``tor3 [V/V]``). The first column is the time in s on the device's clock
+    (``Time [s]``).
 
     Parameters
     ----------
     path : str or Path
         Output file (overwritten).
+    header : sequence of (str, str)
+        ``key;value`` lines written first, as given (no decimal conversion).
     time : numpy.ndarray
         Time column in s.
     columns : sequence of (name, unit, values, format)
@@ -49,12 +53,14 @@ def write_european_csv(path: str | Path, time: NDArray[np.float64],
         The file written.
     """
     path = Path(path)
-    header = ";".join(["Time [s]"] + [f"{name} [{unit}]" for name, unit, _, _ in columns])
+    names = ";".join(["Time [s]"] + [f"{name} [{unit}]" for name, unit, _, _ in columns])
+    preamble = "".join(f"{key};{value}\r\n" for key, value in header)
     table = np.column_stack([time] + [values for _, _, values, _ in columns])
     buffer = io.StringIO()
     np.savetxt(buffer, table, fmt=["%.6f"] + [fmt for _, _, _, fmt in columns], delimiter=";",
                newline="\r\n")
-    path.write_bytes((header + "\r\n" + buffer.getvalue().replace(".", ",")).encode("ascii"))
+    text = preamble + names + "\r\n" + buffer.getvalue().replace(".", ",")
+    path.write_bytes(text.encode("utf-8"))
     return path
 
 
