@@ -286,7 +286,7 @@ def _match_channels(layout: TdmsLayout, groups: list[str],
     candidates = [p for p in layout.channels if object_path_parts(p)[0] in groups]
     if channels is None:
         return [p for p in candidates if layout.channels[p].data_type in _NUMERIC_TYPES
-                and layout.channels[p].length > 0]
+                and layout.channels[p].expected_length > 0]
     chosen = []
     for wanted in channels:
         hits = [p for p in candidates
