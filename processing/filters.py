@@ -30,6 +30,7 @@ logger = logging.getLogger(__name__)
 
 _FloatArray = NDArray[np.float64]
 BandType = Literal["lowpass", "highpass", "bandpass", "bandstop"]
+PadType = Literal["odd", "even", "zero"]
 
 #: Default number of samples filtered at once in a long run (bounded memory).
 DEFAULT_CHUNK = 1 << 20
@@ -95,6 +96,17 @@ def contiguous_runs(n: int, segment: ArrayLike | None = None,
     return [(a, b) for a, b in itertools.pairwise(bounds) if b > a and ok[a]]
 
 
+def _extension(run: _FloatArray, n: int, padtype: str, side: str) -> _FloatArray:
+    """Return ``n`` padding samples for one end of a run."""
+    if padtype == "zero":
+        return np.zeros(n)
+    if side == "left":
+        mirror = run[n:0:-1]
+        return 2.0 * run[0] - mirror if padtype == "odd" else mirror.copy()
+    mirror = run[-2:-n - 2:-1]
+    return 2.0 * run[-1] - mirror if padtype == "odd" else mirror.copy()
+
+
 def _chunks(start: int, stop: int, chunk: int, margin: int) -> Iterator[tuple[int, int, int, int]]:
     """Yield (read_start, read_stop, keep_start, keep_stop) covering [start, stop)."""
     keep = start
@@ -107,7 +119,7 @@ def _chunks(start: int, stop: int, chunk: int, margin: int) -> Iterator[tuple[in
 def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], *,
                order: int = 4, btype: BandType = "lowpass", segment: ArrayLike | None = None,
                valid: ArrayLike | None = None, padlen: int | None = None,
-               chunk_samples: int = DEFAULT_CHUNK) -> _FloatArray:
+               padtype: PadType = "odd", chunk_samples: int = DEFAULT_CHUNK) -> _FloatArray:
     """Filter forward and backward with a Butterworth filter, run by gap-free run.
 
     Parameters
@@ -126,8 +138,12 @@ def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], 
         Stream ``segment`` and ``valid`` variables: the filter never crosses a segment boundary
         or an invalid sample.
     padlen : int, optional
-        Odd-extension padding in samples; default :func:`default_padlen` (limited to the run
-        length - 1).
+        Edge padding in samples at the ends of each run; default :func:`default_padlen`
+        (limited to the run length - 1).
+    padtype : {"odd", "even", "zero"}, default "odd"
+        Extension at run ends: point-symmetric about the end sample (keeps a ramp going), mirror,
+        or zeros (best for a zero-mean remainder, e.g. noise about a fitted trend: it does not
+        pivot on the noisy end sample).
     chunk_samples : int, default 2**20
         Samples kept per chunk of a long run; chunks overlap by ``4 * padlen``.
 
@@ -145,6 +161,9 @@ def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], 
     data = np.asarray(x, dtype=np.float64)
     sos = butter_sos(cutoff_hz, fs, order=order, btype=btype)
     pad = default_padlen(cutoff_hz, fs) if padlen is None else int(padlen)
+    if padtype not in ("odd", "even", "zero"):
+        raise ConfigError(f"padtype must be 'odd', 'even' or 'zero', got {padtype!r}",
+                          where={"key": "padtype"})
     minimum = 3 * (2 * sos.shape[0] + 1)
     out = np.full(data.shape, np.nan)
     margin = 4 * pad
@@ -153,10 +172,14 @@ def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], 
         if stop - start <= minimum:
             short += stop - start
             continue
+        n_pad = min(pad, stop - start - 1)
         for lo, hi, keep_lo, keep_hi in _chunks(start, stop, max(chunk_samples, 1), margin):
-            piece = data[lo:hi]
-            y = sosfiltfilt(sos, piece, padlen=min(pad, piece.size - 1))
-            out[keep_lo:keep_hi] = y[keep_lo - lo:keep_hi - lo]
+            left = _extension(data[start:stop], n_pad, padtype, "left") if lo == start else None
+            right = _extension(data[start:stop], n_pad, padtype, "right") if hi == stop else None
+            parts = [p for p in (left, data[lo:hi], right) if p is not None]
+            y = sosfiltfilt(sos, np.concatenate(parts), padtype=None)
+            first = keep_lo - lo + (0 if left is None else left.size)
+            out[keep_lo:keep_hi] = y[first:first + keep_hi - keep_lo]
     if short:
         warnings.warn(f"{short} samples in runs too short to filter (<= {minimum} samples) were "
                       "set to NaN", DataWarning, stacklevel=2)

@@ -4,12 +4,14 @@ Detection (research section 4.1): state levels from the histogram; a Schmitt tri
 the low threshold (30 % by default) and fires above the high one (70 %); the edge time is the last
 crossing of the 50 % mid level before the firing sample, interpolated linearly between the two
 samples around it (0.03 sample rms for a band-limited step as a delta-sigma channel delivers it),
-or, with ``refine="upsample"``, after 16x band-limited upsampling of the neighbourhood. Re-triggers
+or, with ``refine="sinc"``, where the band-limited (windowed-sinc) reconstruction of the samples
+crosses it (0.0008 sample rms at 60 dB SNR). Re-triggers
 within a hold-off are ignored (debouncing). Detection never spans a gap or an invalid sample.
 
 :func:`classify_pulses` checks the interval sequence against the local period: intervals near an
 integer multiple m >= 2 of the period mean m - 1 missing pulses (their times are estimated);
-pulses that break the grid are flagged spurious (the one whose removal leaves the better interval).
+pulses off the grid most of their neighbours share are flagged spurious; of two pulses that still
+conflict, the one whose removal leaves the better interval goes.
 """
 
 from __future__ import annotations
@@ -19,9 +21,9 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import ArrayLike, NDArray
-from scipy.ndimage import median_filter
-from scipy.signal import resample_poly
+from scipy.optimize import brentq
 
 from rigval.acquisition.errors import ConfigError, DataError
 from rigval.processing.filters import contiguous_runs
@@ -32,8 +34,9 @@ logger = logging.getLogger(__name__)
 
 _FloatArray = NDArray[np.float64]
 
-_UPSAMPLE = 16
-_HALF_WINDOW = 24
+#: Half-length in samples and Kaiser beta of the windowed-sinc edge reconstruction.
+_HALF_WINDOW = 32
+_KAISER_BETA = 8.0
 
 
 def state_levels(x: ArrayLike, bins: int = 100) -> tuple[float, float]:
@@ -49,8 +52,9 @@ def state_levels(x: ArrayLike, bins: int = 100) -> tuple[float, float]:
     Returns
     -------
     (float, float)
-        Low and high level in the unit of ``x``: the most populated bin of the lower and the upper
-        half of the range.
+        Low and high level in the unit of ``x``: the mean of the samples within two bins of the
+        most populated bin of the lower and of the upper half of the range (the bin centre alone
+        would bias the 50 % level by up to half a bin).
     """
     data = np.asarray(x, dtype=np.float64)
     data = data[np.isfinite(data)]
@@ -58,33 +62,43 @@ def state_levels(x: ArrayLike, bins: int = 100) -> tuple[float, float]:
         raise DataError("a pulse signal needs two distinct levels; the channel is constant or "
                         "empty", hint="check the channel name and the sensor wiring")
     counts, edges = np.histogram(data, bins=bins)
-    centres = 0.5 * (edges[:-1] + edges[1:])
     half = bins // 2
-    return (float(centres[np.argmax(counts[:half])]),
-            float(centres[half + np.argmax(counts[half:])]))
+    levels = []
+    for mode in (int(np.argmax(counts[:half])), half + int(np.argmax(counts[half:]))):
+        lo, hi = edges[max(mode - 2, 0)], edges[min(mode + 3, bins)]
+        levels.append(float(np.mean(data[(data >= lo) & (data <= hi)])))
+    return levels[0], levels[1]
 
 
-def _upsampled_crossing(x: _FloatArray, index: int, mid: float) -> float | None:
-    """Return the sub-sample index of the mid crossing after 16x band-limited upsampling."""
-    lo, hi = index - _HALF_WINDOW, index + _HALF_WINDOW + 2
+def _sinc_crossing(x: _FloatArray, index: int, mid: float) -> float | None:
+    """Return the sub-sample index where the band-limited reconstruction of x crosses ``mid``.
+
+    The reconstruction is a Kaiser-windowed sinc (beta 8, +-32 samples) through the samples; the
+    crossing between samples ``index`` and ``index + 1`` is found by Brent's method.
+    """
+    lo, hi = index - _HALF_WINDOW + 1, index + _HALF_WINDOW + 1
     if lo < 0 or hi > x.size:
         return None
-    fine = resample_poly(x[lo:hi], _UPSAMPLE, 1, window=("kaiser", 10.0), padtype="line")
-    centre = (index - lo) * _UPSAMPLE
-    span = fine[centre - _UPSAMPLE:centre + 2 * _UPSAMPLE + 1]
-    ups = np.flatnonzero((span[:-1] < mid) & (span[1:] >= mid))
-    if ups.size == 0:
+    n = np.arange(lo, hi)
+    samples = x[lo:hi]
+    norm = np.i0(_KAISER_BETA)
+
+    def level(position: float) -> float:
+        d = position - n
+        window = np.i0(_KAISER_BETA * np.sqrt(np.clip(1.0 - (d / _HALF_WINDOW) ** 2, 0.0, None)))
+        return float(np.sum(samples * np.sinc(d) * window) / norm) - mid
+
+    a, b = level(float(index)), level(float(index + 1))
+    if a > 0 or b < 0:
         return None
-    j = int(ups[-1])
-    frac = (mid - span[j]) / (span[j + 1] - span[j])
-    return lo + (centre - _UPSAMPLE + j + frac) / _UPSAMPLE
+    return float(brentq(level, index, index + 1, xtol=1e-9))
 
 
 def detect_edges(x: ArrayLike, time: ArrayLike, *, low: float | None = None,
                  high: float | None = None, polarity: Literal["rising", "falling"] = "rising",
                  holdoff_s: float = 0.0, segment: ArrayLike | None = None,
                  valid: ArrayLike | None = None,
-                 refine: Literal["linear", "upsample"] = "linear") -> _FloatArray:
+                 refine: Literal["linear", "sinc"] = "linear") -> _FloatArray:
     """Return sub-sample times of the edges of a pulse signal.
 
     Parameters
@@ -103,9 +117,12 @@ def detect_edges(x: ArrayLike, time: ArrayLike, *, low: float | None = None,
     segment, valid : array_like, optional
         Stream ``segment`` and ``valid`` variables; no edge is timed across a gap or an invalid
         sample.
-    refine : {"linear", "upsample"}
-        Linear interpolation between the two samples around the mid crossing, or the same after
-        16x band-limited upsampling of +-24 samples around it (for band-limited analog pulses).
+    refine : {"linear", "sinc"}
+        Linear interpolation between the two samples around the mid crossing (0.03 sample rms
+        on a band-limited step), or the crossing of the band-limited reconstruction through
+        +-32 samples (Kaiser-windowed sinc; for analog pulses from delta-sigma channels:
+        3e-6 sample without noise, 0.0008 sample at 60 dB SNR). Falls back to linear near the
+        ends of a run.
 
     Returns
     -------
@@ -116,8 +133,8 @@ def detect_edges(x: ArrayLike, time: ArrayLike, *, low: float | None = None,
     t = np.asarray(time, dtype=np.float64)
     if data.shape != t.shape:
         raise DataError(f"pulse signal has {data.size} samples but time has {t.size}")
-    if refine not in ("linear", "upsample"):
-        raise ConfigError(f"refine must be 'linear' or 'upsample', got {refine!r}",
+    if refine not in ("linear", "sinc"):
+        raise ConfigError(f"refine must be 'linear' or 'sinc', got {refine!r}",
                           where={"key": "refine"})
     if low is None or high is None:
         level_lo, level_hi = state_levels(data[np.asarray(valid, bool)] if valid is not None
@@ -149,8 +166,8 @@ def detect_edges(x: ArrayLike, time: ArrayLike, *, low: float | None = None,
         for k in fires:
             j = int(ups[np.searchsorted(ups, k) - 1])
             position = None
-            if refine == "upsample":
-                position = _upsampled_crossing(seg, j, mid)
+            if refine == "sinc":
+                position = _sinc_crossing(seg, j, mid)
             if position is None:
                 position = j + (mid - seg[j]) / (seg[j + 1] - seg[j])
             i = min(int(position), seg.size - 2)
@@ -222,7 +239,9 @@ def classify_pulses(times: ArrayLike, *, tolerance: float = 0.15, window: int = 
                         hint="check the pulse thresholds and that the shaft turned")
     intervals = np.diff(t)
     if period_s is None:
-        local = median_filter(intervals, size=min(window, intervals.size), mode="nearest")
+        half = window // 2
+        padded = np.concatenate((np.full(half, np.nan), intervals, np.full(half, np.nan)))
+        local = np.nanmedian(sliding_window_view(padded, 2 * half + 1), axis=1)
         period_at = np.interp(t, t[:-1] + intervals / 2, local)
     else:
         period_at = np.full(t.size, float(period_s))
@@ -234,7 +253,18 @@ def classify_pulses(times: ArrayLike, *, tolerance: float = 0.15, window: int = 
         m = round(cycles)
         return abs(cycles - m) if m >= 1 else 1.0
 
-    keep = list(range(t.size))
+    # Support: share of the neighbours (up to 4 on each side) that sit on this pulse's grid.
+    # Real pulses share one grid; a spurious pulse is off-grid to nearly all of them.
+    # Periods elapsed since the first pulse, integrating the local period (speed may wander).
+    phase = np.concatenate(([0.0], np.cumsum(intervals * 2.0 / (period_at[:-1] + period_at[1:]))))
+    reach = 4
+    support = np.zeros(t.size)
+    for i in range(t.size):
+        others = np.r_[max(i - reach, 0):i, i + 1:min(i + reach + 1, t.size)]
+        cycles = phase[others] - phase[i]
+        whole = np.round(cycles)
+        support[i] = np.mean((np.abs(cycles - whole) <= tolerance) & (whole != 0))
+    keep = [int(i) for i in np.flatnonzero(support >= 0.5)]
     n = 0
     while n < len(keep) - 1:
         if badness(keep[n], keep[n + 1]) <= tolerance:
