@@ -40,7 +40,7 @@ import numpy as np
 import scipy.signal
 
 from rigval.acquisition.errors import ConfigError, DataError
-from rigval.validation.metric_core import Scores, paired
+from rigval.validation.metric_core import Scores, paired, revolution_angle
 
 __all__ = [
     "DEFAULT_MAX_SAMPLES",
@@ -257,7 +257,8 @@ def iso18571(measured: Any, model: Any, *, dt: float | None = None, fs: float | 
                    shift * step, params)
 
 
-def iso18571_periodic(measured: Any, model: Any, *, params: IsoParameters | None = None,
+def iso18571_periodic(measured: Any, model: Any, angle: Any = None, *,
+                      params: IsoParameters | None = None,
                       max_samples: int = DEFAULT_MAX_SAMPLES) -> IsoScores:
     """Rate a model signal over one revolution against the measured one (periodic ISO variant).
 
@@ -273,6 +274,9 @@ def iso18571_periodic(measured: Any, model: Any, *, params: IsoParameters | None
         Reference signal over one revolution (any units).
     model : array_like or xarray.DataArray
         Model signal on the same angle grid, same units.
+    angle : array_like, optional
+        Shaft angle of the samples, rad; checked to be one uniform revolution when given (or when
+        ``measured`` is a DataArray with an ``angle`` coordinate).
     params : IsoParameters, optional
         Rating parameters; the standard's by default.
     max_samples : int
@@ -287,10 +291,12 @@ def iso18571_periodic(measured: Any, model: Any, *, params: IsoParameters | None
     Raises
     ------
     DataError
-        On bad samples, unequal lengths, fewer than 16 samples or an all-zero reference.
+        On bad samples, unequal lengths, a bad angle grid, fewer than 16 samples or an all-zero
+        reference.
     """
     params = params or IsoParameters()
     reference, comparison = paired(measured, model)
+    revolution_angle(angle, reference.size, measured)
     if reference.size > max_samples:
         logger.info("ISO 18571 periodic: resampling %d samples to %d", reference.size,
                     max_samples)
@@ -328,6 +334,11 @@ def dtw_path(x: np.ndarray, y: np.ndarray, radius: int) -> tuple[np.ndarray, np.
         Indices into ``x`` and ``y`` along the path, from the start; ``x[ix]`` and ``y[iy]`` are
         the warped signals.
 
+    Raises
+    ------
+    DataError
+        If the signals differ in length.
+
     Notes
     -----
     The accumulated cost is swept one anti-diagonal at a time (each a vectorised step over at most
@@ -335,6 +346,9 @@ def dtw_path(x: np.ndarray, y: np.ndarray, radius: int) -> tuple[np.ndarray, np.
     vectors.
     """
     n = x.size
+    if y.size != n:
+        raise DataError(f"DTW needs equal lengths, got {n} and {y.size} samples",
+                        hint="truncate or resample both signals to one grid")
     # choices[k, i - first(k)]: the step into cell (i, k - i) of anti-diagonal k (1-based cells)
     choices = np.zeros((2 * n + 1, radius + 1), dtype=np.int8)
     before_last = np.full(n + 1, np.inf)
@@ -378,7 +392,10 @@ def _sample_spacing(measured: Any, dt: float | None, fs: float | None) -> float:
         raise ConfigError("give the sample spacing once: dt or fs, not both",
                           where={"key": "dt"}, hint="drop one of them")
     if fs is not None:
-        dt = 1.0 / fs if fs > 0 else fs
+        if not (np.isfinite(fs) and fs > 0):
+            raise ConfigError(f"the sampling rate must be positive, got fs = {fs}",
+                              where={"key": "fs"}, hint="pass fs in Hz or dt in s")
+        dt = 1.0 / fs
     if dt is None:
         coords = getattr(measured, "coords", {})
         dims = getattr(measured, "dims", ())

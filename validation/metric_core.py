@@ -24,9 +24,10 @@ from rigval.acquisition.errors import DataError
 __all__ = [
     "MIN_SAMPLES",
     "Scores",
+    "as_cycles",
     "as_signal",
-    "check_revolution",
     "paired",
+    "revolution_angle",
 ]
 
 logger = logging.getLogger(__name__)
@@ -145,39 +146,44 @@ def paired(measured: Any, model: Any) -> tuple[np.ndarray, np.ndarray]:
     return m, c
 
 
-def check_revolution(angle: Any, n: int) -> float:
-    """Check that an angle grid covers exactly one revolution and return its step.
+def revolution_angle(angle: Any, n: int, signal: Any = None) -> np.ndarray:
+    """Return the shaft angle of one revolution's samples, checked.
 
     The grid must be uniform, increasing, of ``n`` samples, spanning one revolution without
     repeating the start: ``angle[k] = angle[0] + k * 2 pi / n``.
 
     Parameters
     ----------
-    angle : array_like or xarray.DataArray
-        Shaft angle of each sample, rad.
+    angle : array_like or xarray.DataArray or None
+        Shaft angle of each sample, rad. None takes the ``angle`` coordinate of ``signal`` when it
+        is a DataArray that has one, else the grid ``k * 2 pi / n``.
     n : int
         Number of samples of the signals the grid belongs to.
+    signal : xarray.DataArray, optional
+        The measured signal, whose ``angle`` coordinate stands in for a missing ``angle``.
 
     Returns
     -------
-    float
-        The angle step, rad.
+    numpy.ndarray
+        The angles, rad, shape ``(n,)``.
 
     Raises
     ------
     DataError
         If the grid has the wrong length, is not uniform, or does not span one revolution (the
-        message tells a repeated end sample apart from other spans).
+        hint tells a repeated end sample and degrees apart from other spans).
     """
+    if angle is None and isinstance(signal, xr.DataArray) and "angle" in signal.coords:
+        angle = signal["angle"]
+    if angle is None:
+        return np.arange(n) * (_TWO_PI / n)
     theta = as_signal(angle, "angle")
     if theta.size != n:
         raise DataError(f"angle grid has {theta.size} samples, the signals have {n}",
                         where={"signal": "angle"}, hint="pass the signals' own angle grid")
     steps = np.diff(theta)
-    step = _TWO_PI / n
-    if not np.allclose(steps, step, rtol=1e-6, atol=0.0):
+    if not np.allclose(steps, _TWO_PI / n, rtol=1e-6, atol=0.0):
         span = theta[-1] - theta[0] + steps.mean()
-        span_deg = np.degrees(span)
         if np.isclose(steps.mean() * (n - 1), _TWO_PI, rtol=1e-6):
             hint = "drop the last sample: it repeats the first one a revolution later"
         elif np.isclose(span, 360.0, rtol=1e-3):
@@ -185,6 +191,44 @@ def check_revolution(angle: Any, n: int) -> float:
         else:
             hint = "resample onto a uniform grid of one revolution, angle[k] = k * 2 pi / n (rad)"
         raise DataError(f"angle grid is not a uniform grid over one revolution (spans "
-                        f"{span_deg:.6g} deg in {n} samples)", where={"signal": "angle"},
+                        f"{np.degrees(span):.6g} deg in {n} samples)", where={"signal": "angle"},
                         hint=hint)
-    return step
+    return theta
+
+
+def as_cycles(cycles: Any, n: int | None = None) -> np.ndarray:
+    """Return measured cycles as a finite float64 array ``(n_cycles, n_samples)``.
+
+    Parameters
+    ----------
+    cycles : array_like or xarray.DataArray
+        The cycles of one channel, shape ``(n_cycles, n_samples)``; a DataArray with dims
+        ``cycle`` and ``angle`` may have them in either order.
+    n : int, optional
+        Required number of samples per cycle.
+
+    Returns
+    -------
+    numpy.ndarray
+        The cycles, at least two.
+
+    Raises
+    ------
+    DataError
+        For fewer than two cycles, the wrong number of samples, or NaN or infinite samples (the
+        error names the first bad cycle).
+    """
+    if isinstance(cycles, xr.DataArray) and set(cycles.dims) == {"cycle", "angle"}:
+        cycles = cycles.transpose("cycle", "angle")
+    array = np.asarray(getattr(cycles, "values", cycles), dtype=np.float64)
+    if array.ndim != 2 or array.shape[0] < 2 or (n is not None and array.shape[1] != n):
+        expected = "n_samples" if n is None else str(n)
+        raise DataError(f"cycles must have shape (n_cycles >= 2, {expected}), got {array.shape}",
+                        where={"signal": "cycles"},
+                        hint="pass the angle-domain cycles of one channel on the signal's grid")
+    bad = ~np.isfinite(array)
+    if bad.any():
+        raise DataError(f"cycles hold {int(bad.sum())} NaN or infinite samples",
+                        where={"signal": "cycles", "cycle": int(np.argmax(bad.any(axis=1)))},
+                        hint="drop incomplete cycles before comparing")
+    return array

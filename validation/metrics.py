@@ -24,16 +24,14 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-import xarray as xr
 
-from rigval.acquisition.errors import ConfigError, DataError
+from rigval.acquisition.errors import ConfigError
 from rigval.validation.iso18571 import IsoParameters, IsoScores, grade, iso18571, iso18571_periodic
-from rigval.validation.metric_core import Scores, as_signal, check_revolution, paired
+from rigval.validation.metric_core import Scores, as_cycles, as_signal, paired, revolution_angle
 from rigval.validation.thresholds import ThresholdCheck, check_thresholds, parse_threshold
 from rigval.validation.vv20 import VV20Feature, VV20Scores, vv20
 from rigval.validation.waveform_metrics import (
@@ -213,7 +211,7 @@ def compare(measured: Any, model: Any, angle: Any = None, *,
         raise ConfigError(f"unknown metric {unknown[0]!r}", where={"key": "metrics"},
                           hint=f"use names from: {', '.join(METRICS)}")
     m, c = paired(measured, model)
-    angle_deg = np.degrees(_revolution_angle(measured, angle, m.size))
+    angle_deg = np.degrees(revolution_angle(angle, m.size, measured))
     runners = {
         "iso18571_periodic": lambda: iso18571_periodic(m, c, params=iso_params),
         "iso18571": lambda: iso18571(m, c, dt=360.0 / m.size, params=iso_params),
@@ -274,9 +272,8 @@ def baseline(cycles: Any, mean: Any = None, *, angle: Any = None,
     if "vv20" in metrics:
         raise ConfigError("vv20 compares features with uncertainties, not single cycles",
                           where={"key": "metrics"}, hint="leave vv20 out of the baseline")
-    array = _cycle_array(cycles)
-    if angle is None and isinstance(cycles, xr.DataArray) and "angle" in cycles.coords:
-        angle = cycles["angle"]
+    array = as_cycles(cycles)
+    angle = revolution_angle(angle, array.shape[1], cycles)
     reference = array.mean(axis=0) if mean is None else as_signal(mean, "mean")
     rows = [compare(reference, cycle, angle, metrics=metrics, normaliser=normaliser,
                     iso_params=iso_params) for cycle in array]
@@ -295,31 +292,3 @@ def baseline(cycles: Any, mean: Any = None, *, angle: Any = None,
     logger.debug("baseline over %d cycles: %d scores", array.shape[0], len(numeric))
     return BaselineScores(n_cycles=array.shape[0], per_cycle=per_cycle, median=median,
                           worst=worst, worst_cycle=worst_cycle)
-
-
-def _revolution_angle(measured: Any, angle: Any, n: int) -> np.ndarray:
-    """Return the samples' shaft angle in rad, checked to be one uniform revolution."""
-    if angle is None and isinstance(measured, xr.DataArray) and "angle" in measured.coords:
-        angle = measured["angle"]
-    if angle is None:
-        return np.arange(n) * (2.0 * math.pi / n)
-    check_revolution(angle, n)
-    return as_signal(angle, "angle")
-
-
-def _cycle_array(cycles: Any) -> np.ndarray:
-    """Measured cycles as a finite float64 array ``(n_cycles, n)``."""
-    if isinstance(cycles, xr.DataArray) and set(cycles.dims) == {"cycle", "angle"}:
-        cycles = cycles.transpose("cycle", "angle")
-    array = np.asarray(getattr(cycles, "values", cycles), dtype=np.float64)
-    if array.ndim != 2 or array.shape[0] < 2:
-        raise DataError(f"cycles must have shape (n_cycles >= 2, n_samples), got {array.shape}",
-                        where={"signal": "cycles"},
-                        hint="pass the angle-domain cycles of one channel")
-    bad = ~np.isfinite(array)
-    if bad.any():
-        cycle = int(np.argmax(bad.any(axis=1)))
-        raise DataError(f"cycles hold {int(bad.sum())} NaN or infinite samples",
-                        where={"signal": "cycles", "cycle": cycle},
-                        hint="drop incomplete cycles before the baseline")
-    return array

@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from rigval.acquisition.errors import ConfigError, DataError
-from rigval.validation.metric_core import Scores, paired
+from rigval.acquisition.errors import ConfigError
+from rigval.validation.metric_core import Scores, as_cycles, paired
 
 __all__ = ["FEATURES", "VV20Feature", "VV20Scores", "vv20"]
 
@@ -175,14 +175,7 @@ def _random_uncertainty(cycles: Any, n: int) -> dict[str, float]:
     """Return the mean feature's uncertainty from cycle-to-cycle scatter (0 without cycles)."""
     if cycles is None:
         return dict.fromkeys(FEATURES, 0.0)
-    array = np.asarray(getattr(cycles, "values", cycles), dtype=np.float64)
-    if array.ndim != 2 or array.shape[1] != n or array.shape[0] < 2:
-        raise DataError(f"cycles must have shape (n_cycles >= 2, {n}), got {array.shape}",
-                        where={"signal": "cycles"},
-                        hint="pass the measured cycles on the signal's angle grid")
-    if not np.isfinite(array).all():
-        raise DataError("cycles hold NaN or infinite samples", where={"signal": "cycles"},
-                        hint="drop incomplete cycles before comparing")
+    array = as_cycles(cycles, n)
     return {feature: float(np.std(_feature(array, feature), ddof=1) / np.sqrt(array.shape[0]))
             for feature in FEATURES}
 

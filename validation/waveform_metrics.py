@@ -17,7 +17,7 @@ import scipy.optimize
 import xarray as xr
 
 from rigval.acquisition.errors import ConfigError, DataError
-from rigval.validation.metric_core import Scores, as_signal, check_revolution, paired
+from rigval.validation.metric_core import Scores, as_signal, paired, revolution_angle
 
 __all__ = [
     "LagScores",
@@ -373,7 +373,8 @@ def circular_lag(measured: Any, model: Any, angle: Any = None) -> LagScores:
         Model signal on the same angle grid.
     angle : array_like, optional
         Shaft angle of the samples, rad, uniform over one revolution without the repeated end
-        sample. Defaults to that grid; when given it is checked.
+        sample; checked when given (or when ``measured`` is a DataArray with an ``angle``
+        coordinate). Only its step matters.
 
     Returns
     -------
@@ -387,8 +388,7 @@ def circular_lag(measured: Any, model: Any, angle: Any = None) -> LagScores:
     """
     m, c = paired(measured, model)
     n = m.size
-    if angle is not None:
-        check_revolution(angle, n)
+    revolution_angle(angle, n, measured)
     dm, dc = m - m.mean(), c - c.mean()
     norm = np.sqrt((dm @ dm) * (dc @ dc))
     if norm == 0.0:

@@ -148,7 +148,8 @@ def test_vv20_features_closed_form():
 def test_vv20_unresolved_and_random_part_from_cycles():
     amplitudes = np.array([1.9, 2.0, 2.1, 2.0])
     cycles = amplitudes[:, None] * np.sin(THETA)
-    result = vv20(cycles.mean(axis=0), 2.02 * np.sin(THETA), cycles=cycles, k=2.0)
+    as_data_array = xr.DataArray(cycles.T, dims=("angle", "cycle"))
+    result = vv20(cycles.mean(axis=0), 2.02 * np.sin(THETA), cycles=as_data_array, k=2.0)
     random_peak = np.std(amplitudes, ddof=1) / 2
     assert result.peak.u_data == pytest.approx(random_peak)
     assert result.rms.u_data == pytest.approx(random_peak / np.sqrt(2))
