@@ -28,6 +28,7 @@ compare
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import math
@@ -43,7 +44,7 @@ import scipy.interpolate
 import xarray as xr
 
 from rigval.acquisition.channel_map import load_stream
-from rigval.acquisition.errors import ConfigError, DataError
+from rigval.acquisition.errors import AlignmentError, ConfigError, DataError
 from rigval.acquisition.schema import append_history, parse_start_time
 from rigval.model.mechanism import Mechanism, load_mechanism
 from rigval.model.solver import solve, solve_cycle
@@ -54,6 +55,7 @@ from rigval.processing.align import (
     estimate_clock,
     identity_clock,
     input_delay,
+    match_events,
     reference_event_times,
 )
 from rigval.processing.encoder import unwrap_counts
@@ -78,6 +80,14 @@ logger = logging.getLogger(__name__)
 FINE_FACTOR = 4
 #: Anti-alias corner as a fraction of the angle grid's sample rate (points per rev x rev/s).
 ANTI_ALIAS = 0.4
+#: How far (s) a start time written by a device may be off: software time stamps.
+START_TIME_ERROR_S = 5.0
+#: Start times in or before this year mean "unknown" (NI writes 1904-01-01 for relative time).
+UNKNOWN_START_YEAR = 1904
+#: Matched events farther than this many robust sigmas from the clock fit count as spurious.
+OUTLIER_SIGMAS = 6.0
+#: ... unless they are within this distance in s (a sample period of the slowest device).
+MIN_EVENT_TOLERANCE_S = 1e-3
 #: Pulse periods of raw signal shown per stream in the alignment figure.
 PULSE_PERIODS_SHOWN = 2.5
 
@@ -164,14 +174,65 @@ def _edge_segments(stream: xr.Dataset, edges: np.ndarray, times: np.ndarray) -> 
     return stream["segment"].to_numpy()[index]
 
 
-def _residuals(mapped: np.ndarray, events: np.ndarray, period: float
+def _residuals(mapped: np.ndarray, events: np.ndarray, period: float, per_revolution: int = 1
                ) -> tuple[np.ndarray, np.ndarray]:
-    """Residual of each mapped event against its nearest expected event; matched mask."""
+    """Residual of each mapped event against its nearest expected event; matched mask.
+
+    With several pulses per revolution, each kind of pulse (its place within the revolution)
+    may fire at its own angle; the median residual of each kind is removed, as the clock fit
+    does.
+    """
     index = np.clip(np.searchsorted(events, mapped), 1, events.size - 1)
     nearest = np.where(np.abs(mapped - events[index - 1]) <= np.abs(events[index] - mapped),
                        index - 1, index)
     residual = mapped - events[nearest]
-    return residual, np.abs(residual) < 0.25 * period
+    matched = np.abs(residual) < 0.25 * period / per_revolution
+    if matched.sum() > 3:  # a spurious pulse can fall inside a quarter period: robust cut
+        spread = 1.4826 * float(np.median(np.abs(residual[matched]
+                                                 - np.median(residual[matched]))))
+        matched &= np.abs(residual - np.median(residual[matched])) <= max(
+            OUTLIER_SIGMAS * spread, MIN_EVENT_TOLERANCE_S)
+    if per_revolution > 1:
+        kind = nearest % per_revolution
+        for k in range(per_revolution):
+            chosen = matched & (kind == k)
+            if chosen.any():
+                residual[kind == k] -= np.median(residual[chosen])
+    return residual, matched
+
+
+def _recover_segments(clock: ClockModel, events: np.ndarray, edges: np.ndarray,
+                      segments: np.ndarray, period: float, where: Mapping[str, Any]
+                      ) -> ClockModel:
+    """Align segments the clock fit left out, from the offset of their aligned neighbour.
+
+    A restart (Wi-Fi dropout) starts a segment whose device time comes from a new software
+    start stamp, off by milliseconds, not periods: matching it within +-0.4 of a pulse period
+    around the previous segment's offset removes the whole-period ambiguity a short segment
+    has on its own. The shared drift is kept; the segment's offset is the mean over its events.
+    """
+    offsets = dict(zip(clock.segments, clock.offsets_s, strict=True))
+    for segment in clock.unaligned_segments:
+        known = sorted(offsets, key=lambda s: (abs(s - segment), s > segment))
+        if not known:
+            break
+        chosen = segments == segment
+        try:
+            ref_index, dev_index = match_events(
+                events, edges[chosen], coarse_offset_s=offsets[known[0]],
+                max_offset_error_s=0.4 * period, where={**where, "segment": int(segment)})
+        except AlignmentError as error:
+            logger.info("segment %d stays unaligned: %s", segment, error)
+            continue
+        if ref_index.size >= 2:
+            offsets[int(segment)] = float(np.mean(
+                events[ref_index] - (1.0 + clock.drift) * edges[chosen][dev_index]))
+            logger.info("segment %d aligned from its neighbour: offset %.6f s (%d events)",
+                        segment, offsets[int(segment)], ref_index.size)
+    order = sorted(offsets)
+    return dataclasses.replace(
+        clock, segments=tuple(order), offsets_s=tuple(offsets[s] for s in order),
+        unaligned_segments=tuple(s for s in clock.unaligned_segments if s not in offsets))
 
 
 def _pulse_stretch(aligned: xr.Dataset, channel: str, edges: np.ndarray, period: float
@@ -201,6 +262,25 @@ def _stream_summary(name: str, aligned: xr.Dataset, clock: ClockModel, *, is_ref
         gaps=tuple(json.loads(aligned.attrs.get("gaps", "[]"))),
         span_s=(float(times[0]), float(times[-1])), residual_time=residual_time,
         residual_s=residual, pulse_time=pulse_t, pulse_signal=pulse_x, edge_times=shown)
+
+
+def _coarse_offset(stream: xr.Dataset, ref: xr.Dataset, ref_start: np.datetime64
+                   ) -> tuple[float, float]:
+    """Return a first guess of ``t_ref - t_dev`` in s and how far to search around it.
+
+    From the files' start times when both are known (search +-5 s: software time stamps); a
+    file without a start time (1904-01-01, e.g. a CSV with relative time) is searched over the
+    whole overlap of the two records.
+    """
+    start = parse_start_time(stream.attrs["start_time"])
+    if start.astype("datetime64[Y]").astype(int) + 1970 > UNKNOWN_START_YEAR and (
+            ref_start.astype("datetime64[Y]").astype(int) + 1970 > UNKNOWN_START_YEAR):
+        return float((start - ref_start) / np.timedelta64(1, "s")), START_TIME_ERROR_S
+    ref_span = float(ref["time"].values[-1] - ref["time"].values[0])
+    dev_span = float(stream["time"].values[-1] - stream["time"].values[0])
+    logger.info("stream %s has no start time: searching offsets over the whole record",
+                stream.attrs.get("stream", ""))
+    return 0.5 * (ref_span - dev_span), 0.5 * (ref_span + dev_span)
 
 
 def _align(scene: Scene, converted: Mapping[str, xr.Dataset]
@@ -233,15 +313,16 @@ def _align(scene: Scene, converted: Mapping[str, xr.Dataset]
                              valid=stream["valid"].to_numpy())
         events = reference_event_times(main.time, main.phi, event_angle=pulse.angle,
                                        events_per_rev=pulse.per_revolution)
-        coarse = float((parse_start_time(stream.attrs["start_time"]) - ref_start)
-                       / np.timedelta64(1, "s"))
+        coarse, search = _coarse_offset(stream, ref, ref_start)
         segments = _edge_segments(stream, edges, dev_time)
+        where = {"stream": name, "channel": channel}
         clock = estimate_clock(events, edges, segments, coarse_offset_s=coarse,
-                               where={"stream": name, "channel": channel})
+                               max_offset_error_s=search, where=where)
+        clock = _recover_segments(clock, events, edges, segments, period, where)
         aligned[name] = align_stream(stream, clock, name=name)
         mapped = clock.to_reference(edges, segments)
         ok = np.isfinite(mapped)
-        residual, matched = _residuals(mapped[ok], events, period / pulse.per_revolution)
+        residual, matched = _residuals(mapped[ok], events, period, pulse.per_revolution)
         inside = (events >= aligned[name]["time"].values[0]) & (
             events <= aligned[name]["time"].values[-1])
         diagnostics[name] = _stream_summary(
