@@ -119,17 +119,21 @@ def _is_data(fields: list[str]) -> bool:
 
 
 def _guess_delimiter(lines: list[str]) -> str:
-    """Return the delimiter that splits the last lines into a constant number (> 1) of fields."""
-    tail = [ln for ln in lines[-50:] if ln.strip()]
+    """Return the delimiter giving the longest run of equal field counts (> 1) from the end.
+
+    A decimal comma splits data rows into a constant count too, but the header row breaks that
+    run; ties go to the first of ``;``, tab, ``,``, ``|``.
+    """
+    tail = [ln for ln in lines[-200:] if ln.strip()]
+    best, best_run = ",", 0
     for delimiter in _DELIMITERS:
-        counts = {len(_split(ln, delimiter)) for ln in tail}
-        if len(counts) == 1 and counts.pop() > 1:
-            return delimiter
-    for delimiter in _DELIMITERS:  # ragged rows: most common count
-        counts_list = [len(_split(ln, delimiter)) for ln in tail]
-        if counts_list and max(counts_list) > 1 and min(counts_list) > 1:
-            return delimiter
-    return ","
+        counts = [len(_split(ln, delimiter)) for ln in reversed(tail)]
+        if not counts or counts[0] < 2:
+            continue
+        run = next((k for k, c in enumerate(counts) if c != counts[0]), len(counts))
+        if run > best_run:
+            best, best_run = delimiter, run
+    return best
 
 
 def sniff_csv(lines: list[str], *, delimiter: str | None = None, decimal: str | None = None,
@@ -171,13 +175,13 @@ def sniff_csv(lines: list[str], *, delimiter: str | None = None, decimal: str | 
             end -= 1
         if end == 0:
             raise DataFileError("text file holds no lines", where=where)
-        width = len(rows[end - 1])
         data_start = end
-        while data_start > 0 and (not lines[data_start - 1].strip() or (
-                len(rows[data_start - 1]) == width and _is_data(rows[data_start - 1]))):
+        while data_start > 0 and (not lines[data_start - 1].strip()
+                                  or _is_data(rows[data_start - 1])):
             data_start -= 1
         while data_start < end and not lines[data_start].strip():
             data_start += 1
+        width = max((len(r) for r in rows[data_start:end]), default=0)
         if data_start >= end or not _is_data(rows[data_start]):
             raise DataFileError("no block of numeric rows found at the end of the text file",
                                 where=where, hint="pass header_row=... and delimiter=...")
@@ -216,7 +220,7 @@ def _parse_datetimes(cells: Sequence[str], time_format: str | None, timezone: st
     """Parse absolute time cells into naive UTC datetime64[ns]."""
     texts = pd.Series([c.strip() for c in cells])
     if time_format is None and texts.str.match(r"^\d{4}-\d{2}-\d{2}[T ]").all():
-        stamps = pd.to_datetime(texts, format="ISO8601", utc=False)
+        stamps = pd.to_datetime(texts.str.replace(",", ".", regex=False), format="ISO8601")
     else:
         stamps = None
         for fmt in ([time_format] if time_format else list(_LOCALE_FORMATS)):
@@ -365,19 +369,27 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     t_index = _time_column(layout.names, time_column, where)
     width = len(layout.names)
     body = "\n".join(lines[layout.data_start:])
+    fields = max((ln.count(layout.delimiter) + 1 for ln in lines[layout.data_start:]),
+                 default=width)
     try:
         table = pd.read_csv(io.StringIO(body), sep=layout.delimiter, decimal=layout.decimal,
-                            header=None, names=list(range(width)), index_col=False,
-                            dtype=str if t_index is not None else None, keep_default_na=False,
+                            header=None, names=list(range(max(fields, width))), index_col=False,
+                            dtype=str, keep_default_na=False,
                             skip_blank_lines=True, engine="c")
     except (ValueError, pd.errors.ParserError) as error:
         raise DataFileError(f"cannot split the data rows: {error}", where=where,
                             hint="pass delimiter=... and header_row=...") from None
+    surplus = [k for k in range(width, table.shape[1])
+               if (table[k].fillna("").str.strip() != "").any()]
+    if surplus:
+        raise DataFileError(f"data rows hold {table.shape[1]} fields but the header names "
+                            f"{width} columns", where=where,
+                            hint="check delimiter=... and header_row=...")
     values: dict[int, np.ndarray] = {}
     for k in range(width):
         if k == t_index:
             continue
-        cells = table[k].astype(str).str.strip()
+        cells = table[k].fillna("").str.strip()
         if layout.decimal == ",":
             cells = cells.str.replace(",", ".", regex=False)
         numbers = pd.to_numeric(cells.replace("", np.nan), errors="coerce").to_numpy(float)
@@ -395,7 +407,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         pd.Timestamp(start_time).tz_localize(None) if pd.Timestamp(start_time).tzinfo is None
         else pd.Timestamp(start_time).tz_convert("UTC").tz_localize(None), "ns")
     if t_index is not None:
-        cells = table[t_index].astype(str).str.strip()
+        cells = table[t_index].fillna("").str.strip()
         if cells.str.match(_NUMBER.pattern).all():
             seconds = pd.to_numeric(cells.str.replace(",", ".", regex=False)).to_numpy(float)
             unit = (time_units or layout.units[t_index] or "s").strip()
