@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import shlex
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -102,9 +101,7 @@ def run(args: argparse.Namespace) -> int:
         available = ", ".join(map(str, error.extra.get("available", [])))
         raise ConfigError(f"{error.message} (available: {available or 'none'})",
                           where=error.where, hint=error.hint) from error
-    command = "rigval predict " + " ".join(shlex.quote(a) for a in sys.argv[2:]) \
-        if len(sys.argv) > 2 else None
-    files = write_predict_report(prediction, args.out, sweep=swept, command=command)
+    files = write_predict_report(prediction, args.out, sweep=swept, command=_command_line(args))
     tip = args.tip
     print(f"{tip} vertical range {float(prediction['tip_vertical_range']):.4g} m, "
           f"peak |a| {float(prediction['tip_acceleration_peak']):.4g} m/s2")
@@ -119,3 +116,19 @@ def run(args: argparse.Namespace) -> int:
               f"solves, {swept.attrs['elapsed_s']:.3g} s")
     print(f"report: {files.html}")
     return 0
+
+
+def _command_line(args: argparse.Namespace) -> str:
+    """Return the command line that reproduces this prediction (for the report page)."""
+    words = ["rigval", "predict", args.mechanism, "--out", args.out]
+    for option, values in (("--drive", args.drive), ("--sweep", args.sweep),
+                           ("--joint", args.joint)):
+        for value in values:
+            words += [option, value]
+    for option, value in (("--measured", args.measured), ("--summary", args.summary),
+                          ("--main", args.main)):
+        if value is not None:
+            words += [option, value]
+    words += ["--points", str(args.points), "--sweep-points", str(args.sweep_points),
+              "--tip", args.tip]
+    return " ".join(shlex.quote(str(word)) for word in words)
