@@ -13,9 +13,10 @@ align
     pulse; each other stream's clock fitted on its reference pulses against the events the
     encoder angle predicts (:mod:`rigval.processing.align`), module input delays removed.
 angle
-    Whole revolutions; each compared channel low-passed (its ``lowpass_hz``, and an anti-alias
-    corner of 0.4 times the grid rate) within gap-free runs, then interpolated at the reference
-    times of the uniform phi_F grid; revolutions touching a gap are dropped for that channel.
+    Whole revolutions; each compared channel low-passed (its ``lowpass_hz``) within gap-free
+    runs, then resampled at the reference times of the uniform phi_F grid with the
+    anti-aliasing of :func:`rigval.processing.angle.resample_to_angle`; revolutions touching a
+    gap are dropped for that channel.
 model
     Only the outputs the comparisons and predictions name, on the phi_F grid: with measured
     drives, each driver's angle, speed and acceleration from its encoder averaged over the
@@ -58,9 +59,10 @@ from rigval.processing.align import (
     match_events,
     reference_event_times,
 )
+from rigval.processing.angle import cycle_grid, resample_to_angle, zero_at_reference
 from rigval.processing.encoder import unwrap_counts
 from rigval.processing.excitation import drive_excitation
-from rigval.processing.filters import contiguous_runs, zero_phase
+from rigval.processing.filters import zero_phase
 from rigval.processing.pulses import classify_pulses, detect_edges
 from rigval.validation.convert import convert_stream
 from rigval.validation.metrics import baseline, check_thresholds, compare
@@ -78,8 +80,6 @@ logger = logging.getLogger(__name__)
 
 #: The model also runs on a grid this many times finer, to measure the chosen grid's error.
 FINE_FACTOR = 4
-#: Anti-alias corner as a fraction of the angle grid's sample rate (points per rev x rev/s).
-ANTI_ALIAS = 0.4
 #: How far (s) a start time written by a device may be off: software time stamps.
 START_TIME_ERROR_S = 5.0
 #: Start times in or before this year mean "unknown" (NI writes 1904-01-01 for relative time).
@@ -88,6 +88,8 @@ UNKNOWN_START_YEAR = 1904
 OUTLIER_SIGMAS = 6.0
 #: ... unless they are within this distance in s (a sample period of the slowest device).
 MIN_EVENT_TOLERANCE_S = 1e-3
+#: Spline order of the scene's ``angle.interpolation``.
+INTERPOLATION_ORDER = {"linear": 1, "cubic": 3}
 #: Pulse periods of raw signal shown per stream in the alignment figure.
 PULSE_PERIODS_SHOWN = 2.5
 
@@ -161,10 +163,8 @@ def _main_angle(scene: Scene, ref: xr.Dataset) -> tuple[_MainAngle, np.ndarray, 
         raise DataError(f"only {good.size} reference pulses on {pulse} within the encoder record",
                         where={"channel": str(pulse)},
                         hint="check the pulse channel (thresholds, wiring) and the record length")
-    at_pulse = np.interp(good, t, angle)
-    phase = float(np.angle(np.mean(np.exp(1j * at_pulse))))
-    phi = angle - phase
-    phi -= 2.0 * np.pi * np.floor(phi[0] / (2.0 * np.pi))
+    offset, _ = zero_at_reference(t, angle, good)
+    phi = angle - offset
     return _MainAngle(t, phi), good, int(train.spurious.sum())
 
 
@@ -337,48 +337,27 @@ def _align(scene: Scene, converted: Mapping[str, xr.Dataset]
 # angle domain
 
 
-def _sample(times: np.ndarray, values: np.ndarray, usable: np.ndarray, segment: np.ndarray,
-            targets: np.ndarray, method: str) -> np.ndarray:
-    """Interpolate within gap-free runs of usable samples; NaN for targets outside every run."""
-    out = np.full(targets.shape, np.nan)
-    flat_targets, flat_out = targets.ravel(), out.ravel()
-    for start, stop in contiguous_runs(values.size, segment, usable):
-        if stop - start < 4:
-            continue
-        t = times[start:stop]
-        inside = (flat_targets >= t[0]) & (flat_targets <= t[-1])
-        if not inside.any():
-            continue
-        if method == "cubic":
-            flat_out[inside] = scipy.interpolate.CubicSpline(t, values[start:stop])(
-                flat_targets[inside])
-        else:
-            flat_out[inside] = np.interp(flat_targets[inside], t, values[start:stop])
-    return flat_out.reshape(targets.shape)
-
-
 def _resample_channel(scene: Scene, comparison: ComparisonSpec, aligned: xr.Dataset,
-                      grid_times: np.ndarray, speed_rev_s: float) -> tuple[np.ndarray, float]:
+                      main: _MainAngle) -> tuple[np.ndarray, float | None]:
     """Resample a measured channel onto the phi_F grid, (n_cycle, n_angle); NaN at gaps.
 
-    Returns the resampled cycles and the low-pass corner applied in Hz.
+    The comparison's ``lowpass_hz`` (zero phase, within gap-free runs) comes first; the
+    anti-alias low-pass of :func:`rigval.processing.angle.resample_to_angle` follows.
+    Returns the resampled cycles and the low-pass corner applied in Hz (None: none).
     """
     name = comparison.measured.channel
     fs = float(aligned.attrs["fs_nominal"])
     values = aligned[name].to_numpy().astype(np.float64)
-    usable = aligned["valid"].to_numpy() & np.isfinite(values)
+    valid = aligned["valid"].to_numpy() & np.isfinite(values)
     segment = aligned["segment"].to_numpy()
-    corner = ANTI_ALIAS * scene.angle.points_per_revolution * speed_rev_s
-    if comparison.lowpass_hz is not None:
-        corner = min(corner, comparison.lowpass_hz)
-    if corner < 0.45 * fs:
-        values = zero_phase(np.where(usable, values, 0.0), fs, corner, segment=segment,
-                            valid=usable)
-        usable &= np.isfinite(values)
-    else:
-        corner = math.nan
-    cycles = _sample(channel_time(aligned, name), values, usable, segment, grid_times,
-                     scene.angle.interpolation)
+    corner = comparison.lowpass_hz
+    if corner is not None and corner < 0.45 * fs:
+        values = zero_phase(values, fs, corner, segment=segment, valid=valid)
+        valid &= np.isfinite(values)
+    _, _, cycles = resample_to_angle(
+        channel_time(aligned, name), values, main.time, main.phi,
+        points_per_rev=scene.angle.points_per_revolution, fs=fs,
+        order=INTERPOLATION_ORDER[scene.angle.interpolation], segment=segment, valid=valid)
     return cycles, corner
 
 
@@ -644,24 +623,21 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         aligned, diagnostics, main = _align(scene, converted)
     with watch.stage("angle"):
         n = scene.angle.points_per_revolution
-        first = math.ceil(main.phi[0] / (2 * np.pi))
-        last = math.floor(main.phi[-1] / (2 * np.pi))
-        if last - first < scene.angle.min_cycles:
-            raise DataError(f"only {max(last - first, 0)} whole revolutions in the record, the "
-                            f"scene asks for {scene.angle.min_cycles}",
-                            where={"key": "angle.min_cycles"}, hint="record longer")
-        turns = np.arange(first, last)[:, None]
-        fine_angle = np.arange(n * FINE_FACTOR) * (2 * np.pi / (n * FINE_FACTOR))
-        fine_times = main.times_at(2 * np.pi * turns + fine_angle)
+        turns, fine_grid = cycle_grid(main.phi[0], main.phi[-1], n * FINE_FACTOR)
+        if turns.size < scene.angle.min_cycles:
+            raise DataError(f"only {turns.size} whole revolutions in the record, the scene asks "
+                            f"for {scene.angle.min_cycles}", where={"key": "angle.min_cycles"},
+                            hint="record longer, or lower angle.min_cycles")
+        fine_times = main.times_at(fine_grid)
+        fine_angle = fine_grid[0] - fine_grid[0, 0]
         grid_times = fine_times[:, ::FINE_FACTOR]
         angle = fine_angle[::FINE_FACTOR]
-        duration = float(grid_times[-1, -1] - grid_times[0, 0]) * n / (n - 1)
-        speed = (last - first) / duration
+        speed = turns.size / float(main.times_at(2 * np.pi * (turns[-1] + 1)) - fine_times[0, 0])
         measured, corners = {}, {}
         for comparison in scene.comparisons:
             stream = aligned[comparison.measured.stream]
             measured[comparison.name], corners[comparison.name] = _resample_channel(
-                scene, comparison, stream, grid_times, speed)
+                scene, comparison, stream, main)
     with watch.stage("model"):
         mechanism = load_mechanism(scene.mechanism)
         fine = _run_model(scene, mechanism, aligned[scene.alignment.reference], fine_times,
@@ -690,7 +666,7 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
                 "passed" if all(r.passed for r in results_t) else "failed")
     return ValidationResult(scene=scene, comparisons=results_t, alignment=diagnostics,
                             predictions=predictions, numerics=numerics, speed_rev_s=speed,
-                            n_cycles=last - first, tree=tree)
+                            n_cycles=int(turns.size), tree=tree)
 
 
 def _predictions(scene: Scene, model: xr.Dataset) -> xr.Dataset:
