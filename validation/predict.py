@@ -424,18 +424,20 @@ class _Basis:
     """Model outputs along one tip path, split so that any frequency and inertia follow exactly.
 
     ``tip_y`` (n,) does not depend on frequency or inertia; the tip acceleration is
-    ``scale * tip_accel`` with ``scale = (f / f0)**2``; forces and torques (``forces``: support
-    forces (n, pins, 2) and torques (n, drivers) flattened to (n, m)) are
-    ``gravity + sum_j dp_j gravity_j + scale * (inertial + sum_j dp_j inertial_j)``.
+    ``scale * tip_accel`` with ``scale = (f / f0)**2``; support forces (n, pins, 2) and torques
+    (n, drivers), flattened to (n, m), are ``constant + sum_j dp_j constant_per_unit[j] +
+    scale * (quadratic + sum_j dp_j quadratic_per_unit[j])``, ``dp_j`` the change of swept
+    inertia ``j``. With the frequency swept, ``constant`` is the gravity part and ``quadratic``
+    the inertial part; otherwise ``constant`` holds everything.
     """
 
     frequency: float
     tip_y: np.ndarray | None
     tip_accel: np.ndarray | None
-    gravity: np.ndarray | None
-    inertial: np.ndarray | None
-    gravity_per_unit: dict[str, np.ndarray]
-    inertial_per_unit: dict[str, np.ndarray]
+    constant: np.ndarray | None
+    quadratic: np.ndarray | None
+    constant_per_unit: dict[str, np.ndarray]
+    quadratic_per_unit: dict[str, np.ndarray]
 
 
 def _flat_forces(result: xr.Dataset, pins: Sequence[str], drivers: Sequence[str]) -> np.ndarray:
@@ -451,9 +453,11 @@ def _no_gravity(mechanism: Mechanism) -> Mechanism:
 def _force_parts(mechanism: Mechanism, excitation: Excitation, t: np.ndarray, *,
                  pins: Sequence[str], split_speed: bool, full: np.ndarray | None = None
                  ) -> tuple[np.ndarray, np.ndarray, int]:
-    """Return the gravity and inertial parts of support forces and torques, and the solves run.
+    """Return the constant and speed-squared parts of support forces and torques, and the solves.
 
-    Without ``split_speed`` everything is returned as the gravity part (the frequency is fixed).
+    With ``split_speed`` the parts are the gravity forces and the inertial forces at the
+    excitation's frequency (a second solve without gravity); without it the frequency is fixed
+    and everything is the constant part.
     """
     drivers = list(mechanism.driver_names)
     outputs = ("joint_force", "driver_torque")
@@ -485,18 +489,18 @@ def _basis(mechanism: Mechanism, excitation: Excitation, t: np.ndarray, *, tip: 
     if not needs.forces:
         return basis, solves
     full = _flat_forces(result, pins, mechanism.driver_names)
-    basis.gravity, basis.inertial, count = _force_parts(
+    basis.constant, basis.quadratic, count = _force_parts(
         mechanism, excitation, t, pins=pins, split_speed=split_speed, full=full)
     solves += count
     for name in inertia:
         reference = _body_value(mechanism, name)
         step = max(abs(reference), 1.0)
         changed, _ = _apply(name, reference + step, mechanism, excitation)
-        gravity, inertial, count = _force_parts(changed, excitation, t, pins=pins,
-                                                split_speed=split_speed)
+        constant, quadratic, count = _force_parts(changed, excitation, t, pins=pins,
+                                                  split_speed=split_speed)
         solves += count
-        basis.gravity_per_unit[name] = (gravity - basis.gravity) / step
-        basis.inertial_per_unit[name] = (inertial - basis.inertial) / step
+        basis.constant_per_unit[name] = (constant - basis.constant) / step
+        basis.quadratic_per_unit[name] = (quadratic - basis.quadratic) / step
     return basis, solves
 
 
@@ -592,7 +596,7 @@ def sweep(mechanism: Mechanism | str | Path, parameters: Mapping[str, npt.ArrayL
             bases[key], count = _basis(path_mech, path_exc, t, tip=tip, pins=pins, needs=needs,
                                        split_speed=split_speed, inertia=inertia)
             solves += count
-        _fill(out, index, bases[key], values, base, mech, needs, pins, drivers)
+        _fill(out, index, bases[key], values, base, mech, needs, pins)
     ds = xr.Dataset(coords={p.name: (p.name, p.values, _parameter_attrs(p)) for p in params}
                     | {"support": list(pins), "driver": drivers})
     dims = tuple(p.name for p in params)
@@ -633,7 +637,7 @@ def _parameter_attrs(param: _Parameter) -> dict[str, str]:
 
 def _fill(out: dict[str, np.ndarray], index: tuple[int, ...], basis: _Basis,
           values: Mapping[str, float], base: Excitation, mechanism: Mechanism, needs: _Needs,
-          pins: Sequence[str], drivers: Sequence[str]) -> None:
+          pins: Sequence[str]) -> None:
     """Compute one sweep point's summaries from its path's basis."""
     frequency = values.get("frequency", base.frequency)
     scale = (frequency / basis.frequency) ** 2
@@ -642,14 +646,14 @@ def _fill(out: dict[str, np.ndarray], index: tuple[int, ...], basis: _Basis,
     if "tip_acceleration_peak" in out and basis.tip_accel is not None:
         out["tip_acceleration_peak"][index] = scale * np.max(np.hypot(basis.tip_accel[:, 0],
                                                                       basis.tip_accel[:, 1]))
-    if not needs.forces or basis.gravity is None or basis.inertial is None:
+    if not needs.forces or basis.constant is None or basis.quadratic is None:
         return
-    gravity, inertial = basis.gravity.copy(), basis.inertial.copy()
-    for name, per_unit in basis.gravity_per_unit.items():
+    constant, quadratic = basis.constant.copy(), basis.quadratic.copy()
+    for name, per_unit in basis.constant_per_unit.items():
         change = values[name] - _body_value(mechanism, name)
-        gravity += change * per_unit
-        inertial += change * basis.inertial_per_unit[name]
-    forces = gravity + scale * inertial
+        constant += change * per_unit
+        quadratic += change * basis.quadratic_per_unit[name]
+    forces = constant + scale * quadratic
     n_support = 2 * len(pins)
     support = forces[:, :n_support].reshape(forces.shape[0], len(pins), 2)
     torque = forces[:, n_support:]
