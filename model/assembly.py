@@ -20,6 +20,7 @@ the coordinates.
 from __future__ import annotations
 
 import itertools
+import itertools
 import logging
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
@@ -28,14 +29,14 @@ import numpy as np
 
 from rigval.acquisition.errors import AssemblyError, MechanismError, SingularityError
 from rigval.model.drives import law_motion
-from rigval.model.linalg import BatchLU, equilibrated_condition, pivot_order
+from rigval.model.linalg import BatchLU, static_row_order
 from rigval.model.loops import LoopSystem, loop_system
 
 if TYPE_CHECKING:
     from rigval.model.mechanism import Mechanism
 
 __all__ = ["Tolerances", "assemble", "assembly_rank", "check_constraint_count",
-           "condition_numbers", "full_angles", "involved_joints", "newton", "taylor", "track"]
+           "condition_one", "driven_part", "full_angles", "involved_joints", "newton", "phasor", "taylor", "track"]
 
 logger = logging.getLogger(__name__)
 
@@ -66,8 +67,8 @@ class Tolerances:
     tol: float = 1e-12
     cond_warn: float = 1e4
     cond_max: float = 1e10
-    anchor_spacing: float = 0.5
-    refine_spacing: float = 0.05
+    anchor_spacing: float = 1.0
+    refine_spacing: float = 0.1
     max_iter: int = 12
 
 
@@ -80,65 +81,102 @@ def full_angles(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) ->
     return theta
 
 
-def _converged(step: np.ndarray, theta_u: np.ndarray, gap: np.ndarray, system: LoopSystem,
-               tol: float) -> np.ndarray:
-    """Per-row test: angle update within tol (plus angle resolution) and gap within tol * size."""
-    limit = tol + 8 * _EPS * np.abs(theta_u)
-    ok = np.all(np.abs(step) <= limit, axis=-1)
-    return ok & (gap <= max(tol, 64 * _EPS) * system.length_scale)
+def phasor(theta: np.ndarray) -> np.ndarray:
+    """Unit phasors ``exp(1j theta)`` (cos and sin are cheaper than the complex exponential)."""
+    z = np.empty(theta.shape, dtype=complex)
+    z.real = np.cos(theta)
+    z.imag = np.sin(theta)
+    return z
 
 
-def newton(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray, tol: float,
-           max_iter: int, order: np.ndarray | None = None
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _rotate(z: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """``z * exp(1j angle)``; by its Taylor series (exact to rounding) when all angles are small."""
+    if angle.size and float(np.max(np.abs(angle))) <= 1e-3:
+        a2 = angle * angle
+        return z * ((1.0 - a2 * (0.5 - a2 / 24.0)) + 1j * (angle * (1.0 - a2 / 6.0 * (
+            1.0 - a2 / 20.0))))
+    return z * phasor(angle)
+
+
+def driven_part(system: LoopSystem, z_d: np.ndarray) -> np.ndarray:
+    """Part of the complex loop closures fixed by the driven angles, (n, n_loops), m."""
+    return z_d @ system.loop_points[:, system.driven].T - system.loop_offset
+
+
+def newton(system: LoopSystem, base: np.ndarray, theta_u: np.ndarray, tol: float,
+           max_iter: int, row_order: np.ndarray | None = None
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Newton-Raphson on the loop closures for a batch of steps.
+
+    A step is converged when its predicted error after the update is below ``tol`` (plus the
+    angle's floating-point resolution): the update itself on the first iteration, and
+    ``|s_k|^3 / |s_k-1|^2`` (quadratic convergence) once the updates are small.
 
     Parameters
     ----------
     system : LoopSystem
         Reduced constraints.
-    theta_d : numpy.ndarray
-        (n, n_d) driven angles, rad.
+    base : numpy.ndarray
+        (n, n_loops) complex loop-closure part of the driven angles (:func:`driven_part`), m.
     theta_u : numpy.ndarray
         (n, n_u) starting undriven angles, rad.
     tol : float
         Tolerance (see :class:`Tolerances`).
     max_iter : int
         Iterations at most.
-    order : numpy.ndarray, optional
-        Pivot order per step for :class:`BatchLU`.
+    row_order : numpy.ndarray, optional
+        Initial row order for :class:`~rigval.model.linalg.BatchLU`.
 
     Returns
     -------
     theta_u : numpy.ndarray
         (n, n_u) final angles, rad.
+    z_u : numpy.ndarray
+        (n, n_u) their unit phasors.
     converged : numpy.ndarray
         (n,) bool.
     gap : numpy.ndarray
-        (n,) largest loop gap at the final angles, m.
+        (n,) largest loop gap before the last update, m.
     """
-    theta_u = theta_u.copy()
-    converged = np.zeros(theta_u.shape[0], dtype=bool)
-    active = np.arange(theta_u.shape[0])
-    gap = np.full(theta_u.shape[0], np.inf)
+    n = theta_u.shape[0]
+    w_u = system.loop_points[:, system.undriven]
+    theta_out, z_out = theta_u.copy(), phasor(theta_u)
+    converged = np.zeros(n, dtype=bool)
+    gap = np.full(n, np.inf)
+    rows = np.arange(n)
+    theta_w, z_w, base_w = theta_out, z_out, base
+    previous = np.full(n, np.inf)
     for _ in range(max_iter):
-        if active.size == 0:
+        phi = base_w + z_w @ w_u.T
+        phi = np.concatenate([phi.real, phi.imag], axis=1)
+        block = w_u[:, :, None] * (1j * z_w).T[None]
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            step = BatchLU(np.concatenate([block.real, block.imag]), row_order).solve(phi)
+        finite = np.all(np.isfinite(step), axis=1)
+        step[~finite] = 0.0
+        theta_w = theta_w - step
+        z_w = _rotate(z_w, -step)
+        size = np.max(np.abs(step), axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            predicted = np.where((size < 1e-4) & np.isfinite(previous), size**3 / previous**2,
+                                 size)
+        floor = 8 * _EPS * np.max(np.abs(theta_w), axis=1)
+        done = finite & (predicted <= tol + floor)
+        leave = done | ~finite
+        gap_w = np.max(np.abs(phi), axis=1)
+        if np.all(leave) or _ == max_iter - 1:
+            theta_out[rows], z_out[rows], gap[rows] = theta_w, z_w, gap_w
+            converged[rows[done]] = True
             break
-        z = np.exp(1j * full_angles(system, theta_d[active], theta_u[active]))
-        phi = system.residual(z)
-        gap[active] = np.max(np.abs(phi), axis=-1)
-        lu = BatchLU(system.jacobian(z, system.undriven),
-                     None if order is None else order[active])
-        step = lu.solve(phi)
-        step[~np.isfinite(step)] = np.inf
-        theta_u[active] -= np.where(np.isfinite(step), step, 0.0)
-        done = _converged(step, theta_u[active], gap[active], system, tol)
-        converged[active[done]] = True
-        active = active[~done]
-    if active.size:
-        z = np.exp(1j * full_angles(system, theta_d[active], theta_u[active]))
-        gap[active] = np.max(np.abs(system.residual(z)), axis=-1)
-    return theta_u, converged, gap
+        if np.any(leave):
+            theta_out[rows[leave]], z_out[rows[leave]] = theta_w[leave], z_w[leave]
+            gap[rows[leave]] = gap_w[leave]
+            converged[rows[done]] = True
+            keep = ~leave
+            rows, theta_w, z_w, base_w = rows[keep], theta_w[keep], z_w[keep], base_w[keep]
+            size = size[keep]
+        previous = size
+    return theta_out, z_out, converged, gap
 
 
 @dataclass(frozen=True)
@@ -162,7 +200,7 @@ class Taylor:
 
 def taylor(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> Taylor:
     """Taylor coefficients of the solution manifold at assembled configurations (batched)."""
-    z = np.exp(1j * full_angles(system, theta_d, theta_u))
+    z = phasor(full_angles(system, theta_d, theta_u))
     jac_u = system.jacobian(z, system.undriven)
     jac_d = system.jacobian(z, system.driven)
     inv = np.linalg.inv(jac_u) if jac_u.shape[-1] == jac_u.shape[-2] else np.linalg.pinv(jac_u)
@@ -172,7 +210,8 @@ def taylor(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> Tayl
     velocity[:, system.undriven] = first
     velocity[:, system.driven] = np.eye(system.driven.size)
     curvature = system.curvature(z)
-    second = -np.einsum("nil,nlm,nmj,nmk->nijk", inv, curvature, velocity, velocity)
+    bend = np.einsum("nlm,nmj,nmk->nljk", curvature, velocity, velocity)
+    second = -np.einsum("nil,nljk->nijk", inv, bend)
     return Taylor(theta_d, theta_u, first, second)
 
 
@@ -193,7 +232,7 @@ def involved_joints(mechanism: Mechanism, system: LoopSystem, theta: np.ndarray)
     the undriven angles cannot resist; mapped to the joints (``N^T u``) it names the joints whose
     forces grow without bound.
     """
-    z = np.exp(1j * theta)
+    z = phasor(theta)
     jac = system.jacobian(z, system.undriven)
     if jac.shape[-1] == 0:
         return []
@@ -236,7 +275,7 @@ def assemble(mechanism: Mechanism, system: LoopSystem, theta_d: np.ndarray, gues
         return theta_u
 
     def cost(angles: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-        z = np.exp(1j * full_angles(system, theta_d, angles))
+        z = phasor(full_angles(system, theta_d, angles))
         phi = system.residual(z)
         return float(phi @ phi), phi, system.jacobian(z, system.undriven)
 
@@ -259,10 +298,11 @@ def assemble(mechanism: Mechanism, system: LoopSystem, theta_d: np.ndarray, gues
             damping *= 4.0
             if damping > 1e12:
                 break
-    polished, ok, _gap = newton(system, theta_d[None], theta_u[None], tol, 8)
+    base = driven_part(system, phasor(theta_d)[None])
+    polished, _z, ok, _gap = newton(system, base, theta_u[None], tol, 8)
     if ok[0]:
         return polished[0]
-    gaps = system.joint_residuals(np.exp(1j * full_angles(system, theta_d, theta_u)))
+    gaps = system.joint_residuals(phasor(full_angles(system, theta_d, theta_u)))
     names, text = joint_gaps_text(mechanism, gaps, 1e3 * tol * system.length_scale)
     raise AssemblyError(
         f"the mechanism cannot be assembled: joints stay open ({text or 'none'})",
@@ -283,16 +323,26 @@ def _unwrap_path(theta_d: np.ndarray) -> np.ndarray:
 
 
 def _anchor_indices(path: np.ndarray, spacing: float) -> np.ndarray:
-    """Return the steps where the driven-angle travel since the last anchor reaches ``spacing``."""
-    travel = np.concatenate([[0.0], np.cumsum(np.max(np.abs(np.diff(path, axis=0)), axis=1)
-                                              if path.shape[1] else np.zeros(len(path) - 1))])
-    marks = np.floor(travel / spacing)
+    """Return the steps where the driven-angle travel since the last mark reaches ``spacing``."""
+    steps = np.max(np.abs(np.diff(path, axis=0)), axis=1) if path.shape[1] else \
+        np.zeros(len(path) - 1)
+    marks = np.floor(np.concatenate([[0.0], np.cumsum(steps)]) / spacing)
     picks = np.flatnonzero(np.diff(marks) > 0) + 1
     return np.unique(np.concatenate([[0], picks]))
 
 
+def condition_one(jacobian: np.ndarray) -> float:
+    """Condition number of one ``J_u`` as :meth:`BatchLU.condition` defines it."""
+    if jacobian.shape[-1] == 0:
+        return 1.0
+    scaled = jacobian / np.sum(np.abs(jacobian), axis=0)
+    if scaled.shape[0] != scaled.shape[1]:
+        return float(np.linalg.cond(scaled / np.linalg.norm(scaled, axis=0)))
+    return float(np.linalg.cond(scaled, 1))
+
+
 class _Tracker:
-    """Continuation of one mechanism's assembly along a path of driven angles."""
+    """Sequential continuation of one mechanism's assembly along a path of driven angles."""
 
     def __init__(self, mechanism: Mechanism, system: LoopSystem, times: np.ndarray,
                  tolerances: Tolerances) -> None:
@@ -300,6 +350,56 @@ class _Tracker:
         self.system = system
         self.times = times
         self.tols = tolerances
+        self.square = system.n_equations == system.undriven.size
+        self.w_u = system.loop_points[:, system.undriven]
+        self.w_d = system.loop_points[:, system.driven]
+
+    def _newton(self, theta_d: np.ndarray, theta_u: np.ndarray
+                ) -> tuple[np.ndarray, bool, float, np.ndarray]:
+        """Newton-Raphson for one configuration.
+
+        Returns the angles, whether they converged, the last loop gap (m) and the last ``J_u``.
+        """
+        tol, scale = self.tols.tol, self.system.length_scale
+        base = np.exp(1j * theta_d) @ self.w_d.T - self.system.loop_offset
+        gap, jac = np.inf, np.zeros((self.system.n_equations, theta_u.size))
+        gap_limit = max(tol, 64 * _EPS) * scale
+        for _ in range(self.tols.max_iter):
+            z = np.exp(1j * theta_u)
+            phi = base + self.w_u @ z
+            gap = float(np.max(np.abs(phi)))
+            block = self.w_u * (1j * z)
+            jac = np.concatenate([block.real, block.imag])
+            rhs = np.concatenate([phi.real, phi.imag])
+            try:
+                step = np.linalg.solve(jac, rhs) if self.square else \
+                    np.linalg.lstsq(jac, rhs, rcond=None)[0]
+            except np.linalg.LinAlgError:
+                return theta_u, False, gap, jac
+            theta_u = theta_u - step
+            if gap <= gap_limit and float(np.max(np.abs(step))) <= tol + 8 * _EPS * float(
+                    np.max(np.abs(theta_u))):
+                return theta_u, True, gap, jac
+        return theta_u, False, gap, jac
+
+    def _expand(self, theta_d: np.ndarray, theta_u: np.ndarray, jac_u: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """First and second derivatives of the undriven in the driven angles at one point.
+
+        ``jac_u`` is ``J_u`` at (or within the Newton tolerance of) the point.
+        """
+        z_d, z_u = np.exp(1j * theta_d), np.exp(1j * theta_u)
+        inv = np.linalg.inv(jac_u) if self.square else np.linalg.pinv(jac_u)
+        block = self.w_d * (1j * z_d)
+        first = -inv @ np.concatenate([block.real, block.imag])
+        n_u, n_d = first.shape
+        bend_u = -self.w_u * z_u
+        bend_d = -self.w_d * z_d
+        pairs = (first[:, :, None] * first[:, None, :]).reshape(n_u, n_d * n_d)
+        bend = bend_u @ pairs
+        bend[:, :: n_d + 1] += bend_d
+        bend = np.concatenate([bend.real, bend.imag])
+        return first, -(inv @ bend).reshape(n_u, n_d, n_d)
 
     def step(self, theta_d0: np.ndarray, theta_u0: np.ndarray, path_delta: np.ndarray,
              theta_d1: np.ndarray, index: int) -> np.ndarray:
@@ -309,25 +409,26 @@ class _Tracker:
         if travel > self.tols.anchor_spacing:
             size = self.tols.anchor_spacing / travel
         current_d, current_u = theta_d0, theta_u0
-        last_gap = np.inf
+        z = phasor(full_angles(self.system, current_d, current_u))[None]
+        expansion = self._expand(current_d, current_u,
+                                 self.system.jacobian(z, self.system.undriven)[0])
         while fraction < 1.0:
             target = min(1.0, fraction + size)
             delta = (target - fraction) * path_delta
             goal_d = theta_d1 if target >= 1.0 else theta_d0 + target * path_delta
-            local = taylor(self.system, current_d[None], current_u[None])
-            guess = local.predict(np.zeros(1, dtype=int), delta[None])
-            found, ok, gap = newton(self.system, goal_d[None], guess, self.tols.tol,
-                                    self.tols.max_iter)
-            moved = float(np.max(np.abs(found - guess))) if found.size else 0.0
-            bound = max(0.25 * float(np.max(np.abs(delta))), 1e-6)
-            if ok[0] and moved <= bound and np.all(np.isfinite(found)):
-                fraction, current_d, current_u = target, goal_d, found[0]
+            first, second = expansion
+            guess = current_u + first @ delta + 0.5 * (second @ delta) @ delta
+            found, ok, gap, jac = self._newton(goal_d, guess)
+            moved = float(np.max(np.abs(found - guess)))
+            if ok and moved <= max(0.25 * float(np.max(np.abs(delta))), 1e-6):
+                fraction, current_d, current_u = target, goal_d, found
+                if fraction < 1.0:
+                    expansion = self._expand(current_d, current_u, jac)
                 size = min(2 * size, 1.0)
                 continue
-            last_gap = float(gap[0])
             size /= 2.0
             if size * travel < 1e-9 or size < 1e-12:
-                self.fail(index, current_d, current_u, goal_d, found[0], last_gap)
+                self.fail(index, current_d, current_u, goal_d, found, gap)
         return current_u
 
     def fail(self, index: int, good_d: np.ndarray, good_u: np.ndarray, goal_d: np.ndarray,
@@ -335,11 +436,10 @@ class _Tracker:
         """Raise the error for a step the continuation cannot reach."""
         system, mechanism = self.system, self.mechanism
         good = full_angles(system, good_d, good_u)
-        cond = float(equilibrated_condition(system.jacobian(np.exp(1j * good),
-                                                            system.undriven)[None])[0])
+        cond = condition_one(system.jacobian(phasor(good)[None], system.undriven)[0])
         time_s = float(self.times[index])
         tried = full_angles(system, goal_d, np.where(np.isfinite(tried_u), tried_u, good_u))
-        gaps = system.joint_residuals(np.exp(1j * tried))
+        gaps = system.joint_residuals(phasor(tried))
         residual = float(np.max(gaps)) if np.isfinite(gap) else float("inf")
         if cond > self.tols.cond_warn:
             joints = involved_joints(mechanism, system, good)
@@ -360,7 +460,8 @@ class _Tracker:
 
 
 def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: np.ndarray,
-          tolerances: Tolerances, guess_u: np.ndarray | None = None) -> np.ndarray:
+          tolerances: Tolerances, guess_u: np.ndarray | None = None
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Undriven angles at every step, following the assembly branch of the guess.
 
     Parameters
@@ -378,18 +479,27 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
 
     Returns
     -------
-    numpy.ndarray
+    theta_u : numpy.ndarray
         (n, n_u) undriven angles, rad, continuous along the steps.
+    z_u : numpy.ndarray
+        (n, n_u) their unit phasors.
+    row_order : numpy.ndarray or None
+        Row order of partial pivoting of ``J_u`` at the first step (None without a square
+        ``J_u``), a good start for factorising the whole batch.
     """
     n = theta_d.shape[0]
     if guess_u is None:
         guess_u = np.array([mechanism.bodies[i].guess[2] for i in system.undriven])
     theta_u = np.empty((n, system.undriven.size))
     if n == 0 or system.undriven.size == 0:
-        return theta_u
+        return theta_u, phasor(theta_u), None
     tracker = _Tracker(mechanism, system, times, tolerances)
     theta_u[0] = assemble(mechanism, system, theta_d[0], guess_u, tolerances.tol,
                           float(times[0]))
+    row_order = None
+    if tracker.square:
+        z0 = phasor(full_angles(system, theta_d[0], theta_u[0]))[None]
+        row_order = static_row_order(system.jacobian(z0, system.undriven)[0])
     path = _unwrap_path(theta_d)
     anchors = _anchor_indices(path, tolerances.anchor_spacing)
     for prev, nxt in itertools.pairwise(anchors):
@@ -397,39 +507,42 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
                                     theta_d[nxt], int(nxt))
     solved = np.zeros(n, dtype=bool)
     solved[anchors] = True
+    z_d = phasor(theta_d)
+    z_u = np.empty(theta_u.shape, dtype=complex)
+    z_u[anchors] = phasor(theta_u[anchors])
     for spacing in (tolerances.refine_spacing, 0.0):
         targets = _anchor_indices(path, spacing) if spacing > 0 else np.arange(n)
         targets = targets[~solved[targets]]
         if targets.size == 0:
             continue
-        known = np.flatnonzero(solved)
-        _refine(tracker, path, theta_d, theta_u, known, targets)
+        _refine(tracker, path, theta_d, z_d, theta_u, z_u, np.flatnonzero(solved), targets,
+                row_order)
         solved[targets] = True
-    return theta_u
+    return theta_u, z_u, row_order
 
 
-def _refine(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, theta_u: np.ndarray,
-            known: np.ndarray, targets: np.ndarray) -> None:
+def _refine(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, z_d: np.ndarray,
+            theta_u: np.ndarray, z_u: np.ndarray, known: np.ndarray, targets: np.ndarray,
+            row_order: np.ndarray | None) -> None:
     """Solve ``targets`` in one batch from the nearest preceding solved step (in place)."""
     system, tols = tracker.system, tracker.tols
     base = known[np.searchsorted(known, targets, side="right") - 1]
-    expansion = taylor(system, theta_d[known], theta_u[known])
     rows = np.searchsorted(known, base)
+    used = np.unique(rows)
+    expansion = taylor(system, theta_d[known[used]], theta_u[known[used]])
     delta = path[targets] - path[base]
-    guess = expansion.predict(rows, delta)
-    square = system.n_equations == system.undriven.size
-    order = None
-    if square:
-        z = np.exp(1j * full_angles(system, theta_d[known], theta_u[known]))
-        order = pivot_order(system.jacobian(z, system.undriven))[rows]
-    found, ok, _gap = newton(system, theta_d[targets], guess, tols.tol, tols.max_iter, order)
+    guess = expansion.predict(np.searchsorted(used, rows), delta)
+    found, found_z, ok, _gap = newton(system, driven_part(system, z_d[targets]), guess, tols.tol,
+                                      tols.max_iter, row_order)
     moved = np.max(np.abs(found - guess), axis=1)
     bound = np.maximum(0.25 * np.max(np.abs(delta), axis=1), 1e-6)
     good = ok & (moved <= bound)
     theta_u[targets[good]] = found[good]
+    z_u[targets[good]] = found_z[good]
     for target, start in zip(targets[~good], base[~good], strict=True):
         theta_u[target] = tracker.step(theta_d[start], theta_u[start],
                                        path[target] - path[start], theta_d[target], int(target))
+        z_u[target] = phasor(theta_u[target])
     if np.any(~good):
         logger.debug("%d steps needed sequential continuation", int(np.sum(~good)))
 
@@ -454,7 +567,7 @@ def assembly_rank(mechanism: Mechanism) -> tuple[int, int]:
             f"be assembled at t = 0 to check whether they are redundant: {exc.message}",
             where={"file": mechanism.source, "key": "drivers"},
             hint="remove surplus drivers or joints, or fix the guesses") from exc
-    z = np.exp(1j * full_angles(system, theta_d, theta_u))
+    z = phasor(full_angles(system, theta_d, theta_u))
     jac = system.jacobian(z, system.undriven)
     if jac.shape[-1] == 0:
         return 0, 0
@@ -508,10 +621,4 @@ def check_constraint_count(mechanism: Mechanism) -> Mechanism:
             where=where, hint=f"remove {surplus} driver(s) or joint(s)")
     logger.info("%s: %d redundant constraint equations", mechanism.name, surplus)
     return replace(mechanism, redundant_constraints=surplus)
-
-
-def condition_numbers(system: LoopSystem, theta: np.ndarray) -> np.ndarray:
-    """Equilibrated condition number of the reduced ``C_e`` at each configuration, (n,)."""
-    jac = system.jacobian(np.exp(1j * theta), system.undriven)
-    return equilibrated_condition(jac)
 

@@ -97,6 +97,12 @@ class LoopSystem:
         block = 1j * z[..., None, columns] * self.loop_points[:, columns]
         return np.concatenate([block.real, block.imag], axis=-2)
 
+    def jacobian_stack(self, z: np.ndarray) -> np.ndarray:
+        """Undriven Jacobian ``J_u`` with the batch last, (n_equations, n_undriven, n), m."""
+        columns = self.undriven
+        block = self.loop_points[:, columns, None] * (1j * z[:, columns]).T[None]
+        return np.concatenate([block.real, block.imag], axis=0)
+
     def curvature(self, z: np.ndarray) -> np.ndarray:
         """Diagonal Hessian ``d2 Phi / d theta_m2`` of every body, (..., n_eq, n_bodies), m."""
         block = -z[..., None, :] * self.loop_points

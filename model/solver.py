@@ -19,7 +19,7 @@ import scipy.interpolate
 import xarray as xr
 
 from rigval.acquisition.errors import ConfigError, DataError, NumericsWarning, SingularityError
-from rigval.model.assembly import Tolerances, full_angles, involved_joints, track
+from rigval.model.assembly import Tolerances, full_angles, involved_joints, phasor, track
 from rigval.model.drives import (
     SampledDrive,
     cycle_period,
@@ -29,7 +29,7 @@ from rigval.model.drives import (
 )
 from rigval.model.dynamics import applied_forces, minimum_norm_multipliers, multipliers
 from rigval.model.kinematics import angular_accelerations, angular_velocities
-from rigval.model.linalg import BatchLU, equilibrated_condition, pivot_order
+from rigval.model.linalg import BatchLU
 from rigval.model.loops import LoopSystem, loop_system
 from rigval.model.mechanism import Mechanism, load_mechanism
 from rigval.model.reference import constraint_jacobian
@@ -38,10 +38,6 @@ from rigval.model.results import Solution, build_dataset, select
 __all__ = ["interpolate_cycle", "solve", "solve_cycle"]
 
 logger = logging.getLogger(__name__)
-
-#: Matrices factorised with one shared pivot order per group of this many steps.
-_PIVOT_GROUP = 64
-
 
 def _as_mechanism(mechanism: Mechanism | str | Path) -> Mechanism:
     return mechanism if isinstance(mechanism, Mechanism) else load_mechanism(mechanism)
@@ -101,12 +97,14 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
     tolerances = Tolerances(tol=tol, cond_warn=cond_warn, cond_max=cond_max)
     motion = drive_motion(mech, times, drives)
     system = loop_system(mech)
-    theta_u = track(mech, system, times, motion.theta, tolerances)
+    theta_u, z_u, row_order = track(mech, system, times, motion.theta, tolerances)
     theta = full_angles(system, motion.theta, theta_u)
-    z = np.exp(1j * theta)
+    z = np.empty(theta.shape, dtype=complex)
+    z[:, system.driven] = phasor(motion.theta)
+    z[:, system.undriven] = z_u
     solution = Solution(times=times, theta=theta, position=system.positions(z))
-    lu = _factorise(system, z)
-    solution.condition = _check_condition(mech, system, times, theta, tolerances)
+    lu = BatchLU(system.jacobian_stack(z), row_order)
+    solution.condition = _check_condition(mech, system, times, theta, lu, tolerances)
     if selection.velocity:
         solution.omega = angular_velocities(system, z, lu, motion.omega)
         solution.omega_driven = motion.omega
@@ -135,20 +133,12 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
     return build_dataset(mech, solution, selection, attrs)
 
 
-def _factorise(system: LoopSystem, z: np.ndarray) -> BatchLU:
-    """Factor ``J_u`` at every step, pivot order shared within small groups of steps."""
-    jac = system.jacobian(z, system.undriven)
-    if jac.shape[-1] != jac.shape[-2] or jac.shape[-1] == 0:
-        return BatchLU(jac)
-    heads = jac[::_PIVOT_GROUP]
-    order = np.repeat(pivot_order(heads), _PIVOT_GROUP, axis=0)[: jac.shape[0]]
-    return BatchLU(jac, order)
-
-
 def _check_condition(mechanism: Mechanism, system: LoopSystem, times: np.ndarray,
-                     theta: np.ndarray, tolerances: Tolerances) -> np.ndarray:
+                     theta: np.ndarray, lu: BatchLU, tolerances: Tolerances) -> np.ndarray:
     """Condition of the reduced ``C_e`` per step; warn or raise past the thresholds."""
-    cond = equilibrated_condition(system.jacobian(np.exp(1j * theta), system.undriven))
+    if system.undriven.size == 0:
+        return np.ones(times.size)
+    cond = lu.condition()
     if cond.size == 0:
         return cond
     worst = int(np.argmax(cond))
