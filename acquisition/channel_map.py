@@ -376,9 +376,11 @@ def load_stream(spec: StreamSpec, *, time_range: tuple[float | None, float | Non
         ds = read_stream(spec.file, device=spec.device, channels=sources, time_range=time_range,
                          checksum=checksum, **options)
     except ChannelNotFoundError as error:
-        raise SceneError(f"{spec.key}: {error.message}", where={**error.where, "key": spec.key},
-                         hint="available: " + ", ".join(map(str, error.extra.get("available",
-                                                                                  [])))) from None
+        available = [str(a) for a in error.extra.get("available", [])]
+        missing = [c for c in spec.channels.values() if c.source not in available]
+        key = f"{missing[0].key}.source" if missing else spec.key
+        raise SceneError(f"{key}: {error.message}", where={**error.where, "key": key},
+                         hint="channels in the file: " + ", ".join(available)) from None
     except SceneError:
         raise
     except ConfigError as error:

@@ -167,16 +167,18 @@ DEVICES: Mapping[str, DeviceProfile] = {
 
 
 def get_device(name: str) -> DeviceProfile:
-    """Return the profile of a device by name (case and spaces ignored).
+    """Return the profile of a device by name (case, spaces and hyphens ignored).
 
     Raises
     ------
     ChannelNotFoundError
         If no such profile exists; lists the known ones.
     """
-    wanted = name.replace(" ", "").lower()
+    def plain(text: str) -> str:
+        return text.replace(" ", "").replace("-", "").lower()
+
     for key, profile in DEVICES.items():
-        if key.replace(" ", "").lower() == wanted:
+        if plain(key) == plain(name):
             return profile
     raise ChannelNotFoundError(f"unknown device profile {name!r}", where={"device": name},
                                available=list(DEVICES),
