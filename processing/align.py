@@ -34,12 +34,13 @@ import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 
 from rigval.acquisition.errors import AlignmentError, DataError, DataWarning
-from rigval.acquisition.schema import append_history
+from rigval.acquisition.schema import append_history, parse_start_time
 
 __all__ = [
     "ClockModel",
     "align_stream",
     "channel_time",
+    "coarse_offset",
     "estimate_clock",
     "identity_clock",
     "input_delay",
@@ -460,6 +461,17 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
     logger.info("clock model: offset %.9f s, drift %.4f ppm, rms %.3g s, %d/%d events",
                 model.offsets_s[0], drift * 1e6, rms, model.pulses_matched, dev.size)
     return model
+
+
+def coarse_offset(reference: xr.Dataset, stream: xr.Dataset) -> float:
+    """Return the rough clock offset ``t_ref - t_dev`` in s from the streams' start times.
+
+    The start times are software time stamps (ms-accurate at best, off by seconds after a bad
+    host clock); :func:`estimate_clock` refines this within ``max_offset_error_s``.
+    """
+    start_ref = parse_start_time(reference.attrs["start_time"])
+    start_dev = parse_start_time(stream.attrs["start_time"])
+    return float((start_dev - start_ref) / np.timedelta64(1, "ns")) * 1e-9
 
 
 def channel_time(aligned: xr.Dataset, name: str) -> _FloatArray:

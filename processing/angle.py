@@ -16,6 +16,7 @@ samples (``points_per_rev * f_rot < fs``) the channel is first low-passed (zero 
 
 from __future__ import annotations
 
+import json
 import logging
 from collections.abc import Mapping, Sequence
 from typing import Literal
@@ -28,12 +29,16 @@ from scipy.interpolate import make_interp_spline
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError
 from rigval.acquisition.schema import append_history
 from rigval.processing.align import channel_time
+from rigval.processing.encoder import revolution_check, unwrap_counts
+from rigval.processing.excitation import Method, drive_excitation
 from rigval.processing.filters import contiguous_runs, zero_phase
+from rigval.processing.pulses import StreamPulses
 
 __all__ = [
     "angle_domain",
     "cycle_grid",
     "interpolate_runs",
+    "phi_f",
     "resample_to_angle",
     "zero_at_reference",
 ]
@@ -320,3 +325,60 @@ def angle_domain(aligned: Mapping[str, xr.Dataset], angle_time: ArrayLike, angle
     append_history(out, f"processing.angle_domain {points_per_rev} points/rev, order {order}, "
                         f"anti-alias {anti_alias}, {cycles.size} cycles")
     return out
+
+
+def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
+          counts_per_rev: float, direction: float = 1.0, method: Method = "butterworth",
+          cutoff_hz: float | None = None, order: int = 8, harmonics: int = 8,
+          glitch_tolerance: float = 4.0) -> xr.Dataset:
+    """Return phi_F(t): the smoothed main-shaft angle, zero at the optical reference.
+
+    Parameters
+    ----------
+    stream : xarray.Dataset
+        The (aligned) reference stream with the main-shaft encoder.
+    encoder_channel : str
+        Counter channel of the main-shaft encoder.
+    reference : StreamPulses
+        The optical reference pulses of the same stream (:func:`~rigval.processing.pulses.
+        stream_pulses`); their good edges define phi_F = 0.
+    counts_per_rev : float
+        Encoder counts per revolution (8192 for 2048 lines X4).
+    direction : float, default 1
+        -1 if the encoder counts down when the shaft turns the model's positive way.
+    method, cutoff_hz, order, harmonics
+        As in :func:`~rigval.processing.excitation.drive_angle`.
+    glitch_tolerance : float, default 4
+        Counts per revolution off CPR still called a glitch (see
+        :func:`~rigval.processing.encoder.revolution_check`).
+
+    Returns
+    -------
+    xarray.Dataset
+        On the stream's ``time``: ``phi_F`` (rad, unwrapped, 2 pi k at the reference),
+        ``phi_F_dot`` (rad s-1), ``phi_F_ddot`` (rad s-2); attributes ``zero_offset_rad``,
+        ``reference_scatter_rad`` (rms scatter of the pulses about phi_F = 0) and
+        ``suspect_cycles`` (JSON list of cycle numbers whose count between reference pulses is
+        off CPR: glitches, missed counts or a missing pulse) and a history line.
+    """
+    exc = drive_excitation(stream, encoder_channel, counts_per_rev=counts_per_rev,
+                           name="phi_F", direction=direction, method=method,
+                           cutoff_hz=cutoff_hz, order=order, harmonics=harmonics)
+    time = exc["time"].to_numpy()
+    angle = exc["phi_F"].to_numpy()
+    finite = np.isfinite(angle)
+    offset, scatter = zero_at_reference(time[finite], angle[finite], reference.good)
+    exc["phi_F"] = (exc["phi_F"] - offset).assign_attrs(exc["phi_F"].attrs | {
+        "long_name": "main shaft angle phi_F from the optical reference",
+        "zero_offset_rad": offset})
+    counts = direction * unwrap_counts(stream[encoder_channel].to_numpy())
+    check = revolution_check(time, counts, reference.good, counts_per_rev,
+                             tolerance=glitch_tolerance)
+    at_pulse = np.interp(check.event_times[:-1], time[finite], exc["phi_F"].to_numpy()[finite])
+    suspect = np.round(at_pulse / (2 * np.pi)).astype(int)[check.residual != 0]
+    exc.attrs.update({"zero_offset_rad": offset, "reference_scatter_rad": scatter,
+                      "reference_channel": reference.channel,
+                      "suspect_cycles": json.dumps(sorted(set(suspect.tolist())))})
+    append_history(exc, f"processing.phi_f zero at {reference.channel} ({offset:.6f} rad, "
+                        f"scatter {scatter:.2e} rad), {suspect.size} suspect cycles")
+    return exc

@@ -7,7 +7,7 @@ estimators (research section 3.3):
 ``"butterworth"`` (default, any motion)
     Per gap-free run: remove a least-squares Fourier trend of a few harmonics (as below), filter
     the remainder forward and backward with a Butterworth low-pass (order 8 by default, so the
-    pass band is flat to 1.5e-5 at half the corner) padded with ``3 fs / f_c`` zeros, add the
+    pass band is flat to 1.5e-5 at half the corner) padded with ``3 fs / f_c`` samples, add the
     trend back, then central differences (analytic ones for the trend). What the trend does not
     capture (speed changes, non-periodic motion) still passes the filter, so the method works
     for any motion; the trend only shrinks the filter's edge transients (8.8 rad/s^2 at the
@@ -175,7 +175,7 @@ def _butterworth_run(t: _FloatArray, theta: _FloatArray, fs: float, cutoff_hz: f
 
 def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float,
                 method: Method = "butterworth", cutoff_hz: float | None = None, order: int = 8,
-                harmonics: int = 8, trend_harmonics: int = 4, padtype: PadType = "zero",
+                harmonics: int = 8, trend_harmonics: int = 4, padtype: PadType = "line",
                 segment: ArrayLike | None = None,
                 valid: ArrayLike | None = None) -> DriveAngle:
     """Smooth a quantised drive angle and differentiate it twice.
@@ -204,10 +204,10 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
         Harmonics of the Fourier trend removed before the Butterworth filter (0: a straight
         line); it keeps the filter's edge transients small. Few: the trend's own noise is not
         filtered, so keep ``trend_harmonics * rate`` inside the pass band.
-    padtype : {"zero", "odd", "even"}, default "zero"
-        Edge extension of the remainder (see :func:`~rigval.processing.filters.zero_phase`);
-        zero suits a remainder that is noise about the trend, odd a remainder with real motion
-        left (speed changes).
+    padtype : {"line", "zero", "odd", "even"}, default "line"
+        Edge extension of the remainder (see :func:`~rigval.processing.filters.zero_phase`):
+        ``"line"`` works whether or not real motion is left in the remainder (speed changes);
+        ``"zero"`` is slightly better when the remainder is pure noise about the trend.
     segment, valid : array_like, optional
         Stream ``segment`` and ``valid`` variables: each gap-free run is processed on its own.
 

@@ -30,7 +30,7 @@ logger = logging.getLogger(__name__)
 
 _FloatArray = NDArray[np.float64]
 BandType = Literal["lowpass", "highpass", "bandpass", "bandstop"]
-PadType = Literal["odd", "even", "zero"]
+PadType = Literal["odd", "line", "even", "zero"]
 
 #: Default number of samples filtered at once in a long run (bounded memory).
 DEFAULT_CHUNK = 1 << 20
@@ -96,15 +96,19 @@ def contiguous_runs(n: int, segment: ArrayLike | None = None,
     return [(a, b) for a, b in itertools.pairwise(bounds) if b > a and ok[a]]
 
 
-def _extension(run: _FloatArray, n: int, padtype: str, side: str) -> _FloatArray:
+def _extension(run: _FloatArray, n: int, padtype: str, side: str, fit: int) -> _FloatArray:
     """Return ``n`` padding samples for one end of a run."""
     if padtype == "zero":
         return np.zeros(n)
-    if side == "left":
-        mirror = run[n:0:-1]
-        return 2.0 * run[0] - mirror if padtype == "odd" else mirror.copy()
-    mirror = run[-2:-n - 2:-1]
-    return 2.0 * run[-1] - mirror if padtype == "odd" else mirror.copy()
+    mirror = run[n:0:-1] if side == "left" else run[-2:-n - 2:-1]
+    if padtype == "even":
+        return mirror.copy()
+    end = run[0] if side == "left" else run[-1]
+    if padtype == "line":
+        edge = run[:fit] if side == "left" else run[-fit:][::-1]
+        coeffs = np.polyfit(np.arange(edge.size), edge, 1) if edge.size > 1 else (0.0, end)
+        end = coeffs[1]
+    return 2.0 * end - mirror
 
 
 def _chunks(start: int, stop: int, chunk: int, margin: int) -> Iterator[tuple[int, int, int, int]]:
@@ -140,10 +144,11 @@ def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], 
     padlen : int, optional
         Edge padding in samples at the ends of each run; default :func:`default_padlen`
         (limited to the run length - 1).
-    padtype : {"odd", "even", "zero"}, default "odd"
-        Extension at run ends: point-symmetric about the end sample (keeps a ramp going), mirror,
-        or zeros (best for a zero-mean remainder, e.g. noise about a fitted trend: it does not
-        pivot on the noisy end sample).
+    padtype : {"odd", "line", "even", "zero"}, default "odd"
+        Extension at run ends: point-symmetric about the end sample (keeps a ramp going); the
+        same about the end value of a line fitted to the last ``0.3 fs / f_c`` samples (the
+        noise of the end sample does not start a transient); mirror; or zeros (for a zero-mean
+        remainder).
     chunk_samples : int, default 2**20
         Samples kept per chunk of a long run; chunks overlap by ``4 * padlen``.
 
@@ -161,8 +166,8 @@ def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], 
     data = np.asarray(x, dtype=np.float64)
     sos = butter_sos(cutoff_hz, fs, order=order, btype=btype)
     pad = default_padlen(cutoff_hz, fs) if padlen is None else int(padlen)
-    if padtype not in ("odd", "even", "zero"):
-        raise ConfigError(f"padtype must be 'odd', 'even' or 'zero', got {padtype!r}",
+    if padtype not in ("odd", "line", "even", "zero"):
+        raise ConfigError(f"padtype must be 'odd', 'line', 'even' or 'zero', got {padtype!r}",
                           where={"key": "padtype"})
     minimum = 3 * (2 * sos.shape[0] + 1)
     out = np.full(data.shape, np.nan)
@@ -173,9 +178,11 @@ def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], 
             short += stop - start
             continue
         n_pad = min(pad, stop - start - 1)
+        fit = max(2, min(stop - start, pad // 10))
+        run = data[start:stop]
         for lo, hi, keep_lo, keep_hi in _chunks(start, stop, max(chunk_samples, 1), margin):
-            left = _extension(data[start:stop], n_pad, padtype, "left") if lo == start else None
-            right = _extension(data[start:stop], n_pad, padtype, "right") if hi == stop else None
+            left = _extension(run, n_pad, padtype, "left", fit) if lo == start else None
+            right = _extension(run, n_pad, padtype, "right", fit) if hi == stop else None
             parts = [p for p in (left, data[lo:hi], right) if p is not None]
             y = sosfiltfilt(sos, np.concatenate(parts), padtype=None)
             first = keep_lo - lo + (0 if left is None else left.size)

@@ -21,14 +21,17 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+import xarray as xr
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import brentq
 
-from rigval.acquisition.errors import ConfigError, DataError
+from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError
+from rigval.processing.align import input_delay
 from rigval.processing.filters import contiguous_runs
 
-__all__ = ["PulseTrain", "classify_pulses", "detect_edges", "state_levels"]
+__all__ = ["PulseTrain", "StreamPulses", "classify_pulses", "detect_edges", "state_levels",
+           "stream_pulses"]
 
 logger = logging.getLogger(__name__)
 
@@ -289,3 +292,101 @@ def classify_pulses(times: ArrayLike, *, tolerance: float = 0.15, window: int = 
         if m >= 2:
             missing.extend(a + (b - a) * np.arange(1, m) / m)
     return PulseTrain(t, spurious, np.asarray(missing), period_at[keep])
+
+
+@dataclass(frozen=True)
+class StreamPulses:
+    """Edges of one pulse channel of a stream, delay-corrected and classified per segment.
+
+    Attributes
+    ----------
+    channel : str
+        The pulse channel.
+    polarity : str
+        ``"rising"`` or ``"falling"``.
+    times : numpy.ndarray
+        Edge times in s on the stream's ``time`` axis minus the module input delay.
+    segment : numpy.ndarray of int
+        Gap-free segment of each edge.
+    spurious : numpy.ndarray of bool
+        Edges off the periodic grid (:func:`classify_pulses`, per segment).
+    missing_times : numpy.ndarray
+        Estimated times in s of missing pulses.
+    delay_s : float
+        The input delay that was subtracted, s.
+    """
+
+    channel: str
+    polarity: str
+    times: _FloatArray
+    segment: NDArray[np.int64]
+    spurious: NDArray[np.bool_]
+    missing_times: _FloatArray
+    delay_s: float
+
+    @property
+    def good(self) -> _FloatArray:
+        """Edge times (s) not flagged spurious."""
+        return self.times[~self.spurious]
+
+    @property
+    def good_segment(self) -> NDArray[np.int64]:
+        """Segment of each good edge."""
+        return self.segment[~self.spurious]
+
+
+def stream_pulses(stream: xr.Dataset, channel: str, *,
+                  polarity: Literal["rising", "falling"] = "rising",
+                  refine: Literal["linear", "sinc"] = "sinc", holdoff_s: float = 0.01,
+                  low: float | None = None, high: float | None = None,
+                  tolerance: float = 0.15) -> StreamPulses:
+    """Detect, delay-correct and classify the edges of a pulse channel of a stream.
+
+    Parameters
+    ----------
+    stream : xarray.Dataset
+        Stream (or aligned stream: the times are then on the reference clock).
+    channel : str
+        Pulse channel (analog or logic level).
+    polarity, refine, holdoff_s, low, high
+        As in :func:`detect_edges` (``holdoff_s`` in s debounces contact bounce; keep it well
+        below the period, or a spurious pulse just before a real one hides the real one).
+    tolerance : float, default 0.15
+        As in :func:`classify_pulses`.
+
+    Returns
+    -------
+    StreamPulses
+        Edges with segment, spurious flags and missing-pulse times.
+    """
+    if channel not in stream:
+        raise ChannelNotFoundError(f"no pulse channel {channel!r} in the stream",
+                                   where={"file": stream.attrs.get("source_file")},
+                                   available=[v for v in stream.data_vars
+                                              if v not in ("valid", "segment")])
+    time = stream["time"].to_numpy()
+    segment = stream["segment"].to_numpy()
+    valid = stream["valid"].to_numpy()
+    fs = float(stream.attrs["fs_nominal"])
+    delay = (float(stream[channel].attrs["input_delay_s"])
+             if "input_delay_s" in stream[channel].attrs
+             else input_delay(stream[channel].attrs, fs))
+    edges = detect_edges(stream[channel].to_numpy(), time, low=low, high=high,
+                         polarity=polarity, holdoff_s=holdoff_s, segment=segment, valid=valid,
+                         refine=refine)
+    edge_segment = segment[np.clip(np.searchsorted(time, edges) - 1, 0, time.size - 1)]
+    spurious = np.zeros(edges.size, dtype=bool)
+    missing: list[_FloatArray] = []
+    for s in np.unique(edge_segment):
+        mine = edge_segment == s
+        if mine.sum() < 3:
+            logger.info("segment %d of %s has %d pulses: not classified", s, channel, mine.sum())
+            continue
+        train = classify_pulses(edges[mine], tolerance=tolerance)
+        spurious[mine] = train.spurious
+        missing.append(train.missing_times)
+    if spurious.any():
+        logger.info("%s: %d spurious pulses at %s s", channel, spurious.sum(), edges[spurious])
+    return StreamPulses(channel, polarity, edges - delay, edge_segment.astype(np.int64),
+                        spurious, np.concatenate(missing) - delay if missing else np.zeros(0),
+                        delay)

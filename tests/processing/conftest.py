@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -103,3 +104,11 @@ def build_rig(seed: int = 1, *, missing: float = 0.1, spurious: int = 2, duratio
 def make_rig() -> Callable[..., Rig]:
     """Factory of synthetic runs: ``make_rig(seed, missing=0.1, spurious=2, duration=20)``."""
     return build_rig
+
+
+@pytest.fixture(scope="session")
+def synth() -> SimpleNamespace:
+    """The generator's constants and helpers (tests cannot import conftest directly)."""
+    return SimpleNamespace(FS_REF=FS_REF, FS_DEV=FS_DEV, CPR=CPR, TWO_PI=TWO_PI,
+                           shaft_angle=shaft_angle, crossing_times=crossing_times,
+                           pulse_signal=pulse_signal)

@@ -1,0 +1,301 @@
+"""Dataset-level sensor conversions: raw channels of a stream to physical quantities.
+
+Each function takes a stream (or aligned stream), converts one channel with the numpy functions
+of :mod:`~rigval.processing.bridge`, :mod:`~rigval.processing.torsion`,
+:mod:`~rigval.processing.stress`, :mod:`~rigval.processing.accelerometer` and
+:mod:`~rigval.processing.encoder`, and returns a copy with one new variable that carries
+``units``, ``long_name``, ``source_channel`` (of the raw channel), ``conversion`` (formula and
+parameters) and the raw channel's sensor metadata, and a ``history`` line. Nothing is changed in
+place. Bridge channels may hold the ratio (``"V/V"``, ``"mV/V"``) or the output voltage (``"V"``,
+``"mV"``, then the excitation is needed); the offset null is a value in V/V or the mean over a
+time window (a quiet, unloaded period, or whole cycles).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from numpy.typing import NDArray
+
+from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, UnitError
+from rigval.acquisition.schema import append_history
+from rigval.processing import accelerometer, bridge, encoder, stress, torsion
+from rigval.processing.bridge import BridgeType
+from rigval.processing.filters import contiguous_runs
+from rigval.processing.torsion import Rosette
+
+__all__ = [
+    "acceleration_channel",
+    "axial_stress_channel",
+    "bridge_ratio_values",
+    "encoder_angle_channel",
+    "strain_channel",
+    "torque_channel",
+]
+
+logger = logging.getLogger(__name__)
+
+_RATIO_UNITS = {"V/V": 1.0, "mV/V": 1e-3, "1": 1.0}
+_VOLT_UNITS = {"V": 1.0, "mV": 1e-3}
+
+Null = float | tuple[float, float] | None
+
+
+def _channel(ds: xr.Dataset, name: str) -> xr.DataArray:
+    if name not in ds:
+        raise ChannelNotFoundError(f"no channel {name!r} in the stream",
+                                   where={"file": ds.attrs.get("source_file"), "channel": name},
+                                   available=[v for v in ds.data_vars
+                                              if v not in ("valid", "segment")])
+    return ds[name]
+
+
+def bridge_ratio_values(ds: xr.Dataset, channel: str, *, excitation_voltage: float | None = None,
+                        unstrained: Null = None) -> NDArray[np.float64]:
+    """Return the offset-nulled bridge ratio Vr (V/V) of a bridge channel.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Stream holding the channel.
+    channel : str
+        Bridge channel in V/V, mV/V, V or mV (``units`` attribute).
+    excitation_voltage : float, optional
+        Excitation in V; needed when the channel holds volts.
+    unstrained : float or (float, float), optional
+        Offset null: the unloaded ratio in V/V, or a time window ``(start_s, stop_s)`` whose valid
+        samples are averaged; None for no offset null.
+
+    Returns
+    -------
+    numpy.ndarray
+        Vr in V/V.
+    """
+    var = _channel(ds, channel)
+    units = str(var.attrs.get("units", ""))
+    values = var.to_numpy().astype(np.float64)
+    if units in _RATIO_UNITS:
+        ratio = values * _RATIO_UNITS[units]
+    elif units in _VOLT_UNITS:
+        if excitation_voltage is None:
+            raise ConfigError(f"channel {channel!r} holds {units}; the excitation voltage is "
+                              "needed", where={"channel": channel, "key": "excitation_voltage"})
+        ratio = values * _VOLT_UNITS[units] / excitation_voltage
+    else:
+        raise UnitError(f"bridge channel {channel!r} has units {units!r}; expected one of "
+                        f"{sorted(_RATIO_UNITS | _VOLT_UNITS)}", where={"channel": channel},
+                        hint="check the reader's scaling: DAQmx strain channels are already "
+                             "strain (units '1'); convert raw bridge channels only")
+    if unstrained is None:
+        return ratio
+    if isinstance(unstrained, tuple):
+        time = ds["time"].to_numpy()
+        window = (time >= unstrained[0]) & (time <= unstrained[1]) & ds["valid"].to_numpy()
+        if not window.any():
+            raise ConfigError(f"the offset-null window {unstrained} s holds no valid sample",
+                              where={"channel": channel, "key": "unstrained"})
+        return ratio - float(np.mean(ratio[window]))
+    return ratio - float(unstrained)
+
+
+def _with_variable(ds: xr.Dataset, name: str, values: NDArray[np.float64], source: xr.DataArray,
+                   source_name: str, *, units: str, long_name: str, conversion: str,
+                   parameters: Mapping[str, Any]) -> xr.Dataset:
+    sensor = {k: v for k, v in source.attrs.items()
+              if k not in ("units", "long_name", "scaling", "source_channel")}
+    attrs = {**sensor, "units": units, "long_name": long_name,
+             "source_channel": source.attrs.get("source_channel", source_name),
+             "scaling": source.attrs.get("scaling", "none"), "conversion": conversion,
+             **{f"conversion_{k}": v for k, v in parameters.items() if v is not None}}
+    out = ds.copy()
+    out[name] = ("time", values, attrs)
+    append_history(out, f"processing.convert {source_name} -> {name}: {conversion}")
+    return out
+
+
+def strain_channel(ds: xr.Dataset, channel: str, *, bridge_type: BridgeType,
+                   gauge_factor: float, name: str | None = None, poisson: float = 0.3,
+                   gauge_resistance: float = 120.0, lead_resistance: float = 0.0,
+                   gain_adjust: float = 1.0, excitation_voltage: float | None = None,
+                   unstrained: Null = None) -> xr.Dataset:
+    """Add the strain (1) of a bridge channel with NI's equation for its bridge type.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Stream.
+    channel : str
+        Bridge channel (V/V, mV/V, V or mV).
+    bridge_type : str
+        NI configuration (:data:`~rigval.processing.bridge.BRIDGE_TYPES`).
+    gauge_factor : float
+        Gauge factor (1).
+    name : str, optional
+        Output variable; default ``<channel>_strain``.
+    poisson, gauge_resistance, lead_resistance, gain_adjust : float
+        As in :func:`~rigval.processing.bridge.strain_from_ratio` (1, ohm, ohm, 1).
+    excitation_voltage : float, optional
+        Excitation in V for channels in volts.
+    unstrained : float or (float, float), optional
+        Offset null (see :func:`bridge_ratio_values`).
+
+    Returns
+    -------
+    xarray.Dataset
+        Copy of ``ds`` with the strain variable.
+    """
+    ratio = bridge_ratio_values(ds, channel, excitation_voltage=excitation_voltage,
+                                unstrained=unstrained)
+    eps = bridge.strain_from_ratio(ratio, bridge_type, gauge_factor=gauge_factor,
+                                   poisson=poisson, gauge_resistance=gauge_resistance,
+                                   lead_resistance=lead_resistance, gain_adjust=gain_adjust)
+    return _with_variable(
+        ds, name or f"{channel}_strain", eps, ds[channel], channel, units="1",
+        long_name=f"strain from {channel}", conversion=f"NI {bridge_type} bridge equation",
+        parameters={"gauge_factor": gauge_factor, "poisson": poisson,
+                    "gauge_resistance_ohm": gauge_resistance,
+                    "lead_resistance_ohm": lead_resistance, "gain_adjust": gain_adjust,
+                    "unstrained": str(unstrained)})
+
+
+def torque_channel(ds: xr.Dataset, channel: str, *, rosette: Rosette, gauge_factor: float,
+                   shear_modulus: float, outer_diameter: float, inner_diameter: float = 0.0,
+                   name: str | None = None, sign: float = 1.0, gauge_resistance: float = 120.0,
+                   lead_resistance: float = 0.0, excitation_voltage: float | None = None,
+                   unstrained: Null = None) -> xr.Dataset:
+    """Add the shaft torque (N m) of a torsion rosette bridge channel.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Stream.
+    channel : str
+        Rosette bridge channel (V/V, mV/V, V or mV).
+    rosette : {"half", "full"}
+        Bridge form (:mod:`~rigval.processing.torsion`).
+    gauge_factor : float
+        Gauge factor (1).
+    shear_modulus : float
+        G in Pa.
+    outer_diameter, inner_diameter : float
+        Shaft diameters in m (inner 0: solid).
+    name : str, optional
+        Output variable; default ``<channel>_torque``.
+    sign : float, default 1
+        Torque sign convention (calibration constant).
+    gauge_resistance, lead_resistance : float
+        Ohm (half bridge lead correction).
+    excitation_voltage : float, optional
+        Excitation in V for channels in volts.
+    unstrained : float or (float, float), optional
+        Offset null (see :func:`bridge_ratio_values`).
+
+    Returns
+    -------
+    xarray.Dataset
+        Copy of ``ds`` with the torque variable.
+    """
+    ratio = bridge_ratio_values(ds, channel, excitation_voltage=excitation_voltage,
+                                unstrained=unstrained)
+    torque = torsion.torque_from_ratio(ratio, rosette, gauge_factor=gauge_factor,
+                                       shear_modulus=shear_modulus, outer_diameter=outer_diameter,
+                                       inner_diameter=inner_diameter,
+                                       gauge_resistance=gauge_resistance,
+                                       lead_resistance=lead_resistance, sign=sign)
+    return _with_variable(
+        ds, name or f"{channel}_torque", torque, ds[channel], channel, units="N m",
+        long_name=f"shaft torque from {channel}",
+        conversion=f"T = G gamma pi (D^4 - d^4) / (16 D), {rosette} rosette bridge",
+        parameters={"gauge_factor": gauge_factor, "shear_modulus_pa": shear_modulus,
+                    "outer_diameter_m": outer_diameter, "inner_diameter_m": inner_diameter,
+                    "sign": sign, "unstrained": str(unstrained)})
+
+
+def axial_stress_channel(ds: xr.Dataset, channel: str, *, youngs_modulus: float,
+                         name: str | None = None) -> xr.Dataset:
+    """Add the axial stress ``sigma = E eps`` (Pa) of a strain channel (units ``"1"``)."""
+    var = _channel(ds, channel)
+    if str(var.attrs.get("units")) != "1":
+        raise UnitError(f"channel {channel!r} has units {var.attrs.get('units')!r}, expected "
+                        "strain ('1')", where={"channel": channel},
+                        hint="convert the bridge channel first with strain_channel")
+    sigma = stress.axial_stress(var.to_numpy(), youngs_modulus)
+    return _with_variable(ds, name or f"{channel}_stress", sigma, var, channel, units="Pa",
+                          long_name=f"axial stress from {channel}", conversion="sigma = E eps",
+                          parameters={"youngs_modulus_pa": youngs_modulus})
+
+
+def acceleration_channel(ds: xr.Dataset, channel: str, *, charge_sensitivity: float,
+                         amplifier_gain: float, highpass_hz: float | None = None,
+                         name: str | None = None, remove_offset: bool = True) -> xr.Dataset:
+    """Add the acceleration (m s-2) of a charge-amplifier channel (V or mV).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Stream.
+    channel : str
+        Amplifier output channel.
+    charge_sensitivity : float
+        S_q in pC/g.
+    amplifier_gain : float
+        G_amp in mV/pC.
+    highpass_hz : float, optional
+        Amplifier high-pass corner to correct (per gap-free run); None leaves it in.
+    name : str, optional
+        Output variable; default ``<channel>_acceleration``.
+    remove_offset : bool, default True
+        Subtract each run's mean voltage first (a charge amplifier passes no DC; an offset would
+        turn into a ramp under the high-pass correction).
+
+    Returns
+    -------
+    xarray.Dataset
+        Copy of ``ds`` with the acceleration variable (NaN at invalid samples).
+    """
+    var = _channel(ds, channel)
+    units = str(var.attrs.get("units", ""))
+    if units not in _VOLT_UNITS:
+        raise UnitError(f"accelerometer channel {channel!r} has units {units!r}, expected V or "
+                        "mV", where={"channel": channel})
+    volts = var.to_numpy().astype(np.float64) * _VOLT_UNITS[units]
+    fs = float(ds.attrs["fs_nominal"])
+    out = np.full(volts.shape, np.nan)
+    for start, stop in contiguous_runs(volts.size, ds["segment"].to_numpy(),
+                                       ds["valid"].to_numpy()):
+        piece = volts[start:stop]
+        if remove_offset:
+            piece = piece - piece.mean()
+        out[start:stop] = accelerometer.acceleration_from_voltage(
+            piece, charge_sensitivity=charge_sensitivity, amplifier_gain=amplifier_gain, fs=fs,
+            highpass_hz=highpass_hz)
+    return _with_variable(
+        ds, name or f"{channel}_acceleration", out, var, channel, units="m s-2",
+        long_name=f"acceleration from {channel}",
+        conversion="a = V / (S_q G_amp) g0" + (", high-pass corrected" if highpass_hz else ""),
+        parameters={"charge_sensitivity_pc_per_g": charge_sensitivity,
+                    "amplifier_gain_mv_per_pc": amplifier_gain, "highpass_hz": highpass_hz,
+                    "offset_removed": str(remove_offset)})
+
+
+def encoder_angle_channel(ds: xr.Dataset, channel: str, *, counts_per_rev: float,
+                          name: str | None = None, gear_ratio: float = 1.0,
+                          direction: float = 1.0, bits: int = 32) -> xr.Dataset:
+    """Add the raw (quantised, unwrapped) angle in rad of an encoder counter channel.
+
+    For derivatives use :func:`~rigval.processing.excitation.drive_excitation`, never
+    differences of this angle.
+    """
+    var = _channel(ds, channel)
+    counts = encoder.unwrap_counts(var.to_numpy(), bits=bits)
+    angle = encoder.counts_to_angle(counts, counts_per_rev, gear_ratio=gear_ratio,
+                                    direction=direction)
+    return _with_variable(ds, name or f"{channel}_angle", angle, var, channel, units="rad",
+                          long_name=f"angle from {channel}",
+                          conversion="2 pi direction counts / (CPR gear_ratio)",
+                          parameters={"counts_per_rev": counts_per_rev,
+                                      "gear_ratio": gear_ratio, "direction": direction})

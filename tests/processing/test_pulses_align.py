@@ -1,0 +1,124 @@
+"""Edges, pulse classification and clock alignment on synthetic two-clock runs with known truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rigval.acquisition.errors import AlignmentError
+from rigval.processing import align, angle, encoder, excitation, pulses
+
+
+def _edges(rig, polarity: str) -> tuple[np.ndarray, np.ndarray]:
+    ref = pulses.detect_edges(rig.opt1, rig.t_ref, refine="sinc", holdoff_s=0.01,
+                              polarity=polarity)
+    dev = pulses.detect_edges(rig.opt2, rig.t_dev, refine="sinc", holdoff_s=0.01,
+                              polarity=polarity)
+    return pulses.classify_pulses(ref).good, pulses.classify_pulses(dev).good - rig.delay
+
+
+def test_band_limited_edges_are_timed_well_below_a_twentieth_of_a_sample(synth) -> None:
+    FS_REF, pulse_signal = synth.FS_REF, synth.pulse_signal
+    rng = np.random.default_rng(5)
+    t = np.arange(0.0, 30.0, 1 / FS_REF)
+    rises = np.arange(1.0, 29.0, 0.97) + rng.uniform(0, 1 / FS_REF, 29)
+    x = pulse_signal(t, rises, 0.03, FS_REF, rng, noise=1e-3)
+    linear = (pulses.detect_edges(x, t) - rises) * FS_REF
+    sinc = (pulses.detect_edges(x, t, refine="sinc") - rises) * FS_REF
+    assert np.sqrt(np.mean(linear**2)) < 0.05
+    assert np.sqrt(np.mean(sinc**2)) < 0.005
+    falling = pulses.detect_edges(x, t, refine="sinc", polarity="falling")
+    assert np.max(np.abs(falling - rises - 0.03)) * FS_REF < 0.01
+
+
+def test_hysteresis_ignores_noise_around_the_threshold_and_holdoff_debounces() -> None:
+    t = np.arange(0, 1, 1e-3)
+    x = np.where((t > 0.2) & (t < 0.5), 1.0, 0.0)
+    x[200:210] = [0.45, 0.55, 0.45, 0.55, 0.45, 0.9, 0.2, 1, 1, 1]     # chatter at the edge
+    edges = pulses.detect_edges(x, t, low=0.3, high=0.7)
+    assert edges.size == 2                                             # chatter re-arms once
+    debounced = pulses.detect_edges(x, t, low=0.3, high=0.7, holdoff_s=0.01)
+    # timed at the last mid-level crossing before the trigger fired (0.45 -> 0.9)
+    assert debounced.size == 1 and debounced[0] == pytest.approx(0.204 + 0.05 / 0.45 * 1e-3)
+
+
+def test_classification_finds_spurious_and_missing_pulses(synth) -> None:
+    true = synth.crossing_times(synth.TWO_PI * np.arange(1, 40))
+    observed = np.sort(np.concatenate([np.delete(true, [5, 17, 18]), [true[9] + 0.31,
+                                                                      true[30] + 0.62]]))
+    train = pulses.classify_pulses(observed)
+    np.testing.assert_allclose(np.sort(observed[train.spurious]),
+                               [true[9] + 0.31, true[30] + 0.62])
+    np.testing.assert_allclose(train.missing_times, true[[5, 17, 18]], atol=0.05)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_clock_offset_and_drift_from_a_two_second_coarse_error(make_rig, seed: int) -> None:
+    """Done-when: 20 s at ~1 rev/s, 10 % missing, spurious pulses, start times 2 s off."""
+    rig = make_rig(seed, missing=0.1, spurious=2)
+    kinds = [_edges(rig, p) for p in ("rising", "falling")]
+    clock = align.estimate_clock([k[0] for k in kinds], [k[1] for k in kinds],
+                                 coarse_offset_s=0.0, max_offset_error_s=5.0)
+    assert abs(clock.offsets_s[0] - rig.offset) < 5e-6
+    assert abs(clock.drift - rig.drift) * 1e6 < 0.05
+    assert clock.residual_rms_s < 3e-6
+    assert clock.pulses_matched >= 30
+
+
+def test_pulses_twice_per_revolution_align_on_encoder_crossings(make_rig, synth) -> None:
+    FS_REF, TWO_PI = synth.FS_REF, synth.TWO_PI
+    rig = make_rig(7)
+    theta = encoder.counts_to_angle(encoder.unwrap_counts(rig.counts), 8192)
+    smooth = excitation.drive_angle(rig.t_ref, theta, fs=FS_REF, step_rad=TWO_PI / 8192)
+    opt1 = pulses.classify_pulses(pulses.detect_edges(rig.opt1, rig.t_ref, refine="sinc")).good
+    zero, scatter = angle.zero_at_reference(rig.t_ref, smooth.angle, opt1)
+    assert scatter < 1e-4
+    ref_events = align.reference_event_times(rig.t_ref, smooth.angle - zero, event_angle=0.3,
+                                             events_per_rev=2)
+    dev = pulses.detect_edges(rig.opt3, rig.t_dev, refine="sinc") - rig.delay
+    clock = align.estimate_clock(ref_events, dev, coarse_offset_s=1.2)
+    assert abs(clock.offsets_s[0] - rig.offset) < 20e-6
+    assert abs(clock.drift - rig.drift) * 1e6 < 0.5
+    with pytest.raises(AlignmentError, match="inconsistent periods"):
+        align.estimate_clock(opt1, dev, coarse_offset_s=1.2)
+
+
+def test_perfectly_regular_pulses_with_a_large_coarse_error_are_ambiguous() -> None:
+    ref = np.arange(0.0, 30.0, 1.0)
+    dev = np.arange(0.3, 20.0, 1.0)
+    with pytest.raises(AlignmentError, match="ambiguity"):
+        align.estimate_clock(ref, dev, coarse_offset_s=0.0, max_offset_error_s=3.0)
+    clock = align.estimate_clock(ref, dev, coarse_offset_s=2.6, max_offset_error_s=0.4)
+    assert clock.offsets_s[0] == pytest.approx(2.7, abs=1e-9)
+
+
+def test_no_overlap_and_too_few_events_are_reported() -> None:
+    ref = np.arange(0.0, 20.0, 1.0)
+    with pytest.raises(AlignmentError, match="no overlap"):
+        align.estimate_clock(ref, np.arange(0.0, 10.0, 1.0), coarse_offset_s=100.0)
+    with pytest.raises(AlignmentError, match="too few"):
+        align.estimate_clock(ref, np.array([1.0, 2.0]))
+
+
+def test_restarted_segments_get_their_own_offsets(make_rig) -> None:
+    rig = make_rig(11, missing=0.0, spurious=0)
+    edges = pulses.detect_edges(rig.opt2, rig.t_dev, refine="sinc") - rig.delay
+    # The reader placed the block after a restart 0.4 s wrong: events of segment 1 shift.
+    segment = (edges > 10.0).astype(np.int64)
+    shifted = edges + 0.4 * segment
+    ref = pulses.detect_edges(rig.opt1, rig.t_ref, refine="sinc")
+    clock = align.estimate_clock(ref, shifted, segment, coarse_offset_s=2.0)
+    assert clock.segments == (0, 1)
+    assert clock.offsets_s[0] == pytest.approx(rig.offset, abs=5e-6)
+    assert clock.offsets_s[1] == pytest.approx(rig.offset - 0.4 * (1 + rig.drift), abs=5e-6)
+    mapped = clock.to_reference(shifted, segment)
+    np.testing.assert_allclose(mapped, rig.offset + (1 + rig.drift) * edges, atol=5e-6)
+
+
+def test_ni9237_delay_values(synth) -> None:
+    FS_DEV = synth.FS_DEV
+    assert align.ni9237_input_delay(5000.0) == pytest.approx(8.0065e-3, abs=1e-7)
+    assert align.ni9237_input_delay(FS_DEV) == pytest.approx(24.81e-3, abs=1e-5)
+    assert align.input_delay({"module": "NI 9237"}, 5000.0) == align.ni9237_input_delay(5000.0)
+    assert align.input_delay({"module": "NI 9411"}, 5000.0) == 0.0
+    assert align.input_delay({"input_delay_s": 1e-3, "module": "NI 9237"}, 5000.0) == 1e-3
