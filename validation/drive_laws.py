@@ -292,16 +292,15 @@ class Excitation:
                               where={"option": "n_points"}, hint="use 360 or more points")
         law = self.law(self.main)
         omega = self.omega
-        check_t = np.linspace(0.0, self.period, 4 * n_points + 1)
-        _, speed, _ = law.evaluate(check_t, omega)
-        direction = math.copysign(1.0, law.ratio) if law.ratio else 0.0
-        if abs(law.ratio) != 1.0 or np.any(direction * speed <= 0.0):
+        slowest = self._slowest_speed(n_points)
+        if slowest <= 0.0:
             raise ConfigError(
                 f"the main drive {self.main!r} must turn once per cycle without stopping "
-                f"(ratio {law.ratio:g}, slowest speed {np.min(direction * speed):.4g} rad/s)",
+                f"(ratio {law.ratio:g}, slowest speed {slowest:.4g} rad/s)",
                 where={"drive": self.main},
                 hint="choose as main drive one that turns continuously, with harmonic "
                      "amplitudes small enough that its speed stays positive")
+        direction = math.copysign(1.0, law.ratio)
         angle = 2.0 * math.pi * np.arange(n_points) / n_points
         start = law.evaluate(np.zeros(1), omega)[0][0]
         t = angle / omega
@@ -312,6 +311,22 @@ class Excitation:
             if np.max(np.abs(step)) <= 1e-14 * self.period:
                 break
         return angle, t
+
+    def turns_steadily(self, n_points: int = 360) -> bool:
+        """Return whether the main drive turns once per cycle without stopping or reversing.
+
+        Only then can its angle serve as the cycle coordinate (:meth:`cycle_times`). The speed is
+        checked at ``4 n_points + 1`` times over the cycle.
+        """
+        return self._slowest_speed(n_points) > 0.0
+
+    def _slowest_speed(self, n_points: int) -> float:
+        """Return the main drive's slowest speed in its turning direction, rad/s (<= 0: fails)."""
+        law = self.law(self.main)
+        if abs(law.ratio) != 1.0:
+            return 0.0
+        _, speed, _ = law.evaluate(np.linspace(0.0, self.period, 4 * n_points + 1), self.omega)
+        return float(np.min(math.copysign(1.0, law.ratio) * speed))
 
 
 class ProfileFit(NamedTuple):

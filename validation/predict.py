@@ -172,10 +172,28 @@ def _solve(mechanism: Mechanism, excitation: Excitation, t: np.ndarray, *,
                  joints=tuple(joints))
 
 
-def _angle_coords(angle: np.ndarray, t: np.ndarray) -> dict[str, Any]:
+def _cycle_grid(excitation: Excitation, n_points: int) -> tuple[np.ndarray, np.ndarray, str]:
+    """Return the cycle coordinate (rad), the times (s) and what the coordinate means.
+
+    The coordinate is the main-drive angle phi_F when the main drive turns steadily, otherwise
+    (a swinging main drive) the cycle phase ``2 pi t / period`` on a uniform time grid.
+    """
+    if excitation.turns_steadily(n_points):
+        angle, t = excitation.cycle_times(n_points)
+        return angle, t, f"main-drive angle phi_F ({excitation.main}) from its position at t = 0"
+    if n_points < 4:
+        excitation.cycle_times(n_points)  # raises the error about too few points
+    angle = 2.0 * math.pi * np.arange(n_points) / n_points
+    logger.info("main drive %s reverses within the cycle: the coordinate is the cycle phase",
+                excitation.main)
+    return angle, angle / excitation.omega, (
+        f"cycle phase 2 pi t / period (the main drive {excitation.main} reverses, so its angle "
+        "cannot serve)")
+
+
+def _angle_coords(angle: np.ndarray, t: np.ndarray, meaning: str) -> dict[str, Any]:
     return {
-        "angle": ("angle", angle, {"units": "rad", "long_name": "main-drive angle phi_F from "
-                                                              "its position at t = 0"}),
+        "angle": ("angle", angle, {"units": "rad", "long_name": meaning}),
         "time": ("angle", t, {"units": "s", "long_name": "time from cycle start"}),
     }
 
@@ -232,7 +250,7 @@ def predict(mechanism: Mechanism | str | Path, drives: DriveSpec = None, *, n_po
     _check_names("joint", joints, mech.joint_names)
     pins = ground_pins(mech)
     joint_names = list(dict.fromkeys([*pins, *joints]))
-    angle, t = excitation.cycle_times(n_points)
+    angle, t, meaning = _cycle_grid(excitation, n_points)
     result = _solve(mech, excitation, t, points=point_names, joints=joint_names,
                     outputs=("point_position", "point_velocity", "point_acceleration",
                              "joint_force", "driver_torque"))
@@ -246,8 +264,8 @@ def predict(mechanism: Mechanism | str | Path, drives: DriveSpec = None, *, n_po
     vel = result["point_velocity"].sel(point=point_names, axis=list(_AXES)).values
     acc = result["point_acceleration"].sel(point=point_names, axis=list(_AXES)).values
     power = torque * speed
-    ds = xr.Dataset(coords={**_angle_coords(angle, t), "driver": drivers, "point": point_names,
-                            "axis": list(_AXES), "support": list(pins),
+    ds = xr.Dataset(coords={**_angle_coords(angle, t, meaning), "driver": drivers,
+                            "point": point_names, "axis": list(_AXES), "support": list(pins),
                             "joint": list(joint_names[len(pins):]),
                             "component": ["x", "y", "magnitude"]})
     for i, (label, unit) in enumerate((("angle", "rad"), ("speed", "rad s-1"),
@@ -592,7 +610,7 @@ def sweep(mechanism: Mechanism | str | Path, parameters: Mapping[str, npt.ArrayL
             path_mech, path_exc = mech, base
             for p in path_params:
                 path_mech, path_exc = _apply(p.name, values[p.name], path_mech, path_exc)
-            _, t = path_exc.cycle_times(n_points)
+            _, t, _ = _cycle_grid(path_exc, n_points)
             bases[key], count = _basis(path_mech, path_exc, t, tip=tip, pins=pins, needs=needs,
                                        split_speed=split_speed, inertia=inertia)
             solves += count
