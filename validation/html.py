@@ -58,6 +58,8 @@ dd{margin:0;word-break:break-all}
 figure{margin:1rem 0}
 figure img,figure svg{max-width:100%;height:auto}
 figcaption{font-size:.86rem;color:#57606a}
+details{margin:.4rem 0 1rem}
+summary{cursor:pointer;color:#1f5fa8;font-size:.9rem}
 .ok{background:#dafbe1;color:#116329;font-weight:600}
 .bad{background:#ffebe9;color:#a40e26;font-weight:600}
 .warn{background:#fff8c5;color:#7d4e00;font-weight:600}
@@ -95,7 +97,7 @@ def format_value(value: Any, digits: int = 4) -> str:
     return str(value)
 
 
-def figure_data_uri(fig: Figure, *, dpi: float = 110) -> str:
+def figure_data_uri(fig: Figure, *, dpi: float = 96) -> str:
     """Return a figure as a ``data:image/png;base64,...`` URI.
 
     Parameters
@@ -172,7 +174,7 @@ class Page:
         self._parts.append(f"<dl>{rows}</dl>")
 
     def table(self, rows: Iterable[Mapping[str, Any]], *, columns: Sequence[str] | None = None,
-              caption: str | None = None, digits: int = 4) -> None:
+              caption: str | None = None, digits: int = 4, collapsed: str | None = None) -> None:
         """Add a table with one row per mapping.
 
         Parameters
@@ -185,6 +187,8 @@ class Page:
             Table caption.
         digits : int
             Significant digits for real numbers.
+        collapsed : str, optional
+            Show the table folded under this summary line (a ``<details>`` element).
         """
         rows = list(rows)
         if columns is None:
@@ -206,11 +210,14 @@ class Page:
                 cells.append(f"<td{attr}>{escape(text)}</td>")
             body.append("<tr>" + "".join(cells) + "</tr>")
         cap = f"<caption>{escape(caption)}</caption>" if caption else ""
-        self._parts.append(f"<table>{cap}<thead><tr>{head}</tr></thead>"
-                           f"<tbody>{''.join(body)}</tbody></table>")
+        markup = (f"<table>{cap}<thead><tr>{head}</tr></thead>"
+                  f"<tbody>{''.join(body)}</tbody></table>")
+        if collapsed is not None:
+            markup = f"<details><summary>{escape(collapsed)}</summary>{markup}</details>"
+        self._parts.append(markup)
 
     def figure(self, fig: Figure, *, caption: str | None = None, alt: str | None = None,
-               fmt: Literal["png", "svg"] = "png", dpi: float = 110) -> None:
+               fmt: Literal["png", "svg"] = "png", dpi: float = 96) -> None:
         """Embed a matplotlib figure (base64 PNG or inline SVG) with an optional caption.
 
         Parameters

@@ -1,8 +1,9 @@
 """Figures of a validation, built on :class:`matplotlib.figure.Figure` without pyplot.
 
-Every function returns a new Figure (constrained layout) and keeps no global state, so it is safe in
-long-running processes and worker pools. Angles are shown in degrees of phi_F, the main shaft angle
-from the reference position; labels carry units.
+Every function returns a new Figure and keeps no global state, so it is safe in long-running
+processes and worker pools. Margins are fixed rather than computed by a layout engine, which would
+draw every figure twice. Angles are shown in degrees of phi_F, the main shaft angle from the
+reference position; labels carry units.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 import xarray as xr
+from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.ticker import MultipleLocator
 
@@ -31,12 +33,20 @@ CYCLES = "#9aa5b1"
 BAND = "#9ec3ea"
 
 
+def _figure(width: float, height: float) -> Figure:
+    """Return a figure with fixed margins (in inches, independent of its size)."""
+    fig = Figure(figsize=(width, height))
+    fig.subplots_adjust(left=0.95 / width, right=1 - 0.25 / width, bottom=0.55 / height,
+                        top=1 - 0.4 / height, hspace=0.35)
+    return fig
+
+
 def _angle_axis(ax: object, label: bool = True) -> None:
     ax.set_xlim(0.0, 360.0)  # type: ignore[attr-defined]
     ax.xaxis.set_major_locator(MultipleLocator(45.0))  # type: ignore[attr-defined]
     ax.grid(True, lw=0.4, alpha=0.6)  # type: ignore[attr-defined]
     if label:
-        ax.set_xlabel(r"main shaft angle $\varphi_F$ [deg]")  # type: ignore[attr-defined]
+        ax.set_xlabel("main shaft angle \u03c6F [deg]")  # type: ignore[attr-defined]
 
 
 def _closed(angle: np.ndarray, *values: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -61,13 +71,14 @@ def plot_comparison(result: ComparisonResult, *, width: float = 9.0) -> Figure:
         Top: every cycle (light), the measured mean with its P5-P95 band, the model. Bottom: the
         residual model minus measured mean, with the band around the mean.
     """
-    fig = Figure(figsize=(width, 5.2), layout="constrained")
+    fig = _figure(width, 5.2)
     top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1.6])
     low, high = result.band
     mean = result.mean
     x, cycles, mean_c, low_c, high_c, model_c = _closed(result.angle, result.cycles, mean, low,
                                                         high, result.model)
-    top.plot(x, cycles.T, color=CYCLES, lw=0.5, alpha=0.45)
+    top.add_collection(LineCollection([np.column_stack([x, c]) for c in cycles], colors=CYCLES,
+                                      linewidths=0.5, alpha=0.45))
     top.fill_between(x, low_c, high_c, color=BAND, alpha=0.6, lw=0,
                      label=f"measured P5-P95 ({result.cycles.shape[0]} cycles)")
     top.plot(x, mean_c, color=MEASURED, lw=1.8, label="measured mean")
@@ -98,7 +109,7 @@ def plot_pulse_edges(alignment: Mapping[str, StreamAlignment], *, width: float =
         Figure width in inches.
     """
     streams = [a for a in alignment.values() if a.pulse_time.size]
-    fig = Figure(figsize=(width, 1.2 + 1.5 * max(len(streams), 1)), layout="constrained")
+    fig = _figure(width, 1.2 + 1.5 * max(len(streams), 1))
     axes = np.atleast_1d(fig.subplots(max(len(streams), 1), 1, sharex=True, squeeze=False)[:, 0])
     for ax, stream in zip(axes, streams, strict=False):
         ax.plot(stream.pulse_time, stream.pulse_signal, color=MEASURED, lw=0.8)
@@ -123,7 +134,7 @@ def plot_clock_residuals(alignment: Mapping[str, StreamAlignment], *,
     width : float
         Figure width in inches.
     """
-    fig = Figure(figsize=(width, 3.2), layout="constrained")
+    fig = _figure(width, 3.2)
     ax = fig.subplots()
     for stream in alignment.values():
         if stream.is_reference or not stream.residual_s.size:
@@ -152,7 +163,7 @@ def plot_stream_coverage(alignment: Mapping[str, StreamAlignment], *,
         Figure width in inches.
     """
     names = list(alignment)
-    fig = Figure(figsize=(width, 0.9 + 0.45 * len(names)), layout="constrained")
+    fig = _figure(width, 1.1 + 0.45 * len(names))
     ax = fig.subplots()
     for row, name in enumerate(names):
         stream = alignment[name]
@@ -179,7 +190,7 @@ def plot_support_forces(predictions: xr.Dataset, *, width: float = 9.0) -> Figur
         Figure width in inches.
     """
     force = predictions["support_force"]
-    fig = Figure(figsize=(width, 5.6), layout="constrained")
+    fig = _figure(width, 5.6)
     axes = fig.subplots(2, 1, sharex=True)
     for ax, axis, label in zip(axes, ("x", "y"), ("horizontal", "vertical"), strict=True):
         for support in force["support"].values:
@@ -212,12 +223,12 @@ def plot_point_kinematics(predictions: xr.Dataset, point: str, *,
                        for a in ("x", "y")))
     accel = np.hypot(*(predictions["point_acceleration"].sel(point=point, axis=a).values
                        for a in ("x", "y")))
-    fig = Figure(figsize=(width, 6.4), layout="constrained")
+    fig = _figure(width, 6.4)
     axes = fig.subplots(3, 1, sharex=True)
     panels: Sequence[tuple[np.ndarray, str]] = (
-        (position.sel(axis="y").values, f"$y_{{{point}}}$ [m]"),
-        (speed, f"$|v_{{{point}}}|$ [m/s]"),
-        (accel, f"$|a_{{{point}}}|$ [m/s$^2$]"),
+        (position.sel(axis="y").values, f"y of {point} [m]"),
+        (speed, f"|v| of {point} [m/s]"),
+        (accel, f"|a| of {point} [m/s\u00b2]"),
     )
     for ax, (values, label) in zip(axes, panels, strict=True):
         x, y = _closed(angle, values)

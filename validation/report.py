@@ -38,12 +38,13 @@ __all__ = ["rigval_version", "write_metrics", "write_netcdf", "write_report"]
 
 logger = logging.getLogger(__name__)
 
-#: Metrics shown first in the per-comparison tables (others follow in the order reported).
+#: Scores in each comparison's main table (all scores follow in a folded table).
 _PREFERRED = ("iso18571_periodic.rating", "iso18571_periodic.grade",
               "iso18571_periodic.corridor", "iso18571_periodic.phase",
               "iso18571_periodic.magnitude", "iso18571_periodic.slope", "sprague_geers.magnitude",
-              "sprague_geers.phase", "sprague_geers.comprehensive", "russell.magnitude",
-              "russell.phase", "russell.comprehensive", "nrmse", "pearson_r")
+              "sprague_geers.phase", "sprague_geers.comprehensive", "russell.comprehensive",
+              "nrmse", "pearson_r", "peak_error.relative_error", "peak_error.shift",
+              "circular_lag.lag_deg")
 
 
 def rigval_version() -> str:
@@ -129,12 +130,18 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
     return path
 
 
-def _metric_table(comparison: ComparisonResult) -> list[dict[str, Any]]:
-    """Rows: metric; columns: model, baseline median, baseline worst, threshold, status."""
-    names = [m for m in _PREFERRED if m in comparison.scores]
-    names += [m for m in comparison.scores if m not in names]
+def _metric_table(comparison: ComparisonResult, *, everything: bool = False
+                  ) -> list[dict[str, Any]]:
+    """Rows: metric; columns: model, baseline median, baseline worst, threshold, status.
+
+    The main scores and every score with a threshold; with ``everything`` all scores.
+    """
     checks = {c.metric: c for c in comparison.checks}
-    names += [m for m in checks if m not in names]
+    if everything:
+        names = list(comparison.scores)
+    else:
+        names = [m for m in _PREFERRED if m in comparison.scores]
+        names += [m for m in checks if m not in names]
     rows = []
     for metric in names:
         row: dict[str, Any] = {"metric": metric, "model": comparison.scores.get(metric)}
@@ -214,6 +221,8 @@ def _build_page(result: ValidationResult) -> Page:
         fig = plots.plot_comparison(comparison)
         page.figure(fig, caption=f"{comparison.name}: overlay and residual against phi_F")
         page.table(_metric_table(comparison), caption=f"{comparison.name}: metrics")
+        page.table(_metric_table(comparison, everything=True),
+                   collapsed=f"all {len(comparison.scores)} scores of {comparison.name}")
 
     page.section("Alignment")
     page.table([{"stream": name, **{k: v for k, v in a.summary().items() if k != "gaps"},
