@@ -336,6 +336,10 @@ def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
         facts["command"] = command
     page.facts(facts)
     page.preformatted(str(prediction.attrs.get("drive_laws", "")))
+    page.figure(_angle_panels(prediction, [("drive_speed", "speed [rad/s]", 1.0),
+                                           ("drive_acceleration", "acceleration [rad/s2]", 1.0)],
+                              "drive speeds and accelerations"),
+                caption="the excitation: angular speed and acceleration of every drive")
     page.section(f"Tip {tip}")
     page.facts({
         f"vertical range of the {tip} path [m]": float(prediction["tip_vertical_range"]),
