@@ -9,7 +9,7 @@ restarted after a gap of tens to hundreds of ms, with a new software start time.
 Modules delay their data: a sample taken at true time t holds the input at ``t - delay``. For the
 NI 9237 (delta-sigma) the delay is ``(40 + 5/512) / fs + 4.5 us`` (NI KB, research/data_formats.md
 section 5) and its anti-alias filter turns edges into band-limited steps (10-90 % rise of about one
-sample period); the NI 9215 (SAR) and the counters have no delay worth modelling.
+sample period); the NI 9215 (SAR) has none, the NI 9411 digital input (encoders) 500 ns.
 """
 
 from __future__ import annotations
@@ -47,11 +47,14 @@ class Module:
         ADC resolution (0 for a counter: counts are stored as they are).
     delta_sigma : bool
         True for a delta-sigma module (input delay and anti-alias filter).
+    fixed_delay : float, default 0
+        Input delay in s independent of the rate (digital input modules).
     """
 
     name: str
     bits: int
     delta_sigma: bool
+    fixed_delay: float = 0.0
 
     @property
     def raw_dtype(self) -> np.dtype:
@@ -62,7 +65,7 @@ class Module:
 
     def delay(self, fs: float) -> float:
         """Input delay in s at rate fs (Hz)."""
-        return ni9237_delay(fs) if self.delta_sigma else 0.0
+        return ni9237_delay(fs) if self.delta_sigma else self.fixed_delay
 
     def filter_rise_time(self, fs: float) -> float:
         """10-90 % rise time (s) of the anti-alias filter (pass band 0.45 fs); 0 for SAR modules."""
@@ -87,7 +90,7 @@ class Module:
 MODULES: dict[str, Module] = {
     "NI 9215": Module("NI 9215", 16, False),
     "NI 9237": Module("NI 9237", 24, True),
-    "NI 9411": Module("NI 9411", 0, False),
+    "NI 9411": Module("NI 9411", 0, False, 500e-9),
 }
 
 

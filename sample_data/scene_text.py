@@ -41,6 +41,7 @@ def _accelerometer(name: str, draw: RigDraw) -> str:
     return f"""
 [streams.cdaq.channels.{name}]
 source = "{name}"
+module = "NI 9215"
 sensor = "charge_accelerometer"
 charge_sensitivity = {sensor.charge_sensitivity!r}   # pC/g, calibration certificate
 amplifier_gain = {sensor.amplifier_gain * 1e-3!r}   # V/pC
@@ -54,6 +55,7 @@ def _torsion(stream: str, name: str, draw: RigDraw) -> str:
     return f"""
 [streams.{stream}.channels.{name}]
 source = "{name}"
+module = "NI 9237"
 sensor = "torsion_bridge"
 bridge = "full"
 gauge_factor = {sensor.gauge_factor!r}
@@ -125,6 +127,7 @@ reader = {{ group = "cDAQ1 task" }}
     text += f"""
 [streams.cdaq.channels.str1]
 source = "str1"
+module = "NI 9237"                     # 24-bit bridge module: input delay 8.0 ms at 5 kS/s
 sensor = "strain_bridge"
 bridge = "half_I"                      # axial + Poisson gauge on the neutral axis of rod B
 gauge_factor = {bridge.gauge_factor!r}
@@ -137,16 +140,19 @@ null_offset = "none"                   # bridge nulled with the machine at rest 
 
 [streams.cdaq.channels.enc1]
 source = "enc1"
+module = "NI 9411"
 sensor = "encoder"
 counts_per_rev = {draw.encoders['enc1'].counts_per_rev}
 {_index_comment(draw)}
 [streams.cdaq.channels.enc2]
 source = "enc2"
+module = "NI 9411"
 sensor = "encoder"
 counts_per_rev = {draw.encoders['enc2'].counts_per_rev}
 
 [streams.cdaq.channels.opt1]
 source = "opt1"
+module = "NI 9215"
 sensor = "reference_pulse"
 
 [streams.wls1]
@@ -158,6 +164,7 @@ reader = {{ group = "WLS1 task" }}
     text += f"""
 [streams.wls1.channels.opt2]
 source = "opt2"
+module = "NI 9237"                     # spare bridge channel: the sensor switches a shunt
 sensor = "reference_pulse"
 
 [streams.wls2]
@@ -169,6 +176,7 @@ reader = {{ decimal = ",", delimiter = ";", timezone = "{LAB_TIMEZONE}" }}
     text += f"""
 [streams.wls2.channels.opt3]
 source = "opt3"
+module = "NI 9237"                     # spare bridge channel: the sensor switches a shunt
 sensor = "reference_pulse"
 
 [alignment]

@@ -168,12 +168,16 @@ def sample_streams(draw: RigDraw, grid: TruthGrid) -> tuple[dict[str, Stream],
     """
     drive = draw.drive
     physical, volts = _accelerometer_grids(draw, grid)
-    t_first, t_last = grid.t[0] + 1.0, grid.t[-1]
     pulse_truth = {}
     trains = {}
-    for name, drive_name, reference in (("opt1", "theta_F", drive.theta_f0),
-                                        ("opt2", "theta_F", drive.theta_f0),
-                                        ("opt3", "theta_H", drive.theta_h0)):
+    for name, stream, drive_name, reference in (("opt1", "cdaq", "theta_F", drive.theta_f0),
+                                                ("opt2", "wls1", "theta_F", drive.theta_f0),
+                                                ("opt3", "wls2", "theta_H", drive.theta_h0)):
+        # Pulses over the device's record (gaps included), with a margin for the module delay.
+        clock = draw.clocks[stream]
+        last = clock.segments[-1]
+        t_first = clock.segments[0].true_start - 0.1
+        t_last = last.true_start + last.n_samples / clock.fs_true + 0.01
         trains[name], pulse_truth[name] = optical_pulses(
             draw.optical[name], drive, drive_name, reference, t_first, t_last,
             np.random.default_rng(draw.pulse_seeds[name]), draw.missing_probability,
@@ -197,11 +201,13 @@ def sample_streams(draw: RigDraw, grid: TruthGrid) -> tuple[dict[str, Stream],
     channels.append(_analog("opt1", "NI 9215", cdaq, _pulse_signal(trains["opt1"], "NI 9215",
                                                                    cdaq.fs_nominal),
                             draw.optical["opt1"].noise_rms, None, None, rng))
-    t_cdaq = cdaq.sample_times(0)
+    counter_delay = MODULES["NI 9411"].delay(cdaq.fs_nominal)
+    t_cdaq = cdaq.sample_times(0) - counter_delay
     for name, drive_name in (("enc1", "theta_F"), ("enc2", "theta_H")):
         theta = angle(drive_name)(t_cdaq)
         counts = draw.encoders[name].counts(theta, float(theta[0]))
-        channels.append(SampledChannel(name, "NI 9411", None, [counts], 1.0, 0.0, None, None))
+        channels.append(SampledChannel(name, "NI 9411", None, [counts], 1.0, counter_delay,
+                                       None, None))
     streams = {"cdaq": Stream("cdaq", DEVICE_NAMES["cdaq"], cdaq, tuple(channels))}
 
     for stream, pair, drive_name, opt in (("wls1", ("tor1", "tor2"), "theta_F", "opt2"),
