@@ -31,6 +31,7 @@ import logging
 import math
 import os
 import pickle
+import re
 import time
 import traceback
 import uuid
@@ -238,9 +239,10 @@ def dask_available() -> bool:
 def plan_runs(scenes: Sequence[str | Path], out_dir: str | Path) -> list[tuple[str, Path, Path]]:
     """Name the runs of a campaign and give each its report folder.
 
-    A run is named after its scene's file stem; stems that occur more than once are prefixed
-    with the scene's folder name, and a number is appended if that still collides. The same
-    scene given twice is validated once.
+    A run is named after its scene's file stem without a trailing ``_scene`` (``run_0p8_scene``
+    gives ``run_0p8``; a scene called ``scene.toml`` takes its folder's name). Names that occur
+    more than once are prefixed with the scene's folder name, and a number is appended if that
+    still collides. The same scene given twice is validated once.
 
     Parameters
     ----------
@@ -261,12 +263,11 @@ def plan_runs(scenes: Sequence[str | Path], out_dir: str | Path) -> list[tuple[s
             logger.warning("scene %s is listed more than once; it is validated once", scene)
             continue
         unique.append(scene)
-    stems = [scene.stem for scene in unique]
+    bases = [_run_name(scene) for scene in unique]
     taken: set[str] = set()
     plan = []
-    for scene in unique:
-        base = scene.stem
-        if stems.count(base) > 1:
+    for scene, base in zip(unique, bases, strict=True):
+        if bases.count(base) > 1:
             base = f"{scene.resolve().parent.name}_{base}"
         name, number = base, 2
         while name in taken:
@@ -274,6 +275,11 @@ def plan_runs(scenes: Sequence[str | Path], out_dir: str | Path) -> list[tuple[s
         taken.add(name)
         plan.append((name, scene.absolute(), Path(out_dir).absolute() / name))
     return plan
+
+
+def _run_name(scene: Path) -> str:
+    """Return a scene's run name before de-duplication (see :func:`plan_runs`)."""
+    return re.sub(r"[_.-]?scene$", "", scene.stem) or scene.resolve().parent.name or "run"
 
 
 def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunction | None = None,
@@ -293,7 +299,7 @@ def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunctio
     validate : callable, optional
         ``validate(scene, run_dir) -> RunReport``; default the rigval validation pipeline.
     name : str, optional
-        Run name; default the scene's file stem.
+        Run name; default the name :func:`plan_runs` would give.
     force : bool
         Recompute even when the manifest says the outputs are up to date.
 
@@ -303,7 +309,7 @@ def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunctio
         What happened to the run.
     """
     scene, run_dir = Path(scene), Path(run_dir)
-    name = name or scene.stem
+    name = name or _run_name(scene)
     if not force:
         reused = _reuse(name, scene, run_dir)
         if reused is not None:
@@ -554,7 +560,10 @@ def _jsonable(value: Any) -> Any:
 
 
 def _validate_with_pipeline(scene: Path, run_dir: Path) -> RunReport:
-    """Validate one scene with rigval's validation pipeline (the default per-run function)."""
+    """Validate one scene with rigval's pipeline and write its report (the default)."""
     from rigval.validation.pipeline import validate_scene
 
-    return validate_scene(scene, run_dir)
+    result = validate_scene(scene, run_dir)
+    return RunReport(passed=result.passed, metrics=tuple(result.metric_rows()),
+                     outputs=tuple(result.outputs), inputs=tuple(result.inputs),
+                     speed_rev_s=result.speed_rev_s)

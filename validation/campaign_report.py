@@ -48,7 +48,7 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 _METRIC_COLUMNS = ["run", "status", "speed_rev_s", "comparison", "row", "metric", "value",
-                   "threshold", "passed"]
+                   "text", "threshold", "passed"]
 #: Most metrics the speed plot shows (those with thresholds first).
 _MAX_PLOTTED = 6
 
@@ -85,19 +85,24 @@ def metrics_table(outcomes: Sequence[RunOutcome]) -> pd.DataFrame:
     pandas.DataFrame
         Columns ``run``, ``status``, ``speed_rev_s`` (rev/s), ``comparison``, ``row``
         (``"model"`` for the model against the measured mean, ``"baseline ..."`` for the
-        measured cycles against their mean), ``metric``, ``value`` (the metric's own unit),
-        ``threshold`` (text or None) and ``passed`` (bool or None), in run order.
+        measured cycles against their mean), ``metric``, ``value`` (the metric's own unit; NaN
+        for a metric given as text), ``text`` (a metric given as text, such as an ISO 18571
+        grade, else None), ``threshold`` (text or None) and ``passed`` (bool or None), in run
+        order.
     """
-    rows = [
-        {"run": outcome.name, "status": outcome.status, "speed_rev_s": outcome.speed_rev_s,
-         "comparison": row.get("comparison"), "row": row.get("row", "model"),
-         "metric": row.get("metric"),
-         "value": row.get("value"), "threshold": row.get("threshold"),
-         "passed": row.get("passed")}
-        for outcome in outcomes for row in outcome.metrics
-    ]
+    rows = []
+    for outcome in outcomes:
+        for row in outcome.metrics:
+            value = row.get("value")
+            is_text = isinstance(value, str)
+            rows.append({"run": outcome.name, "status": outcome.status,
+                         "speed_rev_s": outcome.speed_rev_s, "comparison": row.get("comparison"),
+                         "row": row.get("row", "model"), "metric": row.get("metric"),
+                         "value": np.nan if is_text or value is None else float(value),
+                         "text": value if is_text else None, "threshold": row.get("threshold"),
+                         "passed": row.get("passed")})
     table = pd.DataFrame(rows, columns=_METRIC_COLUMNS)
-    table["value"] = pd.to_numeric(table["value"], errors="coerce").astype(float)
+    table["value"] = table["value"].astype(float)
     table["speed_rev_s"] = pd.to_numeric(table["speed_rev_s"], errors="coerce").astype(float)
     return table
 
@@ -123,7 +128,7 @@ def plot_metrics_against_speed(table: pd.DataFrame, *, metrics: Sequence[str] | 
         Markers show runs; a hollow red ring marks a run that missed that metric's threshold,
         a dashed line shows the threshold when all comparisons share one.
     """
-    table = table[table["row"] == "model"]
+    table = table[(table["row"] == "model") & table["value"].notna()]
     if metrics is None:
         with_threshold = table.loc[table["threshold"].notna(), "metric"].unique().tolist()
         others = [m for m in table["metric"].unique() if m not in with_threshold]
@@ -230,11 +235,12 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
         page.section("Metrics per comparison")
         model_rows = table[table["row"] == "model"]
         for comparison, part in model_rows.groupby("comparison", sort=False):
-            wide = part.pivot_table(index="run", columns="metric", values="value", sort=False,
-                                    dropna=False)
-            speeds = part.groupby("run", sort=False)["speed_rev_s"].first()
-            rows = [{"run": run, "speed [rev/s]": speeds[run], **values.to_dict()}
-                    for run, values in wide.iterrows()]
+            rows = []
+            for (run, speed), metrics in part.groupby(["run", "speed_rev_s"], sort=False,
+                                                      dropna=False):
+                cells = {m: (t if isinstance(t, str) else v) for m, v, t in
+                         zip(metrics["metric"], metrics["value"], metrics["text"], strict=True)}
+                rows.append({"run": run, "speed [rev/s]": speed, **cells})
             page.table(rows, caption=str(comparison), digits=3)
 
     errors = [o for o in outcomes if o.error is not None]

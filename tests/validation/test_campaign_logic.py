@@ -172,9 +172,10 @@ def test_changed_scene_is_recomputed(tmp_path: Path, scenes: list[Path]) -> None
 
 def test_run_names_are_unique_and_stable(tmp_path: Path) -> None:
     scenes = [tmp_path / "a" / "run.toml", tmp_path / "b" / "run.toml", tmp_path / "a" / "x.toml",
-              tmp_path / "a" / "run.toml"]
+              tmp_path / "a" / "run.toml", tmp_path / "a" / "run_0p8_scene.toml",
+              tmp_path / "day3" / "scene.toml"]
     plan = plan_runs(scenes, tmp_path / "out")
-    assert [name for name, _, _ in plan] == ["a_run", "b_run", "x"]
+    assert [name for name, _, _ in plan] == ["a_run", "b_run", "x", "run_0p8", "day3"]
     assert plan[2][2] == tmp_path / "out" / "x"
 
 
