@@ -20,7 +20,6 @@ the coordinates.
 from __future__ import annotations
 
 import itertools
-import itertools
 import logging
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
@@ -35,8 +34,9 @@ from rigval.model.loops import LoopSystem, loop_system
 if TYPE_CHECKING:
     from rigval.model.mechanism import Mechanism
 
-__all__ = ["Tolerances", "assemble", "assembly_rank", "check_constraint_count",
-           "condition_one", "driven_part", "full_angles", "involved_joints", "newton", "phasor", "taylor", "track"]
+__all__ = ["Tolerances", "assemble", "assembly_rank", "check_constraint_count", "condition_one",
+           "driven_part", "full_angles", "involved_joints", "least_squares", "newton", "phasor",
+           "taylor", "track"]
 
 logger = logging.getLogger(__name__)
 
@@ -82,7 +82,7 @@ def full_angles(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) ->
 
 
 def phasor(theta: np.ndarray) -> np.ndarray:
-    """Unit phasors ``exp(1j theta)`` (cos and sin are cheaper than the complex exponential)."""
+    """Return unit phasors ``exp(1j theta)`` (cos and sin beat the complex exponential)."""
     z = np.empty(theta.shape, dtype=complex)
     z.real = np.cos(theta)
     z.imag = np.sin(theta)
@@ -243,6 +243,40 @@ def involved_joints(mechanism: Mechanism, system: LoopSystem, theta: np.ndarray)
     return [mechanism.joints[k].name for k in order if mode[k] > 0.05 * mode.max()]
 
 
+def least_squares(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray, tol: float
+                  ) -> np.ndarray:
+    """Undriven angles minimising the loop gaps (Levenberg-Marquardt), (n_u,) rad.
+
+    Converges from far guesses; where the loops cannot close it stops at the smallest gaps.
+    """
+
+    def cost(angles: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        z = phasor(full_angles(system, theta_d, angles))
+        phi = system.residual(z)
+        return float(phi @ phi), phi, system.jacobian(z, system.undriven)
+
+    value, phi, jac = cost(theta_u)
+    damping = 1e-3
+    scale2 = system.length_scale**2
+    for _ in range(200):
+        if value <= (tol * system.length_scale) ** 2:
+            break
+        normal = jac.T @ jac
+        gradient = jac.T @ phi
+        step = np.linalg.solve(normal + damping * np.diag(np.diag(normal) + 1e-12 * scale2),
+                               gradient)
+        trial = theta_u - step
+        trial_value, trial_phi, trial_jac = cost(trial)
+        if trial_value < value:
+            theta_u, value, phi, jac = trial, trial_value, trial_phi, trial_jac
+            damping = max(damping / 5.0, 1e-12)
+        else:
+            damping *= 4.0
+            if damping > 1e12:
+                break
+    return theta_u
+
+
 def assemble(mechanism: Mechanism, system: LoopSystem, theta_d: np.ndarray, guess_u: np.ndarray,
              tol: float, time_s: float | None = None) -> np.ndarray:
     """Assemble one configuration from a guess (Levenberg-Marquardt, then Newton).
@@ -273,31 +307,7 @@ def assemble(mechanism: Mechanism, system: LoopSystem, theta_d: np.ndarray, gues
     theta_u = np.asarray(guess_u, dtype=float).copy()
     if theta_u.size == 0:
         return theta_u
-
-    def cost(angles: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-        z = phasor(full_angles(system, theta_d, angles))
-        phi = system.residual(z)
-        return float(phi @ phi), phi, system.jacobian(z, system.undriven)
-
-    value, phi, jac = cost(theta_u)
-    damping = 1e-3 * float(np.max(np.sum(jac**2, axis=0)))
-    scale2 = system.length_scale**2
-    for _ in range(200):
-        if value <= (tol * system.length_scale) ** 2:
-            break
-        normal = jac.T @ jac
-        gradient = jac.T @ phi
-        step = np.linalg.solve(normal + damping * np.diag(np.diag(normal) + 1e-12 * scale2),
-                               gradient)
-        trial = theta_u - step
-        trial_value, trial_phi, trial_jac = cost(trial)
-        if trial_value < value:
-            theta_u, value, phi, jac = trial, trial_value, trial_phi, trial_jac
-            damping = max(damping / 5.0, 1e-12)
-        else:
-            damping *= 4.0
-            if damping > 1e12:
-                break
+    theta_u = least_squares(system, theta_d, theta_u, tol)
     base = driven_part(system, phasor(theta_d)[None])
     polished, _z, ok, _gap = newton(system, base, theta_u[None], tol, 8)
     if ok[0]:
@@ -377,8 +387,11 @@ class _Tracker:
             except np.linalg.LinAlgError:
                 return theta_u, False, gap, jac
             theta_u = theta_u - step
-            if gap <= gap_limit and float(np.max(np.abs(step))) <= tol + 8 * _EPS * float(
-                    np.max(np.abs(theta_u))):
+            small = float(np.max(np.abs(step))) <= tol + 8 * _EPS * float(
+                np.max(np.abs(theta_u)))
+            # Near a toggle the angles are only defined to rounding times the condition: a gap
+            # at rounding level is then the test.
+            if (gap <= gap_limit and small) or gap <= 16 * _EPS * scale:
                 return theta_u, True, gap, jac
         return theta_u, False, gap, jac
 
@@ -418,29 +431,33 @@ class _Tracker:
             goal_d = theta_d1 if target >= 1.0 else theta_d0 + target * path_delta
             first, second = expansion
             guess = current_u + first @ delta + 0.5 * (second @ delta) @ delta
-            found, ok, gap, jac = self._newton(goal_d, guess)
+            found, ok, _gap, jac = self._newton(goal_d, guess)
             moved = float(np.max(np.abs(found - guess)))
-            if ok and moved <= max(0.25 * float(np.max(np.abs(delta))), 1e-6):
+            expected = float(np.max(np.abs(guess - current_u)))
+            if ok and moved <= max(0.25 * max(float(np.max(np.abs(delta))), expected), 1e-6):
                 fraction, current_d, current_u = target, goal_d, found
                 if fraction < 1.0:
                     expansion = self._expand(current_d, current_u, jac)
                 size = min(2 * size, 1.0)
                 continue
             size /= 2.0
-            if size * travel < 1e-9 or size < 1e-12:
-                self.fail(index, current_d, current_u, goal_d, found, gap)
+            if size * travel < 1e-14 or size < 1e-12:
+                self.fail(index, current_d, current_u, theta_d1)
         return current_u
 
-    def fail(self, index: int, good_d: np.ndarray, good_u: np.ndarray, goal_d: np.ndarray,
-             tried_u: np.ndarray, gap: float) -> None:
-        """Raise the error for a step the continuation cannot reach."""
+    def fail(self, index: int, good_d: np.ndarray, good_u: np.ndarray,
+             goal_d: np.ndarray) -> None:
+        """Raise the error for a step the continuation cannot reach.
+
+        The residual reported is the smallest loop gap reachable at the step's driven angles.
+        """
         system, mechanism = self.system, self.mechanism
         good = full_angles(system, good_d, good_u)
         cond = condition_one(system.jacobian(phasor(good)[None], system.undriven)[0])
         time_s = float(self.times[index])
-        tried = full_angles(system, goal_d, np.where(np.isfinite(tried_u), tried_u, good_u))
-        gaps = system.joint_residuals(phasor(tried))
-        residual = float(np.max(gaps)) if np.isfinite(gap) else float("inf")
+        closest = least_squares(system, goal_d, good_u, self.tols.tol)
+        gaps = system.joint_residuals(phasor(full_angles(system, goal_d, closest)))
+        residual = float(np.max(gaps))
         if cond > self.tols.cond_warn:
             joints = involved_joints(mechanism, system, good)
             raise SingularityError(
@@ -535,7 +552,8 @@ def _refine(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, z_d: np.nd
     found, found_z, ok, _gap = newton(system, driven_part(system, z_d[targets]), guess, tols.tol,
                                       tols.max_iter, row_order)
     moved = np.max(np.abs(found - guess), axis=1)
-    bound = np.maximum(0.25 * np.max(np.abs(delta), axis=1), 1e-6)
+    expected = np.max(np.abs(guess - theta_u[base]), axis=1)
+    bound = np.maximum(0.25 * np.maximum(np.max(np.abs(delta), axis=1), expected), 1e-6)
     good = ok & (moved <= bound)
     theta_u[targets[good]] = found[good]
     z_u[targets[good]] = found_z[good]

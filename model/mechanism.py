@@ -270,11 +270,13 @@ class _Parser:
         self.origin = origin
 
     def fail(self, key: str, message: str, hint: str | None = None) -> MechanismError:
-        return MechanismError(message, where={"file": self.origin, "key": key}, hint=hint)
+        return MechanismError(message, where={"file": self.origin, "key": key},
+                              hint=hint or "see docs/mechanism.md for the format of this key")
 
     def check_keys(self, table: Any, key: str, allowed: set[str], required: Sequence[str]) -> None:
         if not isinstance(table, Mapping):
-            raise self.fail(key, f"expected a table, got {type(table).__name__}")
+            raise self.fail(key, f"expected a table, got {type(table).__name__}",
+                            hint="see docs/mechanism.md for the layout")
         unknown = sorted(set(table) - allowed)
         if unknown:
             raise self.fail(f"{key}.{unknown[0]}" if key else unknown[0],
@@ -287,22 +289,27 @@ class _Parser:
 
     def number(self, value: Any, key: str, *, minimum: float | None = None) -> float:
         if isinstance(value, bool) or not isinstance(value, int | float):
-            raise self.fail(key, f"expected a number, got {value!r}")
+            raise self.fail(key, f"expected a number, got {value!r}",
+                            hint="write a plain number in SI units (docs/mechanism.md)")
         number = float(value)
         if not math.isfinite(number):
-            raise self.fail(key, f"expected a finite number, got {value!r}")
+            raise self.fail(key, f"expected a finite number, got {value!r}",
+                            hint="write a finite number in SI units")
         if minimum is not None and number < minimum:
-            raise self.fail(key, f"expected a value >= {minimum}, got {number}")
+            raise self.fail(key, f"expected a value >= {minimum}, got {number}",
+                            hint="masses and inertias cannot be negative")
         return number
 
     def vector(self, value: Any, key: str, size: int) -> tuple[float, ...]:
         if not isinstance(value, Sequence) or isinstance(value, str) or len(value) != size:
-            raise self.fail(key, f"expected a list of {size} numbers, got {value!r}")
+            raise self.fail(key, f"expected a list of {size} numbers, got {value!r}",
+                            hint=f"write [{', '.join(['x', 'y', 'theta'][:size])}] in m and rad")
         return tuple(self.number(v, f"{key}[{i}]") for i, v in enumerate(value))
 
     def text(self, value: Any, key: str) -> str:
         if not isinstance(value, str) or not value.strip():
-            raise self.fail(key, f"expected a non-empty string, got {value!r}")
+            raise self.fail(key, f"expected a non-empty string, got {value!r}",
+                            hint="write a quoted name")
         return value
 
     def array(self, data: Mapping[str, Any], key: str) -> list[Any]:
