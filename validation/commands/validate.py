@@ -1,0 +1,65 @@
+"""``rigval validate SCENE --out DIR``: validate one run and write its report folder.
+
+Exit codes: 0 every threshold met, 1 a threshold failed, 2 a bad scene (the message names the
+key), 3 a data error (unreadable file, alignment impossible, model failure).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any, TextIO
+
+__all__ = ["add_parser", "print_summary", "run"]
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register the ``validate`` subcommand."""
+    parser = subparsers.add_parser(
+        "validate", help="validate one run (a scene file) and write its report folder",
+        description="Read the scene's data files, align them, solve the model for the compared "
+                    "quantities, compute the metrics and write report.html, metrics.csv, "
+                    "metrics.json, alignment.json and the run's netCDF file into --out.",
+        epilog="Exit codes: 0 all thresholds met, 1 a threshold failed, 2 bad scene, 3 data "
+               "error.")
+    parser.add_argument("scene", type=Path, help="scene file (TOML, docs/scene.md)")
+    parser.add_argument("--out", type=Path, required=True, help="report folder (created)")
+    parser.set_defaults(func=run)
+
+
+def print_summary(result: Any, out_dir: Path, stream: TextIO = sys.stdout) -> None:
+    """Print one line per comparison, then the report path and the verdict.
+
+    Parameters
+    ----------
+    result : rigval.validation.results.ValidationResult
+        The validation.
+    out_dir : pathlib.Path
+        Where its report was written.
+    stream : file
+        Where to print.
+    """
+    print(f"{result.scene.title}: {result.n_cycles} revolutions at {result.speed_rev_s:.3f} "
+          "rev/s", file=stream)
+    width = max(len(c.name) for c in result.comparisons)
+    for comparison in result.comparisons:
+        scores = comparison.scores
+        rating = scores.get("iso18571_periodic.rating", float("nan"))
+        grade = scores.get("iso18571_periodic.grade", "")
+        failed = [f"{c.metric} {c.value:.4g} (needs {c.threshold})" for c in comparison.checks
+                  if not c.passed]
+        verdict = "pass" if comparison.passed else "FAIL: " + "; ".join(failed)
+        print(f"  {comparison.name:<{width}}  ISO rating {rating:.3f} {grade:<9}  "
+              f"NRMSE {scores.get('nrmse', float('nan')):.4f}  {verdict}", file=stream)
+    print(f"report: {out_dir / 'report.html'}", file=stream)
+    print("PASSED" if result.passed else "FAILED", file=stream)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Validate the scene; return 0 when every threshold is met, else 1."""
+    from rigval.validation.pipeline import validate_scene
+
+    result = validate_scene(args.scene, args.out)
+    print_summary(result, args.out)
+    return 0 if result.passed else 1
