@@ -55,30 +55,38 @@ class TimeBase:
     def __init__(self, blocks: list[Block]) -> None:
         self.blocks = [b for b in blocks if b.n > 0] or blocks[:1]
         self.length = sum(b.n for b in self.blocks)
-        self._firsts = np.array([b.first for b in self.blocks], dtype=np.int64)
 
     @property
     def dt(self) -> float:
         """Sample interval of the first block, s."""
         return self.blocks[0].dt
 
+    def _overlaps(self, start: int, stop: int) -> list[tuple[int, Block, int, int]]:
+        """Return ``(k, block, lo, hi)`` for the blocks meeting samples ``start ... stop - 1``."""
+        return [(k, b, max(start, b.first), min(stop, b.first + b.n))
+                for k, b in enumerate(self.blocks)
+                if max(start, b.first) < min(stop, b.first + b.n)]
+
     def times(self, start: int = 0, stop: int | None = None) -> np.ndarray:
         """Return the times in s of samples ``start`` to ``stop - 1`` (float64)."""
         stop = self.length if stop is None else min(stop, self.length)
-        out = np.empty(max(stop - start, 0), dtype=np.float64)
-        for block in self.blocks:
-            lo, hi = max(start, block.first), min(stop, block.first + block.n)
-            if lo >= hi:
-                continue
-            index = np.arange(lo - block.first, hi - block.first, dtype=np.float64)
-            out[lo - start:hi - start] = block.t_start + index * block.dt
-        return out
+        parts = []
+        for _, block, lo, hi in self._overlaps(start, stop):
+            part = np.arange(lo - block.first, hi - block.first, dtype=np.float64)
+            part *= block.dt  # in place: one allocation per block (page faults dominate)
+            part += block.t_start
+            parts.append(part)
+        if len(parts) == 1:
+            return parts[0]
+        return np.concatenate(parts) if parts else np.empty(0, dtype=np.float64)
 
     def segments(self, start: int = 0, stop: int | None = None) -> np.ndarray:
         """Return the block index (``segment``) of samples ``start`` to ``stop - 1``."""
         stop = self.length if stop is None else min(stop, self.length)
-        index = np.arange(start, stop, dtype=np.int64)
-        return (np.searchsorted(self._firsts, index, side="right") - 1).astype(np.int32)
+        out = np.empty(max(stop - start, 0), dtype=np.int32)
+        for k, _, lo, hi in self._overlaps(start, stop):
+            out[lo - start:hi - start] = k
+        return out
 
     def index_range(self, t_from: float | None, t_to: float | None) -> tuple[int, int]:
         """Return ``(start, stop)`` of the samples with ``t_from <= t <= t_to`` (None: open end)."""
