@@ -226,6 +226,8 @@ def interpolate_cycle(cycle: xr.Dataset, angles: np.ndarray) -> xr.Dataset:
     -------
     xarray.Dataset
         Every variable with dim ``angle`` interpolated; dim ``angle`` holds the given angles.
+        Body angles that turn whole revolutions per cycle are interpolated on top of their
+        steady increase over the revolution.
     """
     grid = cycle["angle"].to_numpy()
     order = np.argsort(grid)
@@ -237,10 +239,25 @@ def interpolate_cycle(cycle: xr.Dataset, angles: np.ndarray) -> xr.Dataset:
         if "angle" not in var.dims:
             continue
         values = np.moveaxis(var.to_numpy(), var.dims.index("angle"), 0)[order]
-        values = np.concatenate([values, values[:1]], axis=0)
+        winding = _winding(name, var, values)
+        ramp = np.multiply.outer(closed - grid[0], winding / (2 * math.pi))
+        values = np.concatenate([values, values[:1] + winding], axis=0) - ramp
         spline = scipy.interpolate.CubicSpline(closed, values, axis=0, bc_type="periodic")
-        data = np.moveaxis(spline(target), 0, var.dims.index("angle"))
+        ramp = np.multiply.outer(target - grid[0], winding / (2 * math.pi))
+        data = np.moveaxis(spline(target) + ramp, 0, var.dims.index("angle"))
         out[name] = xr.Variable(var.dims, data, var.attrs)
     coords = {k: v for k, v in cycle.coords.items() if "angle" not in v.dims}
     coords["angle"] = ("angle", np.asarray(angles, dtype=float), cycle["angle"].attrs)
     return xr.Dataset(out, coords=coords, attrs=cycle.attrs)
+
+
+def _winding(name: str, var: xr.DataArray, values: np.ndarray) -> np.ndarray:
+    """Change over one revolution of each entry: whole turns of the body angles, 0 otherwise."""
+    winding = np.zeros(values.shape[1:])
+    if name == "position" and values.shape[0] > 1:
+        theta = list(var["coord"].to_numpy()).index("theta")
+        sub = [slice(None)] * (values.ndim - 1)
+        sub[var.dims.index("coord") - 1] = theta
+        ahead = 2 * values[-1] - values[-2] - values[0]
+        winding[tuple(sub)] = 2 * math.pi * np.round(ahead[tuple(sub)] / (2 * math.pi))
+    return winding
