@@ -6,9 +6,10 @@ reference pulses fall on multiples of 2 pi (:func:`zero_at_reference`). A cycle 
 ``[2 pi k, 2 pi (k + 1))``.
 
 Resampling (computed order tracking, research section 5.1): the times of the grid angles follow
-from interpolating the inverse of the increasing phi_F(t) (``np.interp``); each channel is
-evaluated at those times (minus its module input delay) with an interpolating spline of the chosen
-order, per gap-free run and in overlapping chunks (bounded memory); grid points that fall in a gap
+from a cubic spline through the inverse of the increasing phi_F(t) (``np.interp`` alone limits
+the accuracy to 4e-6 at 0.05 fs); each channel is evaluated at those times (minus its module
+input delay) with an interpolating spline of the chosen order (quintic by default), per gap-free
+run and in overlapping chunks (bounded memory); grid points that fall in a gap
 or an invalid stretch are NaN, never filled. When the angle grid is coarser in time than the
 samples (``points_per_rev * f_rot < fs``) the channel is first low-passed (zero phase, per run) at
 0.4 times the grid rate at the lowest speed, so nothing aliases.
@@ -170,7 +171,7 @@ def interpolate_runs(time: ArrayLike, values: ArrayLike, at: ArrayLike, *, order
 
 
 def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike,
-                      angle: ArrayLike, *, points_per_rev: int, fs: float, order: int = 3,
+                      angle: ArrayLike, *, points_per_rev: int, fs: float, order: int = 5,
                       anti_alias: AntiAlias = "butterworth", segment: ArrayLike | None = None,
                       valid: ArrayLike | None = None,
                       ) -> tuple[NDArray[np.int64], _FloatArray, _FloatArray]:
@@ -188,8 +189,9 @@ def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike,
         Grid points per revolution.
     fs : float
         The channel's sampling rate in Hz (for the anti-alias filter).
-    order : int, default 3
-        Interpolation spline degree (1, 3, 5).
+    order : int, default 5
+        Interpolation spline degree (1, 3, 5): at 0.05 fs the largest error is 1.2e-2, 1.4e-4
+        (2.6e-5 away from the run ends) and 7.5e-6 of the amplitude.
     anti_alias : {"butterworth", "none"}
         Low-pass (order 8, zero phase, per run) at 0.4 times the slowest grid rate when the grid
         is coarser than the samples.
@@ -217,7 +219,7 @@ def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike,
     if cycles.size == 0:
         raise DataError(f"phi_F spans {phi[0]:.4g} to {phi[-1]:.4g} rad: no whole revolution",
                         hint="record at least two revolutions")
-    grid_time = np.interp(grid, phi, phi_t)
+    grid_time = interpolate_runs(phi, phi_t, grid, order=3)
     x = np.asarray(values, dtype=np.float64)
     if anti_alias == "butterworth":
         slowest = float(np.min(np.diff(phi) / np.diff(phi_t)))
@@ -233,7 +235,7 @@ def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike,
 
 def angle_domain(aligned: Mapping[str, xr.Dataset], angle_time: ArrayLike, angle: ArrayLike,
                  *, points_per_rev: int = 360,
-                 channels: Mapping[str, Sequence[str]] | None = None, order: int = 3,
+                 channels: Mapping[str, Sequence[str]] | None = None, order: int = 5,
                  anti_alias: AntiAlias = "butterworth",
                  invalid_cycles: ArrayLike | None = None) -> xr.Dataset:
     """Resample channels of aligned streams onto a common phi_F grid.
@@ -250,8 +252,8 @@ def angle_domain(aligned: Mapping[str, xr.Dataset], angle_time: ArrayLike, angle
     channels : mapping of str to list of str, optional
         Channels to resample per stream; default all data variables except ``valid``/``segment``.
         Output variables are named by channel; a name used in two streams gets the stream prefix.
-    order : int, default 3
-        Interpolation spline degree.
+    order : int, default 5
+        Interpolation spline degree (:func:`resample_to_angle`).
     anti_alias : {"butterworth", "none"}
         As in :func:`resample_to_angle`.
     invalid_cycles : array_like of int, optional

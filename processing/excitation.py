@@ -7,7 +7,7 @@ estimators (research section 3.3):
 ``"butterworth"`` (default, any motion)
     Per gap-free run: remove a least-squares Fourier trend of a few harmonics (as below), filter
     the remainder forward and backward with a Butterworth low-pass (order 8 by default, so the
-    pass band is flat to 1.5e-5 at half the corner) padded with ``3 fs / f_c`` samples, add the
+    pass band is flat to 1.5e-5 at half the corner) padded with ``6 fs / f_c`` samples, add the
     trend back, then central differences (analytic ones for the trend). What the trend does not
     capture (speed changes, non-periodic motion) still passes the filter, so the method works
     for any motion; the trend only shrinks the filter's edge transients (8.8 rad/s^2 at the

@@ -4,10 +4,11 @@
 ``scipy.signal.sosfiltfilt``: no phase shift (filtered channels stay angle-aligned), magnitude
 squared (the design's -3 dB corner becomes -6 dB). The default edge padding of ``sosfiltfilt``
 (a few samples) is far shorter than the impulse response at low corners; here the odd padding is
-``3 fs / f_c`` samples (2.8e-7 edge error instead of 2.6e-4 for a 20 Hz low-pass at 5 kHz, research
-section 6). Every gap-free, valid run of samples is filtered on its own; long runs are filtered in
+``6 fs / f_c`` samples: a ramp through a 4th-order 20 Hz low-pass at 5 kHz comes out with a largest
+edge error of 6e-9 of its span, against 1e-5 with ``3 fs / f_c`` and 3.6e-2 with scipy's default
+(measured in the tests). Every gap-free, valid run of samples is filtered on its own; long runs are filtered in
 overlapping chunks whose overlap is long enough for the impulse response to have died away, so the
-memory use is bounded by the chunk size and the result matches a one-shot filter to ~1e-12.
+memory use is bounded by the chunk size and the result matches a one-shot filter to rounding (1e-9 relative in the tests).
 """
 
 from __future__ import annotations
@@ -64,9 +65,9 @@ def butter_sos(cutoff_hz: float | tuple[float, float], fs: float, *, order: int 
 
 
 def default_padlen(cutoff_hz: float | tuple[float, float], fs: float) -> int:
-    """Return the edge padding ``ceil(3 fs / f_c,min)`` in samples for a zero-phase filter."""
+    """Return the edge padding ``ceil(6 fs / f_c,min)`` in samples for a zero-phase filter."""
     lowest = float(np.min(np.atleast_1d(cutoff_hz)))
-    return int(np.ceil(3.0 * fs / lowest))
+    return int(np.ceil(6.0 * fs / lowest))
 
 
 def contiguous_runs(n: int, segment: ArrayLike | None = None,
@@ -146,7 +147,7 @@ def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], 
         (limited to the run length - 1).
     padtype : {"odd", "line", "even", "zero"}, default "odd"
         Extension at run ends: point-symmetric about the end sample (keeps a ramp going); the
-        same about the end value of a line fitted to the last ``0.3 fs / f_c`` samples (the
+        same about the end value of a line fitted to the last ``0.6 fs / f_c`` samples (the
         noise of the end sample does not start a transient); mirror; or zeros (for a zero-mean
         remainder).
     chunk_samples : int, default 2**20

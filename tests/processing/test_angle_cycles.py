@@ -1,0 +1,108 @@
+"""Angle-domain resampling, gaps, anti-aliasing and cycle statistics against closed forms."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rigval.acquisition.errors import DataError
+from rigval.processing import angle, cycles
+
+FS = 5000.0
+W = 2 * np.pi
+
+
+def _ripple_angle(t: np.ndarray) -> np.ndarray:
+    """1 rev/s with +-8 % speed ripple."""
+    return W * t + 0.08 * np.sin(W * t)
+
+
+def _time_of(phi: np.ndarray) -> np.ndarray:
+    t = phi / W
+    for _ in range(40):
+        t -= (_ripple_angle(t) - phi) / (W * (1 + 0.08 * np.cos(W * t)))
+    return t
+
+
+@pytest.mark.parametrize(("f_rel", "order", "limit"), [(0.05, 5, 1e-5), (0.01, 5, 1e-9),
+                                                       (0.05, 3, 2e-4), (0.1, 5, 1e-3)])
+def test_resampling_error_for_content_up_to_a_twentieth_of_fs(f_rel: float, order: int,
+                                                             limit: float) -> None:
+    t = np.arange(0.0, 6.0, 1 / FS)
+    f = f_rel * FS
+    x = np.sin(2 * np.pi * f * t + 0.3)
+    cyc, _, y = angle.resample_to_angle(t, x, t, _ripple_angle(t), points_per_rev=8192, fs=FS,
+                                        order=order)
+    grid = 2 * np.pi * (cyc[:, None] + np.arange(8192)[None, :] / 8192)
+    truth = np.sin(2 * np.pi * f * _time_of(grid) + 0.3)           # the first cycle starts at t=0
+    assert np.nanmax(np.abs(y - truth)) < limit
+    assert np.isfinite(y).all()
+
+
+def test_linear_interpolation_is_far_worse_at_a_twentieth_of_fs() -> None:
+    t = np.arange(0.0, 4.0, 1 / FS)
+    x = np.sin(2 * np.pi * 250 * t)
+    cyc, _, y = angle.resample_to_angle(t, x, t, _ripple_angle(t), points_per_rev=8192, fs=FS,
+                                        order=1)
+    grid = 2 * np.pi * (cyc[:, None] + np.arange(8192)[None, :] / 8192)
+    assert np.max(np.abs(y - np.sin(2 * np.pi * 250 * _time_of(grid)))) > 1e-3
+
+
+def test_anti_alias_removes_content_above_the_angle_grid_nyquist() -> None:
+    t = np.arange(0.0, 8.0, 1 / FS)
+    low = np.sin(2 * np.pi * 5 * t)
+    x = low + 0.5 * np.sin(2 * np.pi * 300 * t)                # 300 Hz > 180 orders / 2 at 1 rev/s
+    cyc, _, clean = angle.resample_to_angle(t, x, t, _ripple_angle(t), points_per_rev=360, fs=FS)
+    _, _, raw = angle.resample_to_angle(t, x, t, _ripple_angle(t), points_per_rev=360, fs=FS,
+                                        anti_alias="none")
+    grid = 2 * np.pi * (cyc[:, None] + np.arange(360)[None, :] / 360)
+    truth = np.sin(2 * np.pi * 5 * _time_of(grid))
+    inner = slice(1, -1)                                           # filter edges: first/last cycle
+    assert np.max(np.abs(clean[inner] - truth[inner])) < 1e-3
+    assert np.max(np.abs(raw[inner] - truth[inner])) > 0.3
+
+
+def test_interpolation_never_crosses_a_gap_and_chunks_change_nothing(monkeypatch) -> None:
+    t = np.concatenate([np.arange(0, 1, 1e-3), np.arange(1.5, 2.5, 1e-3)])
+    segment = (t > 1.2).astype(int)
+    x = np.where(segment == 0, 1.0, 5.0)
+    at = np.array([0.5, 0.999, 1.0005, 1.2, 1.5, 1.5004, 2.4985])
+    y = angle.interpolate_runs(t, x, at, segment=segment)
+    np.testing.assert_allclose(y, [1, 1, np.nan, np.nan, 5, 5, 5], rtol=0, atol=1e-12)
+    rng = np.random.default_rng(2)
+    long_t = np.arange(0, 20, 1e-3)
+    signal = np.cumsum(rng.standard_normal(long_t.size))
+    where = rng.uniform(0, 19.999, 5000)
+    one_shot = angle.interpolate_runs(long_t, signal, where)
+    monkeypatch.setattr(angle, "_CHUNK", 997)
+    np.testing.assert_allclose(angle.interpolate_runs(long_t, signal, where), one_shot,
+                               rtol=0, atol=1e-9 * np.abs(signal).max())
+
+
+def test_zero_at_reference_and_cycle_grid() -> None:
+    t = np.arange(0, 10, 1e-3)
+    phi = _ripple_angle(t) + 0.7
+    events = _time_of(2 * np.pi * np.arange(1, 9))
+    offset, scatter = angle.zero_at_reference(t, phi, events)
+    assert offset == pytest.approx(0.7, abs=1e-6)
+    assert scatter < 1e-6
+    cyc, grid = angle.cycle_grid(0.1, 4 * np.pi + 0.2, 4)
+    np.testing.assert_array_equal(cyc, [1])
+    np.testing.assert_allclose(grid, [[2 * np.pi, 2.5 * np.pi, 3 * np.pi, 3.5 * np.pi]])
+    with pytest.raises(DataError):
+        angle.resample_to_angle(t, t, t, -phi, points_per_rev=8, fs=1000.0)
+
+
+def test_cycle_statistics_match_numpy_and_find_the_outlier() -> None:
+    rng = np.random.default_rng(3)
+    base = np.sin(np.linspace(0, 2 * np.pi, 64, endpoint=False))
+    y = base + 0.01 * rng.standard_normal((40, 64))
+    y[17] += 0.5
+    y[3, 10] = np.nan
+    stats = cycles.statistics_array(y)
+    np.testing.assert_allclose(stats[0], np.nanmean(y, axis=0))
+    np.testing.assert_allclose(stats[1], np.nanstd(y, axis=0, ddof=1))
+    np.testing.assert_allclose(stats[2:4], np.nanpercentile(y, [5, 95], axis=0))
+    assert stats[6, 10] == 39 and stats[6, 0] == 40
+    flags = cycles.outlier_cycles(y)
+    assert np.flatnonzero(flags).tolist() == [17]

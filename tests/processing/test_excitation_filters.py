@@ -1,0 +1,130 @@
+"""Drive-angle derivatives, zero-phase filters and encoder decoding against known truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.signal import sosfiltfilt
+
+from rigval.acquisition.errors import DataWarning
+from rigval.processing import encoder, excitation, filters
+
+FS = 5000.0
+CPR = 8192
+W = 2 * np.pi * 1.0
+HARMONICS = [(1, 0.05, 0.3), (2, 0.02, 1.1), (3, 0.01, 2.0), (4, 0.005, 0.7)]
+
+
+def _drive(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    theta = W * t + sum(a * np.sin(k * W * t + p) for k, a, p in HARMONICS)
+    omega = W + sum(a * k * W * np.cos(k * W * t + p) for k, a, p in HARMONICS)
+    alpha = -sum(a * (k * W) ** 2 * np.sin(k * W * t + p) for k, a, p in HARMONICS)
+    return theta, omega, alpha
+
+
+@pytest.fixture(scope="module")
+def quantised_drive() -> dict[str, np.ndarray]:
+    t = np.arange(0.0, 20.0, 1 / FS)
+    theta, omega, alpha = _drive(t)
+    counts = np.floor(theta / (2 * np.pi) * CPR).astype(np.int64)
+    return {"t": t, "raw": encoder.counts_to_angle(counts, CPR), "omega": omega, "alpha": alpha}
+
+
+@pytest.mark.parametrize("method", ["butterworth", "fourier"])
+def test_second_derivative_within_a_hundredth_rad_per_s2(quantised_drive, method: str) -> None:
+    """Done-when: 8192 counts/rev, 5 kHz, 1 rev/s."""
+    d = quantised_drive
+    result = excitation.drive_angle(d["t"], d["raw"], fs=FS, step_rad=2 * np.pi / CPR,
+                                    method=method)
+    error = result.acceleration - d["alpha"]
+    inner = (d["t"] > 0.25) & (d["t"] < 19.75)
+    assert np.sqrt(np.mean(error**2)) < 0.01
+    assert np.max(np.abs(error[inner])) < 0.015
+    assert np.sqrt(np.mean((result.velocity - d["omega"]) ** 2)) < 5e-4
+    assert result.residual_rms == pytest.approx(2 * np.pi / CPR / np.sqrt(12), rel=0.1)
+
+
+def test_differencing_raw_counts_is_useless(quantised_drive) -> None:
+    d = quantised_drive
+    raw_alpha = np.gradient(np.gradient(d["raw"], 1 / FS), 1 / FS)
+    assert np.sqrt(np.mean((raw_alpha - d["alpha"]) ** 2)) > 100.0
+    _, _, predicted = excitation.quantisation_noise(2 * np.pi / CPR, FS)
+    assert predicted > 1000.0
+
+
+def test_noise_estimate_is_conservative(quantised_drive) -> None:
+    d = quantised_drive
+    result = excitation.drive_angle(d["t"], d["raw"], fs=FS, step_rad=2 * np.pi / CPR)
+    actual = np.sqrt(np.mean((result.acceleration - d["alpha"]) ** 2))
+    assert actual < result.acceleration_noise < 5 * actual
+
+
+def test_each_gap_free_run_is_processed_on_its_own() -> None:
+    t = np.arange(0.0, 12.0, 1 / FS)
+    theta, _, alpha = _drive(t)
+    counts = np.floor(theta / (2 * np.pi) * CPR)
+    segment = (t >= 6.0).astype(int)
+    counts[segment == 1] += 123_457                    # a restart: the count jumps
+    raw = encoder.counts_to_angle(counts, CPR)
+    result = excitation.drive_angle(t, raw, fs=FS, step_rad=2 * np.pi / CPR, segment=segment)
+    assert np.all(np.isfinite(result.acceleration))
+    assert np.sqrt(np.mean((result.acceleration - alpha) ** 2)) < 0.02
+
+
+def test_zero_phase_matches_scipy_in_one_run_and_in_chunks() -> None:
+    rng = np.random.default_rng(4)
+    x = np.cumsum(rng.standard_normal(50_000))
+    sos = filters.butter_sos(20.0, FS)
+    pad = filters.default_padlen(20.0, FS)
+    reference = sosfiltfilt(sos, x, padlen=pad)
+    np.testing.assert_allclose(filters.zero_phase(x, FS, 20.0), reference, rtol=0, atol=1e-9)
+    chunked = filters.zero_phase(x, FS, 20.0, chunk_samples=7000)
+    np.testing.assert_allclose(chunked, reference, rtol=0, atol=1e-9 * np.abs(x).max())
+
+
+def test_zero_phase_long_padding_keeps_a_ramp_exact_at_the_edges() -> None:
+    t = np.arange(0, 2, 1 / FS)
+    ramp = 0.3 + 2.0 * t                                          # span 4
+    y = filters.zero_phase(ramp, FS, 20.0)
+    assert np.max(np.abs(y - ramp)) < 4e-8
+    short = sosfiltfilt(filters.butter_sos(20.0, FS), ramp)       # scipy's default padding
+    assert np.max(np.abs(short - ramp)) > 1e-2
+
+
+def test_zero_phase_never_crosses_a_gap_or_invalid_sample() -> None:
+    x = np.concatenate([np.full(3000, 1.0), np.full(3000, 7.0)])
+    segment = np.repeat([0, 1], 3000)
+    y = filters.zero_phase(x, FS, 50.0, segment=segment)
+    np.testing.assert_allclose(y, x, rtol=0, atol=1e-12)
+    valid = np.ones(x.size, dtype=bool)
+    valid[10:15] = False                                  # leaves a 10-sample run in front
+    with pytest.warns(DataWarning, match="too short"):
+        z = filters.zero_phase(x, FS, 50.0, segment=segment, valid=valid)
+    assert np.isnan(z[:15]).all() and np.isfinite(z[15:]).all()
+
+
+def test_counter_wrap_and_quadrature_decoding() -> None:
+    raw = (np.array([2**32 - 3, 2**32 - 1, 1, 4, 2]) % 2**32).astype(np.uint32)
+    np.testing.assert_array_equal(encoder.unwrap_counts(raw), [2**32 - 3, 2**32 - 1, 2**32 + 1,
+                                                               2**32 + 4, 2**32 + 2])
+    position = np.concatenate([np.arange(0, 40), np.arange(40, 20, -1)])   # quarter steps
+    state = np.array([0, 2, 3, 1])[position % 4]
+    a, b = state >> 1, state & 1
+    for decoding, per_cycle in (("x4", 4), ("x2", 2), ("x1", 1)):
+        counts, illegal = encoder.decode_quadrature(a, b, decoding)
+        assert not illegal.any()
+        assert counts[39] == pytest.approx(39 * per_cycle / 4, abs=1)
+        assert counts[-1] == pytest.approx(21 * per_cycle / 4, abs=1)
+    skipped = np.delete(state, 10)                                       # a missed state
+    _, illegal = encoder.decode_quadrature(skipped >> 1, skipped & 1)
+    assert np.flatnonzero(illegal).tolist() == [10]
+
+
+def test_revolution_check_flags_glitches_and_gross_errors() -> None:
+    t = np.arange(0.0, 10.0, 1 / FS)
+    counts = np.floor(t * CPR).astype(np.int64)
+    counts[t > 3.5] += 2                      # two spurious counts in revolution 3
+    counts[t > 6.5] -= 600                    # a large loss in revolution 6
+    check = encoder.revolution_check(t, counts, np.arange(1.0, 10.0), CPR)
+    assert np.flatnonzero(check.glitch).tolist() == [2]
+    assert np.flatnonzero(check.gross).tolist() == [5]
