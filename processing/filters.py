@@ -6,9 +6,10 @@ squared (the design's -3 dB corner becomes -6 dB). The default edge padding of `
 (a few samples) is far shorter than the impulse response at low corners; here the odd padding is
 ``6 fs / f_c`` samples: a ramp through a 4th-order 20 Hz low-pass at 5 kHz comes out with a largest
 edge error of 6e-9 of its span, against 1e-5 with ``3 fs / f_c`` and 3.6e-2 with scipy's default
-(measured in the tests). Every gap-free, valid run of samples is filtered on its own; long runs are filtered in
-overlapping chunks whose overlap is long enough for the impulse response to have died away, so the
-memory use is bounded by the chunk size and the result matches a one-shot filter to rounding (1e-9 relative in the tests).
+(measured in the tests). Every gap-free, valid run of samples is filtered on its own; long runs
+are filtered in overlapping chunks whose overlap is long enough for the impulse response to have
+died away, so the memory use is bounded by the chunk size and the result matches a one-shot
+filter to rounding (1e-9 relative in the tests).
 """
 
 from __future__ import annotations
