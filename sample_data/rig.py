@@ -209,9 +209,9 @@ class RigDraw:
     spurious_per_minute: float
 
 
-def _round(value: float, step: float) -> float:
-    """Round to a multiple of step, as a calibration sheet prints it."""
-    return float(np.round(value / step) * step)
+def _round(value: float, decimals: int) -> float:
+    """Round to ``decimals`` decimals, as a calibration sheet prints the value."""
+    return round(float(value), decimals)
 
 
 def _drive(settings: RigSettings, drivers: dict[str, tuple[float, tuple[Harmonic, ...]]],
@@ -280,13 +280,13 @@ def draw_rig(settings: RigSettings,
     noise = imp.noise
     # The frame sensor acc3 sees far less than the moving bodies: its amplifier gain is 10x.
     accelerometers = {
-        name: ChargeAccelerometer(_round(rng.uniform(9.5, 10.5), 0.01), gain, 0.1, 5e-4 * noise)
+        name: ChargeAccelerometer(_round(rng.uniform(9.5, 10.5), 2), gain, 0.1, 5e-4 * noise)
         for name, gain in (("acc1", 10.0), ("acc2", 10.0), ("acc3", 100.0))}
     drift = imp.bridge_drift
-    str1 = StrainBridge("half_i", _round(rng.uniform(2.0, 2.1), 0.01), 0.3, 210e9, 1.9e-3, 2.5,
+    str1 = StrainBridge("half_i", _round(rng.uniform(2.0, 2.1), 2), 0.3, 210e9, 1.9e-3, 2.5,
                         rng.uniform(-1.0, 1.0) * 2e-7 * drift,
                         rng.uniform(-1.0, 1.0) * 4e-7 * drift, 60.0, 1e-7 * noise)
-    gauge_factor_shafts = _round(rng.uniform(2.0, 2.1), 0.01)
+    gauge_factor_shafts = _round(rng.uniform(2.0, 2.1), 2)
     torsion = {}
     for first, second in (("tor1", "tor2"), ("tor3", "tor4")):
         share = 0.5 + rng.uniform(-1.0, 1.0) * imp.torque_split
@@ -304,8 +304,8 @@ def draw_rig(settings: RigSettings,
         "opt2": OpticalSensor(0.0, 4e-3, 100e-6, 20e-6 * noise, np.deg2rad(10.0), 2e-7 * noise),
         "opt3": OpticalSensor(0.0, 4e-3, 100e-6, 20e-6 * noise, np.deg2rad(10.0), 2e-7 * noise),
     }
-    frame = {"natural_hz": _round(rng.uniform(18.0, 30.0), 0.1),
-             "damping_ratio": _round(rng.uniform(0.02, 0.05), 0.001), "modal_mass": 900.0}
+    frame = {"natural_hz": _round(rng.uniform(18.0, 30.0), 1),
+             "damping_ratio": _round(rng.uniform(0.02, 0.05), 3), "modal_mass": 900.0}
     pulse_seeds = dict(zip(("opt1", "opt2", "opt3"), seeds[4:7], strict=True))
     return RigDraw(start, drive, clocks, accelerometers, str1, torsion, encoders, optical, frame,
                    pulse_seeds, seeds[7], imp.missing_pulse_probability,
