@@ -9,12 +9,22 @@ Also home of rigval's shared basics: :mod:`rigval.acquisition.errors` (the error
 :mod:`rigval.acquisition.schema` (the stream schema every reader uses).
 """
 
+from importlib import import_module
+from typing import Any
+
 from rigval.acquisition.errors import RigvalError
-from rigval.acquisition.lvm import read_lvm
-from rigval.acquisition.read import iter_stream, read, read_stream
 from rigval.acquisition.schema import Channel, check_stream, stream_dataset
-from rigval.acquisition.tdms import iter_tdms, read_tdms
-from rigval.acquisition.text_csv import read_csv
+
+#: Readers, imported on first use so that ``import rigval.acquisition.errors`` stays light.
+_LAZY = {"iter_stream": "read", "read": "read", "read_stream": "read", "read_lvm": "lvm",
+         "iter_tdms": "tdms", "read_tdms": "tdms", "read_csv": "text_csv"}
 
 __all__ = ["Channel", "RigvalError", "check_stream", "iter_stream", "iter_tdms", "read",
            "read_csv", "read_lvm", "read_stream", "read_tdms", "stream_dataset"]
+
+
+def __getattr__(name: str) -> Any:
+    """Import a reader on first access (PEP 562)."""
+    if name in _LAZY:
+        return getattr(import_module(f"rigval.acquisition.{_LAZY[name]}"), name)
+    raise AttributeError(f"module 'rigval.acquisition' has no attribute {name!r}")
