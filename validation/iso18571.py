@@ -15,18 +15,20 @@ end treatment of the slope smoothing) follow the TU Graz reference implementatio
 ``objective_rating_metrics`` 1.3, which reproduces the 42 rating cases of the standard's Annex C
 within its 0.001 tolerance (see ``shared/research/validation_metrics.md``).
 
-:func:`iso18571_periodic` is this package's variant for signals over exactly one revolution: the
-phase shift is circular (no truncation, all samples kept), and the slope uses circular differences
-and a circular 9-point mean (no shrinking windows at the ends). Corridor, magnitude and the scoring
-formulas are those of the standard.
+:func:`iso18571_periodic` is this package's variant for signals over exactly one revolution, with
+no ends: the phase shift is circular (no truncation, all samples kept); the DTW runs on the signals
+repeated to three revolutions and scores the middle one, so that the warping path's fixed start and
+end lie a revolution away; the slope uses circular differences and a circular 9-point mean. The
+corridor and all scoring formulas are the standard's. In the tests, rotating both signals to
+start at another angle changes no score beyond rounding.
 
 Cost: the DTW of the magnitude score is O(n^2) in time (a band of 20 % of the cells, swept one
-anti-diagonal at a time) and stores one byte per band cell. Longer signals are therefore brought
-down to at most ``max_samples`` samples before rating (integer decimation with a zero-phase FIR
-anti-alias filter for time signals, Fourier resampling for periodic ones); the rated sample count is
-in the result. The standard assumes 10 kHz sampling and its slope smoothing and windows are in
-samples and fractions of the interval, so ratings of the same signals at different sample counts
-differ slightly.
+anti-diagonal at a time; three times as long for the periodic variant) and stores two bytes per band
+cell. Longer signals are therefore brought down to at most ``max_samples`` samples before rating
+(integer decimation with a zero-phase FIR anti-alias filter for time signals, Fourier resampling for
+periodic ones); the rated sample count is in the result. The standard assumes 10 kHz sampling and
+its slope smoothing and windows are in samples and fractions of the interval, so ratings of the same
+signals at different sample counts differ slightly.
 """
 
 from __future__ import annotations
@@ -253,7 +255,8 @@ def iso18571(measured: Any, model: Any, *, dt: float | None = None, fs: float | 
     else:
         ref_part, cmp_part = reference[-shift:], comparison[:n + shift]
     slope_ref, slope_cmp = _smoothed_slope(ref_part), _smoothed_slope(cmp_part)
-    return _scores(reference, comparison, ref_part, cmp_part, slope_ref, slope_cmp, shift,
+    magnitude_error = _magnitude_error(ref_part, cmp_part, params)
+    return _scores(reference, comparison, magnitude_error, slope_ref, slope_cmp, shift,
                    shift * step, params)
 
 
@@ -263,10 +266,11 @@ def iso18571_periodic(measured: Any, model: Any, angle: Any = None, *,
     """Rate a model signal over one revolution against the measured one (periodic ISO variant).
 
     The signals hold one revolution on a uniform angle grid without the repeated end sample
-    (``angle[k] = k * 360 / n`` degrees). The corridor, the DTW magnitude and all scoring formulas
-    are those of ISO/TS 18571; the phase shift is circular (Pearson correlation of all samples
-    with the model rotated by up to ``phase_window`` of a revolution; nothing is truncated), and the
-    slope uses circular central differences and a circular 9-point mean.
+    (``angle[k] = k * 360 / n`` degrees). The corridor and all scoring formulas are those of
+    ISO/TS 18571. The phase shift is circular (Pearson correlation of all samples with the model
+    rotated by up to ``phase_window`` of a revolution; nothing is truncated); the magnitude is the
+    DTW error over the middle of three repeated revolutions (the path's fixed ends lie a
+    revolution away); the slope uses circular central differences and a circular 9-point mean.
 
     Parameters
     ----------
@@ -310,7 +314,8 @@ def iso18571_periodic(measured: Any, model: Any, angle: Any = None, *,
     rotated = np.roll(comparison, -shift)
     slope_ref = _smoothed_slope_circular(reference)
     slope_cmp = _smoothed_slope_circular(rotated)
-    return _scores(reference, comparison, reference, rotated, slope_ref, slope_cmp, shift,
+    magnitude_error = _magnitude_error_circular(reference, rotated, params)
+    return _scores(reference, comparison, magnitude_error, slope_ref, slope_cmp, shift,
                    shift * 360.0 / n, params)
 
 
@@ -342,44 +347,59 @@ def dtw_path(x: np.ndarray, y: np.ndarray, radius: int) -> tuple[np.ndarray, np.
     Notes
     -----
     The accumulated cost is swept one anti-diagonal at a time (each a vectorised step over at most
-    ``radius + 1`` cells), so time is O(n radius) and memory is one byte per band cell plus three
-    vectors.
+    ``radius + 1`` cells), so time is O(n radius) and memory is two bytes per band cell plus
+    three vectors.
     """
     n = x.size
     if y.size != n:
         raise DataError(f"DTW needs equal lengths, got {n} and {y.size} samples",
                         hint="truncate or resample both signals to one grid")
-    # choices[k, i - first(k)]: the step into cell (i, k - i) of anti-diagonal k (1-based cells)
-    choices = np.zeros((2 * n + 1, radius + 1), dtype=np.int8)
+    # Per anti-diagonal k and cell (i, k - i), column i - first(k): was the vertical step
+    # (from (i-1, j)) not taken, and, if not, was the horizontal one (from (i, j-1)) not taken.
+    not_vertical = np.zeros((2 * n + 1, radius + 1), dtype=bool)
+    not_horizontal = np.zeros((2 * n + 1, radius + 1), dtype=bool)
+    y_reversed = y[::-1].copy()
     before_last = np.full(n + 1, np.inf)
     before_last[0] = 0.0
     last = np.full(n + 1, np.inf)
-    current = np.empty(n + 1)
+    current = np.full(n + 1, np.inf)
+    shortcut = np.empty(radius + 1)
     for k in range(2, 2 * n + 1):
         first = (k - radius + 1) // 2
         lo, hi = max(1, k - n, first), min(n, k - 1, (k + radius) // 2)
         vertical, horizontal = last[lo - 1:hi], last[lo:hi + 1]
         diagonal = before_last[lo - 1:hi]
-        shortcut = np.minimum(horizontal, diagonal)
-        best = np.minimum(vertical, shortcut)
-        choices[k, lo - first:hi - first + 1] = np.where(
-            vertical <= shortcut, 0, np.where(horizontal <= diagonal, 1, 2))
-        current.fill(np.inf)
-        current[lo:hi + 1] = (x[lo - 1:hi] - y[k - hi - 1:k - lo][::-1]) ** 2 + best
+        best = shortcut[:hi - lo + 1]
+        np.minimum(horizontal, diagonal, out=best)
+        np.greater(vertical, best, out=not_vertical[k, lo - first:hi - first + 1])
+        np.greater(horizontal, diagonal, out=not_horizontal[k, lo - first:hi - first + 1])
+        np.minimum(vertical, best, out=best)
+        cells = current[lo:hi + 1]
+        np.subtract(x[lo - 1:hi], y_reversed[n - k + lo:n - k + hi + 1], out=cells)
+        np.multiply(cells, cells, out=cells)
+        cells += best
+        # the next two diagonals read this one only from lo - 1 to hi + 1
+        current[lo - 1] = np.inf
+        if hi < n:
+            current[hi + 1] = np.inf
         before_last, last, current = last, current, before_last
-    return _backtrack(choices, n, radius)
+    return _backtrack(not_vertical, not_horizontal, n, radius)
 
 
-def _backtrack(choices: np.ndarray, n: int, radius: int) -> tuple[np.ndarray, np.ndarray]:
-    """Follow the stored step choices from (n, n) back to (1, 1); return 0-based indices."""
+def _backtrack(not_vertical: np.ndarray, not_horizontal: np.ndarray, n: int,
+               radius: int) -> tuple[np.ndarray, np.ndarray]:
+    """Follow the stored steps from (n, n) back to (1, 1); return 0-based indices."""
     i = j = n
     path_i, path_j = [i], [j]
     while i > 1 or j > 1:
         k = i + j
-        step = choices[k, i - (k - radius + 1) // 2]
-        if step != 1:
+        column = i - (k - radius + 1) // 2
+        if not not_vertical[k, column]:
             i -= 1
-        if step != 0:
+        elif not not_horizontal[k, column]:
+            j -= 1
+        else:
+            i -= 1
             j -= 1
         path_i.append(i)
         path_j.append(j)
@@ -510,16 +530,13 @@ def _smoothed_slope_circular(values: np.ndarray) -> np.ndarray:
     return np.convolve(wrapped, np.full(2 * h + 1, 1.0 / (2 * h + 1)), mode="valid")
 
 
-def _scores(reference: np.ndarray, comparison: np.ndarray, ref_part: np.ndarray,
-            cmp_part: np.ndarray, slope_ref: np.ndarray, slope_cmp: np.ndarray, shift: int,
-            shift_value: float, params: IsoParameters) -> IsoScores:
+def _scores(reference: np.ndarray, comparison: np.ndarray, magnitude_error: float,
+            slope_ref: np.ndarray, slope_cmp: np.ndarray, shift: int, shift_value: float,
+            params: IsoParameters) -> IsoScores:
     """Combine the four ISO sub-scores into the result."""
     n = reference.size
     corridor = _corridor_score(reference, comparison, params)
     phase = _limited_score(abs(shift), params.phase_window * n, params.phase_exponent)
-    radius = max(math.ceil(params.dtw_band * ref_part.size) - 1, 0)
-    ix, iy = dtw_path(cmp_part, ref_part, radius)
-    magnitude_error = _relative_l1(cmp_part[ix], ref_part[iy], "magnitude")
     magnitude = _limited_score(magnitude_error, params.magnitude_limit,
                                params.magnitude_exponent)
     slope_error = _relative_l1(slope_cmp, slope_ref, "slope")
@@ -529,6 +546,33 @@ def _scores(reference: np.ndarray, comparison: np.ndarray, ref_part: np.ndarray,
     return IsoScores(rating=float(rating), grade=grade(rating), corridor=float(corridor),
                      phase=float(phase), magnitude=float(magnitude), slope=float(slope),
                      shift_samples=shift, shift=float(shift_value), n_samples=n)
+
+
+def _band_radius(n: int, params: IsoParameters) -> int:
+    """DTW band half-width: cells with ``|i - j| < ceil(dtw_band n)``."""
+    return max(math.ceil(params.dtw_band * n) - 1, 0)
+
+
+def _magnitude_error(reference: np.ndarray, comparison: np.ndarray,
+                     params: IsoParameters) -> float:
+    """Relative L1 error of the DTW-warped pair (ISO/TS 18571 magnitude)."""
+    ix, iy = dtw_path(comparison, reference, _band_radius(reference.size, params))
+    return _relative_l1(comparison[ix], reference[iy], "magnitude")
+
+
+def _magnitude_error_circular(reference: np.ndarray, comparison: np.ndarray,
+                              params: IsoParameters) -> float:
+    """Relative L1 error of the DTW-warped pair over one revolution, free of the path's anchors.
+
+    Both signals are repeated to three revolutions, so that the path's fixed start and end lie a
+    revolution away from the middle one; the path cells whose measured sample lies in the middle
+    revolution are scored. (Two band widths of margin were not enough: on dissimilar signals the
+    anchors still moved E_M by up to 0.3; half a revolution moved it by up to 0.14.)
+    """
+    n = reference.size
+    ix, iy = dtw_path(np.tile(comparison, 3), np.tile(reference, 3), _band_radius(n, params))
+    inside = (iy >= n) & (iy < 2 * n)
+    return _relative_l1(comparison[ix[inside] % n], reference[iy[inside] % n], "magnitude")
 
 
 def _corridor_score(reference: np.ndarray, comparison: np.ndarray,

@@ -173,8 +173,10 @@ def test_periodic_rating_has_no_start_angle(a, b, start):
     rotated = iso18571_periodic(np.roll(measured, start), np.roll(model, start))
     assert rotated.corridor == pytest.approx(first.corridor, abs=1e-12)
     assert rotated.phase == pytest.approx(first.phase, abs=1e-12)
+    assert rotated.magnitude == pytest.approx(first.magnitude, abs=1e-9)
     assert rotated.slope == pytest.approx(first.slope, abs=1e-9)
     assert rotated.shift_samples == first.shift_samples
+    assert rotated.rating == pytest.approx(first.rating, abs=1e-9)
 
 
 def test_grades():
