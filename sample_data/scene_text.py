@@ -11,6 +11,7 @@ from __future__ import annotations
 import datetime
 import logging
 import zoneinfo
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -107,7 +108,9 @@ def scene_text(settings: RigSettings, draw: RigDraw, files: RunFiles,
     str
         The scene text.
     """
-    mechanism = f'"{settings.mechanism}"' if settings.mechanism else '"builtin:pendulum"'
+    # A scene resolves relative paths against its own folder: write the mechanism's absolute path.
+    mechanism = (f'"{Path(settings.mechanism).resolve().as_posix()}"' if settings.mechanism
+                 else '"builtin:pendulum"')
     bridge = draw.str1
     area = bridge.area
     text = f"""# Scene written by the rigval virtual rig (rigval simulate-rig
