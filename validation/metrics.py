@@ -92,6 +92,8 @@ DEFAULT_METRICS: tuple[str, ...] = ("iso18571_periodic", "sprague_geers", "russe
                                     "pearson_r", "peak_error", "circular_lag")
 """Metrics :func:`compare` runs unless told otherwise (V&V 20 needs stated uncertainties)."""
 
+_UNCERTAINTY_OPTIONS = ("u_num", "u_input", "u_measurement", "u_measurement_rel", "k")
+
 _HIGHER = ("iso18571_periodic.rating", "iso18571_periodic.corridor", "iso18571_periodic.phase",
            "iso18571_periodic.magnitude", "iso18571_periodic.slope", "iso18571.rating",
            "iso18571.corridor", "iso18571.phase", "iso18571.magnitude", "iso18571.slope",
@@ -210,6 +212,11 @@ def compare(measured: Any, model: Any, angle: Any = None, *,
     if unknown:
         raise ConfigError(f"unknown metric {unknown[0]!r}", where={"key": "metrics"},
                           hint=f"use names from: {', '.join(METRICS)}")
+    unknown = sorted(set(uncertainty or {}) - set(_UNCERTAINTY_OPTIONS))
+    if unknown:
+        raise ConfigError(f"unknown uncertainty option {unknown[0]!r}",
+                          where={"key": f"uncertainty.{unknown[0]}"},
+                          hint=f"use: {', '.join(_UNCERTAINTY_OPTIONS)}")
     m, c = paired(measured, model)
     angle_deg = np.degrees(revolution_angle(angle, m.size, measured))
     runners = {

@@ -80,6 +80,9 @@ def test_compare_bad_requests():
     with pytest.raises(DataError, match="repeats the first"):
         compare(np.append(wave(), 0.0), np.append(wave(), 0.0),
                 np.linspace(0, 2 * np.pi, N + 1))
+    with pytest.raises(ConfigError, match="unknown uncertainty option 'u_sensor'") as info:
+        compare(wave(), wave(), metrics=("vv20",), uncertainty={"u_sensor": 0.1})
+    assert info.value.where["key"] == "uncertainty.u_sensor"
 
 
 def test_baseline_of_scaled_cycles():
@@ -119,6 +122,15 @@ def test_baseline_bad_input():
     with pytest.raises(DataError, match="NaN") as info:
         baseline(cycles)
     assert info.value.where["cycle"] == 2
+
+
+def test_every_numeric_score_has_an_orientation_or_describes():
+    scores = compare(wave(), 1.1 * wave(3.0), metrics=METRICS)
+    descriptive = ("n_samples", "_peak", "_at", "normaliser_value", ".simulation", ".data",
+                   ".u_num", ".u_input", ".u_data", ".u_val", ".k", ".lower", ".upper")
+    for key, value in scores.items():
+        if isinstance(value, float | int) and not isinstance(value, bool):
+            assert orientation(key) is not None or key.endswith(descriptive), key
 
 
 def test_orientation():
