@@ -257,3 +257,17 @@ def test_shipped_runs_regenerate_byte_for_byte(tmp_path):
         assert files.stem == stem
         shipped = [scene.parent / p.name for p in files.files]
         assert _digest(files.files) == _digest(shipped), stem
+
+
+def test_cli_options_reach_the_rig(tmp_path):
+    args = ["simulate-rig", "--out", str(tmp_path), "--duration", "2", "--seed", "3", "--ideal",
+            "--dropouts", "2", "--index-reset"]
+    assert main(args) == 0
+    record = json.loads((tmp_path / "run_1p0_truth.json").read_text())
+    wls1 = record["streams"]["wls1"]
+    assert len(wls1["segments"]) == 3 and wls1["drift_ppm"] == 0.0
+    assert all(s["stamp_error_s"] == 0.0 for s in wls1["segments"])
+    assert wls1["channels"]["tor1"]["sensor"]["share"] == 0.5
+    assert record["streams"]["cdaq"]["channels"]["enc1"]["sensor"]["index_reset"] is True
+    counts = TdmsFile.read(tmp_path / "run_1p0_cdaq.tdms")["cDAQ1 task"]["enc1"][:]
+    assert counts.max() < 8192 and np.any(np.diff(counts) < 0)  # reloaded at the index

@@ -24,6 +24,8 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--seed", type=int, default=1, help="random seed")
     parser.add_argument("--mechanism", metavar="FILE",
                         help="mechanism file (default: built-in pendulum)")
+    parser.add_argument("--index-reset", action="store_true",
+                        help="the main-shaft counter (enc1) reloads 0 at every index pulse")
     group = parser.add_argument_group("imperfections (defaults: typical rig)")
     group.add_argument("--ideal", action="store_true",
                        help="no imperfections at all (only ADC quantisation); the options "
@@ -67,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
                if getattr(args, option) is not None}
     settings = RigSettings(speed=args.speed, duration=args.duration, seed=args.seed,
                            imperfections=dataclasses.replace(base, **changes),
-                           mechanism=args.mechanism)
+                           mechanism=args.mechanism, index_reset=args.index_reset)
     files = simulate_rig(args.out, settings)
     for path in files.files:
         print(path)
