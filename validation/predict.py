@@ -172,21 +172,25 @@ def _solve(mechanism: Mechanism, excitation: Excitation, t: np.ndarray, *,
                  joints=tuple(joints))
 
 
-def _cycle_grid(excitation: Excitation, n_points: int) -> tuple[np.ndarray, np.ndarray, str]:
-    """Return the cycle coordinate (rad), the times (s) and what the coordinate means.
+def _cycle_grid(excitation: Excitation, n_points: int
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """Return the cycle coordinate (rad), the times (s), its rate (rad/s) and what it means.
 
     The coordinate is the main-drive angle phi_F when the main drive turns steadily, otherwise
     (a swinging main drive) the cycle phase ``2 pi t / period`` on a uniform time grid.
     """
     if excitation.turns_steadily(n_points):
         angle, t = excitation.cycle_times(n_points)
-        return angle, t, f"main-drive angle phi_F ({excitation.main}) from its position at t = 0"
+        law = excitation.law(excitation.main)
+        rate = math.copysign(1.0, law.ratio) * law.evaluate(t, excitation.omega)[1]
+        return angle, t, rate, (f"main-drive angle phi_F ({excitation.main}) from its position "
+                                "at t = 0")
     if n_points < 4:
         excitation.cycle_times(n_points)  # raises the error about too few points
     angle = 2.0 * math.pi * np.arange(n_points) / n_points
     logger.info("main drive %s reverses within the cycle: the coordinate is the cycle phase",
                 excitation.main)
-    return angle, angle / excitation.omega, (
+    return angle, angle / excitation.omega, np.full(n_points, excitation.omega), (
         f"cycle phase 2 pi t / period (the main drive {excitation.main} reverses, so its angle "
         "cannot serve)")
 
@@ -250,7 +254,7 @@ def predict(mechanism: Mechanism | str | Path, drives: DriveSpec = None, *, n_po
     _check_names("joint", joints, mech.joint_names)
     pins = ground_pins(mech)
     joint_names = list(dict.fromkeys([*pins, *joints]))
-    angle, t, meaning = _cycle_grid(excitation, n_points)
+    angle, t, rate, meaning = _cycle_grid(excitation, n_points)
     result = _solve(mech, excitation, t, points=point_names, joints=joint_names,
                     outputs=("point_position", "point_velocity", "point_acceleration",
                              "joint_force", "driver_torque"))
@@ -264,80 +268,80 @@ def predict(mechanism: Mechanism | str | Path, drives: DriveSpec = None, *, n_po
     vel = result["point_velocity"].sel(point=point_names, axis=list(_AXES)).values
     acc = result["point_acceleration"].sel(point=point_names, axis=list(_AXES)).values
     power = torque * speed
-    ds = xr.Dataset(coords={**_angle_coords(angle, t, meaning), "driver": drivers,
-                            "point": point_names, "axis": list(_AXES), "support": list(pins),
-                            "joint": list(joint_names[len(pins):]),
-                            "component": ["x", "y", "magnitude"]})
+    acc_magnitude = np.hypot(acc[..., 0], acc[..., 1])
+    data: dict[str, Any] = {}
     for i, (label, unit) in enumerate((("angle", "rad"), ("speed", "rad s-1"),
                                        ("acceleration", "rad s-2"))):
-        ds[f"drive_{label}"] = (("angle", "driver"),
-                                np.stack([values[d][i] for d in drivers], axis=-1),
-                                {"units": unit, "long_name": f"drive {label}"})
-    for name, data, unit, text in (("point_position", pos, "m", "position"),
-                                   ("point_velocity", vel, "m s-1", "velocity"),
-                                   ("point_acceleration", acc, "m s-2", "acceleration")):
-        ds[name] = (("angle", "point", "axis"), data,
-                    {"units": unit, "long_name": f"point {text}, global frame"})
-    ds["point_speed"] = (("angle", "point"), np.hypot(vel[..., 0], vel[..., 1]),
-                         {"units": "m s-1", "long_name": "absolute speed of the point"})
-    ds["point_acceleration_magnitude"] = (
-        ("angle", "point"), np.hypot(acc[..., 0], acc[..., 1]),
-        {"units": "m s-2", "long_name": "absolute acceleration of the point"})
-    ds["driver_torque"] = (("angle", "driver"), torque, {
+        data[f"drive_{label}"] = (("angle", "driver"),
+                                  np.stack([values[d][i] for d in drivers], axis=-1),
+                                  {"units": unit, "long_name": f"drive {label}"})
+    for name, array, unit, text in (("point_position", pos, "m", "position"),
+                                    ("point_velocity", vel, "m s-1", "velocity"),
+                                    ("point_acceleration", acc, "m s-2", "acceleration")):
+        data[name] = (("angle", "point", "axis"), array,
+                      {"units": unit, "long_name": f"point {text}, global frame"})
+    data["point_speed"] = (("angle", "point"), np.hypot(vel[..., 0], vel[..., 1]),
+                           {"units": "m s-1", "long_name": "absolute speed of the point"})
+    data["point_acceleration_magnitude"] = (("angle", "point"), acc_magnitude, {
+        "units": "m s-2", "long_name": "absolute acceleration of the point"})
+    data["driver_torque"] = (("angle", "driver"), torque, {
         "units": "N m", "long_name": "torque of the drive on its driven body, counter-clockwise"})
-    ds["drive_power"] = (("angle", "driver"), power, {
+    data["drive_power"] = (("angle", "driver"), power, {
         "units": "W", "long_name": "power the drive delivers (torque times angular speed)"})
-    ds["support_force"] = (("angle", "support", "axis"), support, {
+    data["support_force"] = (("angle", "support", "axis"), support, {
         "units": "N", "long_name": "support force ON THE FRAME at the ground pin "
                                    "(minus joint_force)"})
-    ds["joint_force"] = (("angle", "joint", "axis"), joint_force[:, len(pins):], {
+    data["joint_force"] = (("angle", "joint", "axis"), joint_force[:, len(pins):], {
         "units": "N", "long_name": "joint force on the joint's first body, global frame"})
-    _add_summaries(ds, tip)
-    law_lines = _law_descriptions(excitation)
-    ds.attrs.update({
+    data |= _summaries(angle, rate, tip=tip, tip_y=pos[:, 0, 1],
+                       tip_acceleration=acc_magnitude[:, 0], support=support, torque=torque,
+                       power=power)
+    coords = {**_angle_coords(angle, t, meaning), "driver": drivers, "point": point_names,
+              "axis": list(_AXES), "support": list(pins), "joint": list(joint_names[len(pins):]),
+              "component": ["x", "y", "magnitude"]}
+    ds = xr.Dataset(data, coords=coords, attrs={
         "title": f"rigval prediction: {mech.name}",
         "mechanism": mech.name, "mechanism_source": mech.source,
         "frequency_hz": excitation.frequency, "main_drive": excitation.main, "tip_point": tip,
-        "drive_laws": "\n".join(law_lines), "n_points": n_points,
+        "drive_laws": "\n".join(_law_descriptions(excitation)), "n_points": n_points,
     })
     logger.info("predicted %s at %.4g Hz on %d angles", mech.name, excitation.frequency, n_points)
     return ds
 
 
-def _add_summaries(ds: xr.Dataset, tip: str) -> None:
-    """Add peak, range and RMS summaries to a prediction Dataset (in place)."""
-    angle = ds["angle"].values
-    y = ds["point_position"].sel(point=tip, axis="y").values
-    ds["tip_vertical_range"] = ((), float(np.max(y) - np.min(y)), {
+def _summaries(angle: np.ndarray, rate: np.ndarray, *, tip: str, tip_y: np.ndarray,
+               tip_acceleration: np.ndarray, support: np.ndarray, torque: np.ndarray,
+               power: np.ndarray) -> dict[str, Any]:
+    """Return the peak, range, RMS and cycle-work variables of a prediction.
+
+    ``rate`` is the cycle coordinate's rate, rad/s. The work ``integral P dt`` is taken over the
+    uniform coordinate grid as ``integral P / rate d angle`` (the periodic trapezoid rule, which
+    converges spectrally for a smooth periodic integrand).
+    """
+    data: dict[str, Any] = {}
+    data["tip_vertical_range"] = ((), float(np.max(tip_y) - np.min(tip_y)), {
         "units": "m", "long_name": f"vertical range of the path of {tip} over a cycle"})
-    peak, where = _peak(ds["point_acceleration_magnitude"].sel(point=tip).values, angle)
-    ds["tip_acceleration_peak"] = ((), float(peak), {
+    peak, where = _peak(tip_acceleration, angle)
+    data["tip_acceleration_peak"] = ((), float(peak), {
         "units": "m s-2", "long_name": f"peak absolute acceleration of {tip}"})
-    ds["tip_acceleration_peak_angle"] = ((), float(where), {"units": "rad"})
-    force = ds["support_force"].values
-    components = np.concatenate([force, np.hypot(force[..., 0], force[..., 1])[..., None]],
+    data["tip_acceleration_peak_angle"] = ((), float(where), {"units": "rad"})
+    components = np.concatenate([support, np.hypot(support[..., 0], support[..., 1])[..., None]],
                                 axis=-1)
     peak, where = _peak(components, angle)
-    ds["support_force_peak"] = (("support", "component"), peak, {
+    data["support_force_peak"] = (("support", "component"), peak, {
         "units": "N", "long_name": "peak absolute support force on the frame"})
-    ds["support_force_peak_angle"] = (("support", "component"), where, {
+    data["support_force_peak_angle"] = (("support", "component"), where, {
         "units": "rad", "long_name": "main-drive angle of the peak support force"})
-    torque = ds["driver_torque"].values
     peak, where = _peak(torque, angle)
-    ds["torque_peak"] = (("driver",), peak, {"units": "N m", "long_name": "peak absolute torque"})
-    ds["torque_peak_angle"] = (("driver",), where, {"units": "rad"})
-    ds["torque_rms"] = (("driver",), np.sqrt(np.mean(torque**2, axis=0)), {
-        "units": "N m", "long_name": "RMS drive torque over a cycle"})
-    t = ds["time"].values
-    period = 1.0 / float(ds.attrs.get("frequency_hz", 0.0) or 1.0 / (t[-1] + t[1] - t[0]))
-    ds["cycle_work"] = ((), _cycle_integral(ds["drive_power"].values.sum(axis=1), t, period), {
+    data["torque_peak"] = (("driver",), peak, {"units": "N m",
+                                               "long_name": "peak absolute torque"})
+    data["torque_peak_angle"] = (("driver",), where, {"units": "rad"})
+    data["torque_rms"] = (("driver",), np.sqrt(np.mean(torque**2, axis=0)), {
+        "units": "N m", "long_name": "RMS drive torque over a cycle (mean over the grid)"})
+    work = 2.0 * math.pi * float(np.mean(power.sum(axis=1) / rate))
+    data["cycle_work"] = ((), work, {
         "units": "J", "long_name": "net work of all drives over a cycle (0 without losses)"})
-
-
-def _cycle_integral(values: np.ndarray, t: np.ndarray, period: float) -> float:
-    """Integrate a periodic signal sampled at ``t`` over one period (trapezoid, closed)."""
-    closed_t = np.append(t, t[0] + period)
-    return float(np.trapezoid(np.append(values, values[0]), closed_t))
+    return data
 
 
 def _law_descriptions(excitation: Excitation) -> list[str]:
@@ -610,7 +614,7 @@ def sweep(mechanism: Mechanism | str | Path, parameters: Mapping[str, npt.ArrayL
             path_mech, path_exc = mech, base
             for p in path_params:
                 path_mech, path_exc = _apply(p.name, values[p.name], path_mech, path_exc)
-            _, t, _ = _cycle_grid(path_exc, n_points)
+            _, t, _, _ = _cycle_grid(path_exc, n_points)
             bases[key], count = _basis(path_mech, path_exc, t, tip=tip, pins=pins, needs=needs,
                                        split_speed=split_speed, inertia=inertia)
             solves += count
