@@ -336,12 +336,23 @@ def _summaries(angle: np.ndarray, rate: np.ndarray, *, tip: str, tip_y: np.ndarr
     data["torque_peak"] = (("driver",), peak, {"units": "N m",
                                                "long_name": "peak absolute torque"})
     data["torque_peak_angle"] = (("driver",), where, {"units": "rad"})
-    data["torque_rms"] = (("driver",), np.sqrt(np.mean(torque**2, axis=0)), {
-        "units": "N m", "long_name": "RMS drive torque over a cycle (mean over the grid)"})
+    data["torque_rms"] = (("driver",), _time_rms(torque, rate), {
+        "units": "N m", "long_name": "RMS drive torque over a cycle (time average)"})
     work = 2.0 * math.pi * float(np.mean(power.sum(axis=1) / rate))
     data["cycle_work"] = ((), work, {
         "units": "J", "long_name": "net work of all drives over a cycle (0 without losses)"})
     return data
+
+
+def _time_rms(values: np.ndarray, rate: np.ndarray) -> np.ndarray:
+    """Return the time RMS over a cycle of values on a uniform grid of a coordinate of ``rate``.
+
+    Each sample stands for ``d angle / rate`` of time, so the samples are weighted by
+    ``1 / rate`` (rad/s): on the main-drive angle grid the drive's speed ripple would otherwise
+    bias the RMS towards the fast part of the cycle.
+    """
+    weights = 1.0 / rate
+    return np.sqrt(weights @ values**2 / weights.sum())
 
 
 def _law_descriptions(excitation: Excitation) -> list[str]:
@@ -450,10 +461,12 @@ class _Basis:
     (n, drivers), flattened to (n, m), are ``constant + sum_j dp_j constant_per_unit[j] +
     scale * (quadratic + sum_j dp_j quadratic_per_unit[j])``, ``dp_j`` the change of swept
     inertia ``j``. With the frequency swept, ``constant`` is the gravity part and ``quadratic``
-    the inertial part; otherwise ``constant`` holds everything.
+    the inertial part; otherwise ``constant`` holds everything. ``rate`` (n,) is the cycle
+    coordinate's rate at ``frequency`` (rad/s), the time weights of the RMS.
     """
 
     frequency: float
+    rate: np.ndarray
     tip_y: np.ndarray | None
     tip_accel: np.ndarray | None
     constant: np.ndarray | None
@@ -497,7 +510,8 @@ def _force_parts(mechanism: Mechanism, excitation: Excitation, t: np.ndarray, *,
     return full - moving, moving, solves + 1
 
 
-def _basis(mechanism: Mechanism, excitation: Excitation, t: np.ndarray, *, tip: str,
+def _basis(mechanism: Mechanism, excitation: Excitation, t: np.ndarray, rate: np.ndarray, *,
+           tip: str,
            pins: Sequence[str], needs: _Needs, split_speed: bool,
            inertia: Sequence[str]) -> tuple[_Basis, int]:
     """Solve the model along one path as often as the superposition needs; return the solves."""
@@ -507,7 +521,7 @@ def _basis(mechanism: Mechanism, excitation: Excitation, t: np.ndarray, *, tip: 
     tip_y = result["point_position"].sel(point=tip, axis="y").values if needs.position else None
     tip_accel = (result["point_acceleration"].sel(point=tip, axis=list(_AXES)).values
                  if needs.acceleration else None)
-    basis = _Basis(excitation.frequency, tip_y, tip_accel, None, None, {}, {})
+    basis = _Basis(excitation.frequency, rate, tip_y, tip_accel, None, None, {}, {})
     if not needs.forces:
         return basis, solves
     full = _flat_forces(result, pins, mechanism.driver_names)
@@ -614,8 +628,9 @@ def sweep(mechanism: Mechanism | str | Path, parameters: Mapping[str, npt.ArrayL
             path_mech, path_exc = mech, base
             for p in path_params:
                 path_mech, path_exc = _apply(p.name, values[p.name], path_mech, path_exc)
-            _, t, _, _ = _cycle_grid(path_exc, n_points)
-            bases[key], count = _basis(path_mech, path_exc, t, tip=tip, pins=pins, needs=needs,
+            _, t, rate, _ = _cycle_grid(path_exc, n_points)
+            bases[key], count = _basis(path_mech, path_exc, t, rate, tip=tip, pins=pins,
+                                       needs=needs,
                                        split_speed=split_speed, inertia=inertia)
             solves += count
         _fill(out, index, bases[key], values, base, mech, needs, pins)
@@ -685,7 +700,7 @@ def _fill(out: dict[str, np.ndarray], index: tuple[int, ...], basis: _Basis,
     if "torque_peak" in out:
         out["torque_peak"][index] = np.max(np.abs(torque), axis=0)
     if "torque_rms" in out:
-        out["torque_rms"][index] = np.sqrt(np.mean(torque**2, axis=0))
+        out["torque_rms"][index] = _time_rms(torque, basis.rate)
 
 
 def parse_sweep_option(text: str) -> tuple[str, np.ndarray]:
