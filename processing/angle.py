@@ -233,6 +233,17 @@ def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike,
     return cycles, grid_time[:, 0], resampled
 
 
+def _merged_history(aligned: Mapping[str, xr.Dataset],
+                    selection: Mapping[str, Sequence[str]]) -> str:
+    """Return the history lines of the streams used, each once, in order."""
+    lines: list[str] = []
+    for name in selection:
+        for line in str(aligned[name].attrs.get("history", "")).splitlines():
+            if line and line not in lines:
+                lines.append(line)
+    return "\n".join(lines)
+
+
 def angle_domain(aligned: Mapping[str, xr.Dataset], angle_time: ArrayLike, angle: ArrayLike,
                  *, points_per_rev: int = 360,
                  channels: Mapping[str, Sequence[str]] | None = None, order: int = 5,
@@ -322,7 +333,7 @@ def angle_domain(aligned: Mapping[str, xr.Dataset], angle_time: ArrayLike, angle
                                                          "units": "rad s-1"}),
         },
         attrs={"points_per_rev": points_per_rev, "interpolation_order": order,
-               "anti_alias": anti_alias},
+               "anti_alias": anti_alias, "history": _merged_history(aligned, selection)},
     )
     append_history(out, f"processing.angle_domain {points_per_rev} points/rev, order {order}, "
                         f"anti-alias {anti_alias}, {cycles.size} cycles")
@@ -377,7 +388,7 @@ def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
     check = revolution_check(time, counts, reference.good, counts_per_rev,
                              tolerance=glitch_tolerance)
     at_pulse = np.interp(check.event_times[:-1], time[finite], exc["phi_F"].to_numpy()[finite])
-    suspect = np.round(at_pulse / (2 * np.pi)).astype(int)[check.residual != 0]
+    suspect = np.round(at_pulse / (2 * np.pi)).astype(int)[check.glitch | check.gross]
     exc.attrs.update({"zero_offset_rad": offset, "reference_scatter_rad": scatter,
                       "reference_channel": reference.channel,
                       "suspect_cycles": json.dumps(sorted(set(suspect.tolist())))})

@@ -155,7 +155,8 @@ class RevolutionCheck:
     residual : numpy.ndarray
         ``counts between event k and k+1`` minus the expected count (len n_events - 1).
     glitch : numpy.ndarray of bool
-        ``0 < |residual| <= tolerance``: electrical glitches or missed counts.
+        ``1 < |residual| <= tolerance``: electrical glitches or missed counts (a residual of
+        +-1 is quantisation: the counts at the events are interpolated between samples).
     gross : numpy.ndarray of bool
         ``|residual| > tolerance``: wrong or missing reference event, gap or reversal.
     """
@@ -172,8 +173,8 @@ def revolution_check(time: ArrayLike, counts: ArrayLike, event_times: ArrayLike,
     """Compare the counts between consecutive reference events with CPR / events_per_rev.
 
     The count at each event is interpolated linearly between the samples around it and the
-    difference is rounded to whole counts, so quantisation alone leaves residuals of 0 (rarely
-    +-1 when an event falls between two count edges).
+    difference is rounded to whole counts, so quantisation alone leaves residuals of 0 or +-1;
+    larger ones are glitches (up to ``tolerance``) or gross errors.
 
     Parameters
     ----------
@@ -201,5 +202,5 @@ def revolution_check(time: ArrayLike, counts: ArrayLike, event_times: ArrayLike,
     at_event = np.interp(events, t, c)
     residual = np.round(np.diff(at_event) - counts_per_rev / events_per_rev)
     magnitude = np.abs(residual)
-    return RevolutionCheck(events, residual, (magnitude > 0) & (magnitude <= tolerance),
+    return RevolutionCheck(events, residual, (magnitude > 1) & (magnitude <= tolerance),
                            magnitude > tolerance)

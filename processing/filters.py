@@ -36,6 +36,8 @@ PadType = Literal["odd", "line", "even", "zero"]
 
 #: Default number of samples filtered at once in a long run (bounded memory).
 DEFAULT_CHUNK = 1 << 20
+#: Share of the padding length over which the "line" extension fits its quadratic.
+_EDGE_FIT_FRACTION = 0.1
 
 
 def butter_sos(cutoff_hz: float | tuple[float, float], fs: float, *, order: int = 4,
@@ -99,18 +101,23 @@ def contiguous_runs(n: int, segment: ArrayLike | None = None,
 
 
 def _extension(run: _FloatArray, n: int, padtype: str, side: str, fit: int) -> _FloatArray:
-    """Return ``n`` padding samples for one end of a run."""
+    """Return ``n`` padding samples for one end of a run, in time order."""
     if padtype == "zero":
         return np.zeros(n)
-    mirror = run[n:0:-1] if side == "left" else run[-2:-n - 2:-1]
-    if padtype == "even":
-        return mirror.copy()
+    # Samples 1..n away from the end, nearest first, and the end sample itself.
+    inner = run[1:n + 1] if side == "left" else run[-2:-n - 2:-1]
     end = run[0] if side == "left" else run[-1]
-    if padtype == "line":
+    if padtype == "even":
+        pad = inner.copy()
+    elif padtype == "odd":
+        pad = 2.0 * end - inner
+    else:
+        # Odd about a quadratic fitted to the end region: p(-i) + p(i) - x(i).
         edge = run[:fit] if side == "left" else run[-fit:][::-1]
-        coeffs = np.polyfit(np.arange(edge.size), edge, 1) if edge.size > 1 else (0.0, end)
-        end = coeffs[1]
-    return 2.0 * end - mirror
+        coeffs = np.polyfit(np.arange(edge.size), edge, min(2, edge.size - 1))
+        i = np.arange(1, inner.size + 1, dtype=np.float64)
+        pad = np.polyval(coeffs, -i) + np.polyval(coeffs, i) - inner
+    return pad[::-1] if side == "left" else pad
 
 
 def _chunks(start: int, stop: int, chunk: int, margin: int) -> Iterator[tuple[int, int, int, int]]:
@@ -147,10 +154,10 @@ def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], 
         Edge padding in samples at the ends of each run; default :func:`default_padlen`
         (limited to the run length - 1).
     padtype : {"odd", "line", "even", "zero"}, default "odd"
-        Extension at run ends: point-symmetric about the end sample (keeps a ramp going); the
-        same about the end value of a line fitted to the last ``0.6 fs / f_c`` samples (the
-        noise of the end sample does not start a transient); mirror; or zeros (for a zero-mean
-        remainder).
+        Extension at run ends: point-symmetric about the end sample (keeps a ramp going);
+        point-symmetric about a quadratic fitted to the last ``padlen / 10`` samples
+        (``"line"``: the noise of the end sample does not start a transient and slow curvature
+        continues); mirror; or zeros (for a zero-mean remainder).
     chunk_samples : int, default 2**20
         Samples kept per chunk of a long run; chunks overlap by ``4 * padlen``.
 
@@ -180,7 +187,7 @@ def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], 
             short += stop - start
             continue
         n_pad = min(pad, stop - start - 1)
-        fit = max(2, min(stop - start, pad // 10))
+        fit = max(3, min(stop - start, int(pad * _EDGE_FIT_FRACTION)))
         run = data[start:stop]
         for lo, hi, keep_lo, keep_hi in _chunks(start, stop, max(chunk_samples, 1), margin):
             left = _extension(run, n_pad, padtype, "left", fit) if lo == start else None
