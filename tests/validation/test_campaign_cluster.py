@@ -1,0 +1,100 @@
+"""A campaign of generated runs on a local Dask cluster of two worker processes, one run broken.
+
+The runs come from the virtual rig (short records at two speeds); the broken run is a copy of one
+of them whose wireless-carrier file was replaced by a Git-LFS pointer. The checks: the good runs
+are validated and summarised with the speed the rig was driven at, the broken run is reported with
+the error raised in the worker process (class, location, hint) and the others complete; a second
+campaign reuses the up-to-date runs, through an existing cluster's address.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from rigval.acquisition.errors import DataFileError
+from rigval.sample_data import Imperfections, RigSettings, simulate_rig
+from rigval.validation.campaign import MANIFEST_NAME, run_campaign
+from rigval.validation.campaign_report import open_campaign, write_campaign_report
+
+distributed = pytest.importorskip("distributed", reason="the parallel extra is not installed")
+
+pytestmark = pytest.mark.slow
+
+SPEEDS = (1.5, 2.0)  # rev/s; at least 6 revolutions in each short record
+LFS_POINTER = "version https://git-lfs.github.com/spec/v1\noid sha256:0\nsize 1\n"
+
+
+@pytest.fixture(scope="module")
+def scenes(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    """Two short generated runs and a broken copy of the first."""
+    base = tmp_path_factory.mktemp("rig")
+    quiet = Imperfections(dropouts=0, start_offset_s=0.3)
+    paths = []
+    for speed in SPEEDS:
+        files = simulate_rig(base / f"speed{speed}",
+                             RigSettings(speed=speed, duration=4.5, seed=11, preroll=3.0,
+                                         imperfections=quiet))
+        paths.append(files.path("scene.toml"))
+    broken = shutil.copytree(paths[0].parent, base / "broken")
+    scene = broken / paths[0].name
+    bad_file = next(broken.glob("*_wls1.tdms"))
+    bad_file.write_text(LFS_POINTER)
+    paths.insert(1, scene.rename(broken / "run_broken_scene.toml"))
+    return paths
+
+
+def test_campaign_on_two_worker_processes(tmp_path: Path, scenes: list[Path]) -> None:
+    out = tmp_path / "campaign"
+    finished: list[str] = []
+    outcomes = run_campaign(scenes, out, workers=2, on_result=lambda o: finished.append(o.name))
+    names = ["run_1p5", "run_broken", "run_2p0"]
+    assert [o.name for o in outcomes] == names
+    assert sorted(finished) == sorted(names)
+    assert [o.status for o in outcomes] == ["passed", "error", "passed"]
+
+    broken = outcomes[1].error
+    assert broken is not None
+    assert broken.kind == "DataFileError"
+    assert isinstance(broken.exception, DataFileError)  # pickled in the worker, intact here
+    assert Path(broken.where["file"]) == next(scenes[1].parent.glob("*_wls1.tdms"))
+    assert "git lfs pull" in (broken.hint or "")
+
+    for outcome, speed in zip(outcomes[::2], SPEEDS, strict=True):
+        assert outcome.speed_rev_s == pytest.approx(speed, rel=2e-3)  # the rig's truth
+        assert (outcome.run_dir / MANIFEST_NAME).is_file()
+        written = json.loads((outcome.run_dir / "metrics.json").read_text())
+        assert written["passed"] is True
+        assert list(outcome.metrics) == written["rows"]  # the run's report agrees with the campaign
+        assert outcome.output(".nc") is not None
+
+    files = write_campaign_report(outcomes, out)
+    table = pd.read_csv(files.metrics_csv)
+    assert list(table["run"].unique()) == ["run_1p5", "run_2p0"]
+    ratings = table[(table["row"] == "model") & table["threshold"].notna()]
+    assert ratings["passed"].all()
+    page = files.html.read_text()
+    assert 'href="run_1p5/report.html"' in page
+    assert 'href="run_2p0/report.html"' in page
+    assert "<svg" in page
+    assert "Git-LFS pointer" in page
+    assert "git lfs pull" in page
+    summary = json.loads(files.outcomes_json.read_text())
+    assert summary["counts"] == {"passed": 2, "failed": 0, "error": 1}
+
+    with open_campaign(out) as data:
+        assert list(data["run"].values) == ["run_1p5", "run_2p0"]
+        assert data["speed_rev_s"].values == pytest.approx(SPEEDS, rel=2e-3)
+
+    mtimes = [(o.run_dir / "report.html").stat().st_mtime_ns for o in outcomes[::2]]
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        again = run_campaign(scenes, out, scheduler=cluster.scheduler_address)
+    assert [o.reused for o in again] == [True, False, True]
+    assert [o.status for o in again] == ["passed", "error", "passed"]
+    assert [o.metrics for o in again[::2]] == [o.metrics for o in outcomes[::2]]
+    assert [(o.run_dir / "report.html").stat().st_mtime_ns for o in again[::2]] == mtimes
