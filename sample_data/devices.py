@@ -125,11 +125,15 @@ class DeviceClock:
         Oscillator error in ppm (positive: runs fast, samples come early).
     segments : tuple of ClockSegment
         Gap-free stretches in time order.
+    host_offset : float, default 0
+        Offset (s) of the clock of the computer that stamps the start times; already included in
+        every segment's ``stamp_error``.
     """
 
     fs_nominal: float
     drift_ppm: float
     segments: tuple[ClockSegment, ...]
+    host_offset: float = 0.0
 
     @property
     def fs_true(self) -> float:

@@ -19,7 +19,7 @@ file holds wall-clock time, so one seed gives byte-identical files.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -60,6 +60,8 @@ class Imperfections:
     stamp_error_s : float, default 0.02
         Software start-time stamp error of the wireless carriers (s rms); the USB cDAQ's is a
         tenth of it.
+    host_clock_s : float, default 1.0
+        Bound of the offset (s) of the second laptop's clock, which stamps WLS #2's start times.
     dropouts : int, default 1
         Wi-Fi dropouts (each followed by a task restart) per wireless carrier.
     missing_pulse_probability : float, default 0.03
@@ -79,6 +81,7 @@ class Imperfections:
     start_offset_s: float = 1.5
     drift_ppm: float = 50.0
     stamp_error_s: float = 0.02
+    host_clock_s: float = 1.0
     dropouts: int = 1
     missing_pulse_probability: float = 0.03
     spurious_pulses_per_minute: float = 3.0
@@ -90,7 +93,7 @@ class Imperfections:
     @classmethod
     def none(cls) -> Imperfections:
         """Return an ideal rig: no offsets, drift, dropouts, noise or pulse faults."""
-        return cls(0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        return cls(0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
     def check(self) -> None:
         """Raise ConfigError for a negative level or a probability above 1."""
@@ -245,6 +248,12 @@ def _clocks(settings: RigSettings, rng: np.random.Generator) -> dict[str, Device
         segments = dropout_segments(start, settings.duration, fs_true, imp.dropouts,
                                     imp.stamp_error_s, rng)
         clocks[name] = DeviceClock(FS_WLS, drift, segments)
+    # WLS #2 is logged on a second laptop whose clock is off: every stamp it writes is shifted.
+    host = float(rng.uniform(-1.0, 1.0) * imp.host_clock_s)
+    wls2 = clocks["wls2"]
+    clocks["wls2"] = DeviceClock(
+        wls2.fs_nominal, wls2.drift_ppm,
+        tuple(replace(seg, stamp_error=seg.stamp_error + host) for seg in wls2.segments), host)
     return clocks
 
 

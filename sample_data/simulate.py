@@ -193,7 +193,8 @@ def _truth_record(settings: RigSettings, draw: RigDraw, streams: dict[str, Strea
         out_streams[name] = {
             "file": file, "device": stream.device, "group": GROUPS.get(name),
             "fs_nominal": clock.fs_nominal, "fs_true": clock.fs_true,
-            "drift_ppm": clock.drift_ppm, "segments": segments, "gaps": gaps,
+            "drift_ppm": clock.drift_ppm, "host_clock_offset_s": clock.host_offset,
+            "segments": segments, "gaps": gaps,
             "channels": {c.name: {"module": c.module, "file_unit": c.unit, "slope": c.slope,
                                   "input_delay_s": c.delay, "truth_unit": c.truth_unit,
                                   "sensor": _jsonable(sensors[c.name])}

@@ -34,6 +34,8 @@ def add_parser(subparsers: Any) -> None:
     group.add_argument("--drift-ppm", type=float, help="bound of each clock's drift, ppm")
     group.add_argument("--stamp-error", type=float,
                        help="software start-time error of the wireless carriers, s rms")
+    group.add_argument("--host-clock", type=float,
+                       help="bound of the WLS #2 laptop's clock offset, s")
     group.add_argument("--dropouts", type=int, help="Wi-Fi dropouts per wireless carrier")
     group.add_argument("--missing-pulses", type=float,
                        help="probability of a missing optical pulse")
@@ -51,7 +53,7 @@ def add_parser(subparsers: Any) -> None:
 
 #: Command-line option -> Imperfections field.
 _OPTIONS = {"start_offset": "start_offset_s", "drift_ppm": "drift_ppm",
-            "stamp_error": "stamp_error_s", "dropouts": "dropouts",
+            "stamp_error": "stamp_error_s", "host_clock": "host_clock_s", "dropouts": "dropouts",
             "missing_pulses": "missing_pulse_probability",
             "spurious_pulses": "spurious_pulses_per_minute", "noise": "noise",
             "torque_split": "torque_split", "bridge_drift": "bridge_drift",
