@@ -58,8 +58,9 @@ class Tolerances:
         Condition number past which a SingularityError is raised.
     anchor_spacing : float
         Driven-angle travel between sequential anchors, rad.
-    refine_spacing : float
-        Driven-angle travel between the batched second-layer anchors, rad.
+    refine_spacings : tuple of float
+        Driven-angle travel between the anchors of each batched layer, rad, coarse to fine;
+        the remaining steps are predicted from the finest layer.
     max_iter : int
         Newton iterations per attempt.
     """
@@ -68,7 +69,7 @@ class Tolerances:
     cond_warn: float = 1e4
     cond_max: float = 1e10
     anchor_spacing: float = 1.0
-    refine_spacing: float = 0.1
+    refine_spacings: tuple[float, ...] = (0.1, 0.02)
     max_iter: int = 12
 
 
@@ -149,9 +150,8 @@ def newton(system: LoopSystem, base: np.ndarray, theta_u: np.ndarray, tol: float
     for _ in range(max_iter):
         phi = base_w + z_w @ w_u.T
         phi = np.concatenate([phi.real, phi.imag], axis=1)
-        block = w_u[:, :, None] * (1j * z_w).T[None]
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            step = BatchLU(np.concatenate([block.real, block.imag]), row_order).solve(phi)
+            step = BatchLU(system.jacobian_stack(z_w), row_order).solve(phi)
         finite = np.all(np.isfinite(step), axis=1)
         step[~finite] = 0.0
         theta_w = theta_w - step
@@ -478,7 +478,7 @@ class _Tracker:
 
 def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: np.ndarray,
           tolerances: Tolerances, guess_u: np.ndarray | None = None
-          ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+          ) -> tuple[np.ndarray, np.ndarray, BatchLU | None]:
     """Undriven angles at every step, following the assembly branch of the guess.
 
     Parameters
@@ -500,9 +500,10 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
         (n, n_u) undriven angles, rad, continuous along the steps.
     z_u : numpy.ndarray
         (n, n_u) their unit phasors.
-    row_order : numpy.ndarray or None
-        Row order of partial pivoting of ``J_u`` at the first step (None without a square
-        ``J_u``), a good start for factorising the whole batch.
+    lu : BatchLU or None
+        Factors of ``J_u`` at the returned angles (within ``tol``: the last Newton update was
+        below it), ready for velocities, accelerations and multipliers; None without undriven
+        angles.
     """
     n = theta_d.shape[0]
     if guess_u is None:
@@ -525,44 +526,108 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
     solved = np.zeros(n, dtype=bool)
     solved[anchors] = True
     z_d = phasor(theta_d)
-    z_u = np.empty(theta_u.shape, dtype=complex)
-    z_u[anchors] = phasor(theta_u[anchors])
-    for spacing in (tolerances.refine_spacing, 0.0):
-        targets = _anchor_indices(path, spacing) if spacing > 0 else np.arange(n)
+    for spacing in tolerances.refine_spacings:
+        targets = _anchor_indices(path, spacing)
         targets = targets[~solved[targets]]
-        if targets.size == 0:
-            continue
-        _refine(tracker, path, theta_d, z_d, theta_u, z_u, np.flatnonzero(solved), targets,
-                row_order)
-        solved[targets] = True
-    return theta_u, z_u, row_order
+        if targets.size:
+            _refine(tracker, path, theta_d, z_d, theta_u, np.flatnonzero(solved), targets,
+                    row_order)
+            solved[targets] = True
+    return _finish(tracker, path, theta_d, z_d, theta_u, solved, row_order)
 
 
-def _refine(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, z_d: np.ndarray,
-            theta_u: np.ndarray, z_u: np.ndarray, known: np.ndarray, targets: np.ndarray,
-            row_order: np.ndarray | None) -> None:
-    """Solve ``targets`` in one batch from the nearest preceding solved step (in place)."""
-    system, tols = tracker.system, tracker.tols
+def _predict(system: LoopSystem, path: np.ndarray, theta_d: np.ndarray, theta_u: np.ndarray,
+             known: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Second-order predictions of ``targets`` from the nearest preceding solved step.
+
+    Returns the guesses, the base steps they were predicted from, and the driven increments.
+    """
     base = known[np.searchsorted(known, targets, side="right") - 1]
     rows = np.searchsorted(known, base)
     used = np.unique(rows)
     expansion = taylor(system, theta_d[known[used]], theta_u[known[used]])
     delta = path[targets] - path[base]
-    guess = expansion.predict(np.searchsorted(used, rows), delta)
-    found, found_z, ok, _gap = newton(system, driven_part(system, z_d[targets]), guess, tols.tol,
-                                      tols.max_iter, row_order)
+    return expansion.predict(np.searchsorted(used, rows), delta), base, delta
+
+
+def _plausible(found: np.ndarray, guess: np.ndarray, start: np.ndarray, delta: np.ndarray
+               ) -> np.ndarray:
+    """Solutions no farther from their prediction than the predicted move explains (branch)."""
     moved = np.max(np.abs(found - guess), axis=1)
-    expected = np.max(np.abs(guess - theta_u[base]), axis=1)
-    bound = np.maximum(0.25 * np.maximum(np.max(np.abs(delta), axis=1), expected), 1e-6)
-    good = ok & (moved <= bound)
+    expected = np.max(np.abs(guess - start), axis=1)
+    return moved <= np.maximum(0.25 * np.maximum(np.max(np.abs(delta), axis=1), expected), 1e-6)
+
+
+def _refine(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, z_d: np.ndarray,
+            theta_u: np.ndarray, known: np.ndarray, targets: np.ndarray,
+            row_order: np.ndarray | None) -> None:
+    """Solve ``targets`` in one batch from the nearest preceding solved step (in place)."""
+    system, tols = tracker.system, tracker.tols
+    guess, base, delta = _predict(system, path, theta_d, theta_u, known, targets)
+    found, _z, ok, _gap = newton(system, driven_part(system, z_d[targets]), guess, tols.tol,
+                                 tols.max_iter, row_order)
+    good = ok & _plausible(found, guess, theta_u[base], delta)
     theta_u[targets[good]] = found[good]
-    z_u[targets[good]] = found_z[good]
     for target, start in zip(targets[~good], base[~good], strict=True):
         theta_u[target] = tracker.step(theta_d[start], theta_u[start],
                                        path[target] - path[start], theta_d[target], int(target))
+
+
+def _finish(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, z_d: np.ndarray,
+            theta_u: np.ndarray, solved: np.ndarray, row_order: np.ndarray | None
+            ) -> tuple[np.ndarray, np.ndarray, BatchLU]:
+    """Predict the remaining steps, then Newton on every step at once, keeping the last LU."""
+    system, tols = tracker.system, tracker.tols
+    targets = np.flatnonzero(~solved)
+    guess = base = delta = None
+    if targets.size:
+        guess, base, delta = _predict(system, path, theta_d, theta_u, np.flatnonzero(solved),
+                                      targets)
+        theta_u[targets] = guess
+    base_phi = driven_part(system, z_d)
+    w_u = system.loop_points[:, system.undriven]
+    z_u = phasor(theta_u)
+    for attempt in range(tols.max_iter + 1):
+        lu = BatchLU(system.jacobian_stack(z_u), row_order)
+        phi = base_phi + z_u @ w_u.T
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            step = lu.solve(np.concatenate([phi.real, phi.imag], axis=1))
+        step[~np.isfinite(step)] = np.inf
+        size = np.max(np.abs(step), axis=1)
+        finite = np.isfinite(size)
+        theta_u[finite] -= step[finite]
+        z_u[finite] = _rotate(z_u[finite], -step[finite]) if attempt else \
+            z_u[finite] * phasor(-step[finite])
+        gap = np.max(np.abs(phi), axis=1)
+        converged = (size <= tols.tol + 8 * _EPS * np.max(np.abs(theta_u), axis=1)) | (
+            gap <= 16 * _EPS * system.length_scale)
+        if np.all(converged):
+            if guess is not None:
+                wrong = ~_plausible(theta_u[targets], guess, theta_u[base], delta)
+                if np.any(wrong):
+                    _redo(tracker, path, theta_d, theta_u, z_u, targets[wrong], base[wrong])
+                    guess = None
+                    continue
+            return theta_u, z_u, lu
+        stuck = np.flatnonzero(~converged)
+        known = np.flatnonzero(solved)
+        starts = known[np.maximum(np.searchsorted(known, stuck, side="right") - 1, 0)]
+        if attempt == tols.max_iter:
+            first = int(stuck[0])
+            tracker.fail(first, theta_d[starts[0]], theta_u[starts[0]], theta_d[first])
+        if attempt >= 2:
+            _redo(tracker, path, theta_d, theta_u, z_u, stuck, starts)
+    return theta_u, z_u, lu
+
+
+def _redo(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, theta_u: np.ndarray,
+          z_u: np.ndarray, steps: np.ndarray, starts: np.ndarray) -> None:
+    """Solve steps by sequential continuation from solved steps (in place)."""
+    for target, start in zip(steps, starts, strict=True):
+        theta_u[target] = tracker.step(theta_d[start], theta_u[start],
+                                       path[target] - path[start], theta_d[target], int(target))
         z_u[target] = phasor(theta_u[target])
-    if np.any(~good):
-        logger.debug("%d steps needed sequential continuation", int(np.sum(~good)))
+    logger.debug("%d steps needed sequential continuation", steps.size)
 
 
 def assembly_rank(mechanism: Mechanism) -> tuple[int, int]:

@@ -97,11 +97,25 @@ class LoopSystem:
         block = 1j * z[..., None, columns] * self.loop_points[:, columns]
         return np.concatenate([block.real, block.imag], axis=-2)
 
-    def jacobian_stack(self, z: np.ndarray) -> np.ndarray:
-        """Undriven Jacobian ``J_u`` with the batch last, (n_equations, n_undriven, n), m."""
-        columns = self.undriven
-        block = self.loop_points[:, columns, None] * (1j * z[:, columns]).T[None]
-        return np.concatenate([block.real, block.imag], axis=0)
+    def jacobian_stack(self, z_u: np.ndarray) -> np.ndarray:
+        """Undriven Jacobian ``J_u`` with the batch last, (n_equations, n_undriven, n), m.
+
+        Parameters
+        ----------
+        z_u : numpy.ndarray
+            (n, n_undriven) unit phasors of the undriven angles.
+        """
+        w_u = self.loop_points[:, self.undriven, None]
+        n_loops = w_u.shape[0]
+        real, imag = z_u.real.T[None], z_u.imag.T[None]
+        out = np.empty((2 * n_loops, w_u.shape[1], z_u.shape[0]))
+        # d(w z)/dtheta = 1j w z: real part -(w.re z.im + w.im z.re), imag w.re z.re - w.im z.im
+        np.multiply(w_u.real, imag, out=out[:n_loops])
+        out[:n_loops] += w_u.imag * real
+        np.negative(out[:n_loops], out=out[:n_loops])
+        np.multiply(w_u.real, real, out=out[n_loops:])
+        out[n_loops:] -= w_u.imag * imag
+        return out
 
     def curvature(self, z: np.ndarray) -> np.ndarray:
         """Diagonal Hessian ``d2 Phi / d theta_m2`` of every body, (..., n_eq, n_bodies), m."""
