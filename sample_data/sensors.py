@@ -238,7 +238,8 @@ class OpticalSensor:
     Parameters
     ----------
     low, high : float
-        Output levels in V.
+        Output levels in the channel's unit (V; V/V when the sensor switches a shunt on a spare
+        bridge channel of an NI 9237).
     rise_time : float
         10-90 % rise (and fall) time of the output in s.
     jitter_rms : float
@@ -246,7 +247,7 @@ class OpticalSensor:
     mark_width : float
         Angular width of the mark in rad (the pulse is high while the mark passes).
     noise_rms : float
-        Output noise in V rms.
+        Output noise in the unit of ``low`` and ``high``, rms.
     """
 
     low: float
@@ -266,7 +267,7 @@ class PulseTrain:
     rises, falls : numpy.ndarray
         Edge times in s (true time), sorted, one fall per rise.
     low, high : float
-        Levels in V.
+        Levels (the sensor's output unit).
     rise_time : float
         10-90 % rise time of each edge in s.
     """
@@ -278,7 +279,7 @@ class PulseTrain:
     rise_time: float
 
     def value(self, t: ArrayLike, extra_rise_time: float = 0.0) -> _FloatArray:
-        """Return the output (V) at true times t (s).
+        """Return the output (unit of ``low`` and ``high``) at true times t (s).
 
         Parameters
         ----------
