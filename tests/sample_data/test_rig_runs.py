@@ -256,7 +256,11 @@ def test_shipped_runs_regenerate_byte_for_byte(tmp_path):
         files = simulate_rig(tmp_path, RigSettings(**settings))
         assert files.stem == stem
         shipped = [scene.parent / p.name for p in files.files]
-        assert _digest(files.files) == _digest(shipped), stem
+        changed = [p.name for p, a, b in zip(shipped, _digest(files.files), _digest(shipped),
+                                             strict=True) if a != b]
+        # The truth arrays carry the model's numerics to the last bit of float32: after a change
+        # of the model, rewrite the shipped runs (sample_data/README.md gives the commands).
+        assert not changed, f"{stem}: regenerated files differ from the shipped ones: {changed}"
 
 
 def test_cli_options_reach_the_rig(tmp_path):
