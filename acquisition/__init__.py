@@ -16,7 +16,7 @@ from rigval.acquisition.errors import RigvalError
 from rigval.acquisition.schema import Channel, check_stream, stream_dataset
 
 #: Readers, imported on first use so that ``import rigval.acquisition.errors`` stays light.
-_LAZY = {"iter_stream": "read", "read": "read", "read_stream": "read", "read_lvm": "lvm",
+_LAZY = {"iter_stream": "reader", "read": "reader", "read_stream": "reader", "read_lvm": "lvm",
          "iter_tdms": "tdms", "read_tdms": "tdms", "read_csv": "text_csv"}
 
 __all__ = ["Channel", "RigvalError", "check_stream", "iter_stream", "iter_tdms", "read",

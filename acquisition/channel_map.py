@@ -6,7 +6,7 @@ parses such a table (a plain ``dict`` from :mod:`tomllib`) into frozen dataclass
 key and value; each error is a :class:`~rigval.acquisition.errors.SceneError` whose ``where``
 names the key path (``streams.cdaq.channels.acc1.charge_sensitivity``).
 
-:func:`load_stream` then reads the stream with :func:`~rigval.acquisition.read.read_stream`,
+:func:`load_stream` then reads the stream with :func:`~rigval.acquisition.reader.read_stream`,
 keeps the mapped channels under their scene names and records the sensor and its parameters in
 each channel's attributes (``sensor``, ``sensor_params`` as JSON, ``scene_key``).
 
@@ -153,7 +153,7 @@ class StreamSpec:
     device : str or None
         Device profile name.
     reader : mapping
-        Reader options passed to :func:`~rigval.acquisition.read.read` (read-only).
+        Reader options passed to :func:`~rigval.acquisition.reader.read` (read-only).
     channels : mapping
         Scene channel name -> :class:`ChannelSpec` (read-only, in table order).
     key : str
@@ -365,7 +365,7 @@ def load_stream(spec: StreamSpec, *, time_range: tuple[float | None, float | Non
     DataFileError
         The file cannot be read.
     """
-    from rigval.acquisition.read import read_stream
+    from rigval.acquisition.reader import read_stream
 
     modules = {c.source: c.module for c in spec.channels.values() if c.module}
     options = dict(spec.reader)

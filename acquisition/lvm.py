@@ -163,9 +163,15 @@ def _looks_numeric(cell: str) -> bool:
     return True
 
 
-def _number(cell: str, decimal: str) -> float:
+def _number(cell: str, decimal: str, file: Path, tag: str) -> float:
     """Parse one header number with the file's decimal separator."""
-    return float(cell.strip().replace(decimal, ".") if decimal != "." else cell.strip())
+    try:
+        return float(cell.strip().replace(decimal, ".") if decimal != "." else cell.strip())
+    except ValueError:
+        raise DataFileError(f"segment header {tag} holds {cell!r}, not a number",
+                            where={"file": str(file), "key": tag},
+                            hint="pass decimal=... if the decimal separator was guessed wrong"
+                            ) from None
 
 
 def _clock(date: str, time: str) -> str:
@@ -245,8 +251,8 @@ def _columns(lvm: _LvmFile, decimal: str, timezone: str | None, file: Path) -> l
             out.append(_Column(
                 name=names[j] or f"column {j}", unit=_header_cell(seg.header, "Y_Unit_Label", j)
                 or "", values=values, empty=int(np.count_nonzero(np.isnan(values))), x=x,
-                x0=_number(x0_text, decimal) if x0_text else 0.0,
-                dt=_number(dt_text, decimal) if dt_text else None, start=start,
+                x0=_number(x0_text, decimal, file, "X0") if x0_text else 0.0,
+                dt=_number(dt_text, decimal, file, "Delta_X") if dt_text else None, start=start,
                 segment=s_index, expected=_header_int(seg.header, "Samples", j)))
     return out
 
@@ -262,7 +268,7 @@ def _header_cell(header: Mapping[str, list[str]], tag: str, column: int) -> str 
 def _header_int(header: Mapping[str, list[str]], tag: str, column: int) -> int | None:
     """Return an integer segment-header value for a data column (None if absent or not int)."""
     cell = _header_cell(header, tag, column)
-    return int(cell) if cell is not None and cell.isdigit() else None
+    return int(cell) if cell is not None and cell.isascii() and cell.isdigit() else None
 
 
 def _numbers(cells: np.ndarray, decimal: str, file: Path, name: str) -> np.ndarray:

@@ -108,7 +108,7 @@ def describe(path: str | os.PathLike[str], *, include_decimated: bool = False,
         if kind == "tdms":
             body = _describe_tdms(file, include_decimated=include_decimated, **options)
         else:
-            from rigval.acquisition.read import read
+            from rigval.acquisition.reader import read
 
             streams = read(file, format=kind, checksum=False, **options)
             body = {"streams": [_describe_stream(n, ds) for n, ds in streams.items()]}

@@ -60,6 +60,8 @@ _NUMERIC_TYPES = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 0x19, 0x1A, 0xFFFFFFFF}
 _SUPPORTED_SCALES = {"Linear", "Polynomial", "RTD", "Strain", "Table", "Thermistor",
                      "Thermocouple", "Add", "Subtract", "AdvancedAPI"}
 _EPOCH_1904 = TdmsStamp(0, 0)
+#: A ``wf_start_offset`` beyond this (s, about 115 days) is taken as damage, not as an offset.
+_MAX_OFFSET_S = 1e7
 
 
 @dataclass
@@ -148,6 +150,8 @@ class _Prefix(io.RawIOBase):
 def _json_value(value: Any) -> Any:
     """Return a property value in a form netCDF attributes and JSON accept."""
     if isinstance(value, TdmsStamp):
+        if not value.in_range():
+            return f"out of range ({value.seconds} s since 1904)"
         return str(np.datetime_as_string(value.to_datetime64(), unit="ns")) + "Z"
     if isinstance(value, bool | np.bool_):
         return int(value)
@@ -174,7 +178,7 @@ def _channel_time(layout: ChannelLayout, fs: float | None, group_props: Mapping[
         for key, value in marks.items():
             first_marks.setdefault(key, value)
     dt_raw = first_marks.get("wf_increment")
-    if not isinstance(dt_raw, int | float) or not dt_raw > 0:
+    if _finite(dt_raw, None) is None or not dt_raw > 0:
         if fs is not None:
             dt = 1.0 / fs
             notes.append(f"no usable wf_increment ({dt_raw!r}): dt = 1/fs from the fs option")
@@ -188,18 +192,24 @@ def _channel_time(layout: ChannelLayout, fs: float | None, group_props: Mapping[
             notes.append(f"wf_increment {dt!r} rounded in the file: using {exact!r} s "
                          f"({1.0 / exact:.9g} Hz)")
             dt = exact
-    offset = first_marks.get("wf_start_offset")
+    offset = _finite(first_marks.get("wf_start_offset"), None)
     if offset is None:
         notes.append("no wf_start_offset: taken as 0 s")
         offset = 0.0
+    elif abs(offset) > _MAX_OFFSET_S:
+        notes.append(f"wf_start_offset {offset!r} s is implausible: taken as 0 s")
+        offset = 0.0
     t0 = first_marks.get("wf_start_time")
+    if isinstance(t0, TdmsStamp) and not t0.in_range():
+        notes.append(f"wf_start_time out of range ({t0.seconds} s since 1904): ignored")
+        t0 = None
     relative = not isinstance(t0, TdmsStamp) or t0.is_zero()
     start: TdmsStamp | None = None
     if relative:
         what = "no wf_start_time" if t0 is None else "wf_start_time is 1904-01-01 (relative time)"
         for key, source in (("NI_ExpStartTimeStamp", props), ("DateTime", group_props),
                             ("DateTime", root_props)):
-            if isinstance(source.get(key), TdmsStamp):
+            if isinstance(source.get(key), TdmsStamp) and source[key].in_range():
                 start = source[key]
                 notes.append(f"{what}: start_time from {key}")
                 break
@@ -211,6 +221,13 @@ def _channel_time(layout: ChannelLayout, fs: float | None, group_props: Mapping[
     if start is not None and not relative:
         start = _add_seconds(start, float(offset))
     return _ChannelTime(start, relative, blocks, dt, notes)
+
+
+def _finite(value: Any, default: float | None) -> float | None:
+    """Return ``value`` as a float if it is a finite number, else ``default``."""
+    if isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value):
+        return float(value)
+    return default
 
 
 def _add_seconds(stamp: TdmsStamp, seconds: float) -> TdmsStamp:
@@ -230,11 +247,15 @@ def _blocks(layout: ChannelLayout, dt: float, offset0: float,
     block_t0: TdmsStamp | None = None
     for index, marks in layout.time_marks:
         new_t0 = marks.get("wf_start_time")
-        offset = float(marks.get("wf_start_offset", offset))
+        if not (isinstance(new_t0, TdmsStamp) and new_t0.in_range()):
+            new_t0 = None
+        offset = _finite(marks.get("wf_start_offset"), offset)
+        if abs(offset) > _MAX_OFFSET_S:
+            offset = offset0
         if t0 is None:
-            t0 = block_t0 = new_t0 if isinstance(new_t0, TdmsStamp) else None
+            t0 = block_t0 = new_t0
             continue
-        if index == 0 or not isinstance(new_t0, TdmsStamp) or new_t0 == t0:
+        if index == 0 or new_t0 is None or new_t0 == t0:
             continue
         assert block_t0 is not None
         first, at = starts[-1]

@@ -74,6 +74,10 @@ class TdmsStamp:
         """Return True for 1904-01-01 00:00:00, LabVIEW's mark of a relative time axis."""
         return self.seconds == 0 and self.fraction == 0
 
+    def in_range(self) -> bool:
+        """Return True if the stamp fits ``datetime64[ns]`` (years 1678 to 2261)."""
+        return -9_200_000_000 < self.seconds - EPOCH_1904_TO_1970_S < 9_200_000_000
+
     def to_datetime64(self) -> np.datetime64:
         """Return the stamp as naive UTC ``datetime64[ns]`` (sub-ns fraction rounded)."""
         ns = (self.seconds - EPOCH_1904_TO_1970_S) * 1_000_000_000
