@@ -25,6 +25,7 @@ import xarray as xr
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import brentq
+from scipy.special import i0
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError
 from rigval.processing.align import input_delay
@@ -84,11 +85,11 @@ def _sinc_crossing(x: _FloatArray, index: int, mid: float) -> float | None:
         return None
     n = np.arange(lo, hi)
     samples = x[lo:hi]
-    norm = np.i0(_KAISER_BETA)
+    norm = float(i0(_KAISER_BETA))
 
     def level(position: float) -> float:
         d = position - n
-        window = np.i0(_KAISER_BETA * np.sqrt(np.clip(1.0 - (d / _HALF_WINDOW) ** 2, 0.0, None)))
+        window = i0(_KAISER_BETA * np.sqrt(np.clip(1.0 - (d / _HALF_WINDOW) ** 2, 0.0, None)))
         return float(np.sum(samples * np.sinc(d) * window) / norm) - mid
 
     a, b = level(float(index)), level(float(index + 1))

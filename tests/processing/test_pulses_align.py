@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -122,3 +124,28 @@ def test_ni9237_delay_values(synth) -> None:
     assert align.input_delay({"module": "NI 9237"}, 5000.0) == align.ni9237_input_delay(5000.0)
     assert align.input_delay({"module": "NI 9411"}, 5000.0) == 0.0
     assert align.input_delay({"input_delay_s": 1e-3, "module": "NI 9237"}, 5000.0) == 1e-3
+
+
+def test_a_segment_without_enough_pulses_is_marked_invalid_not_guessed(make_rig, synth) -> None:
+    from rigval.acquisition.errors import DataWarning
+    from rigval.acquisition.schema import Channel, stream_dataset
+
+    rig = make_rig(12, missing=0.0, spurious=0)
+    segment = (rig.t_dev > 18.6).astype(np.int32)            # the last 1.4 s: one pulse at most
+    wls = stream_dataset(rig.t_dev, {"opt2": Channel(rig.opt2, "V", "opt2", "/'w'/'opt2'",
+                                                     attrs={"module": "NI 9237"})},
+                         device="WLS-9163", start_time="2026-03-02T10:00:02Z",
+                         source_file="w.tdms", source_sha256="0", fs_nominal=synth.FS_DEV,
+                         segment=segment)
+    dev = pulses.stream_pulses(wls, "opt2")
+    ref = pulses.detect_edges(rig.opt1, rig.t_ref, refine="sinc")
+    clock = align.estimate_clock(ref, dev.good, dev.good_segment, coarse_offset_s=2.0)
+    assert clock.segments == (0,) and clock.unaligned_segments == (1,)
+    with pytest.warns(DataWarning, match="could not be aligned"):
+        aligned = align.align_stream(wls, clock)
+    assert not aligned["valid"].to_numpy()[segment == 1].any()
+    assert aligned["valid"].to_numpy()[segment == 0].all()
+    assert np.all(np.diff(aligned["time"].to_numpy()) > 0)
+    assert json.loads(aligned.attrs["invalid_counts"])["unaligned segment"] == (segment == 1).sum()
+    np.testing.assert_allclose(aligned["time"].to_numpy()[segment == 0],
+                               rig.offset + (1 + rig.drift) * rig.t_dev[segment == 0], atol=5e-6)
