@@ -68,8 +68,8 @@ class Tolerances:
     tol: float = 1e-12
     cond_warn: float = 1e4
     cond_max: float = 1e10
-    anchor_spacing: float = 1.0
-    refine_spacings: tuple[float, ...] = (0.1, 0.02)
+    anchor_spacing: float = 2.0
+    refine_spacings: tuple[float, ...] = (0.3, 0.06, 0.015)
     max_iter: int = 12
 
 

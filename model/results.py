@@ -113,13 +113,20 @@ class Solution:
     omega_driven: np.ndarray | None = None
 
 
-def _planar(values: np.ndarray) -> np.ndarray:
-    return np.stack([values.real, values.imag], axis=-1)
+def _planar(values: np.ndarray, sign: float = 1.0) -> np.ndarray:
+    """Complex (..., n) to real (..., n, 2) with x and y, times ``sign``."""
+    out = np.empty((*values.shape, 2))
+    np.multiply(values.real, sign, out=out[..., 0])
+    np.multiply(values.imag, sign, out=out[..., 1])
+    return out
 
 
 def _body_var(linear: np.ndarray, angular: np.ndarray, units: tuple[str, str], name: str
               ) -> xr.Variable:
-    data = np.concatenate([_planar(linear), angular[..., None]], axis=-1)
+    data = np.empty((*angular.shape, 3))
+    data[..., 0] = linear.real
+    data[..., 1] = linear.imag
+    data[..., 2] = angular
     return xr.Variable(("time", "body", "coord"), data,
                        {"units": units[0], "theta_units": units[1], "long_name": name})
 
@@ -167,7 +174,7 @@ def build_dataset(mechanism: Mechanism, solution: Solution, selection: Selection
     if "joint_force" in out:
         index = [mechanism.joint_names.index(j) for j in selection.joints]
         data["joint_force"] = xr.Variable(
-            ("time", "joint", "axis"), _planar(-s.joint[:, index]),
+            ("time", "joint", "axis"), _planar(s.joint[:, index], -1.0),
             {"units": "N", "long_name": "joint force on the joint's first body (ground pin: on "
                                         "the body), global frame"})
         coords["joint"] = ("joint", list(selection.joints))

@@ -1,4 +1,4 @@
-"""Mechanism files: the shipped copies, parsing into frozen dataclasses, and every error's key path."""
+"""Mechanism files: shipped copies, parsing into frozen dataclasses, every error's key path."""
 
 from __future__ import annotations
 
