@@ -163,11 +163,12 @@ class ClockModel:
         Samples of unaligned segments map to NaN.
         """
         t = np.asarray(time, dtype=np.float64)
-        seg = np.broadcast_to(np.asarray(segment), t.shape)
-        lookup = dict(zip(self.segments, self.offsets_s, strict=True))
-        offset = np.array([lookup.get(int(s), np.nan) for s in np.unique(seg)])
-        index = np.searchsorted(np.unique(seg), seg)
-        return offset[index] + (1.0 + self.drift) * t
+        seg = np.broadcast_to(np.asarray(segment, dtype=np.int64), t.shape)
+        size = max(max(self.segments, default=0), int(seg.max(initial=0))) + 1
+        lookup = np.full(size, np.nan)
+        lookup[list(self.segments)] = self.offsets_s
+        offset = np.where(seg >= 0, lookup[np.clip(seg, 0, size - 1)], np.nan)
+        return offset + (1.0 + self.drift) * t
 
     def attrs(self) -> dict[str, Any]:
         """Return the design 3.2 attributes (``clock_offset_s``, ``clock_drift_ppm``, ...)."""

@@ -219,7 +219,11 @@ def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike,
     if cycles.size == 0:
         raise DataError(f"phi_F spans {phi[0]:.4g} to {phi[-1]:.4g} rad: no whole revolution",
                         hint="record at least two revolutions")
-    grid_time = interpolate_runs(phi, phi_t, grid, order=3)
+    # Gaps in the angle record (steps over 1.5 median steps) are not bridged: grid angles that
+    # fall in one get no time and stay NaN.
+    steps = np.diff(phi_t)
+    map_segment = np.concatenate(([0], np.cumsum(steps > 1.5 * np.median(steps))))
+    grid_time = interpolate_runs(phi, phi_t, grid, order=3, segment=map_segment)
     x = np.asarray(values, dtype=np.float64)
     if anti_alias == "butterworth":
         slowest = float(np.min(np.diff(phi) / np.diff(phi_t)))

@@ -106,3 +106,16 @@ def test_cycle_statistics_match_numpy_and_find_the_outlier() -> None:
     assert stats[6, 10] == 39 and stats[6, 0] == 40
     flags = cycles.outlier_cycles(y)
     assert np.flatnonzero(flags).tolist() == [17]
+
+
+def test_a_gap_in_the_angle_record_leaves_its_grid_points_empty() -> None:
+    t = np.arange(0.0, 6.0, 1 / FS)
+    keep = (t < 2.3) | (t > 2.6)                                   # the reference has a gap
+    x = np.sin(2 * np.pi * 3 * t)
+    cyc, _, y = angle.resample_to_angle(t, x, t[keep], _ripple_angle(t[keep]),
+                                        points_per_rev=360, fs=FS)
+    grid = 2 * np.pi * (cyc[:, None] + np.arange(360)[None, :] / 360)
+    in_gap = (_time_of(grid) > 2.3 + 1 / FS) & (_time_of(grid) < 2.6 - 1 / FS)
+    assert np.isnan(y[in_gap]).all()
+    truth = np.sin(2 * np.pi * 3 * _time_of(grid))
+    assert np.nanmax(np.abs(y - truth)) < 1e-6
