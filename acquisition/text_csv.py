@@ -216,8 +216,13 @@ def sniff_csv(lines: list[str], *, delimiter: str | None = None, decimal: str | 
 
 
 def _parse_datetimes(cells: Sequence[str], time_format: str | None, timezone: str | None,
-                     where: Mapping[str, Any]) -> np.ndarray:
-    """Parse absolute time cells into naive UTC datetime64[ns]."""
+                     where: Mapping[str, Any], notes: list[str] | None = None) -> np.ndarray:
+    """Parse absolute time cells into naive UTC datetime64[ns].
+
+    Cells without a UTC offset are local times in ``timezone`` (a DST fall-back inside a column
+    is resolved from the order of the cells); without ``timezone`` they are taken as UTC, noted
+    in ``notes``.
+    """
     texts = pd.Series([c.strip() for c in cells])
     if time_format is None and texts.str.match(r"^\d{4}-\d{2}-\d{2}[T ]").all():
         stamps = pd.to_datetime(texts.str.replace(",", ".", regex=False), format="ISO8601")
@@ -243,13 +248,21 @@ def _parse_datetimes(cells: Sequence[str], time_format: str | None, timezone: st
             raise ConfigError(f"unknown time zone {timezone!r}",
                               where={**where, "key": "timezone"},
                               hint="use an IANA name like 'Europe/Berlin'") from None
-        stamps = stamps.dt.tz_localize(zone, ambiguous="raise", nonexistent="raise") \
-            .dt.tz_convert("UTC").dt.tz_localize(None)
+        try:
+            stamps = stamps.dt.tz_localize(
+                zone, ambiguous="infer" if len(stamps) > 1 else "raise", nonexistent="raise")
+        except ValueError as error:  # pandas' AmbiguousTimeError / NonExistentTimeError
+            raise DataFileError(f"local times do not map to UTC in {timezone}: {error}",
+                                where=where, hint="check the time zone and the DST change"
+                                ) from None
+        stamps = stamps.dt.tz_convert("UTC").dt.tz_localize(None)
+    elif notes is not None:
+        notes.append("local date-times without a zone taken as UTC (pass timezone=...)")
     return stamps.to_numpy().astype("datetime64[ns]")
 
 
-def _header_start(header: Mapping[str, str], time_format: str | None,
-                  timezone: str | None, where: Mapping[str, Any]) -> np.datetime64 | None:
+def _header_start(header: Mapping[str, str], time_format: str | None, timezone: str | None,
+                  where: Mapping[str, Any], notes: list[str]) -> np.datetime64 | None:
     """Return a start time found in the header block, or None."""
     candidates = [v for k, v in header.items() if _START_KEYS.search(k) and v]
     date = next((v for k, v in header.items() if k.lower() in ("date", "datum")), None)
@@ -259,7 +272,9 @@ def _header_start(header: Mapping[str, str], time_format: str | None,
                           if re.match(r"^\d{4}[/-]", date) else f"{date} {clock}")
     for text in candidates:
         try:
-            return _parse_datetimes([text], time_format, timezone, where)[0]
+            return _parse_datetimes([text], time_format, timezone, where, notes)[0]
+        except ConfigError:
+            raise
         except (DataFileError, ValueError):
             continue
     return None
@@ -418,11 +433,11 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
             seconds = seconds * scale
             time = seconds - seconds[0]
             if start is None:
-                start = _header_start(layout.header, time_format, timezone, where)
+                start = _header_start(layout.header, time_format, timezone, where, notes)
                 if start is not None and seconds[0] != 0.0:
                     start = start + np.timedelta64(round(seconds[0] * 1e9), "ns")
         else:
-            stamps = _parse_datetimes(cells.tolist(), time_format, timezone, where)
+            stamps = _parse_datetimes(cells.tolist(), time_format, timezone, where, notes)
             start = stamps[0] if start is None else start
             time = (stamps - stamps[0]).astype(np.int64) / 1e9
     else:
@@ -432,7 +447,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         time = np.arange(n) / fs
         notes.append(f"no time column: t = i / {fs} Hz")
     if start is None:
-        start = _header_start(layout.header, time_format, timezone, where)
+        start = _header_start(layout.header, time_format, timezone, where, notes)
     if start is None:
         start = _EPOCH_1904
         notes.append("no start time in the file: start_time unknown (1904-01-01)")
@@ -440,7 +455,8 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         raise DataFileError("the data block is empty", where=where)
     fs_nominal = fs if fs is not None else _rate_of(time)
     if not np.isfinite(fs_nominal) or fs_nominal <= 0:
-        raise DataFileError("the time column does not increase", where=where)
+        raise DataFileError("the time column does not increase", where=where,
+                            hint="local times around a DST change need timezone=...")
     by_name = {layout.names[k]: k for k in values}
     chosen = list(by_name) if channels is None else list(channels)
     missing = [c for c in chosen if c not in by_name]

@@ -154,3 +154,16 @@ def test_bad_text_files_give_clear_errors(tmp_path: Path) -> None:
     prose.write_text("run 3 at 1.0 rev/s\nall fine\n")
     with pytest.raises(DataFileError, match="no block of numeric rows"):
         read(prose)
+
+
+def test_local_times_across_the_autumn_dst_change(tmp_path: Path) -> None:
+    path = tmp_path / "dst.csv"
+    path.write_text("Zeit;v\n25.10.2026 02:59:59,500;1\n25.10.2026 02:00:00,000;2\n"
+                    "25.10.2026 02:00:00,500;3\n")  # clocks went back at 03:00 CEST
+    ds = read_stream(path, timezone="Europe/Berlin")
+    np.testing.assert_allclose(ds.time.values, [0, 0.5, 1.0])
+    assert parse_start_time(ds.attrs["start_time"]) == np.datetime64("2026-10-25T00:59:59.5")
+    with pytest.raises(DataFileError, match="does not increase"):
+        read_stream(path)  # without the zone the repeated hour runs backwards
+    path.write_text("Zeit;v\n25.10.2026 04:00:00,000;1\n25.10.2026 04:00:00,500;2\n")
+    assert "taken as UTC" in read_stream(path).attrs["time_fallbacks"]
