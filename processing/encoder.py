@@ -24,6 +24,7 @@ __all__ = [
     "RevolutionCheck",
     "counts_to_angle",
     "decode_quadrature",
+    "remove_index_resets",
     "revolution_check",
     "unwrap_counts",
 ]
@@ -77,6 +78,38 @@ def unwrap_counts(raw: ArrayLike, bits: int = 32) -> NDArray[np.int64]:
     half = modulus >> 1
     steps = (np.diff(counts) + half) % modulus - half
     return np.concatenate(([counts[0]], counts[0] + np.cumsum(steps)))
+
+
+def remove_index_resets(counts: ArrayLike, counts_per_rev: float,
+                        ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Undo the counter reloads a Z index pulse causes (DAQmx ``CI.Encoder.ZIndexEnable``).
+
+    With index reset enabled the count falls back to its initial value once per revolution, a
+    step of about ``-CPR`` (``+CPR`` turning backwards) between two samples. Steps larger than half
+    a revolution are taken as reloads and compensated by whole revolutions.
+
+    Parameters
+    ----------
+    counts : array_like of int
+        Unwrapped counts (:func:`unwrap_counts`).
+    counts_per_rev : float
+        Counts per revolution.
+
+    Returns
+    -------
+    cumulative : numpy.ndarray of int64
+        Counts without the reloads.
+    reset_index : numpy.ndarray of int64
+        Sample indices right after each reload: the index pulse passed between that sample and
+        the one before, at the cumulative count ``cumulative[i] - counts[i] + reload value``.
+    """
+    c = np.asarray(counts, dtype=np.int64)
+    steps = np.diff(c)
+    resets = np.flatnonzero(np.abs(steps) > counts_per_rev / 2) + 1
+    correction = np.zeros(c.size, dtype=np.int64)
+    revolutions = np.round(steps[resets - 1] / counts_per_rev).astype(np.int64)
+    correction[resets] = -revolutions * round(counts_per_rev)
+    return c + np.cumsum(correction), resets.astype(np.int64)
 
 
 def decode_quadrature(a: ArrayLike, b: ArrayLike, decoding: QuadratureDecoding = "x4",

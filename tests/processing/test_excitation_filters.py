@@ -128,3 +128,13 @@ def test_revolution_check_flags_glitches_and_gross_errors() -> None:
     check = encoder.revolution_check(t, counts, np.arange(1.0, 10.0), CPR)
     assert np.flatnonzero(check.glitch).tolist() == [2]
     assert np.flatnonzero(check.gross).tolist() == [5]
+
+
+def test_index_reloads_are_undone_and_located() -> None:
+    t = np.arange(0.0, 5.0, 1 / FS)
+    cumulative = np.floor(t * 1.3 * CPR).astype(np.int64) + 100
+    reloaded = (cumulative - 100) % CPR                      # Z reloads 0 at every index
+    restored, resets = encoder.remove_index_resets(reloaded, CPR)
+    np.testing.assert_array_equal(restored - restored[0], cumulative - cumulative[0])
+    expected = np.flatnonzero(np.diff((cumulative - 100) // CPR)) + 1
+    np.testing.assert_array_equal(resets, expected)
