@@ -252,12 +252,11 @@ def _blocks(layout: ChannelLayout, dt: float, offset0: float,
         offset = _finite(marks.get("wf_start_offset"), offset)
         if abs(offset) > _MAX_OFFSET_S:
             offset = offset0
-        if t0 is None:
+        if t0 is None or block_t0 is None:
             t0 = block_t0 = new_t0
             continue
         if index == 0 or new_t0 is None or new_t0 == t0:
             continue
-        assert block_t0 is not None
         first, at = starts[-1]
         declared = new_t0.seconds_since(block_t0) - at + offset - offset0
         expected = (index - first) * dt
