@@ -30,7 +30,7 @@ from scipy.interpolate import make_interp_spline
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError
 from rigval.acquisition.schema import append_history
 from rigval.processing.align import channel_time
-from rigval.processing.encoder import revolution_check, unwrap_counts
+from rigval.processing.encoder import remove_index_resets, revolution_check, unwrap_counts
 from rigval.processing.excitation import Method, drive_excitation
 from rigval.processing.filters import contiguous_runs, zero_phase
 from rigval.processing.pulses import StreamPulses
@@ -347,7 +347,7 @@ def angle_domain(aligned: Mapping[str, xr.Dataset], angle_time: ArrayLike, angle
 def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
           counts_per_rev: float, direction: float = 1.0, method: Method = "butterworth",
           cutoff_hz: float | None = None, order: int = 8, harmonics: int = 8,
-          glitch_tolerance: float = 4.0) -> xr.Dataset:
+          glitch_tolerance: float = 4.0, index_reset: bool = False) -> xr.Dataset:
     """Return phi_F(t): the smoothed main-shaft angle, zero at the optical reference.
 
     Parameters
@@ -368,6 +368,9 @@ def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
     glitch_tolerance : float, default 4
         Counts per revolution off CPR still called a glitch (see
         :func:`~rigval.processing.encoder.revolution_check`).
+    index_reset : bool, default False
+        The counter reloads at the Z index (see
+        :func:`~rigval.processing.encoder.remove_index_resets`).
 
     Returns
     -------
@@ -380,7 +383,8 @@ def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
     """
     exc = drive_excitation(stream, encoder_channel, counts_per_rev=counts_per_rev,
                            name="phi_F", direction=direction, method=method,
-                           cutoff_hz=cutoff_hz, order=order, harmonics=harmonics)
+                           cutoff_hz=cutoff_hz, order=order, harmonics=harmonics,
+                           index_reset=index_reset)
     time = exc["time"].to_numpy()
     angle = exc["phi_F"].to_numpy()
     finite = np.isfinite(angle)
@@ -388,7 +392,10 @@ def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
     exc["phi_F"] = (exc["phi_F"] - offset).assign_attrs(exc["phi_F"].attrs | {
         "long_name": "main shaft angle phi_F from the optical reference",
         "zero_offset_rad": offset})
-    counts = direction * unwrap_counts(stream[encoder_channel].to_numpy())
+    counts = unwrap_counts(stream[encoder_channel].to_numpy())
+    if index_reset:
+        counts, _ = remove_index_resets(counts, counts_per_rev)
+    counts = direction * counts
     check = revolution_check(time, counts, reference.good, counts_per_rev,
                              tolerance=glitch_tolerance)
     at_pulse = np.interp(check.event_times[:-1], time[finite], exc["phi_F"].to_numpy()[finite])

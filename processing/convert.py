@@ -284,14 +284,18 @@ def acceleration_channel(ds: xr.Dataset, channel: str, *, charge_sensitivity: fl
 
 def encoder_angle_channel(ds: xr.Dataset, channel: str, *, counts_per_rev: float,
                           name: str | None = None, gear_ratio: float = 1.0,
-                          direction: float = 1.0, bits: int = 32) -> xr.Dataset:
+                          direction: float = 1.0, bits: int = 32,
+                          index_reset: bool = False) -> xr.Dataset:
     """Add the raw (quantised, unwrapped) angle in rad of an encoder counter channel.
 
-    For derivatives use :func:`~rigval.processing.excitation.drive_excitation`, never
-    differences of this angle.
+    ``bits`` is the counter width; ``index_reset`` undoes Z index reloads
+    (:func:`~rigval.processing.encoder.remove_index_resets`). For derivatives use
+    :func:`~rigval.processing.excitation.drive_excitation`, never differences of this angle.
     """
     var = _channel(ds, channel)
     counts = encoder.unwrap_counts(var.to_numpy(), bits=bits)
+    if index_reset:
+        counts, _ = encoder.remove_index_resets(counts, counts_per_rev * gear_ratio)
     angle = encoder.counts_to_angle(counts, counts_per_rev, gear_ratio=gear_ratio,
                                     direction=direction)
     return _with_variable(ds, name or f"{channel}_angle", angle, var, channel, units="rad",

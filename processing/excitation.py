@@ -39,7 +39,7 @@ from scipy.signal import sosfreqz
 
 from rigval.acquisition.errors import ConfigError, DataError
 from rigval.acquisition.schema import append_history
-from rigval.processing.encoder import counts_to_angle, unwrap_counts
+from rigval.processing.encoder import counts_to_angle, remove_index_resets, unwrap_counts
 from rigval.processing.filters import PadType, butter_sos, contiguous_runs, zero_phase
 
 __all__ = ["DriveAngle", "drive_angle", "drive_excitation", "quantisation_noise"]
@@ -263,7 +263,7 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
 def drive_excitation(stream: xr.Dataset, channel: str, *, counts_per_rev: float,
                      name: str = "theta", direction: float = 1.0, gear_ratio: float = 1.0,
                      method: Method = "butterworth", cutoff_hz: float | None = None,
-                     order: int = 8, harmonics: int = 8) -> xr.Dataset:
+                     order: int = 8, harmonics: int = 8, index_reset: bool = False) -> xr.Dataset:
     """Return a drive angle and its derivatives from an encoder counter channel of a stream.
 
     Parameters
@@ -280,6 +280,9 @@ def drive_excitation(stream: xr.Dataset, channel: str, *, counts_per_rev: float,
         As in :func:`~rigval.processing.encoder.counts_to_angle`.
     method, cutoff_hz, order, harmonics
         As in :func:`drive_angle`.
+    index_reset : bool, default False
+        The counter reloads at the Z index (undone with
+        :func:`~rigval.processing.encoder.remove_index_resets`).
 
     Returns
     -------
@@ -290,6 +293,8 @@ def drive_excitation(stream: xr.Dataset, channel: str, *, counts_per_rev: float,
     """
     fs = float(stream.attrs["fs_nominal"])
     counts = unwrap_counts(stream[channel].to_numpy())
+    if index_reset:
+        counts, _ = remove_index_resets(counts, counts_per_rev * gear_ratio)
     raw = counts_to_angle(counts, counts_per_rev, gear_ratio=gear_ratio, direction=direction)
     result = drive_angle(stream["time"].to_numpy(), raw, fs=fs,
                          step_rad=2 * np.pi / (counts_per_rev * gear_ratio), method=method,

@@ -137,3 +137,7 @@ def test_drive_excitation_dataset_has_units_and_noise_estimates(make_rig, synth)
     assert np.max(error[inner]) < 0.002                  # 0.03 % of the speed
     assert np.max(error) < 0.05                          # record ends: filter edge effects
     assert "drive_excitation" in exc.attrs["history"]
+    reloading = ds.assign(enc2=ds["enc2"] % 8192)        # the counter reloads at the Z index
+    same = excitation.drive_excitation(reloading, "enc2", counts_per_rev=8192, name="theta_H",
+                                       index_reset=True)
+    np.testing.assert_allclose(same["theta_H_ddot"], exc["theta_H_ddot"], atol=1e-9)
