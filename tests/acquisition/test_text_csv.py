@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from rigval.acquisition import read, read_csv, read_stream
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError, DataFileError
@@ -167,3 +169,25 @@ def test_local_times_across_the_autumn_dst_change(tmp_path: Path) -> None:
         read_stream(path)  # without the zone the repeated hour runs backwards
     path.write_text("Zeit;v\n25.10.2026 04:00:00,000;1\n25.10.2026 04:00:00,500;2\n")
     assert "taken as UTC" in read_stream(path).attrs["time_fallbacks"]
+
+
+@settings(max_examples=30, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(values=st.lists(st.floats(-1e6, 1e6, allow_nan=False), min_size=2, max_size=40),
+       layout=st.sampled_from([(";", ","), ("\t", ","), ("\t", "."), (",", "."), (";", ".")]),
+       fs=st.sampled_from([1000.0, 5000.0, FS]))
+def test_generated_variants_read_back_exactly(tmp_path: Path, values: list[float],
+                                              layout: tuple[str, str], fs: float) -> None:
+    delimiter, decimal = layout
+    time = np.arange(len(values)) / fs
+    rows = [delimiter.join([f"{t:.9f}", repr(v) if v != int(v) else f"{v:.1f}"])
+            for t, v in zip(time, values, strict=True)]
+    text = f"Time [s]{delimiter}x [N]\n" + "\n".join(rows) + "\n"
+    if decimal == ",":
+        text = text.replace(".", ",")
+    path = tmp_path / "variant.csv"
+    path.write_text(text)
+    ds = read_stream(path, checksum=False)
+    assert (ds.attrs["delimiter"], ds.attrs["decimal"]) == layout
+    np.testing.assert_array_equal(ds["x"].values, values)
+    np.testing.assert_allclose(ds.time.values, time, atol=1e-9)
+    assert ds["x"].attrs["units"] == "N"
