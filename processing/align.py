@@ -58,6 +58,8 @@ _IntArray = NDArray[np.int64]
 _SCORING_SPAN_S = 60.0
 #: A runner-up candidate whose residual scale is within this factor of the best makes the match
 #: ambiguous.
+#: Residual scales below this (s) count as equal: no clock is timed better than a nanosecond.
+_TIMING_FLOOR_S = 1e-9
 _AMBIGUITY_FACTOR = 3.0
 
 
@@ -297,7 +299,7 @@ def match_events(ref_times: ArrayLike, dev_times: ArrayLike, *, coarse_offset_s:
                              hint="check the coarse offset and the reference events")
     best = contenders[0]
     distinct = [s for s in contenders[1:] if abs(s[2] - best[2]) > 0.5 * period]
-    if distinct and distinct[0][1] < _AMBIGUITY_FACTOR * best[1]:
+    if distinct and distinct[0][1] <= _AMBIGUITY_FACTOR * best[1] + _TIMING_FLOOR_S:
         raise AlignmentError(
             f"whole-period ambiguity: offsets {best[2]:.6g} s and {distinct[0][2]:.6g} s fit "
             f"equally well (residual scale {best[1]:.3g} s vs {distinct[0][1]:.3g} s); the pulse "

@@ -149,3 +149,10 @@ def test_a_segment_without_enough_pulses_is_marked_invalid_not_guessed(make_rig,
     assert json.loads(aligned.attrs["invalid_counts"])["unaligned segment"] == (segment == 1).sum()
     np.testing.assert_allclose(aligned["time"].to_numpy()[segment == 0],
                                rig.offset + (1 + rig.drift) * rig.t_dev[segment == 0], atol=5e-6)
+
+
+def test_exactly_periodic_events_are_ambiguous_too() -> None:
+    ref = np.arange(0.0, 64.0, 0.5)                       # exact binary fractions: zero residual
+    dev = np.arange(0.25, 40.0, 0.5)
+    with pytest.raises(AlignmentError, match="ambiguity"):
+        align.estimate_clock(ref, dev, coarse_offset_s=1.0, max_offset_error_s=2.0)
