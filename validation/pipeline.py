@@ -30,6 +30,7 @@ compare
 from __future__ import annotations
 
 import dataclasses
+import datetime
 import json
 import logging
 import math
@@ -46,7 +47,7 @@ import xarray as xr
 
 from rigval.acquisition.channel_map import load_stream
 from rigval.acquisition.errors import AlignmentError, ConfigError, DataError
-from rigval.acquisition.schema import append_history, parse_start_time
+from rigval.acquisition.schema import parse_start_time
 from rigval.model.mechanism import Mechanism, load_mechanism
 from rigval.model.solver import solve, solve_cycle
 from rigval.processing.align import (
@@ -202,37 +203,58 @@ def _residuals(mapped: np.ndarray, events: np.ndarray, period: float, per_revolu
 
 
 def _recover_segments(clock: ClockModel, events: np.ndarray, edges: np.ndarray,
-                      segments: np.ndarray, period: float, where: Mapping[str, Any]
-                      ) -> ClockModel:
-    """Align segments the clock fit left out, from the offset of their aligned neighbour.
+                      segments: np.ndarray, period: float, per_revolution: int,
+                      where: Mapping[str, Any]) -> ClockModel:
+    """Align segments the clock fit left out, then refit all segments with one shared drift.
 
     A restart (Wi-Fi dropout) starts a segment whose device time comes from a new software
     start stamp, off by milliseconds, not periods: matching it within +-0.4 of a pulse period
     around the previous segment's offset removes the whole-period ambiguity a short segment
-    has on its own. The shared drift is kept; the segment's offset is the mean over its events.
+    has on its own. Every segment's events are then matched around its offset and one least
+    squares fit gives a shared drift, an offset per segment and, with several pulses per
+    revolution, a constant per kind of pulse (each may fire at its own angle); events beyond
+    6 robust sigma are left out. The drift so rests on the whole record.
     """
+    if not clock.unaligned_segments:
+        return clock
     offsets = dict(zip(clock.segments, clock.offsets_s, strict=True))
-    for segment in clock.unaligned_segments:
+    pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    for segment in sorted(set(np.unique(segments).tolist())):
         known = sorted(offsets, key=lambda s: (abs(s - segment), s > segment))
-        if not known:
-            break
         chosen = segments == segment
+        if not known or chosen.sum() < 2:
+            continue
+        coarse = offsets.get(segment, offsets[known[0]])
         try:
             ref_index, dev_index = match_events(
-                events, edges[chosen], coarse_offset_s=offsets[known[0]],
-                max_offset_error_s=0.4 * period, where={**where, "segment": int(segment)})
+                events, edges[chosen], coarse_offset_s=coarse, max_offset_error_s=0.4 * period,
+                where={**where, "segment": int(segment)})
         except AlignmentError as error:
             logger.info("segment %d stays unaligned: %s", segment, error)
             continue
         if ref_index.size >= 2:
-            offsets[int(segment)] = float(np.mean(
-                events[ref_index] - (1.0 + clock.drift) * edges[chosen][dev_index]))
-            logger.info("segment %d aligned from its neighbour: offset %.6f s (%d events)",
-                        segment, offsets[int(segment)], ref_index.size)
-    order = sorted(offsets)
+            pairs.append((ref_index, edges[chosen][dev_index], np.full(ref_index.size, segment)))
+            offsets.setdefault(int(segment), coarse)
+    index, dev, seg = (np.concatenate(column) for column in zip(*pairs, strict=True))
+    ref, kind = events[index], index % per_revolution
+    order = sorted(set(seg.tolist()))
+    columns = [(seg == s).astype(float) for s in order]
+    columns += [(kind == k).astype(float) for k in range(1, per_revolution)] + [dev]
+    design = np.column_stack(columns)
+    keep = np.ones(ref.size, dtype=bool)
+    for _ in range(2):
+        solution, *_ = np.linalg.lstsq(design[keep], ref[keep] - dev[keep], rcond=None)
+        residual = ref - dev - design @ solution
+        spread = 1.4826 * float(np.median(np.abs(residual[keep] - np.median(residual[keep]))))
+        keep = np.abs(residual) <= max(OUTLIER_SIGMAS * spread, 1e-9)
+    logger.info("clock refit on %d events of segments %s: drift %.4f ppm", int(keep.sum()),
+                order, solution[-1] * 1e6)
     return dataclasses.replace(
-        clock, segments=tuple(order), offsets_s=tuple(offsets[s] for s in order),
-        unaligned_segments=tuple(s for s in clock.unaligned_segments if s not in offsets))
+        clock, segments=tuple(int(s) for s in order),
+        offsets_s=tuple(float(solution[i]) for i in range(len(order))),
+        drift=float(solution[-1]), residual_rms_s=float(np.sqrt(np.mean(residual[keep] ** 2))),
+        pulses_matched=int(keep.sum()),
+        unaligned_segments=tuple(s for s in clock.unaligned_segments if s not in order))
 
 
 def _pulse_stretch(aligned: xr.Dataset, channel: str, edges: np.ndarray, period: float
@@ -318,7 +340,8 @@ def _align(scene: Scene, converted: Mapping[str, xr.Dataset]
         where = {"stream": name, "channel": channel}
         clock = estimate_clock(events, edges, segments, coarse_offset_s=coarse,
                                max_offset_error_s=search, where=where)
-        clock = _recover_segments(clock, events, edges, segments, period, where)
+        clock = _recover_segments(clock, events, edges, segments, period,
+                                  pulse.per_revolution, where)
         aligned[name] = align_stream(stream, clock, name=name)
         mapped = clock.to_reference(edges, segments)
         ok = np.isfinite(mapped)
@@ -531,7 +554,9 @@ def _measured_float32(ds: xr.Dataset) -> xr.Dataset:
 
 def _tree(scene: Scene, raw: Mapping[str, xr.Dataset], aligned: Mapping[str, xr.Dataset],
           angle: np.ndarray, grid_times: np.ndarray, measured: Mapping[str, np.ndarray],
-          results: tuple[ComparisonResult, ...], model: xr.Dataset) -> xr.DataTree:
+          results: tuple[ComparisonResult, ...], model: xr.Dataset, steps: list[str]
+          ) -> xr.DataTree:
+    """Build the run's DataTree; history: the streams' processing lines, then ``steps``."""
     cycle = np.arange(grid_times.shape[0])
     angle_ds = xr.Dataset(coords={
         "angle": ("angle", angle, {"units": "rad", "long_name": "main shaft angle phi_F"}),
@@ -580,10 +605,11 @@ def _tree(scene: Scene, raw: Mapping[str, xr.Dataset], aligned: Mapping[str, xr.
     nodes["/validation"] = validation
     tree = xr.DataTree.from_dict(nodes)
     tree.attrs["title"] = scene.title
-    for stream in raw.values():
-        for line in str(stream.attrs.get("history", "")).splitlines():
-            append_history(tree, line.split(" rigval ", 1)[-1])
-    append_history(tree, f"validation.pipeline {scene.path.name}")
+    lines = [line for ds in aligned.values()
+             for line in str(ds.attrs.get("history", "")).splitlines()]
+    lines += [f"{datetime.datetime.now(datetime.UTC):%Y-%m-%dT%H:%M:%SZ} rigval {step}"
+              for step in steps]
+    tree.attrs["history"] = "\n".join(lines)
     return tree
 
 
@@ -659,7 +685,16 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         residuals["max condition number (this run)"] = float(
             model.attrs.get("max_condition_number", math.nan))
     predictions = _predictions(scene, model)
-    tree = _tree(scene, raw, aligned, angle, grid_times, measured, results_t, model)
+    files = ", ".join(spec.file.name for spec in scene.streams.values())
+    steps = [
+        f"validation.pipeline read+convert {files}",
+        f"validation.pipeline angle: {turns.size} revolutions, {n} points per revolution, "
+        f"{scene.angle.interpolation} interpolation, low-pass {corners}",
+        f"validation.pipeline model {scene.mechanism.name}: drives {scene.model.drives}, "
+        f"outputs {_model_request(scene, mechanism)}",
+        f"validation.pipeline compare {', '.join(c.name for c in scene.comparisons)}: "
+        f"{'passed' if all(r.passed for r in results_t) else 'failed'}"]
+    tree = _tree(scene, raw, aligned, angle, grid_times, measured, results_t, model, steps)
     tree["/angle"].attrs["lowpass_hz"] = json.dumps(corners)
     numerics = NumericsSummary(dict(watch.seconds), residuals, grid_error, fine_angle.size)
     logger.info("validated %s in %.2f s: %s", scene.path.name, sum(watch.seconds.values()),

@@ -28,7 +28,7 @@ def add_parser(subparsers: Any) -> None:
     parser.set_defaults(func=run)
 
 
-def print_summary(result: Any, out_dir: Path, stream: TextIO = sys.stdout) -> None:
+def print_summary(result: Any, out_dir: Path, stream: TextIO | None = None) -> None:
     """Print one line per comparison, then the report path and the verdict.
 
     Parameters
@@ -37,9 +37,10 @@ def print_summary(result: Any, out_dir: Path, stream: TextIO = sys.stdout) -> No
         The validation.
     out_dir : pathlib.Path
         Where its report was written.
-    stream : file
-        Where to print.
+    stream : file, optional
+        Where to print; default standard output.
     """
+    stream = stream or sys.stdout
     print(f"{result.scene.title}: {result.n_cycles} revolutions at {result.speed_rev_s:.3f} "
           "rev/s", file=stream)
     width = max(len(c.name) for c in result.comparisons)

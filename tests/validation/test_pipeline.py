@@ -1,0 +1,166 @@
+"""The pipeline on a virtual-rig run with known truth: alignment, agreement, outputs, exit codes."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from rigval.sample_data import RigSettings, simulate_rig
+from rigval.validation.cli import main
+from rigval.validation.pipeline import run_scene, validate_scene
+
+DURATION_S = 12.0
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 12 s virtual-rig run at 1 rev/s with every default imperfection (dropouts included)."""
+    folder = tmp_path_factory.mktemp("rig")
+    simulate_rig(folder, RigSettings(speed=1.0, duration=DURATION_S, seed=7))
+    return folder
+
+
+@pytest.fixture(scope="module")
+def scene_path(run_dir: Path) -> Path:
+    return next(run_dir.glob("*_scene.toml"))
+
+
+@pytest.fixture(scope="module")
+def report_dir(scene_path: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("report")
+    assert main(["validate", str(scene_path), "--out", str(out)]) == 0
+    return out
+
+
+def _truth(run_dir: Path) -> dict:
+    return json.loads(next(run_dir.glob("*_truth.json")).read_text())
+
+
+def _edited(scene_path: Path, tmp_path: Path, old: str, new: str) -> Path:
+    """A copy of the run folder whose scene has ``old`` replaced by ``new``."""
+    folder = tmp_path / "run"
+    shutil.copytree(scene_path.parent, folder)
+    scene = folder / scene_path.name
+    text = scene.read_text()
+    assert old in text, old
+    scene.write_text(text.replace(old, new, 1))
+    return scene
+
+
+def test_clock_offsets_match_the_rig_truth(report_dir: Path, run_dir: Path) -> None:
+    alignment = json.loads((report_dir / "alignment.json").read_text())
+    truth = _truth(run_dir)["streams"]
+    for name in ("wls1", "wls2"):
+        true_offset = truth[name]["segments"][0]["true_start_s"]
+        # the reference clock (cDAQ) counts from its own first sample, which is true time 0
+        assert alignment[name]["offset_s"] == pytest.approx(true_offset, abs=2e-4)
+        relative_drift = truth["cdaq"]["drift_ppm"] - truth[name]["drift_ppm"]
+        # what matters is the timing error it leaves at the end of the record (0.07 deg)
+        drift_error_s = abs(alignment[name]["drift_ppm"] - relative_drift) * 1e-6 * DURATION_S
+        assert drift_error_s < 2e-4
+        assert alignment[name]["events_matched"] >= DURATION_S - 3
+
+
+def test_model_and_measurement_agree(report_dir: Path) -> None:
+    rows = json.loads((report_dir / "metrics.json").read_text())["rows"]
+    ratings = {r["comparison"]: r["value"] for r in rows
+               if r["row"] == "model" and r["metric"] == "iso18571_periodic.rating"}
+    assert set(ratings) == {"acc1", "acc2", "str1", "tor1", "tor2", "tor3", "tor4"}
+    assert all(value > 0.8 for value in ratings.values()), ratings  # ISO "good" or better
+    lags = {r["comparison"]: r["value"] for r in rows
+            if r["row"] == "model" and r["metric"] == "circular_lag.lag_deg"}
+    assert all(abs(v) < 0.5 for v in lags.values()), lags  # aligned to half a degree
+
+
+def test_netcdf_layout(report_dir: Path, scene_path: Path) -> None:
+    tree = xr.open_datatree(next(report_dir.glob("*.nc")))
+    assert {"raw", "aligned", "angle", "model", "validation"} <= set(tree.children)
+    assert set(tree["raw"].children) == {"cdaq", "wls1", "wls2"}
+    assert tree["raw/cdaq"]["acc1"].dtype == np.float32
+    assert tree["model"]["support_force"].dtype == np.float64
+    assert tree["model"]["support_force"].encoding["complevel"] == 4
+    assert tree.attrs["scene_toml"] == scene_path.read_text()
+    angle = tree["angle"].to_dataset()
+    assert angle["acc1"].dims == ("cycle", "angle") and angle["acc1_mean"].dims == ("angle",)
+    assert tree["validation"]["metrics_model"].dims == ("comparison", "score")
+    assert len(tree.attrs["history"].splitlines()) >= 2
+
+
+def test_report_predicts_supports_and_tip(report_dir: Path) -> None:
+    html = (report_dir / "report.html").read_text()
+    for support in ("P3", "P4", "P10", "P11"):
+        assert f">{support}<" in html
+    assert "P1: vertical position, absolute speed and acceleration" in html
+
+
+def test_support_forces_balance_gravity_on_average(report_dir: Path) -> None:
+    """Over a revolution the frame carries the machine's weight: time-mean support = m g.
+
+    The momentum of a periodic motion returns to its start, so its rate averages to zero over a
+    revolution in time (samples uniform in angle are weighted with dt = dphi / omega_F).
+    """
+    tree = xr.open_datatree(next(report_dir.glob("*.nc")))
+    force = tree["model"]["support_force"].sel(axis="y").sum("support")
+    dt = 1.0 / tree["model"]["drive_theta_F_dot"]
+    mean_vertical = float((force * dt).sum() / dt.sum())
+    total_mass = 400 + 35 + 20 + 20 + 60 + 50 + 25 + 30  # pendulum.toml
+    # support_force is the force ON the ground: the weight pushes down
+    assert mean_vertical == pytest.approx(-total_mass * 9.81, rel=2e-4)
+
+
+def test_threshold_failure_exits_1(scene_path: Path, tmp_path: Path,
+                                   capsys: pytest.CaptureFixture[str]) -> None:
+    scene = _edited(scene_path, tmp_path, '"nrmse" = "<= 0.15"', '"nrmse" = "<= 1e-9"')
+    assert main(["validate", str(scene), "--out", str(tmp_path / "out")]) == 1
+    assert "FAIL: nrmse" in capsys.readouterr().out
+
+
+def test_wrong_sign_is_caught(scene_path: Path, tmp_path: Path) -> None:
+    """A torque compared with the wrong sign fails its ISO threshold."""
+    text = scene_path.read_text()
+    block = re.search(r'name = "tor1".*?scale = 0\.5', text, re.S).group(0)
+    scene = _edited(scene_path, tmp_path, block, block.replace("scale = 0.5", "scale = -0.5"))
+    result = run_scene(scene)
+    tor1 = next(c for c in result.comparisons if c.name == "tor1")
+    assert not tor1.passed and tor1.scores["pearson_r"] < -0.99
+
+
+BAD_SCENES = {
+    "missing file": ('file = "', 'file = "missing_', "streams.cdaq.file"),
+    "channel not in file": ('source = "acc1"', 'source = "acc9"', "streams.cdaq"),
+    "unknown model output": ('item = "P1"', 'item = "P13"', "comparisons[0].model.item"),
+    "wrong units": ('quantity = "point_acceleration"', 'quantity = "point_velocity"',
+                    "comparisons[0].model"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_SCENES, ids=list(BAD_SCENES))
+def test_bad_scene_exits_2_naming_the_key(case: str, scene_path: Path, tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    old, new, key = BAD_SCENES[case]
+    scene = _edited(scene_path, tmp_path, old, new)
+    assert main(["validate", str(scene), "--out", str(tmp_path / "out")]) == 2
+    assert key in capsys.readouterr().err
+
+
+def test_corrupt_data_file_exits_3(scene_path: Path, tmp_path: Path,
+                                   capsys: pytest.CaptureFixture[str]) -> None:
+    scene = _edited(scene_path, tmp_path, "schema", "schema")
+    tdms = next(scene.parent.glob("*_wls1.tdms"))
+    tdms.write_bytes(b"version https://git-lfs.github.com/spec/v1\noid sha256:0\nsize 1\n")
+    assert main(["validate", str(scene), "--out", str(tmp_path / "out")]) == 3
+    assert "wls1.tdms" in capsys.readouterr().err
+
+
+def test_validate_scene_returns_what_a_campaign_needs(scene_path: Path, tmp_path: Path) -> None:
+    result = validate_scene(scene_path, tmp_path)
+    assert result.passed
+    assert {p.name for p in result.outputs} >= {"report.html", "metrics.csv", "alignment.json"}
+    assert result.speed_rev_s == pytest.approx(1.0, rel=0.01)
+    assert scene_path.parent / next(scene_path.parent.glob("*_cdaq.tdms")).name in result.inputs
