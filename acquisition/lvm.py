@@ -44,7 +44,7 @@ from rigval.acquisition.timebase import exact_increment
 from rigval.acquisition.unitnames import udunits
 from rigval.acquisition.warn import warn_data
 
-__all__ = ["LvmSegment", "parse_lvm", "read_lvm"]
+__all__ = ["LvmFile", "LvmSegment", "parse_lvm", "read_lvm"]
 
 logger = logging.getLogger(__name__)
 
@@ -77,8 +77,18 @@ class LvmSegment:
 
 
 @dataclass
-class _LvmFile:
-    """A parsed LVM file: file-header tags and segments."""
+class LvmFile:
+    """A parsed LVM file (cells still text).
+
+    Attributes
+    ----------
+    tags : dict
+        File-header tag -> value.
+    separator : str
+        Column separator.
+    segments : list of LvmSegment
+        The segments in file order.
+    """
 
     tags: dict[str, str]
     separator: str
@@ -97,8 +107,20 @@ def _separator(lines: list[str]) -> str:
     return "\t"
 
 
-def parse_lvm(lines: list[str], file: Path | None = None) -> _LvmFile:
+def parse_lvm(lines: list[str], file: Path | None = None) -> LvmFile:
     """Split an LVM file into its file-header tags and segments (cells still as text).
+
+    Parameters
+    ----------
+    lines : list of str
+        The file's lines.
+    file : pathlib.Path, optional
+        For error messages.
+
+    Returns
+    -------
+    LvmFile
+        Tags and segments.
 
     Raises
     ------
@@ -151,7 +173,7 @@ def parse_lvm(lines: list[str], file: Path | None = None) -> _LvmFile:
         raise DataFileError("LVM file holds no 'X_Value' names row and no data",
                             where={"file": str(file) if file else None},
                             hint="the file may hold only a header")
-    return _LvmFile(tags, sep, segments)
+    return LvmFile(tags, sep, segments)
 
 
 def _looks_numeric(cell: str) -> bool:
@@ -214,7 +236,7 @@ class _Column:
     expected: int | None
 
 
-def _columns(lvm: _LvmFile, decimal: str, timezone: str | None, file: Path) -> list[_Column]:
+def _columns(lvm: LvmFile, decimal: str, timezone: str | None, file: Path) -> list[_Column]:
     """Extract every channel column of every segment with its time description."""
     x_mode = lvm.tags.get("X_Columns", "One").strip().lower()
     out: list[_Column] = []
@@ -286,7 +308,7 @@ def _numbers(cells: np.ndarray, decimal: str, file: Path, name: str) -> np.ndarr
     return numbers
 
 
-def _guess_decimal(lvm: _LvmFile) -> str:
+def _guess_decimal(lvm: LvmFile) -> str:
     """Return the decimal separator: the tag, else from the data cells (never header times)."""
     tag = lvm.tags.get("Decimal_Separator")
     if tag:
@@ -396,7 +418,7 @@ def _segment_times(col: _Column, fs: float | None, notes: list[str], file: Path)
                         hint="pass fs=... (Hz)")
 
 
-def _stream(parts: list[list[_Column]], lvm: _LvmFile, file: Path, fs: float | None,
+def _stream(parts: list[list[_Column]], lvm: LvmFile, file: Path, fs: float | None,
             time_range: tuple[float | None, float | None] | None, profile: Any,
             modules: Mapping[str, str] | None, sha: str, timezone: str | None) -> xr.Dataset:
     """Build one stream from the same channels in one or more segments."""

@@ -43,7 +43,7 @@ from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFil
 from rigval.acquisition.schema import Channel, stream_dataset
 from rigval.acquisition.unitnames import split_name_and_unit, udunits
 
-__all__ = ["read_csv", "read_text_lines", "sniff_csv"]
+__all__ = ["CsvLayout", "read_csv", "read_text_lines", "sniff_csv"]
 
 logger = logging.getLogger(__name__)
 
@@ -87,7 +87,27 @@ class CsvLayout:
 
 
 def read_text_lines(path: Path, encoding: str | None = None) -> list[str]:
-    """Return the lines of a text file (UTF-8 with or without BOM, else cp1252)."""
+    """Return the lines of a text file.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file.
+    encoding : str, optional
+        Text encoding; default UTF-8 (with or without BOM), else cp1252.
+
+    Returns
+    -------
+    list of str
+        Lines without line ends.
+
+    Raises
+    ------
+    DataFileError
+        If the bytes do not decode.
+    ConfigError
+        For an unknown encoding name.
+    """
     raw = path.read_bytes()
     for candidate in ([encoding] if encoding else ["utf-8-sig", "cp1252"]):
         try:
