@@ -58,9 +58,9 @@ _IntArray = NDArray[np.int64]
 _SCORING_SPAN_S = 60.0
 #: A runner-up candidate whose residual scale is within this factor of the best makes the match
 #: ambiguous.
+_AMBIGUITY_FACTOR = 3.0
 #: Residual scales below this (s) count as equal: no clock is timed better than a nanosecond.
 _TIMING_FLOOR_S = 1e-9
-_AMBIGUITY_FACTOR = 3.0
 
 
 def ni9237_input_delay(fs: float) -> float:
