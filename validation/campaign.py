@@ -454,12 +454,22 @@ def _client(scheduler: str | Client, workers: int | None, n_runs: int) -> Iterat
     if scheduler != "local":
         if workers is not None:
             logger.info("--workers is ignored with an existing cluster at %s", scheduler)
-        with Client(scheduler) as client:
+        try:
+            client = Client(scheduler)
+        except OSError as error:
+            raise ConfigError(f"cannot reach the Dask scheduler at {scheduler}: {error}",
+                              where={"option": "--scheduler"},
+                              hint="check the address and that the scheduler is running "
+                                   "(`dask scheduler` prints its address)") from error
+        with client:
             yield client
         return
     n_workers = max(1, min(workers or os.cpu_count() or 1, n_runs))
+    # No dashboard; the scheduler's small HTTP server (health checks) on a free local port, so
+    # that two campaigns on one machine do not compete for port 8787.
     with (LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                       dashboard_address=None) as cluster,
+                       dashboard_address=None,
+                       scheduler_kwargs={"dashboard_address": "localhost:0"}) as cluster,
           Client(cluster) as client):
         logger.info("local Dask cluster with %d worker processes", n_workers)
         yield client

@@ -221,3 +221,10 @@ def test_cli_exit_code_says_the_worst_run(tmp_path: Path, scenes: list[Path], na
         f"{names.count('slow')} passed, {names.count('fast')} failed, "
         f"{names.count('broken')} errors")
     assert ("DataFileError" in captured.err) == ("broken" in names)
+
+
+def test_unreachable_scheduler_is_a_config_error(tmp_path: Path, scenes: list[Path]) -> None:
+    dask = pytest.importorskip("dask", reason="the parallel extra is not installed")
+    with (dask.config.set({"distributed.comm.timeouts.connect": "1s"}),
+          pytest.raises(ConfigError, match="cannot reach the Dask scheduler")):
+        run_campaign(scenes[:1], tmp_path / "out", scheduler="tcp://127.0.0.1:1")

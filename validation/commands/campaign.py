@@ -8,6 +8,7 @@ completed); 2 a usage error (e.g. ``--scheduler`` needs Dask and it is not insta
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 import time
 from typing import TYPE_CHECKING, Any, TextIO
@@ -47,6 +48,10 @@ def run(args: argparse.Namespace) -> int:
     """Run the campaign and return the exit code (see the module docstring)."""
     from rigval.validation.campaign import run_campaign
     from rigval.validation.campaign_report import write_campaign_report
+
+    # Dask logs its cluster's start and stop at INFO; show that only with -vv.
+    verbose = logging.getLogger().getEffectiveLevel() <= logging.DEBUG
+    logging.getLogger("distributed").setLevel(logging.INFO if verbose else logging.WARNING)
 
     progress = _ProgressLine(len(args.scenes), sys.stderr,
                              enabled=not args.no_progress and sys.stderr.isatty())

@@ -1,0 +1,67 @@
+"""Campaign throughput: runs per minute one after the other, and on 1 and 2 Dask worker processes.
+
+Generates ``--runs`` runs with the virtual rig (speeds spread over 1.0 ... 2.0 rev/s, ``--duration``
+seconds each, no Wi-Fi dropouts), then validates all of them as a campaign three ways, each into a
+fresh folder (nothing reused):
+
+* ``none``: one after the other in this process (what runs without the parallel extra),
+* ``local`` with 1 and with 2 worker processes (the embedded LocalCluster).
+
+Wall time is what a user waits for ``rigval campaign``: cluster start, worker imports, the runs, and
+shutting the cluster down. ``mean run s`` is the mean wall time of one validation inside its worker.
+The machine's load average is printed: other processes on the machine slow every figure down.
+
+Usage::
+
+    python benchmarks/bench_campaign.py [--runs 6] [--duration 8]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from rigval.sample_data import Imperfections, RigSettings, simulate_rig
+from rigval.validation.campaign import run_campaign
+
+
+def generate(folder: Path, runs: int, duration: float) -> list[Path]:
+    speeds = [1.0 + i / max(runs - 1, 1) for i in range(runs)]
+    quiet = Imperfections(dropouts=0, start_offset_s=0.3)
+    return [simulate_rig(folder / f"run{i}", RigSettings(speed=round(speed, 3), duration=duration,
+                                                          seed=i, preroll=3.0,
+                                                          imperfections=quiet)).path("scene.toml")
+            for i, speed in enumerate(speeds)]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=6)
+    parser.add_argument("--duration", type=float, default=8.0, help="record length per run, s")
+    args = parser.parse_args()
+
+    with tempfile.TemporaryDirectory() as tmp:
+        base = Path(tmp)
+        start = time.perf_counter()
+        scenes = generate(base / "rig", args.runs, args.duration)
+        print(f"generated {len(scenes)} runs of {args.duration:g} s in "
+              f"{time.perf_counter() - start:.1f} s; {os.cpu_count()} CPUs")
+        print(f"{'scheduler':<10} {'workers':>7} {'runs':>5} {'errors':>6} {'wall s':>8} "
+              f"{'runs/min':>9} {'mean run s':>10} {'load avg':>8}")
+        for scheduler, workers in (("none", 1), ("local", 1), ("local", 2)):
+            start = time.perf_counter()
+            outcomes = run_campaign(scenes, base / f"out-{scheduler}-{workers}",
+                                    scheduler=scheduler, workers=workers)
+            wall = time.perf_counter() - start
+            errors = sum(o.status == "error" for o in outcomes)
+            mean_run = statistics.fmean(o.elapsed_s for o in outcomes)
+            print(f"{scheduler:<10} {workers:>7} {len(outcomes):>5} {errors:>6} {wall:8.1f} "
+                  f"{60 * len(outcomes) / wall:9.2f} {mean_run:10.1f} {os.getloadavg()[0]:8.1f}")
+
+
+if __name__ == "__main__":
+    main()
