@@ -73,6 +73,7 @@ _HARMONIC_KEYS = ("amplitude", "order", "phase")
 _CHUNK_ROWS = 8192
 _ERROR_GRID = 720
 _TRUNCATION_ORDERS = 3
+_PERIOD_STEPS = 4
 _ROUNDOFF = 64 * np.finfo(float).eps
 
 
@@ -251,7 +252,7 @@ class Excitation:
     def to_dataset(self, t: npt.ArrayLike) -> xr.Dataset:
         """Return the drive angles and derivatives at times ``t`` (s) as a Dataset.
 
-        Variables ``<drive>`` (rad), ``<drive>_speed`` (rad s-1) and ``<drive>_acceleration``
+        Variables ``<drive>`` (rad), ``<drive>_dot`` (rad s-1) and ``<drive>_ddot``
         (rad s-2) along dim ``time``: the form processing identifies from encoders, and the form
         :func:`excitation_from_measured` reads.
         """
@@ -259,9 +260,9 @@ class Excitation:
         data: dict[str, Any] = {}
         for name, (theta, speed, accel) in self.evaluate(t).items():
             data[name] = ("time", theta, {"units": "rad", "long_name": f"{name} drive angle"})
-            data[f"{name}_speed"] = ("time", speed, {"units": "rad s-1",
+            data[f"{name}_dot"] = ("time", speed, {"units": "rad s-1",
                                                      "long_name": f"{name} angular speed"})
-            data[f"{name}_acceleration"] = ("time", accel, {
+            data[f"{name}_ddot"] = ("time", accel, {
                 "units": "rad s-2", "long_name": f"{name} angular acceleration"})
         coords = {"time": ("time", t, {"units": "s", "long_name": "time from cycle start"})}
         return xr.Dataset(data, coords=coords)
@@ -710,17 +711,30 @@ def fit_periodic_profile(t: npt.ArrayLike, theta: npt.ArrayLike, *, period: floa
     available = min(100, (n - 1) // 3)
     largest = available if max_order is None else max(0, min(int(max_order), available))
     gram, rhs = _normal_equations(tau, y, min(largest + _TRUNCATION_ORDERS, available))
-    y2 = float(y @ y)
-    scores = []
-    for order in range(largest + 1):
-        p = 2 * order + 1
-        coef = scipy.linalg.solve(gram[:p, :p], rhs[:p], assume_a="pos")
-        rss = max(y2 - float(coef @ rhs[:p]), 0.0)
-        scores.append(n * rss / (n - p) ** 2)
-    order = int(np.argmin(scores))
+    # Nested least squares from one Cholesky factor: the leading block of R factors the leading
+    # block of A^T A, and with z = R^-T A^T y the residual of the first p columns is
+    # y^T y - sum(z[:p]**2).
+    while True:
+        try:
+            full_factor = scipy.linalg.cholesky(gram, lower=False)
+            break
+        except np.linalg.LinAlgError:  # high orders nearly dependent (samples bunched in phase)
+            if available == 0:
+                raise DataError("the profile's samples do not determine even a constant",
+                                where=where, hint="check the time column") from None
+            available //= 2
+            largest = min(largest, available)
+            size = 2 * min(largest + _TRUNCATION_ORDERS, available) + 1
+            gram, rhs = gram[:size, :size], rhs[:size]
+    projected = scipy.linalg.solve_triangular(full_factor, rhs, trans="T")
+    explained = np.cumsum(projected**2)
+    orders = np.arange(largest + 1)
+    sizes = 2 * orders + 1
+    rss = np.maximum(float(y @ y) - explained[sizes - 1], 0.0)
+    order = int(np.argmin(n * rss / (n - sizes) ** 2.0))
     p = 2 * order + 1
-    factor = scipy.linalg.cholesky(gram[:p, :p], lower=False)
-    coef = scipy.linalg.cho_solve((factor, False), rhs[:p])
+    factor = full_factor[:p, :p]
+    coef = scipy.linalg.solve_triangular(factor, projected[:p])
     residual = np.concatenate([
         y[s:s + _CHUNK_ROWS] - _basis(tau[s:s + _CHUNK_ROWS], order) @ coef
         for s in range(0, n, _CHUNK_ROWS)])
@@ -731,7 +745,7 @@ def fit_periodic_profile(t: npt.ArrayLike, theta: npt.ArrayLike, *, period: floa
     extra_coef = None
     if extra > order:
         pe = 2 * extra + 1
-        extra_coef = scipy.linalg.solve(gram[:pe, :pe], rhs[:pe], assume_a="pos")
+        extra_coef = scipy.linalg.solve_triangular(full_factor[:pe, :pe], projected[:pe])
     for derivative in range(3):
         rows = _basis(grid, order, derivative)
         spread = scipy.linalg.solve_triangular(factor, rows.T, trans="T")
@@ -779,14 +793,17 @@ def _whole_turns_period(t: np.ndarray, theta: np.ndarray, name: str) -> float:
 
 
 def excitation_from_measured(data: xr.Dataset, names: Sequence[str], *, main: str | None = None,
-                             period: float | None = None) -> Excitation:
+                             period: float | None = None,
+                             offsets: Mapping[str, float] | None = None) -> Excitation:
     """Return the periodic excitation identified from a measured run's drive angles.
 
     Each drive angle ``data[name]`` (rad, along ``time`` in s) is fitted by
     :func:`fit_periodic_profile` over all its cycles, with the cycle period from the main drive's
-    mean speed unless given. Where ``data`` also holds ``<name>_speed`` and ``<name>_acceleration``
-    (what processing derives from the encoders), their deviation from the fitted law is logged:
-    it measures how far the run departs from one repeating cycle.
+    whole turns unless given. Where ``data`` also holds ``<name>_dot`` and ``<name>_ddot`` (what
+    :func:`rigval.processing.excitation.drive_excitation` derives from the encoders), their rms
+    deviation from the fitted law is logged: it measures how far the run departs from one
+    repeating cycle. Samples whose time or angle is not finite (gaps) are left out and counted in
+    the log.
 
     Parameters
     ----------
@@ -797,7 +814,10 @@ def excitation_from_measured(data: xr.Dataset, names: Sequence[str], *, main: st
     main : str, optional
         Main drive; default ``names[0]``.
     period : float, optional
-        Cycle period, s; default one main-drive revolution at its mean speed.
+        Cycle period, s; default from the main drive's whole turns.
+    offsets : mapping of str to float, optional
+        Angle (rad) added to a measured angle to give the driven body's absolute angle in the
+        mechanism's frame (an encoder counts from wherever it started); default 0.
 
     Returns
     -------
@@ -805,26 +825,81 @@ def excitation_from_measured(data: xr.Dataset, names: Sequence[str], *, main: st
         The laws with their stated errors; t = 0 at the first sample.
     """
     main = names[0] if main is None else main
+    offsets = dict(offsets or {})
     missing = [name for name in names if name not in data.data_vars]
     if missing:
         raise ChannelNotFoundError(f"the measured excitation lacks drive angles {missing}",
                                    where={"variables": missing},
                                    hint="identify the excitation from the encoders first",
                                    available=list(map(str, data.data_vars)))
-    t = np.asarray(data["time"].values, dtype=float)
-    if period is None:
-        period = _whole_turns_period(t, np.asarray(data[main].values, dtype=float), main)
+    t_all = np.asarray(data["time"].values, dtype=float)
     laws = []
-    for name in names:
-        fit = fit_periodic_profile(t, data[name].values, period=period,
+    for name in [main, *(n for n in names if n != main)]:
+        angle = np.asarray(data[name].values, dtype=float) + float(offsets.get(name, 0.0))
+        keep = np.isfinite(t_all) & np.isfinite(angle)
+        if not np.all(keep):
+            logger.info("measured %s: %d of %d samples are not finite and left out", name,
+                        int(np.count_nonzero(~keep)), keep.size)
+        t = t_all[keep]
+        if period is None:
+            period = _refine_period(t, angle[keep], _whole_turns_period(t, angle[keep], main))
+        fit = fit_periodic_profile(t - t_all[0], angle[keep], period=period,
                                    source=f"measured {name}")
-        laws.append((name, fit.law))
-        if f"{name}_speed" in data.data_vars:
-            _, speed, accel = fit.law.evaluate(t - t[0], 2.0 * math.pi / period)
-            dev_speed = float(np.sqrt(np.mean((speed - data[f"{name}_speed"].values) ** 2)))
-            text = f"{dev_speed:.3g} rad/s"
-            if f"{name}_acceleration" in data.data_vars:
-                dev_accel = np.sqrt(np.mean((accel - data[f"{name}_acceleration"].values) ** 2))
-                text += f", {float(dev_accel):.3g} rad/s^2"
-            logger.info("measured %s departs from its periodic law by rms %s", name, text)
-    return Excitation(frequency=1.0 / period, laws=tuple(laws), main=main)
+        law = fit.law
+        if t[0] != t_all[0]:  # the fit's t = 0 is its first kept sample; move it to the record's
+            law = _shift_time(law, (t[0] - t_all[0]) * 2.0 * math.pi / period)
+        laws.append((name, law))
+        _log_departure(name, law, data, keep, t - t_all[0], 2.0 * math.pi / period)
+    assert period is not None
+    ordered = tuple(next(item for item in laws if item[0] == name) for name in names)
+    return Excitation(frequency=1.0 / period, laws=ordered, main=main)
+
+
+def _refine_period(t: np.ndarray, theta: np.ndarray, period: float) -> float:
+    """Refine a period estimate by Gauss-Newton on the periodic fit's residual, s.
+
+    The fitted law depends on the period through the phase ``2 pi t / period``; its derivative
+    with respect to the period is ``s = -(t / period) d theta / dt``. With the Fourier columns
+    ``A`` of the fit and its residual ``r`` (orthogonal to ``A``), the Gauss-Newton step is
+    ``s^T r / (s^T s - b^T (A^T A)^-1 b)``, ``b = A^T s``. A few steps remove the bias of the
+    interpolated whole-turn estimate (about 1e-8 relative at 1 ms sampling).
+    """
+    for _ in range(_PERIOD_STEPS):
+        fit = fit_periodic_profile(t, theta, period=period)
+        order = fit.law.error.order if fit.law.error is not None else 0
+        elapsed = t - t[0]
+        model, speed, _ = fit.law.evaluate(elapsed, 2.0 * math.pi / period)
+        sensitivity = -elapsed / period * speed
+        tau = 2.0 * math.pi * elapsed / period
+        gram, projection = _normal_equations(tau, sensitivity, order)
+        explained = float(projection @ scipy.linalg.solve(gram, projection, assume_a="pos"))
+        step = float(sensitivity @ (theta - model)) / (float(sensitivity @ sensitivity)
+                                                        - explained)
+        period += step
+        if abs(step) <= 1e-13 * period:
+            break
+    return period
+
+
+def _shift_time(law: DriveLaw, phase: float) -> DriveLaw:
+    """Return the law delayed by ``phase`` (rad of the cycle): ``new(tau) = law(tau - phase)``."""
+    harmonics = tuple(dataclasses.replace(h, phase=h.phase - h.order * phase)
+                      for h in law.harmonics)
+    return dataclasses.replace(law, theta0=law.theta0 - law.ratio * phase, harmonics=harmonics)
+
+
+def _log_departure(name: str, law: DriveLaw, data: xr.Dataset, keep: np.ndarray, t: np.ndarray,
+                   omega: float) -> None:
+    """Log the rms departure of measured derivatives from the fitted periodic law."""
+    if f"{name}_dot" not in data.data_vars:
+        return
+    _, speed, accel = law.evaluate(t, omega)
+    text = f"{_rms(speed - data[f'{name}_dot'].values[keep]):.3g} rad/s"
+    if f"{name}_ddot" in data.data_vars:
+        text += f", {_rms(accel - data[f'{name}_ddot'].values[keep]):.3g} rad/s^2"
+    logger.info("measured %s departs from its periodic law by rms %s", name, text)
+
+
+def _rms(values: np.ndarray) -> float:
+    finite = values[np.isfinite(values)]
+    return float(np.sqrt(np.mean(finite**2))) if finite.size else math.nan

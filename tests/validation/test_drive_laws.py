@@ -211,3 +211,25 @@ def test_law_dataclass_round_trip_through_evaluate() -> None:
     angle, t = excitation.cycle_times(64)
     theta = law.evaluate(t, excitation.omega)[0]
     np.testing.assert_allclose(-(theta - theta[0]), angle, atol=1e-12)
+
+
+def test_measured_excitation_with_a_gap_and_encoder_offsets() -> None:
+    """Encoders count from zero and the record has a gap: offsets and the gap are handled."""
+    truth = excitation_from_drivers(PENDULUM_DRIVERS).with_frequency(1.1)
+    t = np.arange(0.0, 4.0, 1e-3)
+    data = truth.to_dataset(t)
+    starts = {name: float(data[name][0]) for name in truth.names}
+    for name in truth.names:
+        values = data[name].values - starts[name]  # encoder angle from its start
+        values[500:900] = np.nan  # a wireless dropout
+        data[name] = ("time", values)
+    measured = excitation_from_measured(data, truth.names, offsets=starts)
+    assert measured.frequency == pytest.approx(1.1, rel=1e-12)
+    dense = np.linspace(0.0, 3.0, 501)
+    got, expected = measured.evaluate(dense), truth.evaluate(dense)
+    for name in truth.names:
+        law = measured.law(name)
+        assert law.error.samples == t.size - 400
+        for g, e, bound in zip(got[name], expected[name], law.error.at(measured.omega),
+                               strict=True):
+            assert np.max(np.abs(g - e)) <= bound
