@@ -230,3 +230,18 @@ def test_files_that_are_not_tdms_are_refused_with_their_path(tmp_path: Path) -> 
         read(garbage)
     with pytest.raises(DataFileError, match="file not found"):
         read(tmp_path / "missing.tdms")
+
+
+def test_a_stale_index_file_next_to_the_data_is_not_trusted(tmp_path: Path) -> None:
+    props = {"wf_increment": 1e-3, "wf_start_time": T0, "wf_start_offset": 0.0}
+    short, long = tmp_path / "short.tdms", tmp_path / "long.tdms"
+    with TdmsWriter(str(short), index_file=True) as writer:
+        writer.write_segment([GroupObject("task"), ChannelObject("task", "x", np.zeros(10), props)])
+    with TdmsWriter(long) as writer:
+        for k in range(3):
+            writer.write_segment([ChannelObject("task", "x", np.full(10, float(k)), props)])
+    short.write_bytes(long.read_bytes())  # data copied over, the old .tdms_index left behind
+    assert Path(f"{short}_index").exists()
+    assert len(TdmsFile.read(short)["task"]["x"]) == 10  # nptdms trusts the stale index
+    ds = read_stream(short)
+    np.testing.assert_array_equal(ds["x"].values, np.repeat([0.0, 1.0, 2.0], 10))
