@@ -23,11 +23,12 @@ __all__ = ["describe"]
 
 def _describe_tdms(path: Path, **options: Any) -> dict[str, Any]:
     """Describe a TDMS file from its segment metadata."""
-    from rigval.acquisition.tdms import plan_tdms
+    from rigval.acquisition.tdms import plan_tdms, warn_about_plans
     from rigval.acquisition.tdms_layout import object_path_parts, scan_tdms
 
     layout = scan_tdms(path)
     plans = plan_tdms(layout, **options)
+    warn_about_plans(layout, plans)
     skipped = sorted({object_path_parts(p)[0] for p in layout.channels}
                      - {p.group for p in plans})
     streams = []

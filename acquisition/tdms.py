@@ -52,7 +52,7 @@ from rigval.acquisition.tdms_layout import (
 from rigval.acquisition.timebase import Block, TimeBase, exact_increment
 from rigval.acquisition.warn import warn_data
 
-__all__ = ["TdmsStreamPlan", "iter_tdms", "plan_tdms", "read_tdms"]
+__all__ = ["TdmsStreamPlan", "iter_tdms", "plan_tdms", "read_tdms", "warn_about_plans"]
 
 logger = logging.getLogger(__name__)
 
@@ -579,8 +579,21 @@ def _build(layout: TdmsLayout, plan: TdmsStreamPlan, data: Mapping[str, np.ndarr
         fs_nominal=plan.fs_nominal, segment=plan.timebase.segments(start, stop), attrs=attrs)
 
 
-def _check_warnings(layout: TdmsLayout, plans: list[TdmsStreamPlan]) -> None:
-    """Issue the warnings the plans call for (truncation, unusable time axis, scales)."""
+def warn_about_plans(layout: TdmsLayout, plans: list[TdmsStreamPlan]) -> None:
+    """Warn about what the plans found: truncation, an unusable time axis, unapplied scales.
+
+    Parameters
+    ----------
+    layout : TdmsLayout
+        The file's structure.
+    plans : list of TdmsStreamPlan
+        From :func:`plan_tdms`.
+
+    Warns
+    -----
+    DataWarning
+        One per problem, with counts; benign fallbacks are logged at INFO level instead.
+    """
     for plan in plans:
         _warn_truncation(layout, plan)
         for note in plan.notes:
@@ -654,7 +667,7 @@ def read_tdms(path: str | os.PathLike[str], *, group: str | Sequence[str] | None
         layout = scan_tdms(file, handle)
         plans = plan_tdms(layout, group=group, channels=channels, fs=fs,
                           include_decimated=include_decimated)
-        _check_warnings(layout, plans)
+        warn_about_plans(layout, plans)
         sha = source_checksum(file, checksum)
         tdms = _open_nptdms(handle, layout)
         streams: dict[str, xr.Dataset] = {}
@@ -719,7 +732,7 @@ def iter_tdms(path: str | os.PathLike[str], *, group: str | None = None,
                 f"{[p.name for p in plans]}", where={"file": str(file)},
                 hint="pass group=... and/or channels=... to pick one")
         plan = plans[0]
-        _check_warnings(layout, plans)
+        warn_about_plans(layout, plans)
         sha = source_checksum(file, checksum)
         tdms = _open_nptdms(handle, layout)
         yield from _windows(tdms, layout, plan, chunk_samples, device, modules, sha)
