@@ -75,14 +75,23 @@ def test_profile_option_matches_the_file_law(tmp_path: Path) -> None:
 
 
 def test_measured_excitation_file(tmp_path: Path) -> None:
+    """Encoder angles counted from zero plus offsets reproduce the file-law prediction."""
     mechanism = resolve_mechanism("builtin:pendulum")
     measured = file_excitation(mechanism).to_dataset(np.arange(0.0, 3.0, 2e-3))
+    offsets = {name: float(measured[name][0]) for name in ("theta_F", "theta_H")}
+    for name, offset in offsets.items():
+        measured[name] = measured[name] - offset
     path = tmp_path / "excitation.nc"
     measured.to_netcdf(path)
     code = main(["predict", "builtin:pendulum", "--out", str(tmp_path / "out"), "--points", "36",
-                 "--measured", str(path)])
+                 "--measured", str(path),
+                 *(f"--measured-offset={k}={v!r}" for k, v in offsets.items())])
     assert code == EXIT_OK
-    assert (tmp_path / "out" / "report.html").is_file()
+    tree = xr.open_datatree(tmp_path / "out" / "prediction.nc", engine="h5netcdf")
+    exact = predict(mechanism, n_points=36)
+    np.testing.assert_allclose(tree["prediction"]["driver_torque"].values,
+                               exact["driver_torque"].values,
+                               atol=1e-6 * float(np.abs(exact["driver_torque"]).max()))
 
 
 @pytest.mark.parametrize("options", [
@@ -92,6 +101,7 @@ def test_measured_excitation_file(tmp_path: Path) -> None:
     ["--sweep", "a=1", "--sweep", "b=2", "--sweep", "c=3"],
     ["--sweep", "frequency=1,2", "--summary", "nonsense"],
     ["--joint", "P99"],
+    ["--measured", "x.nc", "--drive", "theta_F={phase = 1}"],
 ])
 def test_bad_options_are_usage_errors(tmp_path: Path, options: list[str],
                                       capsys: pytest.CaptureFixture[str]) -> None:

@@ -37,6 +37,9 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--measured", metavar="FILE.nc",
                         help="netCDF of drive angles identified from a measured run (variables "
                              "named as the drivers, dim time); replaces the file's laws")
+    parser.add_argument("--measured-offset", action="append", default=[], metavar="NAME=RAD",
+                        help="angle added to a measured drive angle to give the driven body's "
+                             "absolute angle (encoders count from where they started)")
     parser.add_argument("--sweep", action="append", default=[], metavar="NAME=VALUES",
                         help="sweep one parameter (give at most two)")
     parser.add_argument("--summary", metavar="NAMES",
@@ -60,6 +63,7 @@ def run(args: argparse.Namespace) -> int:
     import xarray as xr
 
     from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
+    from rigval.validation.drive_laws import excitation_from_measured
     from rigval.validation.predict import (
         SUMMARIES,
         make_excitation,
@@ -79,11 +83,13 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError("--measured and --drive exclude each other",
                               where={"option": "--measured"}, hint="give one of them")
         try:
-            drives: Any = xr.load_dataset(args.measured)
+            measured = xr.load_dataset(args.measured)
         except (OSError, ValueError) as error:
             raise DataFileError(f"cannot read the measured excitation: {error}",
                                 where={"file": args.measured},
                                 hint="give a netCDF file with the drive angles") from None
+        drives: Any = excitation_from_measured(measured, mechanism.driver_names, main=args.main,
+                                               offsets=_offsets(args.measured_offset))
     else:
         drives = list(args.drive)
     try:  # a name that does not exist in the mechanism is a usage error here (exit 2)
@@ -118,11 +124,26 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _offsets(options: list[str]) -> dict[str, float]:
+    """Parse ``NAME=RAD`` measured-angle offsets."""
+    from rigval.acquisition.errors import ConfigError
+
+    offsets = {}
+    for text in options:
+        name, _, value = text.partition("=")
+        try:
+            offsets[name.strip()] = float(value)
+        except ValueError:
+            raise ConfigError(f"cannot read the offset {text!r}", where={"option": text},
+                              hint="write NAME=RAD, e.g. theta_F=1.4613") from None
+    return offsets
+
+
 def _command_line(args: argparse.Namespace) -> str:
     """Return the command line that reproduces this prediction (for the report page)."""
     words = ["rigval", "predict", args.mechanism, "--out", args.out]
     for option, values in (("--drive", args.drive), ("--sweep", args.sweep),
-                           ("--joint", args.joint)):
+                           ("--joint", args.joint), ("--measured-offset", args.measured_offset)):
         for value in values:
             words += [option, value]
     for option, value in (("--measured", args.measured), ("--summary", args.summary),
