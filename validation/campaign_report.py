@@ -147,7 +147,7 @@ def plot_metrics_against_speed(table: pd.DataFrame, *, metrics: Sequence[str] | 
             ax.plot(group["speed_rev_s"], group["value"], marker="o", label=str(comparison))
             missed = group[group["passed"].map(lambda p: p is False or p is np.False_)]
             ax.plot(missed["speed_rev_s"], missed["value"], linestyle="none", marker="o",
-                    markersize=11, markerfacecolor="none", markeredgecolor="tab:red")
+                    markersize=11, markerfacecolor="none", color="tab:red")  # keeps the cycle
         thresholds = part["threshold"].dropna().unique()
         title = metric
         if len(thresholds) == 1:

@@ -8,6 +8,7 @@ one run after the other in this process (the cluster path is tested in test_camp
 
 from __future__ import annotations
 
+import io
 import json
 import pickle
 import tomllib
@@ -24,9 +25,11 @@ from rigval.validation.campaign import RunError, RunReport, plan_runs, run_campa
 from rigval.validation.campaign_report import (
     metrics_table,
     open_campaign,
+    plot_metrics_against_speed,
     write_campaign_report,
 )
 from rigval.validation.cli import main
+from rigval.validation.commands.campaign import _ProgressLine
 
 LIMIT = 1.0
 CALLS: list[str] = []
@@ -228,3 +231,26 @@ def test_unreachable_scheduler_is_a_config_error(tmp_path: Path, scenes: list[Pa
     with (dask.config.set({"distributed.comm.timeouts.connect": "1s"}),
           pytest.raises(ConfigError, match="cannot reach the Dask scheduler")):
         run_campaign(scenes[:1], tmp_path / "out", scheduler="tcp://127.0.0.1:1")
+
+
+def test_speed_plot_shows_each_run_and_rings_missed_thresholds(tmp_path: Path,
+                                                               scenes: list[Path]) -> None:
+    outcomes = run_campaign(scenes, tmp_path / "out", scheduler="none", validate=standin_validate)
+    fig = plot_metrics_against_speed(metrics_table(outcomes))
+    mean_ax, peak_ax = (ax for ax in fig.axes if ax.get_visible())
+    assert mean_ax.get_title() == f"mean (pass: <= {LIMIT})"
+    line, rings, limit = mean_ax.get_lines()
+    np.testing.assert_allclose(line.get_xydata(), [[0.5, 0.3], [1.5, 1.5]])
+    np.testing.assert_allclose(rings.get_xydata(), [[1.5, 1.5]])  # the failed run only
+    assert limit.get_ydata()[0] == LIMIT
+    np.testing.assert_allclose(peak_ax.get_lines()[0].get_xydata(), [[0.5, 0.4], [1.5, 2.0]])
+
+
+def test_progress_line_counts_runs_by_status(tmp_path: Path, scenes: list[Path]) -> None:
+    stream = io.StringIO()
+    progress = _ProgressLine(3, stream, enabled=True)
+    run_campaign(scenes, tmp_path / "out", scheduler="none", validate=standin_validate,
+                 on_result=progress.update)
+    progress.close()
+    last = stream.getvalue().rstrip("\n").split("\r")[-1]
+    assert "3/3 runs (1 passed, 1 failed, 1 errors)" in last
