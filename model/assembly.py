@@ -183,19 +183,19 @@ def newton(system: LoopSystem, base: np.ndarray, theta_u: np.ndarray, tol: float
 class Taylor:
     """Second-order expansion of the undriven angles in the driven angles at some configurations.
 
-    ``theta_u(theta_d + d) = theta_u + T d + 1/2 sum_jk Q[:, j, k] d_j d_k``.
+    ``theta_u(theta_d + d) = theta_u + T d + 1/2 sum_jk Q[:, j, k] d_j d_k``, with ``T`` stored as
+    ``first`` (n, n_u, n_d) and ``Q`` as ``second`` (n, n_u, n_d * n_d).
     """
 
-    theta_d: np.ndarray
     theta_u: np.ndarray
     first: np.ndarray
     second: np.ndarray
 
     def predict(self, rows: np.ndarray, delta: np.ndarray) -> np.ndarray:
         """Predicted undriven angles at driven-angle increments ``delta`` from anchors ``rows``."""
-        lin = np.einsum("nij,nj->ni", self.first[rows], delta)
-        quad = np.einsum("nijk,nj,nk->ni", self.second[rows], delta, delta)
-        return self.theta_u[rows] + lin + 0.5 * quad
+        pairs = (delta[:, :, None] * delta[:, None, :]).reshape(delta.shape[0], -1, 1)
+        change = self.first[rows] @ delta[:, :, None] + 0.5 * (self.second[rows] @ pairs)
+        return self.theta_u[rows] + change[:, :, 0]
 
 
 def taylor(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> Taylor:
@@ -203,16 +203,16 @@ def taylor(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> Tayl
     z = phasor(full_angles(system, theta_d, theta_u))
     jac_u = system.jacobian(z, system.undriven)
     jac_d = system.jacobian(z, system.driven)
-    inv = np.linalg.inv(jac_u) if jac_u.shape[-1] == jac_u.shape[-2] else np.linalg.pinv(jac_u)
+    square = jac_u.shape[-1] == jac_u.shape[-2]
+    inv = np.linalg.inv(jac_u) if square else np.linalg.pinv(jac_u)
     first = -inv @ jac_d
-    n_bodies = z.shape[-1]
-    velocity = np.zeros((*z.shape[:-1], n_bodies, system.driven.size))
+    n_d = system.driven.size
+    velocity = np.zeros((*z.shape, n_d))
     velocity[:, system.undriven] = first
-    velocity[:, system.driven] = np.eye(system.driven.size)
-    curvature = system.curvature(z)
-    bend = np.einsum("nlm,nmj,nmk->nljk", curvature, velocity, velocity)
-    second = -np.einsum("nil,nljk->nijk", inv, bend)
-    return Taylor(theta_d, theta_u, first, second)
+    velocity[:, system.driven] = np.eye(n_d)
+    pairs = (velocity[:, :, :, None] * velocity[:, :, None, :]).reshape(*z.shape, n_d * n_d)
+    second = -inv @ (system.curvature(z) @ pairs)
+    return Taylor(theta_u, first, second)
 
 
 def joint_gaps_text(mechanism: Mechanism, gaps: np.ndarray, threshold: float) -> tuple[list[str],
@@ -492,7 +492,9 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
     tolerances : Tolerances
         Numerical settings.
     guess_u : numpy.ndarray, optional
-        Undriven angles near the first step's configuration (default: the bodies' guesses).
+        Undriven angles near the configuration at t = 0 of the file's drive laws (default: the
+        bodies' guesses). The mechanism is assembled there and followed to the first step along
+        the shortest change of the driven angles.
 
     Returns
     -------
@@ -512,8 +514,13 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
     if n == 0 or system.undriven.size == 0:
         return theta_u, phasor(theta_u), None
     tracker = _Tracker(mechanism, system, times, tolerances)
-    theta_u[0] = assemble(mechanism, system, theta_d[0], guess_u, tolerances.tol,
-                          float(times[0]))
+    # The guesses describe the mechanism at t = 0 of the drive laws: assemble there, then follow
+    # the shortest change of the driven angles (modulo whole turns) to the first step.
+    start_d = np.array([law_motion(d, np.zeros(1))[0][0] for d in mechanism.drivers])
+    start_u = assemble(mechanism, system, start_d, guess_u, tolerances.tol, 0.0)
+    turn = theta_d[0] - start_d
+    turn -= 2 * np.pi * np.round(turn / (2 * np.pi))
+    theta_u[0] = tracker.step(start_d, start_u, turn, theta_d[0], 0)
     row_order = None
     if tracker.square:
         z0 = phasor(full_angles(system, theta_d[0], theta_u[0]))[None]
@@ -587,20 +594,26 @@ def _finish(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, z_d: np.nd
     base_phi = driven_part(system, z_d)
     w_u = system.loop_points[:, system.undriven]
     z_u = phasor(theta_u)
+    limit = tols.tol + 8 * _EPS * np.max(np.abs(theta_u), axis=1)
     for attempt in range(tols.max_iter + 1):
         lu = BatchLU(system.jacobian_stack(z_u), row_order)
         phi = base_phi + z_u @ w_u.T
+        phi = np.concatenate([phi.real, phi.imag], axis=1)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            step = lu.solve(np.concatenate([phi.real, phi.imag], axis=1))
-        step[~np.isfinite(step)] = np.inf
+            step = lu.solve(phi)
         size = np.max(np.abs(step), axis=1)
         finite = np.isfinite(size)
-        theta_u[finite] -= step[finite]
-        z_u[finite] = _rotate(z_u[finite], -step[finite]) if attempt else \
-            z_u[finite] * phasor(-step[finite])
-        gap = np.max(np.abs(phi), axis=1)
-        converged = (size <= tols.tol + 8 * _EPS * np.max(np.abs(theta_u), axis=1)) | (
-            gap <= 16 * _EPS * system.length_scale)
+        if np.all(finite):
+            theta_u -= step
+            z_u = _rotate(z_u, -step)
+        else:
+            theta_u[finite] -= step[finite]
+            z_u[finite] = _rotate(z_u[finite], -step[finite])
+        converged = size <= limit
+        if not np.all(converged):
+            # near a toggle the angles are only defined to rounding times the condition
+            gap = np.max(np.abs(phi), axis=1)
+            converged |= gap <= 16 * _EPS * system.length_scale
         if np.all(converged):
             if guess is not None:
                 wrong = ~_plausible(theta_u[targets], guess, theta_u[base], delta)

@@ -107,7 +107,8 @@ class LoopSystem:
         """
         w_u = self.loop_points[:, self.undriven, None]
         n_loops = w_u.shape[0]
-        real, imag = z_u.real.T[None], z_u.imag.T[None]
+        real = np.ascontiguousarray(z_u.real.T)[None]
+        imag = np.ascontiguousarray(z_u.imag.T)[None]
         out = np.empty((2 * n_loops, w_u.shape[1], z_u.shape[0]))
         # d(w z)/dtheta = 1j w z: real part -(w.re z.im + w.im z.re), imag w.re z.re - w.im z.im
         np.multiply(w_u.real, imag, out=out[:n_loops])

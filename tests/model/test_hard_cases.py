@@ -196,3 +196,12 @@ def test_mechanism_that_cannot_close_names_the_open_joints(fourbar_dict: dict[st
     assert info.value.where["time_s"] == 0.0
     assert info.value.residual_m > 0.01
     assert "m)" in str(info.value) or " m" in str(info.value)
+
+
+def test_first_step_far_from_the_guess_is_reached_by_continuation(
+        pendulum: rm.Mechanism) -> None:
+    t = np.linspace(0.0, 1.0, 101)
+    whole = rm.solve(pendulum, t, outputs=["position", "driver_torque"])
+    tail = rm.solve(pendulum, t[63:], outputs=["position", "driver_torque"])
+    np.testing.assert_allclose(tail["position"].to_numpy(),
+                               whole["position"].to_numpy()[63:], atol=1e-11)
