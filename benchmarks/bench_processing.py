@@ -7,7 +7,8 @@ Run: ``python benchmarks/bench_processing.py`` (about a minute on 2 cores). Prin
 3. drive-angle derivatives: plain differencing baseline, Savitzky-Golay, Butterworth (corner
    and order), mean-speed Fourier series;
 4. reference-pulse edge timing (linear vs band-limited sinc reconstruction);
-5. clock alignment over 12 random 20 s runs (edge refinement, one or both edges);
+5. clock alignment over 12 random 20 s runs (edge refinement, one or both edges; the lifting
+   shaft's twice-per-revolution pulses against encoder-angle crossings);
 6. zero-phase filtering one-shot vs chunked.
 """
 
@@ -193,12 +194,27 @@ def bench_alignment() -> None:
                                              coarse_offset_s=0.0)
                 rows.setdefault(f"{refine}, {label}", []).append(
                     ((clock.offsets_s[0] - rig.offset) * 1e6, (clock.drift - rig.drift) * 1e6))
+        rows.setdefault("opt3 (2/rev) vs encoder", []).append(_opt3_errors(rig))
     print(f"   {'edges':<26}{'offset rms':>12}{'offset max':>12}{'drift rms':>11}"
           f"{'drift max':>11}")
     for label, values in rows.items():
         arr = np.abs(np.array(values))
         print(f"   {label:<26}{np.sqrt(np.mean(arr[:, 0]**2)):>9.2f} us{arr[:, 0].max():>9.2f} us"
               f"{np.sqrt(np.mean(arr[:, 1]**2)):>7.3f} ppm{arr[:, 1].max():>7.3f} ppm")
+
+
+def _opt3_errors(rig: Any) -> tuple[float, float]:
+    """Clock errors (us, ppm) of the twice-per-revolution pulses against encoder crossings."""
+    step = 2 * np.pi / 8192
+    theta = encoder.counts_to_angle(encoder.unwrap_counts(rig.counts), 8192)
+    smooth = excitation.drive_angle(rig.t_ref, theta, fs=FS, step_rad=step)
+    opt1 = pulses.classify_pulses(pulses.detect_edges(rig.opt1, rig.t_ref, refine="sinc")).good
+    zero, _ = angle.zero_at_reference(rig.t_ref, smooth.angle, opt1)
+    events = align.reference_event_times(rig.t_ref, smooth.angle - zero, event_angle=0.3,
+                                         events_per_rev=2)
+    dev = pulses.detect_edges(rig.opt3, rig.t_dev, refine="sinc") - rig.delay
+    clock = align.estimate_clock(events, dev, coarse_offset_s=1.2)
+    return (clock.offsets_s[0] - rig.offset) * 1e6, (clock.drift - rig.drift) * 1e6
 
 
 def bench_filter() -> None:
