@@ -75,7 +75,8 @@ from rigval.validation.results import (
 )
 from rigval.validation.scene import ComparisonSpec, ModelOutput, Scene, load_scene
 
-__all__ = ["FINE_FACTOR", "run_scene", "validate_scene"]
+__all__ = ["FINE_FACTOR", "MainAngle", "align_streams", "read_streams", "run_scene",
+           "validate_scene"]
 
 logger = logging.getLogger(__name__)
 
@@ -117,8 +118,16 @@ class _Stopwatch:
 
 
 @dataclass(frozen=True)
-class _MainAngle:
-    """phi_F on the reference timeline where the encoder angle is defined."""
+class MainAngle:
+    """phi_F, the main shaft angle from the reference position, on the reference timeline.
+
+    Parameters
+    ----------
+    time : numpy.ndarray
+        Reference-clock times in s where the encoder angle is defined.
+    phi : numpy.ndarray
+        phi_F in rad, increasing, multiples of 2 pi at the reference pulse.
+    """
 
     time: np.ndarray
     phi: np.ndarray
@@ -136,7 +145,7 @@ class _MainAngle:
 # align
 
 
-def _main_angle(scene: Scene, ref: xr.Dataset) -> tuple[_MainAngle, np.ndarray, int]:
+def _main_angle(scene: Scene, ref: xr.Dataset) -> tuple[MainAngle, np.ndarray, int]:
     """phi_F(t) from the main encoder, zero at the reference pulse; also the good pulse times.
 
     Returns the main angle, the good reference-pulse times (s) and the count of spurious pulses.
@@ -166,7 +175,7 @@ def _main_angle(scene: Scene, ref: xr.Dataset) -> tuple[_MainAngle, np.ndarray, 
                         hint="check the pulse channel (thresholds, wiring) and the record length")
     offset, _ = zero_at_reference(t, angle, good)
     phi = angle - offset
-    return _MainAngle(t, phi), good, int(train.spurious.sum())
+    return MainAngle(t, phi), good, int(train.spurious.sum())
 
 
 def _edge_segments(stream: xr.Dataset, edges: np.ndarray, times: np.ndarray) -> np.ndarray:
@@ -305,9 +314,47 @@ def _coarse_offset(stream: xr.Dataset, ref: xr.Dataset, ref_start: np.datetime64
     return 0.5 * (ref_span - dev_span), 0.5 * (ref_span + dev_span)
 
 
-def _align(scene: Scene, converted: Mapping[str, xr.Dataset]
-           ) -> tuple[dict[str, xr.Dataset], dict[str, StreamAlignment], _MainAngle]:
-    """Put every stream on the reference timeline; return phi_F and the diagnostics."""
+def read_streams(scene: Scene) -> dict[str, xr.Dataset]:
+    """Read every stream of a scene: the mapped channels under their scene names.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+
+    Returns
+    -------
+    dict of str to xarray.Dataset
+        Stream name -> stream as read (raw units).
+    """
+    return {name: load_stream(spec) for name, spec in scene.streams.items()}
+
+
+def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
+                  ) -> tuple[dict[str, xr.Dataset], dict[str, StreamAlignment], MainAngle]:
+    """Put every stream on the reference timeline.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (its ``[alignment]`` table).
+    converted : mapping of str to xarray.Dataset
+        The streams after :func:`rigval.validation.convert.convert_stream`.
+
+    Returns
+    -------
+    aligned : dict of str to xarray.Dataset
+        Streams with ``time`` on the reference clock (samples unchanged).
+    diagnostics : dict of str to StreamAlignment
+        Clock model, events and gaps per stream.
+    main : MainAngle
+        phi_F(t).
+
+    Raises
+    ------
+    AlignmentError
+        When a stream's clock cannot be fitted with confidence.
+    """
     reference = scene.alignment.reference
     ref = align_stream(converted[reference], identity_clock(converted[reference]["segment"]),
                        name=reference)
@@ -361,7 +408,7 @@ def _align(scene: Scene, converted: Mapping[str, xr.Dataset]
 
 
 def _resample_channel(scene: Scene, comparison: ComparisonSpec, aligned: xr.Dataset,
-                      main: _MainAngle) -> tuple[np.ndarray, float | None]:
+                      main: MainAngle) -> tuple[np.ndarray, float | None]:
     """Resample a measured channel onto the phi_F grid, (n_cycle, n_angle); NaN at gaps.
 
     The comparison's ``lowpass_hz`` (zero phase, within gap-free runs) comes first; the
@@ -642,11 +689,11 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
     with watch.stage("read"):
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
-        raw = {name: load_stream(spec) for name, spec in scene.streams.items()}
+        raw = read_streams(scene)
     with watch.stage("convert"):
         converted = {name: convert_stream(raw[name], spec) for name, spec in scene.streams.items()}
     with watch.stage("align"):
-        aligned, diagnostics, main = _align(scene, converted)
+        aligned, diagnostics, main = align_streams(scene, converted)
     with watch.stage("angle"):
         n = scene.angle.points_per_revolution
         turns, fine_grid = cycle_grid(main.phi[0], main.phi[-1], n * FINE_FACTOR)

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import json
 import re
+import runpy
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -33,9 +36,15 @@ def scene_path(run_dir: Path) -> Path:
 
 @pytest.fixture(scope="module")
 def report_dir(scene_path: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("report")
-    assert main(["validate", str(scene_path), "--out", str(out)]) == 0
-    return out
+    """``rigval demo`` with this run as the shipped sample data: its report folder."""
+    out = tmp_path_factory.mktemp("demo")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr("rigval.sample_data.shipped_runs", lambda: [scene_path])
+        assert main(["demo", "--out", str(out), "--workers", "1"]) == 0
+    index = (out / "index.html").read_text()
+    run = scene_path.name.removesuffix("_scene.toml")
+    assert f'href="{run}/report.html"' in index
+    return out / run
 
 
 def _truth(run_dir: Path) -> dict:
@@ -164,3 +173,55 @@ def test_validate_scene_returns_what_a_campaign_needs(scene_path: Path, tmp_path
     assert {p.name for p in result.outputs} >= {"report.html", "metrics.csv", "alignment.json"}
     assert result.speed_rev_s == pytest.approx(1.0, rel=0.01)
     assert scene_path.parent / next(scene_path.parent.glob("*_cdaq.tdms")).name in result.inputs
+
+
+@pytest.mark.browser
+def test_report_renders_in_chromium(report_dir: Path, tmp_path: Path) -> None:
+    if shutil.which("chromium") is None:
+        pytest.skip("chromium not installed (apt-get install chromium); .ci/run installs it")
+    html = report_dir / "report.html"
+    assert html.read_text().count("<img ") >= 7 + 3 + 2
+    assert_images_decode(html, tmp_path)
+
+
+def assert_images_decode(report: Path, tmp_path: Path) -> None:
+    """Load a page in headless Chromium; a script writes each image's naturalWidth to the DOM."""
+    probe = tmp_path / "probe.html"
+    script = ("<script>window.addEventListener('load',()=>{const r=[...document.images]"
+              ".map(i=>i.complete&&i.naturalWidth);const p=document.createElement('pre');"
+              "p.id='probe';p.textContent=JSON.stringify(r);document.body.appendChild(p);});"
+              "</script></body>")
+    probe.write_text(report.read_text().replace("</body>", script, 1))
+    command = [shutil.which("chromium"), "--headless", "--no-sandbox", "--disable-gpu",
+               "--disable-quic", "--no-first-run", "--disable-background-networking",
+               "--disable-component-update", "--disable-sync",
+               f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=10000",
+               "--dump-dom", probe.as_uri()]
+    dom = subprocess.run(command, capture_output=True, text=True, timeout=180,
+                         check=True).stdout
+    match = re.search(r'<pre id="probe">(.*?)</pre>', dom, re.S)
+    assert match, f"the probe script did not run; chromium printed {dom[:300]!r}"
+    widths = json.loads(match.group(1))
+    assert widths and all(isinstance(w, int) and w > 0 for w in widths), widths
+
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+@pytest.mark.parametrize("script", ["import_run_to_netcdf.py", "convert_and_align.py",
+                                    "compare_one_channel.py"])
+def test_example_runs(script: str, scene_path: Path, tmp_path: Path,
+                      monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    out = {"import_run_to_netcdf.py": [str(tmp_path / "run.nc")], "convert_and_align.py": [],
+           "compare_one_channel.py": ["tor1", str(tmp_path / "tor1.png")]}[script]
+    monkeypatch.setattr(sys, "argv", [script, str(scene_path), *out])
+    runpy.run_path(str(EXAMPLES / script), run_name="__main__")
+    printed = capsys.readouterr().out
+    if script == "import_run_to_netcdf.py":
+        assert set(xr.open_datatree(tmp_path / "run.nc")["raw"].children) == {"cdaq", "wls1",
+                                                                              "wls2"}
+    elif script == "convert_and_align.py":
+        assert re.search(r"wls2\s+offset \+\d\.\d+ s", printed)
+    else:
+        assert (tmp_path / "tor1.png").read_bytes()[:4] == b"\x89PNG"
+        assert "iso18571_periodic.rating" in printed
