@@ -630,8 +630,7 @@ def sweep(mechanism: Mechanism | str | Path, parameters: Mapping[str, npt.ArrayL
                 path_mech, path_exc = _apply(p.name, values[p.name], path_mech, path_exc)
             _, t, rate, _ = _cycle_grid(path_exc, n_points)
             bases[key], count = _basis(path_mech, path_exc, t, rate, tip=tip, pins=pins,
-                                       needs=needs,
-                                       split_speed=split_speed, inertia=inertia)
+                                       needs=needs, split_speed=split_speed, inertia=inertia)
             solves += count
         _fill(out, index, bases[key], values, base, mech, needs, pins)
     ds = xr.Dataset(coords={p.name: (p.name, p.values, _parameter_attrs(p)) for p in params}
