@@ -30,6 +30,7 @@ from rigval.processing.torsion import Rosette
 
 __all__ = [
     "acceleration_channel",
+    "axial_bending_channels",
     "axial_stress_channel",
     "bridge_ratio_values",
     "encoder_angle_channel",
@@ -227,6 +228,61 @@ def axial_stress_channel(ds: xr.Dataset, channel: str, *, youngs_modulus: float,
     return _with_variable(ds, name or f"{channel}_stress", sigma, var, channel, units="Pa",
                           long_name=f"axial stress from {channel}", conversion="sigma = E eps",
                           parameters={"youngs_modulus_pa": youngs_modulus})
+
+
+def axial_bending_channels(ds: xr.Dataset, top: str, bottom: str, *, name: str,
+                           youngs_modulus: float | None = None,
+                           section_modulus: float | None = None) -> xr.Dataset:
+    """Add the axial and bending parts of two strain channels on opposite faces of a member.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Stream with both strain channels (units ``"1"``).
+    top, bottom : str
+        Strain channels at 0 and 180 degrees round the member.
+    name : str
+        Prefix of the outputs ``<name>_axial_strain`` and ``<name>_bending_strain`` (1); with
+        ``youngs_modulus`` also ``<name>_axial_stress`` (Pa), and with ``section_modulus`` too
+        ``<name>_bending_moment`` (N m).
+    youngs_modulus : float, optional
+        E in Pa.
+    section_modulus : float, optional
+        W in m^3 (:func:`~rigval.processing.stress.tube_section_modulus`).
+
+    Returns
+    -------
+    xarray.Dataset
+        Copy of ``ds`` with the new variables.
+    """
+    for channel in (top, bottom):
+        if str(_channel(ds, channel).attrs.get("units")) != "1":
+            raise UnitError(f"channel {channel!r} has units {ds[channel].attrs.get('units')!r}, "
+                            "expected strain ('1')", where={"channel": channel},
+                            hint="convert the bridge channels first with strain_channel")
+    axial, bending = stress.axial_and_bending(ds[top].to_numpy(), ds[bottom].to_numpy())
+    pair = f"{top} and {bottom}"
+    out = _with_variable(ds, f"{name}_axial_strain", axial, ds[top], top, units="1",
+                         long_name=f"axial strain from {pair}",
+                         conversion=f"(eps_{top} + eps_{bottom}) / 2", parameters={})
+    out = _with_variable(out, f"{name}_bending_strain", bending, ds[top], top, units="1",
+                         long_name=f"bending strain from {pair}",
+                         conversion=f"(eps_{top} - eps_{bottom}) / 2", parameters={})
+    if youngs_modulus is not None:
+        out = _with_variable(out, f"{name}_axial_stress",
+                             stress.axial_stress(axial, youngs_modulus), ds[top], top,
+                             units="Pa", long_name=f"axial stress from {pair}",
+                             conversion="sigma = E (eps_top + eps_bottom) / 2",
+                             parameters={"youngs_modulus_pa": youngs_modulus})
+        if section_modulus is not None:
+            out = _with_variable(out, f"{name}_bending_moment",
+                                 stress.bending_moment(bending, youngs_modulus, section_modulus),
+                                 ds[top], top, units="N m",
+                                 long_name=f"bending moment from {pair}",
+                                 conversion="M = E W (eps_top - eps_bottom) / 2",
+                                 parameters={"youngs_modulus_pa": youngs_modulus,
+                                             "section_modulus_m3": section_modulus})
+    return out
 
 
 def acceleration_channel(ds: xr.Dataset, channel: str, *, charge_sensitivity: float,

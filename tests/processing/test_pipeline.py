@@ -104,6 +104,24 @@ def test_strain_conversion_from_volts_with_offset_window() -> None:
         convert.strain_channel(ds, "str9", bridge_type="half_i", gauge_factor=2.1)
 
 
+def test_axial_and_bending_parts_of_two_opposite_gauges() -> None:
+    t = np.arange(0, 1, 1e-3)
+    axial = 120e-6 * np.cos(2 * np.pi * t)
+    bending = 300e-6 * np.sin(4 * np.pi * t)
+    ds = _stream(t, {"top": Channel(axial + bending, "1", "top gauge", "/'s'/'top'"),
+                     "bottom": Channel(axial - bending, "1", "bottom gauge", "/'s'/'bot'")},
+                 "cDAQ-9172", "2026-03-02T10:00:00Z", 1000.0)
+    w = 1e-5
+    out = convert.axial_bending_channels(ds, "top", "bottom", name="rod", youngs_modulus=210e9,
+                                         section_modulus=w)
+    np.testing.assert_allclose(out["rod_axial_strain"], axial, rtol=1e-12, atol=1e-20)
+    np.testing.assert_allclose(out["rod_bending_moment"], 210e9 * w * bending, rtol=1e-12,
+                               atol=1e-9)
+    assert out["rod_axial_stress"].attrs["units"] == "Pa"
+    with pytest.raises(UnitError):
+        convert.axial_bending_channels(out, "top", "rod_axial_stress", name="x")
+
+
 def test_acceleration_channel_corrects_the_highpass_per_run() -> None:
     fs = 5000.0
     lead_in = np.arange(-40, 8, 1 / fs)                   # amplifier in steady state
