@@ -230,6 +230,10 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
     if method == "butterworth":
         if cutoff_hz is None:
             cutoff_hz = 8.0 * abs(rate) / (2 * np.pi)
+            if cutoff_hz < 8.0 / (t[longest[1] - 1] - t[longest[0]]):
+                raise DataError(f"the drive turns at {rate:.3g} rad/s on average, too slowly to "
+                                "choose a filter corner from its speed",
+                                hint="pass cutoff_hz explicitly (Hz)")
         sos = butter_sos(cutoff_hz, fs, order=order)
         params = {"cutoff_hz": float(cutoff_hz), "order": float(order),
                   "trend_harmonics": float(trend_harmonics)}
