@@ -162,7 +162,7 @@ def parse_lvm(lines: list[str], file: Path | None = None) -> LvmFile:
         if not segment.names:
             segment.header[first] = cells[1:] if first in ("Notes", "Test_Name") else cells
             continue
-        if first and not _looks_numeric(first) and first not in ("",):
+        if first and not _looks_numeric(first):
             segments.append(segment)  # a new segment header starts
             segment = LvmSegment(header={first: cells})
             continue
@@ -227,7 +227,6 @@ class _Column:
     name: str
     unit: str
     values: np.ndarray
-    empty: int
     x: np.ndarray | None
     x0: float
     dt: float | None
@@ -245,6 +244,10 @@ def _columns(lvm: LvmFile, decimal: str, timezone: str | None, file: Path) -> li
         width = len(names)
         grid = np.full((len(seg.rows), width), "", dtype=object)
         for r, row in enumerate(seg.rows):
+            if any(c.strip() for c in row[width:]):
+                raise DataFileError(f"a data row holds {len(row)} cells, the names row {width}",
+                                    where={"file": str(file), "segment": s_index, "row": r},
+                                    hint="the file may be damaged or its Separator wrong")
             cells = row[:width]
             grid[r, :len(cells)] = [c.strip() for c in cells]
         comment = width - 1 if names and names[-1].lower() == "comment" else None
@@ -272,7 +275,7 @@ def _columns(lvm: LvmFile, decimal: str, timezone: str | None, file: Path) -> li
             dt_text = _header_cell(seg.header, "Delta_X", j)
             out.append(_Column(
                 name=names[j] or f"column {j}", unit=_header_cell(seg.header, "Y_Unit_Label", j)
-                or "", values=values, empty=int(np.count_nonzero(np.isnan(values))), x=x,
+                or "", values=values, x=x,
                 x0=_number(x0_text, decimal, file, "X0") if x0_text else 0.0,
                 dt=_number(dt_text, decimal, file, "Delta_X") if dt_text else None, start=start,
                 segment=s_index, expected=_header_int(seg.header, "Samples", j)))
