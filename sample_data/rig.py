@@ -19,7 +19,7 @@ file holds wall-clock time, so one seed gives byte-identical files.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -93,7 +93,7 @@ class Imperfections:
     @classmethod
     def none(cls) -> Imperfections:
         """Return an ideal rig: no offsets, drift, dropouts, noise or pulse faults."""
-        return cls(0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        return cls(**{f.name: type(f.default)(0) for f in fields(cls)})
 
     def check(self) -> None:
         """Raise ConfigError for a negative level or a probability above 1."""
