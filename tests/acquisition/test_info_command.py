@@ -45,3 +45,34 @@ def test_info_reports_unreadable_files_and_goes_on(tmp_path: Path, realdata_dir:
     assert "file not found" in captured.err
     assert "'Seventh Cha': 2000 samples" in captured.out
     assert "Traceback" not in captured.err
+
+
+def test_info_reads_tdms_metadata_only_and_shows_restart_gaps(
+        tmp_path: Path, realdata_dir: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    import numpy as np
+    from nptdms import ChannelObject, GroupObject, TdmsWriter
+
+    t0 = np.datetime64("2026-11-21T05:00:00")
+    props = {"wf_increment": 1e-3, "wf_start_time": t0, "wf_start_offset": 0.0}
+    path = tmp_path / "wls.tdms"
+    with TdmsWriter(path) as writer:
+        writer.write_segment([GroupObject("task"), ChannelObject("task", "x", np.ones(100), props)])
+        writer.write_segment([ChannelObject("task", "x", np.ones(50),
+                                            {"wf_start_time": t0 + np.timedelta64(2, "s")})])
+    import rigval.acquisition.tdms as tdms_module
+
+    def no_data_reads(*args: object, **kwargs: object) -> None:
+        raise AssertionError("info must not read sample data")
+
+    monkeypatch.setattr(tdms_module.TdmsFile, "open", no_data_reads)
+    monkeypatch.setattr(tdms_module.TdmsFile, "read", no_data_reads)
+    assert main(["info", "--json", str(path)]) == 0
+    (info,) = json.loads(capsys.readouterr().out)
+    (stream,) = info["streams"]
+    assert stream["samples"] == 150
+    assert stream["gaps"] == [{"after_s": 0.099, "duration_s": pytest.approx(1.9),
+                               "missing_samples": 1900}]
+    assert main(["info", "--all-groups", str(realdata_dir / "npTDMS/Digital_Input.tdms")]) == 0
+    out = capsys.readouterr().out
+    assert out.count("stream '") == 3
