@@ -119,3 +119,27 @@ def test_a_gap_in_the_angle_record_leaves_its_grid_points_empty() -> None:
     assert np.isnan(y[in_gap]).all()
     truth = np.sin(2 * np.pi * 3 * _time_of(grid))
     assert np.nanmax(np.abs(y - truth)) < 1e-6
+
+
+def test_cycle_statistics_dataset_excludes_invalid_and_outlier_cycles() -> None:
+    import xarray as xr
+
+    rng = np.random.default_rng(8)
+    values = np.sin(np.linspace(0, 2 * np.pi, 32, endpoint=False)) + 0.01 * rng.standard_normal(
+        (30, 32))
+    values[4] += 1.0                                              # an outlier cycle
+    valid = np.ones(30, dtype=bool)
+    valid[7] = False
+    data = xr.Dataset({"tor1_torque": (("cycle", "angle"), values, {"units": "N m"}),
+                       "cycle_valid": ("cycle", valid)},
+                      coords={"cycle": np.arange(30), "angle": np.linspace(0, 2 * np.pi, 32,
+                                                                           endpoint=False)})
+    kept = cycles.cycle_statistics(data)
+    cleaned = cycles.cycle_statistics(data, exclude_outliers=True)
+    assert kept["tor1_torque"].attrs["cycles_used"] == 29
+    assert cleaned["tor1_torque"].attrs["cycles_used"] == 28
+    assert kept["tor1_torque_outlier"].to_numpy().nonzero()[0].tolist() == [4]
+    expected = values[np.delete(np.arange(30), [4, 7])].mean(axis=0)
+    np.testing.assert_allclose(cleaned["tor1_torque"].sel(statistic="mean"), expected)
+    assert cleaned["tor1_torque"].sel(statistic="n").to_numpy().tolist() == [28] * 32
+    assert cleaned["tor1_torque"].attrs["units"] == "N m"

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from rigval.acquisition.errors import ConfigError
 from rigval.processing import accelerometer, bridge, stress, torsion
@@ -143,3 +145,19 @@ def test_charge_chain_scale() -> None:
     volts = accelerometer.charge_chain_voltage(9.80665, charge_sensitivity=10.0,
                                                amplifier_gain=10.0)
     assert volts == pytest.approx(0.1)
+
+
+@settings(max_examples=40)
+@given(strain=st.floats(-5e-3, 5e-3).filter(lambda e: abs(e) > 1e-7),
+       gauge_factor=st.floats(1.8, 2.2), poisson=st.floats(0.2, 0.45),
+       lead=st.floats(0.0, 5.0), bridge_type=st.sampled_from(EXACT))
+def test_exact_inverses_hold_for_any_physical_bridge(strain: float, gauge_factor: float,
+                                                     poisson: float, lead: float,
+                                                     bridge_type: str) -> None:
+    kwargs = {"gauge_factor": gauge_factor, "poisson": poisson, "lead_resistance": lead,
+              "gauge_resistance": 350.0}
+    vr = bridge.bridge_ratio(strain, bridge_type, **kwargs)
+    assert bridge.strain_from_ratio(vr, bridge_type, **kwargs) == pytest.approx(strain,
+                                                                                rel=1e-11)
+    arms = bridge.bridge_arms(strain, bridge_type, **kwargs)
+    assert bridge.wheatstone_ratio(*arms) == pytest.approx(vr, rel=1e-9, abs=1e-15)
