@@ -201,17 +201,15 @@ class Taylor:
 def taylor(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> Taylor:
     """Taylor coefficients of the solution manifold at assembled configurations (batched)."""
     z = phasor(full_angles(system, theta_d, theta_u))
-    jac_u = system.jacobian(z, system.undriven)
-    jac_d = system.jacobian(z, system.driven)
-    square = jac_u.shape[-1] == jac_u.shape[-2]
-    inv = np.linalg.inv(jac_u) if square else np.linalg.pinv(jac_u)
-    first = -inv @ jac_d
-    n_d = system.driven.size
-    velocity = np.zeros((*z.shape, n_d))
-    velocity[:, system.undriven] = first
-    velocity[:, system.driven] = np.eye(n_d)
-    pairs = (velocity[:, :, :, None] * velocity[:, :, None, :]).reshape(*z.shape, n_d * n_d)
-    second = -inv @ (system.curvature(z) @ pairs)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        lu = BatchLU(system.jacobian_stack(z[:, system.undriven]))
+        first = -lu.solve(system.jacobian(z, system.driven))
+        n_d = system.driven.size
+        velocity = np.zeros((*z.shape, n_d))
+        velocity[:, system.undriven] = first
+        velocity[:, system.driven] = np.eye(n_d)
+        pairs = (velocity[:, :, :, None] * velocity[:, :, None, :]).reshape(*z.shape, n_d * n_d)
+        second = -lu.solve(system.curvature(z) @ pairs)
     return Taylor(theta_u, first, second)
 
 
@@ -332,13 +330,19 @@ def _unwrap_path(theta_d: np.ndarray) -> np.ndarray:
     return path
 
 
-def _anchor_indices(path: np.ndarray, spacing: float) -> np.ndarray:
-    """Return the steps where the driven-angle travel since the last mark reaches ``spacing``."""
-    steps = np.max(np.abs(np.diff(path, axis=0)), axis=1) if path.shape[1] else \
-        np.zeros(len(path) - 1)
-    marks = np.floor(np.concatenate([[0.0], np.cumsum(steps)]) / spacing)
-    picks = np.flatnonzero(np.diff(marks) > 0) + 1
-    return np.unique(np.concatenate([[0], picks]))
+def _travel(path: np.ndarray) -> np.ndarray:
+    """Cumulative driven-angle travel along the path (largest driver increment per step), rad."""
+    travel = np.zeros(path.shape[0])
+    if path.shape[1] and path.shape[0] > 1:
+        np.cumsum(np.max(np.abs(np.diff(path, axis=0)), axis=1), out=travel[1:])
+    return travel
+
+
+def _anchor_indices(travel: np.ndarray, spacing: float) -> np.ndarray:
+    """Return the steps where the travel since the last mark reaches ``spacing`` (and step 0)."""
+    marks = np.floor(travel / spacing)
+    picks = np.flatnonzero(marks[1:] != marks[:-1]) + 1
+    return np.concatenate([[0], picks])
 
 
 def condition_one(jacobian: np.ndarray) -> float:
@@ -526,7 +530,8 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
         z0 = phasor(full_angles(system, theta_d[0], theta_u[0]))[None]
         row_order = static_row_order(system.jacobian(z0, system.undriven)[0])
     path = _unwrap_path(theta_d)
-    anchors = _anchor_indices(path, tolerances.anchor_spacing)
+    travel = _travel(path)
+    anchors = _anchor_indices(travel, tolerances.anchor_spacing)
     for prev, nxt in itertools.pairwise(anchors):
         theta_u[nxt] = tracker.step(theta_d[prev], theta_u[prev], path[nxt] - path[prev],
                                     theta_d[nxt], int(nxt))
@@ -534,7 +539,7 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
     solved[anchors] = True
     z_d = phasor(theta_d)
     for spacing in tolerances.refine_spacings:
-        targets = _anchor_indices(path, spacing)
+        targets = _anchor_indices(travel, spacing)
         targets = targets[~solved[targets]]
         if targets.size:
             _refine(tracker, path, theta_d, z_d, theta_u, np.flatnonzero(solved), targets,

@@ -13,11 +13,10 @@ from __future__ import annotations
 import logging
 import math
 import tomllib
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from types import MappingProxyType
 from typing import Any
 
 from rigval.acquisition.errors import MechanismError
@@ -31,6 +30,7 @@ __all__ = [
     "Harmonic",
     "Joint",
     "Mechanism",
+    "PointTable",
     "builtin_mechanism",
     "load_mechanism",
 ]
@@ -49,6 +49,36 @@ _JOINT_KEYS = {"revolute": {"point", "type", "bodies", "description"},
                "ground": {"point", "type", "body", "at", "description"}}
 _DRIVER_KEYS = {"name", "body", "law", "theta0", "omega", "harmonics", "description"}
 _HARMONIC_KEYS = {"amplitude", "omega", "phase"}
+
+
+class PointTable(Mapping[str, tuple[float, float]]):
+    """Read-only, hashable, picklable mapping of point names to body-frame coordinates (m)."""
+
+    __slots__ = ("_items",)
+
+    def __init__(self, items: Mapping[str, tuple[float, float]]) -> None:
+        self._items = dict(items)
+
+    def __getitem__(self, name: str) -> tuple[float, float]:
+        return self._items[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __hash__(self) -> int:
+        return hash(tuple(self._items.items()))
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Mapping) and dict(self._items) == dict(other)
+
+    def __repr__(self) -> str:
+        return f"PointTable({self._items!r})"
+
+    def __reduce__(self) -> tuple[type, tuple[dict[str, tuple[float, float]]]]:
+        return (PointTable, (self._items,))
 
 
 @dataclass(frozen=True)
@@ -357,7 +387,7 @@ class _Parser:
                 name=name,
                 mass=self.number(table["mass"], f"{key}.mass", minimum=0.0),
                 inertia=self.number(table["inertia"], f"{key}.inertia", minimum=0.0),
-                points=MappingProxyType({p: (v[0], v[1]) for p, v in parsed.items()}),
+                points=PointTable({p: (v[0], v[1]) for p, v in parsed.items()}),
                 guess=(guess[0], guess[1], guess[2]),
                 description=str(table.get("description", "")),
             ))

@@ -94,9 +94,9 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
     """
     mech = _as_mechanism(mechanism)
     times = np.asarray(t, dtype=float)
-    if times.ndim != 1 or not np.all(np.isfinite(times)):
-        raise DataError("t must be a 1-D array of finite times in s", where={"key": "t"},
-                        hint="pass sample times as a 1-D float array")
+    if times.ndim != 1 or times.size == 0 or not np.all(np.isfinite(times)):
+        raise DataError("t must be a non-empty 1-D array of finite times in s",
+                        where={"key": "t"}, hint="pass sample times as a 1-D float array")
     selection = select(mech, outputs, points, joints)
     tolerances = Tolerances(tol=tol, cond_warn=cond_warn, cond_max=cond_max)
     motion = drive_motion(mech, times, drives)

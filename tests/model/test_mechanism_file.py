@@ -119,3 +119,10 @@ def test_shared_point_name_must_be_a_joint(fourbar_dict: dict[str, Any]) -> None
     fourbar_dict["bodies"][2]["points"]["A"] = [0.0, 0.1]
     with pytest.raises(MechanismError, match="point 'A' is named on bodies"):
         rm.load_mechanism(fourbar_dict)
+
+
+def test_mechanism_pickles_and_hashes(pendulum: rm.Mechanism) -> None:
+    again = pickle.loads(pickle.dumps(pendulum))
+    assert again == pendulum and hash(again) == hash(pendulum)
+    with pytest.raises(TypeError):
+        pendulum.bodies[0].points["P1"] = (0.0, 0.0)  # type: ignore[index]

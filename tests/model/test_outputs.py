@@ -157,5 +157,6 @@ def test_solve_cycle_needs_periodic_laws(pendulum_dict: dict) -> None:
 def test_solve_accepts_a_path_and_rejects_bad_times() -> None:
     ds = rm.solve(rm.builtin_mechanism("single_pendulum"), [0.0, 0.1], outputs="driver_torque")
     assert ds["driver_torque"].shape == (2, 1)
-    with pytest.raises(DataError, match="1-D"):
-        rm.solve(rm.builtin_mechanism("single_pendulum"), [[0.0, 0.1]])
+    for bad in ([[0.0, 0.1]], [], [0.0, np.nan]):
+        with pytest.raises(DataError, match="1-D"):
+            rm.solve(rm.builtin_mechanism("single_pendulum"), bad)
