@@ -20,6 +20,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +28,7 @@ import pandas as pd
 import xarray as xr
 from matplotlib.figure import Figure
 
+from rigval.acquisition.schema import append_history
 from rigval.validation.html import Page
 from rigval.validation.plots import plot_point_kinematics, plot_support_forces
 
@@ -282,16 +284,27 @@ def _axis_label(result: xr.Dataset, dim: str) -> str:
     return f"{dim} [{'deg' if unit == 'rad' else unit}]"
 
 
-def _write_netcdf(prediction: xr.Dataset, sweep: xr.Dataset | None, path: Path) -> None:
+def _write_netcdf(prediction: xr.Dataset, sweep: xr.Dataset | None, path: Path,
+                  command: str | None) -> None:
+    """Write the prediction and the sweep as groups of one netCDF file (design 3.4)."""
     children = {"prediction": prediction}
-    if sweep is not None:
+    if sweep is not None:  # netCDF names: a dot in a dimension name is avoided
         children["sweep"] = sweep.rename({d: d.replace(".", "_") for d in _sweep_dims(sweep)})
-    tree = xr.DataTree.from_dict({"/": xr.Dataset(attrs={
-        "Conventions": "CF-1.10", "title": prediction.attrs.get("title", "rigval prediction")}),
-        **{f"/{k}": v for k, v in children.items()}})
+    root = xr.Dataset(attrs={
+        "Conventions": "CF-1.10", "title": prediction.attrs.get("title", "rigval prediction"),
+        "rigval_version": _version()})
+    append_history(root, command or "validation.predict")
+    tree = xr.DataTree.from_dict({"/": root, **{f"/{k}": v for k, v in children.items()}})
     encoding = {f"/{k}": {name: {"zlib": True, "complevel": 4} for name in v.data_vars}
                 for k, v in children.items()}
     tree.to_netcdf(path, engine="h5netcdf", encoding=encoding)
+
+
+def _version() -> str:
+    try:
+        return version("rigval")
+    except PackageNotFoundError:  # a source tree that was never installed
+        return "unknown"
 
 
 def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
@@ -385,6 +398,6 @@ def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
         page.figure(_sweep_figure(sweep), caption="sweep summaries")
         page.table(table.to_dict("records"), caption="sweep summaries per point")
     page.write(files.html)
-    _write_netcdf(prediction, sweep, files.netcdf)
+    _write_netcdf(prediction, sweep, files.netcdf, command)
     logger.info("wrote the prediction report to %s", out)
     return files

@@ -38,6 +38,7 @@ def test_report_page_shows_every_section(report_dir: Path) -> None:
 
 def test_data_files_agree_with_each_other(report_dir: Path) -> None:
     tree = xr.open_datatree(report_dir / "prediction.nc", engine="h5netcdf")
+    assert tree.attrs["Conventions"].startswith("CF") and "rigval predict" in tree.attrs["history"]
     prediction = tree["prediction"].to_dataset()
     cycle = pd.read_csv(report_dir / "cycle.csv")
     assert len(cycle) == 72
