@@ -45,7 +45,7 @@ import numpy as np
 import scipy.interpolate
 import xarray as xr
 
-from rigval.acquisition.channel_map import load_stream
+from rigval.acquisition.channel_map import ChannelSpec, load_stream
 from rigval.acquisition.errors import AlignmentError, ConfigError, DataError
 from rigval.acquisition.schema import parse_start_time
 from rigval.model.mechanism import Mechanism, load_mechanism
@@ -56,15 +56,13 @@ from rigval.processing.align import (
     channel_time,
     estimate_clock,
     identity_clock,
-    input_delay,
     match_events,
     reference_event_times,
 )
-from rigval.processing.angle import cycle_grid, resample_to_angle, zero_at_reference
-from rigval.processing.encoder import unwrap_counts
+from rigval.processing.angle import cycle_grid, phi_f, resample_to_angle
 from rigval.processing.excitation import drive_excitation
 from rigval.processing.filters import zero_phase
-from rigval.processing.pulses import classify_pulses, detect_edges
+from rigval.processing.pulses import StreamPulses, stream_pulses
 from rigval.validation.convert import convert_stream
 from rigval.validation.metrics import baseline, check_thresholds, compare
 from rigval.validation.results import (
@@ -92,6 +90,8 @@ OUTLIER_SIGMAS = 6.0
 MIN_EVENT_TOLERANCE_S = 1e-3
 #: Spline order of the scene's ``angle.interpolation``.
 INTERPOLATION_ORDER = {"linear": 1, "cubic": 3}
+#: Hysteresis half-band of a reference pulse's ``threshold``, as a fraction of it.
+PULSE_HYSTERESIS = 0.1
 #: Pulse periods of raw signal shown per stream in the alignment figure.
 PULSE_PERIODS_SHOWN = 2.5
 
@@ -138,50 +138,44 @@ class MainAngle:
 
 
 # ---------------------------------------------------------------------------------------------
-# read
-
-
-# ---------------------------------------------------------------------------------------------
 # align
 
 
-def _main_angle(scene: Scene, ref: xr.Dataset) -> tuple[MainAngle, np.ndarray, int]:
-    """phi_F(t) from the main encoder, zero at the reference pulse; also the good pulse times.
+def _pulses(stream: xr.Dataset, channel: ChannelSpec) -> StreamPulses:
+    """Edges of a reference-pulse channel (delay-corrected, classified) as its table says."""
+    threshold = channel.params.get("threshold")
+    low = high = None
+    if threshold is not None:
+        band = PULSE_HYSTERESIS * max(abs(threshold), float(np.finfo(float).tiny))
+        low, high = threshold - band, threshold + band
+    return stream_pulses(stream, channel.name, polarity=channel.params.get("edge", "rising"),
+                         low=low, high=high)
 
-    Returns the main angle, the good reference-pulse times (s) and the count of spurious pulses.
-    """
+
+def _main_angle(scene: Scene, ref: xr.Dataset) -> tuple[MainAngle, StreamPulses]:
+    """Return phi_F(t) from the main encoder, zero at the reference pulse, and those pulses."""
     encoder = scene.alignment.main_encoder
-    counts_per_rev = scene.channel(encoder).params["counts_per_rev"]
-    counts = unwrap_counts(ref[encoder.channel].to_numpy())
-    direction = 1.0 if counts[-1] >= counts[0] else -1.0
-    excitation = drive_excitation(ref, encoder.channel, counts_per_rev=counts_per_rev,
-                                  name="phi", direction=direction)
+    params = scene.channel(encoder).params
+    directions = [d.direction for d in scene.model.drivers.values() if d.encoder == encoder]
+    pulses = _pulses(ref, scene.channel(scene.alignment.main_reference_pulse))
+    if pulses.good.size < scene.angle.min_cycles:
+        raise DataError(f"only {pulses.good.size} reference pulses on "
+                        f"{scene.alignment.main_reference_pulse}",
+                        where={"key": "alignment.main_reference_pulse"},
+                        hint="check the pulse channel (threshold, edge, wiring)")
+    angle = phi_f(ref, encoder.channel, pulses, counts_per_rev=params["counts_per_rev"],
+                  direction=float(directions[0] if directions else 1),
+                  index_reset=bool(params.get("index_reset", False)))
     t = channel_time(ref, encoder.channel)
-    angle = excitation["phi"].to_numpy()
-    finite = np.isfinite(angle)
-    t, angle = t[finite], angle[finite]
-    if angle.size < 2 or np.any(np.diff(angle) <= 0):
-        raise DataError("the main shaft angle does not increase steadily (standstill or reversal)",
-                        where={"channel": str(encoder)},
-                        hint="validate runs at steady speed; cut the record to the running part")
-    pulse = scene.alignment.main_reference_pulse
-    edges = detect_edges(ref[pulse.channel].to_numpy(), channel_time(ref, pulse.channel),
-                         segment=ref["segment"].to_numpy(), valid=ref["valid"].to_numpy())
-    train = classify_pulses(edges)
-    good = train.good[(train.good >= t[0]) & (train.good <= t[-1])]
-    if good.size < scene.angle.min_cycles:
-        raise DataError(f"only {good.size} reference pulses on {pulse} within the encoder record",
-                        where={"channel": str(pulse)},
-                        hint="check the pulse channel (thresholds, wiring) and the record length")
-    offset, _ = zero_at_reference(t, angle, good)
-    phi = angle - offset
-    return MainAngle(t, phi), good, int(train.spurious.sum())
-
-
-def _edge_segments(stream: xr.Dataset, edges: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """Segment index of each edge time (from the sample just before it)."""
-    index = np.clip(np.searchsorted(times, edges) - 1, 0, times.size - 1)
-    return stream["segment"].to_numpy()[index]
+    phi = angle["phi_F"].to_numpy()
+    finite = np.isfinite(phi)
+    t, phi = t[finite], phi[finite]
+    if phi.size < 2 or np.any(np.diff(phi) <= 0):
+        raise DataError("the main shaft angle does not increase steadily (standstill, reversal "
+                        "or the encoder counting down)", where={"channel": str(encoder)},
+                        hint="validate runs at steady speed; set direction = -1 in the driver "
+                             "table of an encoder that counts down")
+    return MainAngle(t, phi), pulses
 
 
 def _residuals(mapped: np.ndarray, events: np.ndarray, period: float, per_revolution: int = 1
@@ -358,7 +352,9 @@ def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
     reference = scene.alignment.reference
     ref = align_stream(converted[reference], identity_clock(converted[reference]["segment"]),
                        name=reference)
-    main, pulses, spurious = _main_angle(scene, ref)
+    main, ref_pulses = _main_angle(scene, ref)
+    pulses = ref_pulses.good[(ref_pulses.good >= main.time[0])
+                             & (ref_pulses.good <= main.time[-1])]
     period = float(np.median(np.diff(pulses)))
     expected = main.times_at(2.0 * np.pi * np.arange(math.ceil(main.phi[0] / (2 * np.pi)),
                                                      math.floor(main.phi[-1] / (2 * np.pi)) + 1))
@@ -368,22 +364,17 @@ def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
         reference, ref, identity_clock(), is_reference=True,
         pulse_channel=scene.alignment.main_reference_pulse.channel, residual_time=pulses,
         residual=residual[matched], matched=int(matched.sum()),
-        missing=max(expected.size - int(matched.sum()), 0), spurious=spurious, edges=pulses,
-        period=period)}
+        missing=max(expected.size - int(matched.sum()), 0),
+        spurious=int(ref_pulses.spurious.sum()), edges=pulses, period=period)}
     ref_start = parse_start_time(ref.attrs["start_time"])
     for name, pulse in scene.alignment.pulses.items():
         stream = converted[name]
         channel = pulse.channel.channel
-        fs = float(stream.attrs["fs_nominal"])
-        device_time = stream["time"].to_numpy()
-        dev_time = device_time - input_delay(stream[channel].attrs, fs)
-        edges = detect_edges(stream[channel].to_numpy(), dev_time,
-                             segment=stream["segment"].to_numpy(),
-                             valid=stream["valid"].to_numpy())
+        found = _pulses(stream, scene.channel(pulse.channel))
+        edges, segments = found.times[~found.spurious], found.segment[~found.spurious]
         events = reference_event_times(main.time, main.phi, event_angle=pulse.angle,
                                        events_per_rev=pulse.per_revolution)
         coarse, search = _coarse_offset(stream, ref, ref_start)
-        segments = _edge_segments(stream, edges, dev_time)
         where = {"stream": name, "channel": channel}
         clock = estimate_clock(events, edges, segments, coarse_offset_s=coarse,
                                max_offset_error_s=search, where=where)
@@ -399,7 +390,8 @@ def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
             name, aligned[name], clock, is_reference=False, pulse_channel=channel,
             residual_time=mapped[ok][matched], residual=residual[matched],
             matched=int(matched.sum()), missing=max(int(inside.sum()) - int(matched.sum()), 0),
-            spurious=int((~matched).sum()), edges=mapped[ok], period=period)
+            spurious=int((~matched).sum() + found.spurious.sum()), edges=mapped[ok],
+            period=period)
     return aligned, diagnostics, main
 
 
@@ -472,8 +464,10 @@ def _measured_drives(scene: Scene, ref: xr.Dataset, fine_times: np.ndarray
     drives = {}
     for name, driver in scene.model.drivers.items():
         counts_per_rev = scene.channel(driver.encoder).params["counts_per_rev"]
-        excitation = drive_excitation(ref, driver.encoder.channel, counts_per_rev=counts_per_rev,
-                                      name=name, direction=float(driver.direction))
+        excitation = drive_excitation(
+            ref, driver.encoder.channel, counts_per_rev=counts_per_rev, name=name,
+            direction=float(driver.direction),
+            index_reset=bool(scene.channel(driver.encoder).params.get("index_reset", False)))
         t = channel_time(ref, driver.encoder.channel)
         sampled = []
         for suffix in ("", "_dot", "_ddot"):
