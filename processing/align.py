@@ -97,7 +97,8 @@ def reference_event_times(time: ArrayLike, angle: ArrayLike, *, event_angle: flo
     time : array_like
         Sample times in s.
     angle : array_like
-        Unwrapped angle in rad, strictly increasing (e.g. phi_F from the main-shaft encoder).
+        Unwrapped angle in rad, strictly increasing (e.g. phi_F from the main-shaft encoder);
+        NaN samples (invalid, unfilterable) are skipped.
     event_angle : float, default 0
         Angle in rad at which the device's pulse fires (its mounting position in that angle).
     events_per_rev : int, default 1
@@ -110,6 +111,8 @@ def reference_event_times(time: ArrayLike, angle: ArrayLike, *, event_angle: flo
     """
     t = np.asarray(time, dtype=np.float64)
     phi = np.asarray(angle, dtype=np.float64)
+    finite = np.isfinite(phi)
+    t, phi = t[finite], phi[finite]
     if phi.size < 2 or np.any(np.diff(phi) <= 0):
         raise DataError("the reference angle must increase strictly to locate events",
                         hint="use the smoothed drive angle (excitation.drive_angle) and split at "

@@ -64,7 +64,7 @@ def zero_at_reference(time: ArrayLike, angle: ArrayLike, event_times: ArrayLike,
     time : array_like
         Sample times in s.
     angle : array_like
-        Unwrapped drive angle in rad (smoothed).
+        Unwrapped drive angle in rad (smoothed); NaN samples are skipped.
     event_times : array_like
         Reference pulse times in s on the same clock (spurious pulses removed).
     events_per_rev : int, default 1
@@ -79,13 +79,16 @@ def zero_at_reference(time: ArrayLike, angle: ArrayLike, event_times: ArrayLike,
         errors).
     """
     t = np.asarray(time, dtype=np.float64)
+    phi = np.asarray(angle, dtype=np.float64)
+    finite = np.isfinite(phi)
+    t, phi = t[finite], phi[finite]
     events = np.asarray(event_times, dtype=np.float64)
     events = events[(events >= t[0]) & (events <= t[-1])]
     if events.size == 0:
         raise DataError("no reference event lies inside the angle record",
                         hint="check that the pulse and encoder channels come from the same run")
     step = 2.0 * np.pi / events_per_rev
-    at_events = np.interp(events, t, np.asarray(angle, dtype=np.float64))
+    at_events = np.interp(events, t, phi)
     phase = np.angle(np.mean(np.exp(1j * at_events * events_per_rev))) / events_per_rev
     deviation = np.mod(at_events - phase + step / 2, step) - step / 2
     return float(phase + np.mean(deviation)), float(np.std(deviation))
