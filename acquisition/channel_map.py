@@ -257,6 +257,27 @@ def _parse_channel(name: str, table: Any, key: str) -> ChannelSpec:
                        key)
 
 
+def _check_reader_options(reader: Mapping[str, Any], path: Path, key: str) -> None:
+    """Refuse reader options no reader knows (the file's format's reader when it exists)."""
+    from rigval.acquisition.detect import detect_format
+    from rigval.acquisition.errors import DataFileError
+    from rigval.acquisition.reader import reader_options
+
+    kind = None
+    if path.is_file():
+        try:
+            kind = detect_format(path)
+        except DataFileError:
+            kind = None  # reported when the stream is read
+    known = reader_options(kind)
+    unknown = sorted(set(reader) - known)
+    if unknown:
+        what = f"the {kind} reader" if kind else "no reader"
+        raise SceneError(f"{key}.{unknown[0]}: {what} has this option",
+                         where={"key": f"{key}.{unknown[0]}"},
+                         hint="options: " + ", ".join(sorted(known)))
+
+
 def parse_stream(table: Mapping[str, Any], key: str,
                  base_dir: str | os.PathLike[str] | None = None) -> StreamSpec:
     """Parse one ``[streams.X]`` table into a :class:`StreamSpec`.
@@ -309,6 +330,7 @@ def parse_stream(table: Mapping[str, Any], key: str,
         if reserved in reader:
             raise SceneError(f"{key}.reader.{reserved} is set by the scene, not the reader table",
                              where={"key": f"{key}.reader.{reserved}"})
+    _check_reader_options(reader, path, f"{key}.reader")
     channels_table = table.get("channels", {})
     if not isinstance(channels_table, Mapping):
         raise SceneError(f"{key}.channels must be a table", where={"key": f"{key}.channels"})

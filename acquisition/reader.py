@@ -18,7 +18,7 @@ import xarray as xr
 from rigval.acquisition.detect import FORMATS, detect_format
 from rigval.acquisition.errors import ConfigError, DataFileError
 
-__all__ = ["iter_stream", "read", "read_stream"]
+__all__ = ["iter_stream", "read", "read_stream", "reader_options"]
 
 
 def read(path: str | os.PathLike[str], *, format: str | None = None,
@@ -72,6 +72,25 @@ def read(path: str | os.PathLike[str], *, format: str | None = None,
                           hint="options: " + ", ".join(k for k in accepted if k != "path"))
     return reader(path, channels=channels, time_range=time_range, device=device,
                   **reader_options)
+
+
+def reader_options(kind: str | None = None) -> set[str]:
+    """Return the option names a format's reader accepts (all formats' when ``kind`` is None).
+
+    Parameters
+    ----------
+    kind : {"tdms", "csv", "lvm"}, optional
+        The format.
+
+    Returns
+    -------
+    set of str
+        Keyword names besides ``path``, ``channels``, ``time_range`` and ``device``.
+    """
+    readers = _readers()
+    chosen = readers.values() if kind is None else [readers[kind]]
+    names = {name for reader in chosen for name in inspect.signature(reader).parameters}
+    return names - {"path", "channels", "time_range", "device"}
 
 
 def _readers() -> dict[str, Callable[..., dict[str, xr.Dataset]]]:

@@ -65,6 +65,7 @@ def test_documented_scene_example_parses(tmp_path: Path) -> None:
      "streams.s.channels"),
     ({"device": "PXI-1000"}, "streams.s.device"),
     ({"reader": {"channels": ["x"]}}, "streams.s.reader.channels"),
+    ({"reader": {"sep": ";"}}, "streams.s.reader.sep"),
     ({"files": "x"}, "streams.s.files"),
     ({"file": None}, "streams.s.file"),
 ])
@@ -111,8 +112,7 @@ def test_load_stream_renames_sources_and_attaches_sensors(tmp_path: Path) -> Non
     with pytest.raises(SceneError, match="channels in the file: ai0, ai1") as error:
         load_stream(missing)
     assert error.value.where["key"] == "streams.wls1.channels.x.source"
-    bad_option = parse_stream({"file": "wls1.tdms", "reader": {"decimal": ","}},
-                              "streams.wls1", base_dir=tmp_path)
-    with pytest.raises(SceneError, match="no option 'decimal'") as error:
-        load_stream(bad_option)
-    assert error.value.where["key"] == "streams.wls1.reader"
+    with pytest.raises(SceneError, match="the tdms reader has this option") as error:
+        parse_stream({"file": "wls1.tdms", "reader": {"decimal": ","}}, "streams.wls1",
+                     base_dir=tmp_path)  # a CSV option for a file that is TDMS
+    assert error.value.where["key"] == "streams.wls1.reader.decimal"
