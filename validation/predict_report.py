@@ -293,7 +293,7 @@ def _write_netcdf(prediction: xr.Dataset, sweep: xr.Dataset | None, path: Path,
     root = xr.Dataset(attrs={
         "Conventions": "CF-1.10", "title": prediction.attrs.get("title", "rigval prediction"),
         "rigval_version": _version()})
-    append_history(root, command or "validation.predict")
+    append_history(root, (command or "validation.predict").removeprefix("rigval "))
     tree = xr.DataTree.from_dict({"/": root, **{f"/{k}": v for k, v in children.items()}})
     encoding = {f"/{k}": {name: {"zlib": True, "complevel": 4} for name in v.data_vars}
                 for k, v in children.items()}
