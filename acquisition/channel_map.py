@@ -24,7 +24,8 @@ strain_bridge          bridge* (quarter_I, quarter_II, half_I, half_II, full_I, 
 torsion_bridge         bridge* ("full" | "half"), gauge_factor*, excitation [V],
                        outer_diameter* [m], inner_diameter [m] (0), shear_modulus* [Pa],
                        null_offset ("none" | "first_second")
-encoder                counts_per_rev* (int, after x4 decoding)
+encoder                counts_per_rev* (int, after x4 decoding), index_reset (bool, default
+                       false: the index pulse Z resets the counter)
 reference_pulse        threshold [V] (default: 50 % of the range), edge ("rising" | "falling")
 voltage                none (the channel is used in volts)
 physical               units* (UDUNITS string of the already-scaled values)
@@ -98,7 +99,8 @@ SENSORS: Mapping[str, Mapping[str, _Param]] = MappingProxyType({
         "shear_modulus": _Param("positive", True),
         "null_offset": _NULL,
     },
-    "encoder": {"counts_per_rev": _Param("int", True)},
+    "encoder": {"counts_per_rev": _Param("int", True),
+                "index_reset": _Param("bool", default=False)},
     "reference_pulse": {
         "threshold": _Param("number"),
         "edge": _Param("choice", default="rising", choices=("rising", "falling")),
