@@ -10,6 +10,7 @@ that keep the channel metadata and append a ``history`` line):
 - :mod:`~rigval.processing.convert`: the Dataset-level sensor conversions;
 - :mod:`~rigval.processing.pulses`: reference edges, missing and spurious pulses;
 - :mod:`~rigval.processing.align`: clock models and aligned streams;
+- :mod:`~rigval.processing.timeline`: all aligned streams on one uniform time grid;
 - :mod:`~rigval.processing.angle`: phi_F, cycles, angle-domain resampling;
 - :mod:`~rigval.processing.cycles`: cycle statistics and outlier cycles;
 - :mod:`~rigval.processing.excitation`: drive angles and their derivatives with an error estimate;

@@ -18,6 +18,7 @@ from rigval.processing import (
     cycles,
     excitation,
     pulses,
+    timeline,
     torsion,
 )
 
@@ -78,6 +79,17 @@ def test_streams_to_cycle_statistics_recover_the_true_torque(make_rig, synth) ->
     np.testing.assert_allclose(mean, true_torque(domain["angle"].to_numpy()), atol=0.5)
     assert float(stats["tor1_torque"].sel(statistic="std").max()) < 0.5
     assert stats.attrs["history"].count("\n") >= 2
+
+    common = timeline.common_timeline(aligned, "cdaq", channels={"wls": ["tor1_torque"],
+                                                                 "cdaq": ["enc1"]})
+    grid = common["time"].to_numpy()
+    on_grid = common["tor1_torque"].to_numpy()
+    covered = np.isfinite(on_grid)
+    assert covered.sum() > 0.8 * grid.size and not covered[:100].any()   # device starts at 2 s
+    truth = true_torque(synth.shaft_angle(grid[covered])[0])
+    assert np.max(np.abs(on_grid[covered] - truth)) < 0.5
+    assert common["tor1_torque"].attrs["clock_offset_s"] == aligned["wls"].attrs["clock_offset_s"]
+    assert common.attrs["reference_stream"] == "cdaq"
 
 
 def test_strain_conversion_from_volts_with_offset_window() -> None:

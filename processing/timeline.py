@@ -1,0 +1,110 @@
+"""All aligned streams on one uniform reference-clock time grid (the ``/aligned`` group).
+
+:func:`~rigval.processing.align.align_stream` keeps every stream's own samples; plots, exports and
+time-domain comparisons want one ``time`` axis. :func:`common_timeline` evaluates every channel at
+the grid times with an interpolating spline, after removing its module input delay, per gap-free
+run (grid points in another stream's gap are NaN, never filled), low-passing first at 0.45 of the
+grid rate when a stream is sampled faster than the grid.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import xarray as xr
+
+from rigval.acquisition.errors import ChannelNotFoundError, ConfigError
+from rigval.acquisition.schema import append_history
+from rigval.processing.align import channel_time
+from rigval.processing.angle import interpolate_runs
+from rigval.processing.filters import zero_phase
+
+__all__ = ["CLOCK_ATTRS", "common_timeline"]
+
+logger = logging.getLogger(__name__)
+
+#: Clock-model attributes copied from each aligned stream onto its channels.
+CLOCK_ATTRS = ("clock_offset_s", "clock_drift_ppm", "residual_rms_s", "pulses_matched",
+               "segments")
+
+
+def common_timeline(aligned: Mapping[str, xr.Dataset], reference: str, *,
+                    channels: Mapping[str, Sequence[str]] | None = None,
+                    fs: float | None = None, order: int = 5) -> xr.Dataset:
+    """Return the channels of all aligned streams on one uniform reference-clock grid.
+
+    Parameters
+    ----------
+    aligned : mapping of str to xarray.Dataset
+        Aligned streams by name.
+    reference : str
+        The reference stream; the grid spans its first to last sample.
+    channels : mapping of str to list of str, optional
+        Channels per stream; default every data variable but ``valid``/``segment``. A channel
+        name used by two streams is prefixed with its stream name.
+    fs : float, optional
+        Grid rate in Hz; default the reference stream's ``fs_nominal``.
+    order : int, default 5
+        Interpolation spline degree (1, 3, 5).
+
+    Returns
+    -------
+    xarray.Dataset
+        Dim ``time`` (s, reference clock); one variable per channel with its attributes, its
+        ``stream`` and the stream's clock model (``clock_offset_s``, ``clock_drift_ppm``,
+        ``residual_rms_s``, ``pulses_matched``, ``segments``); attribute ``streams`` (JSON: the
+        clock model of every stream) and a history line.
+    """
+    if reference not in aligned:
+        raise ChannelNotFoundError(f"no aligned stream {reference!r}", where={"key": "reference"},
+                                   available=list(aligned))
+    ref = aligned[reference]
+    rate = float(fs or ref.attrs["fs_nominal"])
+    if rate <= 0:
+        raise ConfigError(f"grid rate must be positive, got {rate} Hz", where={"key": "fs"})
+    ref_time = ref["time"].to_numpy()
+    grid = ref_time[0] + np.arange(int(np.floor((ref_time[-1] - ref_time[0]) * rate)) + 1) / rate
+    selection = channels or {name: [v for v in ds.data_vars if v not in ("valid", "segment")]
+                             for name, ds in aligned.items()}
+    uses: dict[str, int] = {}
+    for names in selection.values():
+        for var in names:
+            uses[var] = uses.get(var, 0) + 1
+    data_vars = {}
+    models = {}
+    history: list[str] = []
+    for stream_name, names in selection.items():
+        ds = aligned[stream_name]
+        clock = {key: ds.attrs[key] for key in CLOCK_ATTRS if key in ds.attrs}
+        models[stream_name] = clock
+        history.extend(line for line in str(ds.attrs.get("history", "")).splitlines()
+                       if line and line not in history)
+        stream_fs = float(ds.attrs["fs_nominal"])
+        segment, valid = ds["segment"].to_numpy(), ds["valid"].to_numpy()
+        for var in names:
+            if var not in ds:
+                raise ChannelNotFoundError(f"channel {var!r} not in stream {stream_name!r}",
+                                           where={"channel": var},
+                                           available=[v for v in ds.data_vars
+                                                      if v not in ("valid", "segment")])
+            values = ds[var].to_numpy().astype(np.float64)
+            if stream_fs > rate:
+                values = zero_phase(values, stream_fs, 0.45 * rate, order=8, segment=segment,
+                                    valid=valid)
+            resampled = interpolate_runs(channel_time(ds, var), values, grid, order=order,
+                                         segment=segment, valid=valid)
+            out_name = var if uses[var] == 1 else f"{stream_name}_{var}"
+            attrs = {**ds[var].attrs, "stream": stream_name, **clock,
+                     "resampling": f"spline order {order} onto {rate:g} Hz, delay removed"}
+            attrs.pop("input_delay_s", None)
+            data_vars[out_name] = ("time", resampled, attrs)
+    out = xr.Dataset(data_vars, coords={"time": ("time", grid, {
+        "units": "s", "long_name": "time on the reference device clock"})},
+        attrs={"reference_stream": reference, "fs_nominal": rate, "streams": json.dumps(models),
+               "history": "\n".join(history)})
+    append_history(out, f"processing.common_timeline {len(data_vars)} channels onto "
+                        f"{rate:g} Hz ({reference} clock)")
+    return out
