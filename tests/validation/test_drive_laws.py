@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError, DataFileError
 from rigval.validation.drive_laws import (
@@ -233,3 +235,20 @@ def test_measured_excitation_with_a_gap_and_encoder_offsets() -> None:
         for g, e, bound in zip(got[name], expected[name], law.error.at(measured.omega),
                                strict=True):
             assert np.max(np.abs(g - e)) <= bound
+
+
+@given(ratio=st.sampled_from([0.0, 1.0, 2.0, -1.0]),
+       terms=st.lists(st.tuples(st.floats(0.0, 0.3), st.integers(1, 6), st.floats(-3.0, 3.0)),
+                      max_size=4),
+       theta0=st.floats(-10.0, 10.0), samples=st.integers(60, 200))
+def test_fit_round_trip_of_band_limited_laws(ratio, terms, theta0, samples) -> None:
+    """Any law with up to 6 harmonics, tabulated without noise, is recovered within its bound."""
+    law = DriveLaw(theta0=theta0, ratio=ratio,
+                   harmonics=tuple(Harmonic(a, float(k), p) for a, k, p in terms))
+    t = np.linspace(0.0, 2.0, samples + 1)
+    fit = fit_periodic_profile(t, law.evaluate(t, math.pi)[0])
+    assert fit.frequency == pytest.approx(0.5)
+    dense = np.linspace(0.0, 2.0, 301)
+    for got, expected, bound in zip(fit.law.evaluate(dense, math.pi), law.evaluate(dense, math.pi),
+                                    fit.law.error.at(math.pi), strict=True):
+        assert np.max(np.abs(got - expected)) <= bound
