@@ -148,8 +148,8 @@ def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], 
     btype : {"lowpass", "highpass", "bandpass", "bandstop"}
         Filter type.
     segment, valid : array_like, optional
-        Stream ``segment`` and ``valid`` variables: the filter never crosses a segment boundary
-        or an invalid sample.
+        Stream ``segment`` and ``valid`` variables: the filter never crosses a segment boundary,
+        an invalid sample or a NaN.
     padlen : int, optional
         Edge padding in samples at the ends of each run; default :func:`default_padlen`
         (limited to the run length - 1).
@@ -182,7 +182,8 @@ def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], 
     out = np.full(data.shape, np.nan)
     margin = 4 * pad
     short = 0
-    for start, stop in contiguous_runs(data.size, segment, valid):
+    usable = np.isfinite(data) if valid is None else np.asarray(valid, bool) & np.isfinite(data)
+    for start, stop in contiguous_runs(data.size, segment, usable):
         if stop - start <= minimum:
             short += stop - start
             continue

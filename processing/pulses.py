@@ -156,7 +156,8 @@ def detect_edges(x: ArrayLike, time: ArrayLike, *, low: float | None = None,
                           where={"key": "polarity"})
     mid = 0.5 * (low + high)
     times: list[float] = []
-    for start, stop in contiguous_runs(data.size, segment, valid):
+    usable = np.isfinite(data) if valid is None else np.asarray(valid, bool) & np.isfinite(data)
+    for start, stop in contiguous_runs(data.size, segment, usable):
         seg = data[start:stop]
         state = np.zeros(seg.size, dtype=np.int8)
         state[seg <= low] = -1
