@@ -9,7 +9,8 @@ Prints, on one core (BLAS threads pinned to 1):
 3. Newton tolerance against speed and error;
 4. evaluation points per cycle (solve_cycle + periodic cubic interpolation to every sample's main
    drive angle) against speed and torque error.
-Timings are the best of the repeats (the machine is shared).
+Timings are the best of the repeats (the machine is shared); a calibration line (a numpy batched
+solve) shows how loaded the machine was.
 """
 
 from __future__ import annotations
@@ -55,7 +56,12 @@ def main() -> None:
     mech = rm.load_mechanism(rm.builtin_mechanism("pendulum"))
     t = np.arange(args.steps) / FS
     print(f"pendulum.toml, {args.steps} steps at {FS:g} Hz, load average "
-          f"{os.getloadavg()[0]:.2f} on {os.cpu_count()} cores\n")
+          f"{os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
+    stack = np.random.default_rng(0).standard_normal((100_000, 6, 6)) + 3 * np.eye(6)
+    rhs = np.ones((100_000, 6, 1))
+    _r, calib, _c = timed(lambda: np.linalg.solve(stack, rhs), args.repeats)
+    print(f"machine state: numpy solve of 100,000 6x6 systems took {1e3 * calib:.0f} ms "
+          "(47 ms on this machine when idle)\n")
 
     rm.solve(mech, t[:2000], outputs=FULL)  # warm up
     fast, wall, cpu = timed(lambda: rm.solve(mech, t, outputs=FULL), args.repeats)

@@ -1,20 +1,25 @@
 """Positions: assembly from the guess, then continuation along the driven angles, batched in time.
 
 The unknowns are the undriven body angles (positions follow linearly, see
-:mod:`rigval.model.loops`). The path through the time steps is followed in three stages:
+:mod:`rigval.model.loops`). The path through the time steps is followed in four stages:
 
-1. *Assembly* at the first step from the file's guess: Levenberg-Marquardt on the loop closures,
-   robust to a guess far from the assembled configuration.
+1. *Assembly* at t = 0 of the drive laws, where the bodies' guesses apply: Levenberg-Marquardt
+   on the loop closures (robust to a guess far from the assembled configuration), then
+   continuation to the first time step along the shortest change of the driven angles.
 2. *Anchors*, sequentially, every ``anchor_spacing`` rad of driven-angle travel (measured with
    each step's increments wrapped to (-pi, pi], so a jump of whole turns is no travel at all):
    second-order Taylor predictor in the driven angles, Newton corrector, step halving when Newton
-   fails or lands farther from the prediction than a step can explain (another branch).
-3. *Refinement*, batched over all steps: each step is predicted from its anchor (then from a
-   finer layer of anchors) and corrected by Newton on the whole batch at once.
+   fails or lands farther from the prediction than the predicted move explains (another branch).
+3. *Layers*, batched: steps every ``refine_spacings`` rad, each layer predicted from the previous
+   one and corrected by Newton on the whole layer at once.
+4. *Finish*, batched over all steps: the rest predicted from the finest layer, then Newton on every
+   step at once until the last update is below ``tol``; that iteration's factorisation of ``J_u``
+   is returned for the velocities, accelerations and multipliers.
 
-Newton stops when the angle update is below ``tol`` rad (plus the floating-point resolution of the
-angle) and the loop gap below ``tol`` times the mechanism size: tolerances relative to the size of
-the coordinates.
+Steps that fail a batched stage (no convergence, or a solution farther from its prediction than
+the predicted move explains) are redone by sequential continuation. Newton stops when the angle
+update is below ``tol`` rad (plus the floating-point resolution of the angle) and the loop gap
+below ``tol`` times the mechanism size: tolerances relative to the size of the coordinates.
 """
 
 from __future__ import annotations
@@ -193,9 +198,15 @@ class Taylor:
 
     def predict(self, rows: np.ndarray, delta: np.ndarray) -> np.ndarray:
         """Predicted undriven angles at driven-angle increments ``delta`` from anchors ``rows``."""
-        pairs = (delta[:, :, None] * delta[:, None, :]).reshape(delta.shape[0], -1, 1)
-        change = self.first[rows] @ delta[:, :, None] + 0.5 * (self.second[rows] @ pairs)
-        return self.theta_u[rows] + change[:, :, 0]
+        n_d = delta.shape[1]
+        first, second = self.first[rows], self.second[rows]
+        guess = self.theta_u[rows]
+        # elementwise over the few driven angles: faster than stacks of tiny matrix products
+        for j in range(n_d):
+            guess += first[:, :, j] * delta[:, j, None]
+            for k in range(n_d):
+                guess += 0.5 * second[:, :, j * n_d + k] * (delta[:, j] * delta[:, k])[:, None]
+        return guess
 
 
 def taylor(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> Taylor:
@@ -554,12 +565,11 @@ def _predict(system: LoopSystem, path: np.ndarray, theta_d: np.ndarray, theta_u:
 
     Returns the guesses, the base steps they were predicted from, and the driven increments.
     """
-    base = known[np.searchsorted(known, targets, side="right") - 1]
-    rows = np.searchsorted(known, base)
-    used = np.unique(rows)
-    expansion = taylor(system, theta_d[known[used]], theta_u[known[used]])
+    rows = np.searchsorted(known, targets, side="right") - 1
+    base = known[rows]
+    expansion = taylor(system, theta_d[known], theta_u[known])
     delta = path[targets] - path[base]
-    return expansion.predict(np.searchsorted(used, rows), delta), base, delta
+    return expansion.predict(rows, delta), base, delta
 
 
 def _plausible(found: np.ndarray, guess: np.ndarray, start: np.ndarray, delta: np.ndarray

@@ -41,7 +41,6 @@ class BatchLU:
 
     def __init__(self, matrices: np.ndarray, row_order: np.ndarray | None = None) -> None:
         rows, cols, n = matrices.shape
-        self.n = n
         self.size = cols
         self.square = rows == cols
         self.matrices = matrices
