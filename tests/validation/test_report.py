@@ -28,7 +28,7 @@ DOC = Path(__file__).resolve().parents[2] / "docs" / "scene.md"
 def _scene(tmp_path: Path, mechanisms_dir: Path):
     for name in ("run_1p0_cdaq.tdms", "run_1p0_wls1.tdms", "run_1p0_wls2.csv",
                  "run_1p0_note.txt"):
-        (tmp_path / name).write_text("x")
+        (tmp_path / name).write_bytes(b"")
     shutil.copy(mechanisms_dir / "pendulum.toml", tmp_path / "pendulum.toml")
     text = re.search(r"```toml\n(.+?)\n```", DOC.read_text(), re.S).group(1)
     path = tmp_path / "scene.toml"
