@@ -382,7 +382,8 @@ def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
         ``phi_F_dot`` (rad s-1), ``phi_F_ddot`` (rad s-2); attributes ``zero_offset_rad``,
         ``reference_scatter_rad`` (rms scatter of the pulses about phi_F = 0) and
         ``suspect_cycles`` (JSON list of cycle numbers whose count between reference pulses is
-        off CPR: glitches, missed counts or a missing pulse) and a history line.
+        off a whole number of revolutions by more than one count: glitches or missed counts;
+        missing pulses alone do not make a cycle suspect) and a history line.
     """
     exc = drive_excitation(stream, encoder_channel, counts_per_rev=counts_per_rev,
                            name="phi_F", direction=direction, method=method,
@@ -401,11 +402,17 @@ def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
     counts = direction * counts
     check = revolution_check(time, counts, reference.good, counts_per_rev,
                              tolerance=glitch_tolerance)
+    # An interval of m whole revolutions is m - 1 missing pulses, not an encoder fault; what is
+    # left over beyond one count (quantisation) marks every cycle the interval spans.
+    whole = np.maximum(np.round(check.residual / counts_per_rev), 0.0)
+    fault = np.abs(check.residual - whole * counts_per_rev) > 1
     at_pulse = np.interp(check.event_times[:-1], time[finite], exc["phi_F"].to_numpy()[finite])
-    suspect = np.round(at_pulse / (2 * np.pi)).astype(int)[check.glitch | check.gross]
+    first = np.round(at_pulse / (2 * np.pi)).astype(int)
+    suspect = {int(k) for i in np.flatnonzero(fault)
+               for k in range(first[i], first[i] + int(whole[i]) + 1)}
     exc.attrs.update({"zero_offset_rad": offset, "reference_scatter_rad": scatter,
                       "reference_channel": reference.channel,
-                      "suspect_cycles": json.dumps(sorted(set(suspect.tolist())))})
+                      "suspect_cycles": json.dumps(sorted(suspect))})
     append_history(exc, f"processing.phi_f zero at {reference.channel} ({offset:.6f} rad, "
-                        f"scatter {scatter:.2e} rad), {suspect.size} suspect cycles")
+                        f"scatter {scatter:.2e} rad), {len(suspect)} suspect cycles")
     return exc

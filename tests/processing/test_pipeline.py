@@ -171,3 +171,20 @@ def test_drive_excitation_dataset_has_units_and_noise_estimates(make_rig, synth)
     same = excitation.drive_excitation(reloading, "enc2", counts_per_rev=8192, name="theta_H",
                                        index_reset=True)
     np.testing.assert_allclose(same["theta_H_ddot"], exc["theta_H_ddot"], atol=1e-9)
+
+
+def test_phi_f_flags_encoder_glitches_but_not_missing_pulses(make_rig, synth) -> None:
+    rig = make_rig(4)
+    counts = rig.counts.astype(np.int64)
+    counts[rig.t_ref > 5.5] += 3                                  # three spurious counts
+    opt1 = rig.opt1.copy()
+    opt1[np.abs(rig.t_ref - rig.opt1_true[12] - 0.015) < 0.05] = 0.0   # one pulse missing
+    ds = _stream(rig.t_ref, {
+        "opt1": Channel(opt1, "V", "optical reference", "/'ai'/'opt1'"),
+        "enc1": Channel((counts % 2**32).astype(np.uint32), "1", "encoder", "/'ci'/'enc1'"),
+    }, "cDAQ-9172", "2026-03-02T10:00:00Z", synth.FS_REF)
+    reference = pulses.stream_pulses(ds, "opt1")
+    assert reference.missing_times.size == 1
+    phi = angle.phi_f(ds, "enc1", reference, counts_per_rev=8192)
+    glitch_cycle = int(synth.shaft_angle(np.array([5.5]))[0][0] // (2 * np.pi))
+    assert json.loads(phi.attrs["suspect_cycles"]) == [glitch_cycle]
