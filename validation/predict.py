@@ -164,12 +164,28 @@ def _check_names(kind: str, names: Sequence[str], available: Sequence[str]) -> N
 
 
 def _solve(mechanism: Mechanism, excitation: Excitation, t: np.ndarray, *,
-           outputs: Sequence[str], points: Sequence[str], joints: Sequence[str]) -> xr.Dataset:
-    """Run the model at times ``t`` with the excitation's drive angles, only what is asked."""
+           outputs: Sequence[str], points: Sequence[str], joints: Sequence[str],
+           with_statics: bool = False) -> xr.Dataset:
+    """Run the model at times ``t`` with the excitation's drive angles, only what is asked.
+
+    With ``with_statics`` every time step is followed by a copy at the same drive angles with
+    zero drive speed and acceleration: the odd rows of the result hold the static (gravity-only)
+    forces of the same configuration, at almost no cost (the position continuation does not move
+    between a step and its copy).
+    """
     drives = excitation.evaluate(t)
     ordered = {d.name: drives[d.name] for d in mechanism.drivers}
+    if with_statics:
+        t = np.repeat(t, 2)
+        ordered = {name: (np.repeat(theta, 2), _then_zero(speed), _then_zero(accel))
+                   for name, (theta, speed, accel) in ordered.items()}
     return solve(mechanism, t, drives=ordered, outputs=tuple(outputs), points=tuple(points),
                  joints=tuple(joints))
+
+
+def _then_zero(values: np.ndarray) -> np.ndarray:
+    """Return ``values`` with a zero after every element."""
+    return np.stack([values, np.zeros_like(values)], axis=1).ravel()
 
 
 def _cycle_grid(excitation: Excitation, n_points: int
@@ -481,60 +497,50 @@ def _flat_forces(result: xr.Dataset, pins: Sequence[str], drivers: Sequence[str]
     return np.concatenate([support.reshape(support.shape[0], -1), torque], axis=1)
 
 
-def _no_gravity(mechanism: Mechanism) -> Mechanism:
-    return dataclasses.replace(mechanism, gravity=(0.0, 0.0))
+def _force_parts(result: xr.Dataset, pins: Sequence[str], drivers: Sequence[str], *,
+                 split_speed: bool, with_statics: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Return the constant and speed-squared parts of support forces and torques of a solve.
 
-
-def _force_parts(mechanism: Mechanism, excitation: Excitation, t: np.ndarray, *,
-                 pins: Sequence[str], split_speed: bool, full: np.ndarray | None = None
-                 ) -> tuple[np.ndarray, np.ndarray, int]:
-    """Return the constant and speed-squared parts of support forces and torques, and the solves.
-
-    With ``split_speed`` the parts are the gravity forces and the inertial forces at the
-    excitation's frequency (a second solve without gravity); without it the frequency is fixed
-    and everything is the constant part.
+    With ``split_speed`` the parts are the static gravity forces (the odd rows of a solve
+    ``with_statics``, see :func:`_solve`; zero without gravity) and the inertial rest at the
+    excitation's frequency. Without it the frequency is fixed and everything is constant.
     """
-    drivers = list(mechanism.driver_names)
-    outputs = ("joint_force", "driver_torque")
-    solves = 0
-    if full is None:
-        full = _flat_forces(_solve(mechanism, excitation, t, outputs=outputs, points=[],
-                                   joints=pins), pins, drivers)
-        solves += 1
+    forces = _flat_forces(result, pins, drivers)
     if not split_speed:
-        return full, np.zeros_like(full), solves
-    if mechanism.gravity == (0.0, 0.0):
-        return np.zeros_like(full), full, solves
-    moving = _flat_forces(_solve(_no_gravity(mechanism), excitation, t, outputs=outputs,
-                                 points=[], joints=pins), pins, drivers)
-    return full - moving, moving, solves + 1
+        return forces, np.zeros_like(forces)
+    if not with_statics:
+        return np.zeros_like(forces), forces
+    static = forces[1::2]
+    return static, forces[0::2] - static
 
 
 def _basis(mechanism: Mechanism, excitation: Excitation, t: np.ndarray, rate: np.ndarray, *,
-           tip: str,
-           pins: Sequence[str], needs: _Needs, split_speed: bool,
+           tip: str, pins: Sequence[str], needs: _Needs, split_speed: bool,
            inertia: Sequence[str]) -> tuple[_Basis, int]:
     """Solve the model along one path as often as the superposition needs; return the solves."""
+    drivers = mechanism.driver_names
+    with_statics = split_speed and needs.forces and mechanism.gravity != (0.0, 0.0)
     result = _solve(mechanism, excitation, t, outputs=needs.outputs(), points=[tip],
-                    joints=list(pins) if needs.forces else [])
+                    joints=list(pins) if needs.forces else [], with_statics=with_statics)
     solves = 1
-    tip_y = result["point_position"].sel(point=tip, axis="y").values if needs.position else None
-    tip_accel = (result["point_acceleration"].sel(point=tip, axis=list(_AXES)).values
+    moving = result.isel(time=slice(None, None, 2)) if with_statics else result
+    tip_y = moving["point_position"].sel(point=tip, axis="y").values if needs.position else None
+    tip_accel = (moving["point_acceleration"].sel(point=tip, axis=list(_AXES)).values
                  if needs.acceleration else None)
     basis = _Basis(excitation.frequency, rate, tip_y, tip_accel, None, None, {}, {})
     if not needs.forces:
         return basis, solves
-    full = _flat_forces(result, pins, mechanism.driver_names)
-    basis.constant, basis.quadratic, count = _force_parts(
-        mechanism, excitation, t, pins=pins, split_speed=split_speed, full=full)
-    solves += count
+    basis.constant, basis.quadratic = _force_parts(result, pins, drivers, split_speed=split_speed,
+                                                   with_statics=with_statics)
     for name in inertia:
         reference = _body_value(mechanism, name)
         step = max(abs(reference), 1.0)
         changed, _ = _apply(name, reference + step, mechanism, excitation)
-        constant, quadratic, count = _force_parts(changed, excitation, t, pins=pins,
-                                                  split_speed=split_speed)
-        solves += count
+        changed_result = _solve(changed, excitation, t, outputs=("joint_force", "driver_torque"),
+                                points=[], joints=pins, with_statics=with_statics)
+        solves += 1
+        constant, quadratic = _force_parts(changed_result, pins, drivers,
+                                           split_speed=split_speed, with_statics=with_statics)
         basis.constant_per_unit[name] = (constant - basis.constant) / step
         basis.quadratic_per_unit[name] = (quadratic - basis.quadratic) / step
     return basis, solves
@@ -561,9 +567,10 @@ def sweep(mechanism: Mechanism | str | Path, parameters: Mapping[str, npt.ArrayL
     not once per point. Along a path, positions at a given phase do not depend on the frequency
     ``f``, velocities scale with ``f`` and accelerations with ``f**2``; the inverse dynamics
     ``C_e^T lambda = Q - M e''`` is linear in the masses, inertias and gravity. So with the forces
-    at a reference frequency ``f0`` split into a gravity part and an inertial part (a second solve
-    without gravity), and one more pair of solves per swept mass or inertia, every point follows
-    exactly as ``gravity + (f/f0)**2 inertial``, each part linear in the swept inertias.
+    at a reference frequency ``f0`` split into a static gravity part and an inertial part (the
+    same solve evaluates a zero-speed copy of every step, see ``_solve``), and one more solve per
+    swept mass or inertia, every point follows exactly as ``gravity + (f/f0)**2 inertial``, each
+    part linear in the swept inertias.
 
     Parameters
     ----------
