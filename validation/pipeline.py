@@ -560,7 +560,11 @@ def _periodic_derivative(values: np.ndarray) -> np.ndarray:
 
 
 def _compare(comparison: ComparisonSpec, units: str, long_name: str, angle: np.ndarray,
-             cycles: np.ndarray, model: np.ndarray) -> ComparisonResult:
+             cycles: np.ndarray, model: np.ndarray, u_num: float) -> ComparisonResult:
+    """Score the model against the measured mean, the baseline and the thresholds.
+
+    ``u_num`` is the numerical uncertainty of the model (signal units) for V&V 20.
+    """
     whole = cycles[np.all(np.isfinite(cycles), axis=1)]
     if whole.shape[0] < 2:
         raise DataError(f"{comparison.name}: only {whole.shape[0]} whole revolutions without "
@@ -570,9 +574,11 @@ def _compare(comparison: ComparisonSpec, units: str, long_name: str, angle: np.n
     model = model * comparison.scale
     offset = float(mean.mean() - model.mean()) if comparison.remove_offset else 0.0
     model = model + offset
-    options = {"metrics": comparison.metrics, "normaliser": comparison.nrmse_normaliser}
-    scores = compare(mean, model, angle, **options)
-    base = baseline(whole, mean, angle=angle, **options)
+    scores = compare(mean, model, angle, metrics=(*comparison.metrics, "vv20"),
+                     normaliser=comparison.nrmse_normaliser, cycles=whole,
+                     uncertainty={"u_num": u_num, **comparison.uncertainty})
+    base = baseline(whole, mean, angle=angle, metrics=comparison.metrics,
+                    normaliser=comparison.nrmse_normaliser)
     checks = check_thresholds(scores, comparison.thresholds,
                               key_path=f"{comparison.key}.thresholds")
     return ComparisonResult(spec=comparison, units=units, long_name=long_name, angle=angle,
@@ -710,18 +716,21 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         fine = _run_model(scene, mechanism, aligned[scene.alignment.reference], fine_times,
                           fine_angle)
         model = fine.isel(angle=slice(None, None, FINE_FACTOR))
+    with watch.stage("numerics"):
+        grid_error = _grid_error(scene, fine)
     with watch.stage("compare"):
         results = []
         for comparison in scene.comparisons:
             channel = scene.channel(comparison.measured)
             long_name = str(aligned[comparison.measured.stream][channel.name].attrs.get(
                 "long_name", channel.name))
+            values = _model_values(model, comparison.model)
+            u_num = grid_error[comparison.name] * float(np.ptp(values)) * abs(comparison.scale)
             result = _compare(comparison, scene.units(comparison.measured), long_name, angle,
-                              measured[comparison.name], _model_values(model, comparison.model))
+                              measured[comparison.name], values, u_num)
             results.append(result)
         results_t = tuple(results)
     with watch.stage("numerics"):
-        grid_error = _grid_error(scene, fine)
         residuals = _energy_residual(mechanism, n)
         residuals["max condition number (this run)"] = float(
             model.attrs.get("max_condition_number", math.nan))

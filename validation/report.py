@@ -44,7 +44,8 @@ _PREFERRED = ("iso18571_periodic.rating", "iso18571_periodic.grade",
               "iso18571_periodic.magnitude", "iso18571_periodic.slope", "sprague_geers.magnitude",
               "sprague_geers.phase", "sprague_geers.comprehensive", "russell.comprehensive",
               "nrmse", "pearson_r", "peak_error.relative_error", "peak_error.shift",
-              "circular_lag.lag_deg")
+              "circular_lag.lag_deg", "vv20.peak.error", "vv20.peak.u_val",
+              "vv20.peak.resolved", "vv20.rms.error", "vv20.rms.u_val", "vv20.rms.resolved")
 
 
 def rigval_version() -> str:

@@ -265,7 +265,12 @@ class ComparisonSpec:
         Add the difference of the measured mean's and the model's averages over a revolution to
         the model (sensors with an unknown zero, such as AC-coupled accelerometers); reported.
     metrics : tuple of str
-        Metrics to compute (names of :data:`rigval.validation.metrics.METRICS`).
+        Metrics to compute (names of :data:`rigval.validation.metrics.METRICS`); ASME V&V 20
+        on the peak and RMS features always runs in addition.
+    uncertainty : mapping of str to float
+        Systematic uncertainties for V&V 20 (``u_input``, ``u_measurement`` in the signal's
+        unit, ``u_measurement_rel`` as a fraction, coverage factor ``k``); the random part comes
+        from the cycles and ``u_num`` from the angle-grid error.
     nrmse_normaliser : {"range", "rms", "peak"}
         Normaliser of the NRMSE.
     thresholds : mapping of str to str
@@ -282,6 +287,7 @@ class ComparisonSpec:
     lowpass_hz: float | None
     remove_offset: bool
     metrics: tuple[str, ...]
+    uncertainty: Mapping[str, float]
     nrmse_normaliser: str
     thresholds: Mapping[str, str]
     key: str
@@ -568,7 +574,8 @@ def _model(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> ModelSp
 def _score_names(metrics: tuple[str, ...]) -> tuple[str, ...]:
     """Names of the numeric scores the given metrics report (from a run on a test signal)."""
     angle = np.arange(32) * (2.0 * math.pi / 32)
-    scores = compare(np.sin(angle), np.sin(angle + 0.1), angle, metrics=metrics)
+    scores = compare(np.sin(angle), np.sin(angle + 0.1), angle, metrics=metrics,
+                     cycles=np.sin(angle + np.array([[0.0], [0.2]])))
     return tuple(k for k, v in scores.items() if isinstance(v, int | float)
                  and not isinstance(v, bool))
 
@@ -588,6 +595,17 @@ def _thresholds(table: Mapping[str, Any], metrics: tuple[str, ...], key: str
             raise _error(tkey, f"unknown score {metric!r} for the metrics {', '.join(metrics)}",
                          hint=f"scores: {', '.join(known)}")
     return MappingProxyType(dict(table))
+
+
+def _uncertainty(table: Mapping[str, Any], key: str) -> Mapping[str, float]:
+    _check_keys(table, key, {"u_input", "u_measurement", "u_measurement_rel", "k"})
+    values = {}
+    for name in table:
+        value = _get(table, name, key, float)
+        if not (math.isfinite(value) and value >= 0) or (name == "k" and value == 0):
+            raise _error(f"{key}.{name}", f"must be a finite number >= 0 (k > 0), got {value}")
+        values[name] = value
+    return MappingProxyType(values)
 
 
 def _model_output(value: Any, key: str) -> ModelOutput:
@@ -614,7 +632,7 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
         table = _table(raw, key)
         _check_keys(table, key, {"name", "measured", "model", "scale", "scale_units",
                                  "lowpass_hz", "remove_offset", "metrics", "nrmse_normaliser",
-                                 "thresholds"})
+                                 "uncertainty", "thresholds"})
         name = _get(table, "name", key, str)
         if name in {s.name for s in specs}:
             raise _error(f"{key}.name", f"duplicate comparison name {name!r}")
@@ -633,9 +651,13 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
         for i, metric in enumerate(metrics):
             if metric not in METRICS or metric == "vv20":
                 raise _error(f"{key}.metrics[{i}]", f"unknown metric {metric!r}",
-                             hint=f"metrics: {', '.join(m for m in METRICS if m != 'vv20')}")
+                             hint=f"metrics: {', '.join(m for m in METRICS if m != 'vv20')} "
+                                  "(V&V 20 always runs; give its inputs in uncertainty)")
+        uncertainty = _uncertainty(_table(_get(table, "uncertainty", key, dict, {}),
+                                          f"{key}.uncertainty"), f"{key}.uncertainty")
         thresholds = _thresholds(_table(_get(table, "thresholds", key, dict, {}),
-                                        f"{key}.thresholds"), metrics, f"{key}.thresholds")
+                                        f"{key}.thresholds"), (*metrics, "vv20"),
+                                 f"{key}.thresholds")
         measured_units = channel_units(streams[measured.stream].channels[measured.channel])
         try:
             model_dim = multiply(output.units, scale_units)
@@ -649,7 +671,7 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
                      "quantity (e.g. scale = -1/A, scale_units = 'm-2' turns N into Pa)")
         specs.append(ComparisonSpec(
             name, measured, output, scale, scale_units, lowpass,
-            _get(table, "remove_offset", key, bool, False), metrics,
+            _get(table, "remove_offset", key, bool, False), metrics, uncertainty,
             _get(table, "nrmse_normaliser", key, str, "range", ("range", "rms", "peak")),
             thresholds, key))
     return tuple(specs)
