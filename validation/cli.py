@@ -31,7 +31,8 @@ EXIT_USAGE = 2
 EXIT_DATA = 3
 
 #: Subcommand modules in :mod:`rigval.validation.commands`, in the order ``--help`` lists them.
-COMMANDS: tuple[str, ...] = ("validate", "demo", "campaign", "predict", "info", "simulate_rig")
+COMMANDS: tuple[str, ...] = ("validate", "demo", "campaign", "predict", "info", "simulate_rig",
+                             "bench")
 
 logger = logging.getLogger(__name__)
 

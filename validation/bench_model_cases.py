@@ -1,0 +1,168 @@
+"""Model sweep of ``rigval bench``: Newton tolerance, points per cycle, outputs asked for.
+
+Case: the reference pendulum (``pendulum.toml``, 8 bodies, two harmonic drives) at 5 kHz. The
+truth is rigval's plain solver (:func:`rigval.model.solve_stepwise`: full coordinates, Newton step
+by step, the paper's algorithm as written) iterated to ``tol = 1e-14`` on every 10th sample of the
+first revolution (500 instants); its own default run (``tol = 1e-12``) is the baseline the batched
+solver is timed against. One physical check needs no reference at all: the drive power
+``sum(T omega)`` must equal the rate of change of kinetic plus potential energy (no friction).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import xarray as xr
+
+import rigval.model as rm
+from rigval.model.drives import law_motion
+from rigval.validation.bench import BenchRow, Measured, measure, with_baseline
+
+__all__ = ["model_rows"]
+
+logger = logging.getLogger(__name__)
+
+FS = 5000.0
+#: Outputs of a full inverse-dynamics run; kinematics only drops the last two.
+FULL = ("position", "velocity", "acceleration", "joint_force", "driver_torque")
+KINEMATICS = FULL[:3]
+TRUTH_STRIDE = 10
+BASELINE = "step-by-step (solve_stepwise)"
+FORCES = "joint forces and drive torques: max error / peak, vs full-coordinate reference"
+ACCELERATIONS = "body accelerations: max error / peak, vs full-coordinate reference"
+TORQUE = "drive torque: max error / peak, vs full-coordinate reference"
+POWER = "power balance: max |sum(T omega) - dE/dt| / peak power (physics, no reference)"
+
+
+def _relative(value: xr.DataArray | np.ndarray, reference: xr.DataArray) -> float:
+    ref = np.asarray(reference)
+    return float(np.max(np.abs(np.asarray(value) - ref)) / np.max(np.abs(ref)))
+
+
+def _forces_error(result: xr.Dataset, reference: xr.Dataset) -> float:
+    return max(_relative(result["joint_force"], reference["joint_force"]),
+               _relative(result["driver_torque"], reference["driver_torque"]))
+
+
+def power_balance(mechanism: rm.Mechanism, result: xr.Dataset) -> float:
+    """Largest drive-power excess over the energy rate, relative to the peak drive power.
+
+    Parameters
+    ----------
+    mechanism : rigval.model.Mechanism
+        Masses, inertias, gravity and drivers of the solved mechanism.
+    result : xarray.Dataset
+        A solve result with ``velocity``, ``acceleration`` and ``driver_torque``.
+
+    Returns
+    -------
+    float
+        ``max |sum_d T_d omega_d - dE/dt| / max |sum_d T_d omega_d|`` (1), with
+        ``dE/dt = sum_b m_b v_b . (a_b - g) + J_b omega_b alpha_b``.
+    """
+    mass = np.array([b.mass for b in mechanism.bodies])
+    inertia = np.array([b.inertia for b in mechanism.bodies])
+    v, a = result["velocity"].to_numpy(), result["acceleration"].to_numpy()
+    linear = np.einsum("tbk,tbk->tb", v[..., :2], a[..., :2] - np.array(mechanism.gravity))
+    rate = linear @ mass + (v[..., 2] * a[..., 2]) @ inertia
+    body_index = {name: k for k, name in enumerate(mechanism.body_names)}
+    driven = [body_index[d.body] for d in mechanism.drivers]
+    omega = v[:, driven, 2]
+    power = np.sum(result["driver_torque"].to_numpy() * omega, axis=1)
+    return float(np.max(np.abs(power - rate)) / np.max(np.abs(power)))
+
+
+def model_rows(quick: bool = False) -> list[BenchRow]:
+    """Time and error of the model's main choices on the reference pendulum.
+
+    Parameters
+    ----------
+    quick : bool, default False
+        1 s of motion (5000 steps) and fewer choices instead of 20 s (100 000 steps).
+
+    Returns
+    -------
+    list of BenchRow
+        Stage ``"model"``: Newton tolerance (forces), kinematics only against full inverse
+        dynamics, evaluation points per cycle with periodic cubic interpolation to every
+        sample's drive angle (torque), and the power balance; each against the step-by-step
+        baseline (points per cycle: against solving at every sample).
+    """
+    mech = rm.load_mechanism(rm.builtin_mechanism("pendulum"))
+    seconds = 1.0 if quick else 20.0
+    repeats = 2 if quick else 3
+    t = np.arange(round(seconds * FS)) / FS
+    n = t.size
+    truth_t = t[: round(FS)][::TRUTH_STRIDE]  # every 10th sample of the first revolution
+    reference = rm.solve_stepwise(mech, truth_t, tol=1e-14)
+    case = f"pendulum.toml, {seconds:g} s at {FS:g} Hz ({n} steps)"
+    rows: list[BenchRow] = []
+
+    def row(choice: str, metric: str, error: float, bound: float, time_s: float, cpu_s: float,
+            steps: int) -> BenchRow:
+        return BenchRow(stage="model", case=case, choice=choice, metric=metric, unit="1",
+                        error=error, bound=bound, time_s=time_s, cpu_s=cpu_s, n=steps)
+
+    base = measure(lambda: rm.solve_stepwise(mech, truth_t), 1)
+    for metric, error in ((FORCES, _forces_error(base.value, reference)),
+                          (ACCELERATIONS, _relative(base.value["acceleration"],
+                                                    reference["acceleration"])),
+                          (POWER, power_balance(mech, base.value))):
+        rows.append(row(BASELINE, metric, error, 1e-10, base.time_s, base.cpu_s, truth_t.size))
+
+    rm.solve(mech, t[:1000], outputs=list(FULL))  # warm-up (imports, caches)
+    tolerances = (1e-4, 1e-8, 1e-12) if quick else (1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-14)
+    runs = {tol: measure(lambda tol=tol: rm.solve(mech, t, outputs=list(FULL), tol=tol), repeats)
+            for tol in tolerances}
+    full_run = runs[1e-12]
+    for tol, run in runs.items():
+        head = run.value.isel(time=slice(0, round(FS), TRUTH_STRIDE))
+        bound = 1e-10 if tol <= 1e-8 else 1e-4
+        choice = f"batched solve, tol {tol:.0e}"
+        rows.append(row(choice, FORCES, _forces_error(head, reference), bound, run.time_s,
+                        run.cpu_s, n))
+        if tol == 1e-12:
+            rows.append(row(choice, POWER, power_balance(mech, run.value), 1e-9, run.time_s,
+                            run.cpu_s, n))
+    kin = measure(lambda: rm.solve(mech, t, outputs=list(KINEMATICS)), repeats)
+    head = kin.value.isel(time=slice(0, round(FS), TRUTH_STRIDE))
+    rows.append(row("kinematics only, tol 1e-12", ACCELERATIONS,
+                    _relative(head["acceleration"], reference["acceleration"]), 1e-10,
+                    kin.time_s, kin.cpu_s, n))
+    head = full_run.value.isel(time=slice(0, round(FS), TRUTH_STRIDE))
+    rows.append(row("full inverse dynamics, tol 1e-12", ACCELERATIONS,
+                    _relative(head["acceleration"], reference["acceleration"]), 1e-10,
+                    full_run.time_s, full_run.cpu_s, n))
+    rows = with_baseline(rows, BASELINE)
+    return rows + _cycle_rows(mech, t, reference, case, repeats, quick, full_run)
+
+
+def _cycle_rows(mech: rm.Mechanism, t: np.ndarray, reference: xr.Dataset, case: str,
+                repeats: int, quick: bool, every_sample: Measured) -> list[BenchRow]:
+    """Return rows of evaluation points per cycle, interpolated to every sample's angle."""
+    main = mech.drivers[0]
+    theta = law_motion(main, t)[0]
+    phi = np.mod(theta - theta[0], 2 * np.pi)
+    truth_torque = reference["driver_torque"]
+    solved = every_sample.value
+    baseline = "solve at every sample"
+    rows = [BenchRow(stage="model", case=case, choice=baseline, metric=TORQUE, unit="1",
+                     error=_relative(solved["driver_torque"][: round(FS)][::TRUTH_STRIDE],
+                                     truth_torque),
+                     bound=1e-10, time_s=every_sample.time_s, cpu_s=every_sample.cpu_s,
+                     n=t.size)]
+    points_list = (32, 128, 512) if quick else (16, 32, 64, 128, 256, 512, 1024, 4096)
+    for points in points_list:
+        def run(points: int = points) -> xr.Dataset:
+            cycle = rm.solve_cycle(mech, points, outputs=["driver_torque"])
+            return rm.interpolate_cycle(cycle, phi)
+
+        result = measure(run, repeats)
+        torque = result.value["driver_torque"].to_numpy()[: round(FS)][::TRUTH_STRIDE]
+        # cubic interpolation: error falls as points**-4; 1 % at 16 points is generous
+        bound = min(1e-2, 1e-2 * (16 / points) ** 4 * 10)
+        rows.append(BenchRow(stage="model", case=case, choice=f"{points} points per cycle",
+                             metric=TORQUE, unit="1", error=_relative(torque, truth_torque),
+                             bound=bound, time_s=result.time_s, cpu_s=result.cpu_s, n=t.size))
+    return with_baseline(rows, baseline)

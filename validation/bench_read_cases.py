@@ -1,0 +1,185 @@
+"""Reading sweep of ``rigval bench``: rigval's TDMS reader against nptdms and pandas.
+
+A TDMS file of 4 float64 channels (segments of ``2**18`` samples per channel, values known) is
+written to a temporary folder and read warm (page cache filled first) by each method in a fresh
+interpreter, which reports the wall and CPU time of the read itself (imports done before the clock
+starts) and the growth of its resident memory during the read (the peak ``VmHWM`` minus the
+resident size ``VmRSS`` after the imports, from ``/proc/self/status``; ``ru_maxrss`` would carry
+the parent's peak over ``exec``; each method imports only what it needs). The error is the
+relative difference of the sum of every value read from the sum of the values written (1 if the
+number of values differs).
+
+Methods: ``nptdms`` streaming (``TdmsFile.open`` + ``data_chunks``, the baseline), ``nptdms``
+whole-file read (``TdmsFile.read``), the pandas route (``TdmsFile.read(...).as_dataframe()``),
+:func:`rigval.acquisition.read_stream` (one stream Dataset, file SHA-256 included) and
+:func:`rigval.acquisition.iter_stream` (bounded windows of ``2**20`` samples).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from rigval.validation.bench import BenchRow, with_baseline
+
+__all__ = ["READERS", "reading_rows", "write_test_file"]
+
+logger = logging.getLogger(__name__)
+
+CHANNELS = 4
+SEGMENT_SAMPLES = 1 << 18
+BASELINE = "nptdms streaming (open + data_chunks)"
+
+#: Method name -> code run in the subprocess; it reads PATH and sets ``total`` and ``count``.
+READERS: dict[str, str] = {
+    BASELINE: """
+from nptdms import TdmsFile
+total, count = 0.0, 0
+with TdmsFile.open(PATH) as tdms:
+    for chunk in tdms.data_chunks():
+        for group in chunk.groups():
+            for channel in group.channels():
+                values = channel[:]
+                total += float(values.sum()); count += values.size
+""",
+    "nptdms read (TdmsFile.read)": """
+from nptdms import TdmsFile
+tdms = TdmsFile.read(PATH)
+arrays = [c[:] for g in tdms.groups() for c in g.channels()]
+total, count = sum(float(a.sum()) for a in arrays), sum(a.size for a in arrays)
+""",
+    "pandas dataframe (TdmsFile.read + as_dataframe)": """
+from nptdms import TdmsFile
+frame = TdmsFile.read(PATH).as_dataframe()
+values = frame.to_numpy()
+total, count = float(values.sum()), values.size
+""",
+    "rigval read_stream (Dataset, sha256)": """
+import rigval.acquisition as acq
+ds = acq.read_stream(PATH)
+names = [v for v in ds.data_vars if "time" in ds[v].dims and v not in ("valid", "segment")]
+total = sum(float(ds[v].values.sum()) for v in names)
+count = sum(ds[v].size for v in names)
+""",
+    "rigval iter_stream (windows of 2**20, sha256)": """
+import rigval.acquisition as acq
+total, count = 0.0, 0
+for window in acq.iter_stream(PATH, chunk_samples=1 << 20):
+    names = [v for v in window.data_vars
+             if "time" in window[v].dims and v not in ("valid", "segment")]
+    total += sum(float(window[v].values.sum()) for v in names)
+    count += sum(window[v].size for v in names)
+""",
+}
+
+_PRELUDE = """
+import json, time
+%s
+PATH = %r
+def status_mib(key):  # VmRSS / VmHWM of this process (a fresh mm: not inherited over exec)
+    with open("/proc/self/status") as status:
+        line = next(line for line in status if line.startswith(key + ":"))
+    return int(line.split()[1]) / 1024
+imports_mib = status_mib("VmRSS")
+"""
+#: Imports each method needs, done before its clock starts.
+_IMPORTS = {"nptdms": "import nptdms",
+            "pandas": "import nptdms, pandas",
+            "rigval": "import numpy as np, xarray as xr, rigval.acquisition\n"
+                      "xr.Dataset({'a': ('t', np.zeros(3))})  # xarray's set-up on first use"}
+_TIMED = """
+wall, cpu = time.perf_counter(), time.process_time()
+%s
+print(json.dumps({"time_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu,
+                  "peak_mib": status_mib("VmHWM") - imports_mib, "total": total,
+                  "count": int(count)}))
+"""
+
+
+def write_test_file(path: Path, mib: float) -> tuple[float, int]:
+    """Write the benchmark TDMS file segment by segment (bounded memory).
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        File to write.
+    mib : float
+        Approximate size in MiB (rounded to whole segments of 8 MiB, at least one).
+
+    Returns
+    -------
+    total : float
+        Sum of every value written.
+    count : int
+        Number of values written.
+    """
+    from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
+
+    segments = max(1, round(mib * 2**20 / (SEGMENT_SAMPLES * CHANNELS * 8)))
+    props = {"wf_start_time": np.datetime64("2026-11-21T06:00:00.000000"),
+             "wf_increment": 1 / 51_200, "wf_start_offset": 0.0, "unit_string": "Volts"}
+    block = np.random.default_rng(0).normal(size=(CHANNELS, SEGMENT_SAMPLES))
+    total = 0.0
+    with TdmsWriter(path) as writer:
+        for k in range(segments):
+            data = block + k
+            total += float(data.sum())
+            objects = [ChannelObject("task", f"ai{c}", data[c], props if k == 0 else {})
+                       for c in range(CHANNELS)]
+            writer.write_segment(([RootObject({}), GroupObject("task")] if k == 0 else [])
+                                 + objects)
+    return total, segments * SEGMENT_SAMPLES * CHANNELS
+
+
+def _run(code: str) -> dict[str, float]:
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def reading_rows(quick: bool = False) -> list[BenchRow]:
+    """Read time, CPU time and peak memory of each reader, with the values checked.
+
+    Parameters
+    ----------
+    quick : bool, default False
+        A 32 MiB file read once per method instead of 1 GiB read twice (best kept).
+
+    Returns
+    -------
+    list of BenchRow
+        Stage ``"reading"``; ``peak_mib`` holds each method's peak resident memory.
+    """
+    mib = 32.0 if quick else 1024.0
+    repeats = 1 if quick else 2
+    with tempfile.TemporaryDirectory(prefix="rigval_bench_") as folder:
+        path = Path(folder) / "bench.tdms"
+        expected_total, expected_count = write_test_file(path, mib)
+        with open(path, "rb") as handle:  # warm the page cache: every method reads warm
+            while handle.read(1 << 24):
+                pass
+        size_mib = path.stat().st_size / 2**20
+        case = (f"TDMS {size_mib:.0f} MiB, {CHANNELS} float64 channels, "
+                f"{expected_count // CHANNELS} samples each")
+        rows = []
+        for label, body in READERS.items():
+            library = label.split()[0]
+            code = _PRELUDE % (_IMPORTS[library], str(path)) + _TIMED % body
+            result = min((_run(code) for _ in range(repeats)), key=lambda r: r["time_s"])
+            if result["count"] == expected_count:
+                error = abs(result["total"] - expected_total) / abs(expected_total)
+            else:
+                error = 1.0
+            rows.append(BenchRow(stage="reading", case=case, choice=label,
+                                 metric="sum of values read vs written, relative", unit="1",
+                                 error=error, bound=1e-10, time_s=result["time_s"],
+                                 cpu_s=result["cpu_s"], n=expected_count,
+                                 peak_mib=result["peak_mib"], limit=math.nan))
+    return with_baseline(rows, BASELINE)

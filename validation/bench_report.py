@@ -1,0 +1,194 @@
+"""Files of ``rigval bench``: the rows as CSV and Markdown, and plots of time against error.
+
+Plots are made on :class:`matplotlib.figure.Figure` objects (no pyplot state), one PNG per stage:
+one panel per metric, CPU time per item (sample, step, event) on the x axis, the error on the y
+axis, both logarithmic; each choice is one series through its cases, the baseline in black.
+Reading has no error to speak of (every reader returns the exact values), so its panel shows peak
+memory against time instead.
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import fields
+from pathlib import Path
+
+from matplotlib.figure import Figure
+
+from rigval.validation.bench import STAGES, BenchRow
+
+__all__ = ["markdown_table", "plot_stage", "write_csv", "write_outputs"]
+
+logger = logging.getLogger(__name__)
+
+#: Smallest error drawn on a log axis (exact results are drawn there).
+_FLOOR = 1e-17
+
+
+def write_csv(rows: Sequence[BenchRow], path: Path) -> Path:
+    """Write the rows to a CSV file, one column per :class:`BenchRow` field.
+
+    Parameters
+    ----------
+    rows : sequence of BenchRow
+        The rows.
+    path : pathlib.Path
+        Output file.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
+    names = [f.name for f in fields(BenchRow)]
+    with open(path, "w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=names)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: _csv_value(v) for k, v in row.as_dict().items()})
+    return path
+
+
+def _csv_value(value: object) -> object:
+    if isinstance(value, float):
+        return repr(value) if math.isfinite(value) else str(value)
+    return value
+
+
+def _number(value: float, digits: int = 3) -> str:
+    if not math.isfinite(value):
+        return "-" if math.isnan(value) else "inf"
+    if value == 0:
+        return "0"
+    return f"{value:.{digits}g}"
+
+
+def markdown_table(rows: Sequence[BenchRow], note: str = "") -> str:
+    """Return the rows as Markdown: one section per stage, one table per case.
+
+    Parameters
+    ----------
+    rows : sequence of BenchRow
+        The rows.
+    note : str, optional
+        A line printed under the title (machine, date, load).
+
+    Returns
+    -------
+    str
+        Markdown text.
+    """
+    lines = ["# rigval bench: speed against error", ""]
+    if note:
+        lines += [note, ""]
+    lines += ["Time: best of the repeats, wall clock and CPU of the process; `baseline time` is "
+              "the baseline's wall time scaled to the row's work. `bound`: the stated upper "
+              "bound of the error (checked); `limit`: the error the input itself sets, where "
+              "known.", ""]
+    for stage in STAGES:
+        stage_rows = [r for r in rows if r.stage == stage]
+        if not stage_rows:
+            continue
+        lines += [f"## {stage}", ""]
+        for case in dict.fromkeys(r.case for r in stage_rows):
+            lines += [f"**{case}**", ""]
+            memory = stage == "reading"
+            head = ["choice", "metric", "error", "unit", "bound", "limit", "wall s", "CPU s",
+                    "n"] + (["peak MiB"] if memory else []) + \
+                   ["baseline", "baseline error", "baseline wall s"]
+            lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+            for r in (r for r in stage_rows if r.case == case):
+                cells = [r.choice, r.metric, _number(r.error), r.unit, _number(r.bound),
+                         _number(r.limit), _number(r.time_s), _number(r.cpu_s), str(r.n)]
+                cells += [_number(r.peak_mib, 4)] if memory else []
+                cells += ["(this row)" if r.is_baseline else r.baseline,
+                          _number(r.baseline_error), _number(r.baseline_time_s)]
+                lines.append("| " + " | ".join(cells) + " |")
+            lines.append("")
+    return "\n".join(lines)
+
+
+def plot_stage(rows: Sequence[BenchRow], stage: str) -> Figure:
+    """Plot one stage's rows: time per item against error, one panel per metric.
+
+    Parameters
+    ----------
+    rows : sequence of BenchRow
+        Rows (other stages are ignored).
+    stage : str
+        The stage to plot.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure (not attached to pyplot).
+    """
+    stage_rows = [r for r in rows if r.stage == stage]
+    metrics = list(dict.fromkeys(r.metric for r in stage_rows)) if stage != "reading" else [""]
+    fig = Figure(figsize=(6.0 * len(metrics), 4.2), layout="constrained")
+    axes = fig.subplots(1, len(metrics), squeeze=False)[0]
+    for ax, metric in zip(axes, metrics, strict=True):
+        chosen = [r for r in stage_rows if r.metric == metric or stage == "reading"]
+        for choice in dict.fromkeys(r.choice for r in chosen):
+            series = sorted((r for r in chosen if r.choice == choice), key=lambda r: r.cpu_s)
+            baseline = series[0].is_baseline
+            style = {"color": "black", "marker": "s"} if baseline else {"marker": "o"}
+            if stage == "reading":
+                x = [r.cpu_s for r in series]
+                y = [r.peak_mib for r in series]
+            else:
+                x = [r.cpu_s / r.n * 1e6 for r in series]
+                y = [max(r.error, _FLOOR) for r in series]
+            if all(v <= 0 for v in x):  # untimed baseline (e.g. start times): a level
+                ax.axhline(y[0], color="black", linestyle=":", label=choice)
+                continue
+            ax.plot(x, y, linestyle="-" if len(series) > 1 else "", label=choice, **style)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        if stage == "reading":
+            ax.set_xlabel("CPU time of the read, s")
+            ax.set_ylabel("memory growth during the read, MiB")
+            ax.set_title(chosen[0].case, fontsize=9)
+        else:
+            unit = chosen[0].unit
+            ax.set_xlabel("CPU time per item, us")
+            ax.set_ylabel(f"error ({unit})" if unit != "1" else "error (relative)")
+            ax.set_title(metric, fontsize=9, wrap=True)
+        ax.grid(True, which="major", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle(f"rigval bench: {stage}")
+    return fig
+
+
+def write_outputs(rows: Sequence[BenchRow], out: Path, note: str = "") -> list[Path]:
+    """Write ``bench.csv``, ``bench.md`` and ``bench_<stage>.png`` into a folder.
+
+    Parameters
+    ----------
+    rows : sequence of BenchRow
+        The rows.
+    out : pathlib.Path
+        Output folder (created if missing).
+    note : str, optional
+        Machine and load line for the Markdown file.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+    """
+    out.mkdir(parents=True, exist_ok=True)
+    paths = [write_csv(rows, out / "bench.csv")]
+    markdown = out / "bench.md"
+    markdown.write_text(markdown_table(rows, note) + "\n", encoding="utf-8")
+    paths.append(markdown)
+    for stage in dict.fromkeys(r.stage for r in rows):
+        figure = plot_stage(rows, stage)
+        path = out / f"bench_{stage}.png"
+        figure.savefig(path, dpi=110)
+        paths.append(path)
+    logger.info("bench: wrote %d files to %s", len(paths), out)
+    return paths
