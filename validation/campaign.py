@@ -35,6 +35,7 @@ import re
 import time
 import traceback
 import uuid
+from collections import Counter
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -257,17 +258,18 @@ def plan_runs(scenes: Sequence[str | Path], out_dir: str | Path) -> list[tuple[s
         Name, scene path and report folder per run, in the order given; absolute paths, so that
         workers started elsewhere find them on a shared file system.
     """
-    unique: list[Path] = []
+    unique: dict[Path, Path] = {}  # resolved -> as given
     for scene in map(Path, scenes):
-        if any(scene.resolve() == seen.resolve() for seen in unique):
+        if scene.resolve() in unique:
             logger.warning("scene %s is listed more than once; it is validated once", scene)
             continue
-        unique.append(scene)
-    bases = [_run_name(scene) for scene in unique]
+        unique[scene.resolve()] = scene
+    bases = [_run_name(scene) for scene in unique.values()]
+    counts = Counter(bases)
     taken: set[str] = set()
     plan = []
-    for scene, base in zip(unique, bases, strict=True):
-        if bases.count(base) > 1:
+    for scene, base in zip(unique.values(), bases, strict=True):
+        if counts[base] > 1:
             base = f"{scene.resolve().parent.name}_{base}"
         name, number = base, 2
         while name in taken:
@@ -483,16 +485,19 @@ def _reuse(name: str, scene: Path, run_dir: Path) -> RunOutcome | None:
         return None
     try:
         stale = _stale_reason(manifest, scene, run_dir)
+        result = manifest["result"]
+        outcome = RunOutcome(name=name, scene=scene, run_dir=run_dir, status=result["status"],
+                             metrics=tuple(result["metrics"]), speed_rev_s=result["speed_rev_s"],
+                             outputs=tuple(manifest["outputs"]), elapsed_s=result["elapsed_s"],
+                             reused=True)
     except (KeyError, TypeError, AttributeError):
         stale = "the manifest is not in the expected format"
+    except OSError as error:
+        stale = f"the outputs cannot be checked: {error}"
     if stale:
         logger.info("run %s is recomputed: %s", name, stale)
         return None
-    result = manifest["result"]
-    return RunOutcome(name=name, scene=scene, run_dir=run_dir, status=result["status"],
-                      metrics=tuple(result["metrics"]), speed_rev_s=result["speed_rev_s"],
-                      outputs=tuple(manifest["outputs"]), elapsed_s=result["elapsed_s"],
-                      reused=True)
+    return outcome
 
 
 def _stale_reason(manifest: Mapping[str, Any], scene: Path, run_dir: Path) -> str | None:

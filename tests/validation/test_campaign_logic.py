@@ -254,3 +254,13 @@ def test_progress_line_counts_runs_by_status(tmp_path: Path, scenes: list[Path])
     progress.close()
     last = stream.getvalue().rstrip("\n").split("\r")[-1]
     assert "3/3 runs (1 passed, 1 failed, 1 errors)" in last
+
+
+@pytest.mark.parametrize("text", ["{", '{"schema": "rigval-run-manifest/1"}', '{"result": 1}'])
+def test_unreadable_manifest_means_recompute(tmp_path: Path, scenes: list[Path],
+                                            text: str) -> None:
+    run_one(scenes[0], tmp_path / "run", validate=standin_validate)
+    (tmp_path / "run" / campaign.MANIFEST_NAME).write_text(text)
+    outcome = run_one(scenes[0], tmp_path / "run", validate=standin_validate)
+    assert (outcome.status, outcome.reused) == ("passed", False)
+    assert json.loads((tmp_path / "run" / campaign.MANIFEST_NAME).read_text())["result"]
