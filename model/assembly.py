@@ -33,7 +33,7 @@ import numpy as np
 
 from rigval.acquisition.errors import AssemblyError, MechanismError, SingularityError
 from rigval.model.drives import law_motion
-from rigval.model.linalg import BatchLU, static_row_order
+from rigval.model.linalg import BatchLU, row_max_abs, static_row_order
 from rigval.model.loops import LoopSystem, loop_system
 
 if TYPE_CHECKING:
@@ -157,18 +157,18 @@ def newton(system: LoopSystem, base: np.ndarray, theta_u: np.ndarray, tol: float
         phi = np.concatenate([phi.real, phi.imag], axis=1)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             step = BatchLU(system.jacobian_stack(z_w), row_order).solve(phi)
-        finite = np.all(np.isfinite(step), axis=1)
+        size = row_max_abs(step)
+        finite = np.isfinite(size)
         step[~finite] = 0.0
         theta_w = theta_w - step
         z_w = _rotate(z_w, -step)
-        size = np.max(np.abs(step), axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
             predicted = np.where((size < 1e-4) & np.isfinite(previous), size**3 / previous**2,
                                  size)
-        floor = 8 * _EPS * np.max(np.abs(theta_w), axis=1)
+        floor = 8 * _EPS * row_max_abs(theta_w)
         done = finite & (predicted <= tol + floor)
         leave = done | ~finite
-        gap_w = np.max(np.abs(phi), axis=1)
+        gap_w = row_max_abs(phi)
         if np.all(leave) or _ == max_iter - 1:
             theta_out[rows], z_out[rows], gap[rows] = theta_w, z_w, gap_w
             converged[rows[done]] = True
@@ -345,7 +345,7 @@ def _travel(path: np.ndarray) -> np.ndarray:
     """Cumulative driven-angle travel along the path (largest driver increment per step), rad."""
     travel = np.zeros(path.shape[0])
     if path.shape[1] and path.shape[0] > 1:
-        np.cumsum(np.max(np.abs(np.diff(path, axis=0)), axis=1), out=travel[1:])
+        np.cumsum(row_max_abs(np.diff(path, axis=0)), out=travel[1:])
     return travel
 
 
@@ -575,9 +575,9 @@ def _predict(system: LoopSystem, path: np.ndarray, theta_d: np.ndarray, theta_u:
 def _plausible(found: np.ndarray, guess: np.ndarray, start: np.ndarray, delta: np.ndarray
                ) -> np.ndarray:
     """Solutions no farther from their prediction than the predicted move explains (branch)."""
-    moved = np.max(np.abs(found - guess), axis=1)
-    expected = np.max(np.abs(guess - start), axis=1)
-    return moved <= np.maximum(0.25 * np.maximum(np.max(np.abs(delta), axis=1), expected), 1e-6)
+    moved = row_max_abs(found - guess)
+    expected = row_max_abs(guess - start)
+    return moved <= np.maximum(0.25 * np.maximum(row_max_abs(delta), expected), 1e-6)
 
 
 def _refine(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, z_d: np.ndarray,
@@ -609,14 +609,14 @@ def _finish(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, z_d: np.nd
     base_phi = driven_part(system, z_d)
     w_u = system.loop_points[:, system.undriven]
     z_u = phasor(theta_u)
-    limit = tols.tol + 8 * _EPS * np.max(np.abs(theta_u), axis=1)
+    limit = tols.tol + 8 * _EPS * row_max_abs(theta_u)
     for attempt in range(tols.max_iter + 1):
         lu = BatchLU(system.jacobian_stack(z_u), row_order)
         phi = base_phi + z_u @ w_u.T
         phi = np.concatenate([phi.real, phi.imag], axis=1)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             step = lu.solve(phi)
-        size = np.max(np.abs(step), axis=1)
+        size = row_max_abs(step)
         finite = np.isfinite(size)
         if np.all(finite):
             theta_u -= step
@@ -627,7 +627,7 @@ def _finish(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, z_d: np.nd
         converged = size <= limit
         if not np.all(converged):
             # near a toggle the angles are only defined to rounding times the condition
-            gap = np.max(np.abs(phi), axis=1)
+            gap = row_max_abs(phi)
             converged |= gap <= 16 * _EPS * system.length_scale
         if np.all(converged):
             if guess is not None:

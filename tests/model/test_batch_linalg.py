@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rigval.model.linalg import BatchLU, static_row_order
+from rigval.model.linalg import BatchLU, row_max_abs, static_row_order
 
 
 def _stack(n: int, seed: int) -> np.ndarray:
@@ -43,3 +43,10 @@ def test_tall_stack_is_least_squares() -> None:
     x = np.random.default_rng(5).standard_normal((50, 6))
     rhs = np.einsum("nij,nj->ni", mats, x)
     np.testing.assert_allclose(BatchLU(np.moveaxis(mats, 0, -1)).solve(rhs), x, atol=1e-10)
+
+
+def test_row_max_abs_matches_numpy_and_propagates_nan() -> None:
+    values = np.random.default_rng(6).standard_normal((100, 6))
+    values[3, 2] = np.nan
+    expected = np.max(np.abs(values), axis=1)
+    np.testing.assert_array_equal(row_max_abs(values), expected)
