@@ -2,7 +2,8 @@
 
 Plots are made on :class:`matplotlib.figure.Figure` objects (no pyplot state), one PNG per stage:
 one panel per metric, CPU time per item (sample, step, event) on the x axis, the error on the y
-axis, both logarithmic; each choice is one series through its cases, the baseline in black.
+axis, both logarithmic; each choice is one series through its cases, the baseline in black, and
+where the input sets a limit (quantisation, timing noise) it is drawn dotted with open markers.
 Reading has no error to speak of (every reader returns the exact values), so its panel shows peak
 memory against time instead.
 """
@@ -128,9 +129,13 @@ def plot_stage(rows: Sequence[BenchRow], stage: str) -> Figure:
     """
     stage_rows = [r for r in rows if r.stage == stage]
     metrics = list(dict.fromkeys(r.metric for r in stage_rows)) if stage != "reading" else [""]
-    fig = Figure(figsize=(6.0 * len(metrics), 4.2), layout="constrained")
-    axes = fig.subplots(1, len(metrics), squeeze=False)[0]
-    for ax, metric in zip(axes, metrics, strict=True):
+    ncols = min(2, len(metrics))
+    nrows = math.ceil(len(metrics) / ncols)
+    fig = Figure(figsize=(6.5 * ncols, 4.4 * nrows), layout="constrained")
+    grid = fig.subplots(nrows, ncols, squeeze=False).ravel()
+    for ax in grid[len(metrics):]:
+        ax.set_visible(False)
+    for ax, metric in zip(grid, metrics, strict=False):
         chosen = [r for r in stage_rows if r.metric == metric or stage == "reading"]
         for choice in dict.fromkeys(r.choice for r in chosen):
             series = sorted((r for r in chosen if r.choice == choice), key=lambda r: r.cpu_s)
@@ -145,7 +150,12 @@ def plot_stage(rows: Sequence[BenchRow], stage: str) -> Figure:
             if all(v <= 0 for v in x):  # untimed baseline (e.g. start times): a level
                 ax.axhline(y[0], color="black", linestyle=":", label=choice)
                 continue
-            ax.plot(x, y, linestyle="-" if len(series) > 1 else "", label=choice, **style)
+            lines = ax.plot(x, y, linestyle="-" if len(series) > 1 else "", label=choice,
+                            **style)
+            limits = [r.limit for r in series]
+            if stage != "reading" and all(math.isfinite(v) for v in limits):
+                ax.plot(x, limits, linestyle=":", marker=style["marker"], fillstyle="none",
+                        color=lines[0].get_color())
         ax.set_xscale("log")
         ax.set_yscale("log")
         if stage == "reading":
@@ -156,7 +166,9 @@ def plot_stage(rows: Sequence[BenchRow], stage: str) -> Figure:
             unit = chosen[0].unit
             ax.set_xlabel("CPU time per item, us")
             ax.set_ylabel(f"error ({unit})" if unit != "1" else "error (relative)")
-            ax.set_title(metric, fontsize=9, wrap=True)
+            limited = any(math.isfinite(r.limit) for r in chosen)
+            ax.set_title(metric + ("\n(open markers, dotted: the input's limit)" if limited
+                                   else ""), fontsize=9)
         ax.grid(True, which="major", alpha=0.3)
         ax.legend(fontsize=7)
     fig.suptitle(f"rigval bench: {stage}")
