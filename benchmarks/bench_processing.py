@@ -9,7 +9,8 @@ Run: ``python benchmarks/bench_processing.py`` (about a minute on 2 cores). Prin
 4. reference-pulse edge timing (linear vs band-limited sinc reconstruction);
 5. clock alignment over 12 random 20 s runs (edge refinement, one or both edges; the lifting
    shaft's twice-per-revolution pulses against encoder-angle crossings);
-6. zero-phase filtering one-shot vs chunked.
+6. zero-phase filtering one-shot vs chunked;
+7. a 30-minute record: time and peak memory of the main steps.
 """
 
 from __future__ import annotations
@@ -228,6 +229,34 @@ def bench_filter() -> None:
           f"largest relative difference {diff:.1e}")
 
 
+def bench_long_record() -> None:
+    print("\n7. A 30-minute record at 5 kS/s (9 million samples): time and peak of new allocations")
+    import tracemalloc
+
+    t = np.arange(0.0, 1800.0, 1 / FS)
+    theta = W * t + 0.05 * np.sin(W * t)
+    counts = np.floor(theta / (2 * np.pi) * 8192)
+    raw = encoder.counts_to_angle(counts, 8192)
+    signal = np.sin(3 * theta)
+    size_mb = t.nbytes / 1e6
+    steps: list[tuple[str, Callable[[], Any]]] = [
+        ("drive_angle (Butterworth 8 Hz)", lambda: excitation.drive_angle(
+            t, raw, fs=FS, step_rad=2 * np.pi / 8192)),
+        ("resample_to_angle, 360 points/rev", lambda: angle.resample_to_angle(
+            t, signal, t, theta, points_per_rev=360, fs=FS)),
+        ("zero_phase 20 Hz", lambda: filters.zero_phase(signal, FS, 20.0)),
+    ]
+    for label, step in steps:
+        tracemalloc.start()
+        start = time.perf_counter()
+        step()
+        seconds = time.perf_counter() - start
+        _, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        print(f"   {label:<36} {seconds:6.2f} s   peak {peak / 1e6:7.0f} MB "
+              f"({peak / 1e6 / size_mb:.1f} x one float64 channel)")
+
+
 def main() -> None:
     bench_interpolation()
     bench_anti_alias()
@@ -235,6 +264,7 @@ def main() -> None:
     bench_edges()
     bench_alignment()
     bench_filter()
+    bench_long_record()
 
 
 if __name__ == "__main__":

@@ -156,3 +156,16 @@ def test_exactly_periodic_events_are_ambiguous_too() -> None:
     dev = np.arange(0.25, 40.0, 0.5)
     with pytest.raises(AlignmentError, match="ambiguity"):
         align.estimate_clock(ref, dev, coarse_offset_s=1.0, max_offset_error_s=2.0)
+
+
+def test_two_hours_of_events_at_100_ppm_drift_all_match(synth) -> None:
+    rng = np.random.default_rng(9)
+    ref = synth.crossing_times(synth.TWO_PI * np.arange(1, 7200))
+    drift, offset = 100e-6, 3.217
+    dev = (ref - offset) / (1 + drift) + 1e-6 * rng.standard_normal(ref.size)
+    dev = dev[(dev > 0) & (dev < 7000)]
+    clock = align.estimate_clock(ref, np.delete(dev, np.arange(0, dev.size, 7)),
+                                 coarse_offset_s=offset - 1.5)
+    assert clock.pulses_matched == dev.size - dev[::7].size
+    assert abs(clock.drift - drift) * 1e6 < 1e-3
+    assert abs(clock.offsets_s[0] - offset) < 1e-6
