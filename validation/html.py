@@ -59,6 +59,7 @@ figure{margin:1rem 0}
 figure img,figure svg{max-width:100%;height:auto}
 figcaption{font-size:.86rem;color:#57606a}
 details{margin:.4rem 0 1rem}
+.scroll{overflow-x:auto;max-width:100%}
 summary{cursor:pointer;color:#1f5fa8;font-size:.9rem}
 .ok{background:#dafbe1;color:#116329;font-weight:600}
 .bad{background:#ffebe9;color:#a40e26;font-weight:600}
@@ -212,6 +213,7 @@ class Page:
         cap = f"<caption>{escape(caption)}</caption>" if caption else ""
         markup = (f"<table>{cap}<thead><tr>{head}</tr></thead>"
                   f"<tbody>{''.join(body)}</tbody></table>")
+        markup = f'<div class="scroll">{markup}</div>'
         if collapsed is not None:
             markup = f"<details><summary>{escape(collapsed)}</summary>{markup}</details>"
         self._parts.append(markup)

@@ -92,8 +92,8 @@ MIN_EVENT_TOLERANCE_S = 1e-3
 INTERPOLATION_ORDER = {"linear": 1, "cubic": 3}
 #: Hysteresis half-band of a reference pulse's ``threshold``, as a fraction of it.
 PULSE_HYSTERESIS = 0.1
-#: Pulse periods of raw signal shown per stream in the alignment figure.
-PULSE_PERIODS_SHOWN = 2.5
+#: Half-width of the raw-pulse window in the alignment figure, in main-shaft periods.
+PULSE_WINDOW = 0.04
 
 _ITEM_DIM = {"position": ("body", "coord"), "velocity": ("body", "coord"),
              "acceleration": ("body", "coord"), "point_position": ("point", "axis"),
@@ -260,21 +260,29 @@ def _recover_segments(clock: ClockModel, events: np.ndarray, edges: np.ndarray,
         unaligned_segments=tuple(s for s in clock.unaligned_segments if s not in order))
 
 
-def _pulse_stretch(aligned: xr.Dataset, channel: str, edges: np.ndarray, period: float
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Return a few periods of the raw pulse signal from its first edges (reference time)."""
+def _with_pulse_window(summary: StreamAlignment, aligned: xr.Dataset, channel: str,
+                       edges: np.ndarray, centre: float, half_width: float) -> StreamAlignment:
+    """Attach the raw pulse signal and its edges within ``centre +- half_width`` (s)."""
     t = channel_time(aligned, channel)
-    start = (edges[0] if edges.size else t[0]) - 0.25 * period
-    inside = (t >= start) & (t <= start + PULSE_PERIODS_SHOWN * period)
-    shown = edges[(edges >= start) & (edges <= start + PULSE_PERIODS_SHOWN * period)]
-    return t[inside], aligned[channel].to_numpy()[inside], shown
+    inside = np.abs(t - centre) <= half_width
+    return dataclasses.replace(
+        summary, pulse_time=t[inside], pulse_signal=aligned[channel].to_numpy()[inside],
+        pulse_units=str(aligned[channel].attrs.get("units", "")),
+        edge_times=edges[np.abs(edges - centre) <= half_width])
+
+
+def _common_pulse(pulses: np.ndarray, spans: list[tuple[float, float]], margin: float) -> float:
+    """Return the first reference pulse that every stream recorded (else the first pulse)."""
+    start = max(span[0] for span in spans) + margin
+    stop = min(span[1] for span in spans) - margin
+    inside = pulses[(pulses >= start) & (pulses <= stop)]
+    return float(inside[0] if inside.size else pulses[0])
 
 
 def _stream_summary(name: str, aligned: xr.Dataset, clock: ClockModel, *, is_reference: bool,
-                    pulse_channel: str, residual_time: np.ndarray, residual: np.ndarray,
-                    matched: int, missing: int, spurious: int, edges: np.ndarray,
-                    period: float) -> StreamAlignment:
-    pulse_t, pulse_x, shown = _pulse_stretch(aligned, pulse_channel, edges, period)
+                    residual_time: np.ndarray, residual: np.ndarray, matched: int,
+                    missing: int, spurious: int) -> StreamAlignment:
+    empty = np.zeros(0)
     delays = [float(aligned[v].attrs.get("input_delay_s", 0.0)) for v in aligned.data_vars
               if v not in ("valid", "segment")]
     times = aligned["time"].to_numpy()
@@ -286,7 +294,8 @@ def _stream_summary(name: str, aligned: xr.Dataset, clock: ClockModel, *, is_ref
         input_delay_s=max(delays, default=0.0), segments=len(clock.segments),
         gaps=tuple(json.loads(aligned.attrs.get("gaps", "[]"))),
         span_s=(float(times[0]), float(times[-1])), residual_time=residual_time,
-        residual_s=residual, pulse_time=pulse_t, pulse_signal=pulse_x, edge_times=shown)
+        residual_s=residual, pulse_time=empty, pulse_signal=empty, pulse_units="",
+        edge_times=empty)
 
 
 def _coarse_offset(stream: xr.Dataset, ref: xr.Dataset, ref_start: np.datetime64
@@ -361,11 +370,11 @@ def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
     residual, matched = _residuals(pulses, expected, period)
     aligned = {reference: ref}
     diagnostics = {reference: _stream_summary(
-        reference, ref, identity_clock(), is_reference=True,
-        pulse_channel=scene.alignment.main_reference_pulse.channel, residual_time=pulses,
+        reference, ref, identity_clock(), is_reference=True, residual_time=pulses,
         residual=residual[matched], matched=int(matched.sum()),
         missing=max(expected.size - int(matched.sum()), 0),
-        spurious=int(ref_pulses.spurious.sum()), edges=pulses, period=period)}
+        spurious=int(ref_pulses.spurious.sum()))}
+    shown = {reference: (scene.alignment.main_reference_pulse.channel, pulses)}
     ref_start = parse_start_time(ref.attrs["start_time"])
     for name, pulse in scene.alignment.pulses.items():
         stream = converted[name]
@@ -387,11 +396,16 @@ def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
         inside = (events >= aligned[name]["time"].values[0]) & (
             events <= aligned[name]["time"].values[-1])
         diagnostics[name] = _stream_summary(
-            name, aligned[name], clock, is_reference=False, pulse_channel=channel,
+            name, aligned[name], clock, is_reference=False,
             residual_time=mapped[ok][matched], residual=residual[matched],
             matched=int(matched.sum()), missing=max(int(inside.sum()) - int(matched.sum()), 0),
-            spurious=int((~matched).sum() + found.spurious.sum()), edges=mapped[ok],
-            period=period)
+            spurious=int((~matched).sum() + found.spurious.sum()))
+        shown[name] = (channel, mapped[ok])
+    half_width = PULSE_WINDOW * period
+    centre = _common_pulse(pulses, [d.span_s for d in diagnostics.values()], half_width)
+    diagnostics = {name: _with_pulse_window(summary, aligned[name], *shown[name], centre,
+                                            half_width)
+                   for name, summary in diagnostics.items()}
     return aligned, diagnostics, main
 
 

@@ -99,7 +99,10 @@ def plot_comparison(result: ComparisonResult, *, width: float = 9.0) -> Figure:
 
 
 def plot_pulse_edges(alignment: Mapping[str, StreamAlignment], *, width: float = 9.0) -> Figure:
-    """Plot the raw reference pulse of each stream with the detected rising edges marked.
+    """Plot one reference pulse as each stream recorded it, with the detected edges marked.
+
+    After alignment the edges of all streams fall at the same time (the pulses fire at the same
+    shaft angle): the figure shows the alignment at a glance.
 
     Parameters
     ----------
@@ -115,10 +118,11 @@ def plot_pulse_edges(alignment: Mapping[str, StreamAlignment], *, width: float =
         ax.plot(stream.pulse_time, stream.pulse_signal, color=MEASURED, lw=0.8)
         for edge in stream.edge_times:
             ax.axvline(edge, color=MODEL, lw=0.9, ls="--")
-        ax.set_ylabel(f"{stream.stream} [V]")
+        ax.set_ylabel(f"{stream.stream} [{stream.pulse_units}]")
         ax.grid(True, lw=0.4, alpha=0.6)
-        ax.set_title(f"{stream.stream} ({stream.device}): {stream.edge_times.size} rising edges "
-                     "(dashed) in this stretch", fontsize=9, loc="left")
+        edges = ", ".join(f"{edge:.5f} s" for edge in stream.edge_times)
+        ax.set_title(f"{stream.stream} ({stream.device}): edge at {edges or 'none'}",
+                     fontsize=9, loc="left")
     axes[-1].set_xlabel("time on the reference timeline [s]")
     return fig
 

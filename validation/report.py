@@ -171,6 +171,15 @@ def _summary_rows(result: ValidationResult) -> list[dict[str, Any]]:
     return rows
 
 
+def _alignment_rows(result: ValidationResult) -> list[dict[str, Any]]:
+    return [{"stream": name, "device": a.device, "offset [s]": f"{a.offset_s:.6f}",
+             "drift [ppm]": a.drift_ppm, "residual rms [us]": a.residual_rms_s * 1e6,
+             "pulses matched": a.events_matched, "missing": a.events_missing,
+             "spurious": a.events_spurious, "input delay [ms]": a.input_delay_s * 1e3,
+             "segments": a.segments, "gaps": len(a.gaps)}
+            for name, a in result.alignment.items()]
+
+
 def _peaks(predictions: xr.Dataset) -> list[dict[str, Any]]:
     rows = []
     force = predictions["support_force"]
@@ -180,8 +189,9 @@ def _peaks(predictions: xr.Dataset) -> list[dict[str, Any]]:
             values = force.sel(support=support, axis=axis).values
             i_max, i_min = int(np.argmax(values)), int(np.argmin(values))
             rows.append({"support": str(support), "axis": axis,
-                         "max [N]": float(values[i_max]), "at [deg]": float(angle[i_max]),
-                         "min [N]": float(values[i_min]), "at [deg] ": float(angle[i_min])})
+                         "max [N]": float(values[i_max]), "phi_F at max [deg]": float(angle[i_max]),
+                         "min [N]": float(values[i_min]),
+                         "phi_F at min [deg]": float(angle[i_min])})
     return rows
 
 
@@ -226,11 +236,12 @@ def _build_page(result: ValidationResult) -> Page:
                    collapsed=f"all {len(comparison.scores)} scores of {comparison.name}")
 
     page.section("Alignment")
-    page.table([{"stream": name, **{k: v for k, v in a.summary().items() if k != "gaps"},
-                 "gaps": len(a.gaps)} for name, a in result.alignment.items()],
-               caption="clock model per stream (offset and drift against the reference)")
+    page.table(_alignment_rows(result),
+               caption="clock model per stream: t_ref = offset + (1 + drift) t_device per "
+                       "gap-free segment, fitted on the reference pulses")
     page.figure(plots.plot_pulse_edges(result.alignment),
-                caption="reference pulses on the raw signal with the detected rising edges")
+                caption="one reference pulse as each stream recorded it (raw signal, reference "
+                        "timeline after alignment) with the detected edges dashed")
     page.figure(plots.plot_clock_residuals(result.alignment),
                 caption="clock-fit residuals at the matched reference events")
     page.figure(plots.plot_stream_coverage(result.alignment),
@@ -255,8 +266,9 @@ def _build_page(result: ValidationResult) -> Page:
     stage_rows = [{"stage": k, "time [s]": v} for k, v in numerics.stage_seconds.items()]
     stage_rows.append({"stage": "total", "time [s]": sum(numerics.stage_seconds.values())})
     page.table(stage_rows, caption="time per stage")
-    page.table([{"residual": k, "max": v} for k, v in numerics.model_residuals.items()],
-               caption=f"model constraint residuals ({numerics.model_points} angle points)")
+    page.table([{"check": k, "value": v} for k, v in numerics.model_residuals.items()],
+               caption=f"model numerics (this run: {numerics.model_points} angle points; power "
+                       "balance on the mechanism file's drive law)")
     page.table([{"comparison": k, "max error / range": v} for k, v in numerics.grid_error.items()],
                caption=f"angle grid: model on {scene.angle.points_per_revolution} points "
                        "against a grid four times finer")

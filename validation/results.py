@@ -125,9 +125,12 @@ class StreamAlignment:
     residual_s : numpy.ndarray
         Clock-fit residual per matched event in s.
     pulse_time : numpy.ndarray
-        A short stretch of the raw pulse channel: times on the reference timeline in s.
+        A short window of the raw pulse channel around one reference pulse that every stream
+        recorded: times on the reference timeline in s.
     pulse_signal : numpy.ndarray
-        The raw pulse signal there (V).
+        The raw pulse signal there, in ``pulse_units``.
+    pulse_units : str
+        Unit of the pulse channel as read.
     edge_times : numpy.ndarray
         Detected rising edges within that stretch in s.
     """
@@ -149,6 +152,7 @@ class StreamAlignment:
     residual_s: np.ndarray = field(repr=False)
     pulse_time: np.ndarray = field(repr=False)
     pulse_signal: np.ndarray = field(repr=False)
+    pulse_units: str
     edge_times: np.ndarray = field(repr=False)
 
     def summary(self) -> dict[str, Any]:

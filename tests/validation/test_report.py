@@ -63,7 +63,8 @@ def result(tmp_path: Path, mechanisms_dir: Path) -> ValidationResult:
             gaps=({"after_s": 5.0, "duration_s": 0.2, "missing_samples": 322},),
             span_s=(0.0, 20.0), residual_time=np.arange(19.0),
             residual_s=3e-6 * rng.standard_normal(19), pulse_time=np.linspace(0, 2, 200),
-            pulse_signal=(np.linspace(0, 2, 200) % 1 < 0.1) * 5.0, edge_times=np.array([0, 1.0]))
+            pulse_signal=(np.linspace(0, 2, 200) % 1 < 0.1) * 5.0, pulse_units="V",
+            edge_times=np.array([0, 1.0]))
         for name, spec in scene.streams.items()}
     supports = ["P3", "P4", "P10", "P11"]
     predictions = xr.Dataset(
