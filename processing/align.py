@@ -8,16 +8,17 @@ squares on matched reference events (research section 4.2):
 2. for each device segment, candidate offsets from pairing its first events with every reference
    event within ``coarse_offset_s +- max_offset_error_s``; each candidate is scored by how many
    events it matches within a quarter period and by the robust scale of the residuals about a
-   fitted line.
-   The true offset leaves only timing jitter, an offset wrong by whole periods leaves the
-   period-to-period speed variation, so whole-period ambiguity is resolved from the data (and
-   reported as an :class:`AlignmentError` when the pulse train is too regular to resolve it);
+   fitted line. The true offset leaves only timing jitter, an offset wrong by whole periods
+   leaves the period-to-period speed variation, so whole-period ambiguity is resolved from the
+   data (and reported as an :class:`AlignmentError` when the pulse train is too regular);
 3. all events matched with the candidate's line, then one joint least-squares fit of a shared
    drift and one offset per segment, with 2-pass rejection of residuals above 5 robust sigma.
 
 Pulses at a multiple of the reference rate (the lifting shaft's opt3, twice per main revolution)
 are matched to reference events built at that multiple from the reference angle
-(:func:`reference_event_times`), so every device pulse has a partner.
+(:func:`reference_event_times`), so every device pulse has a partner. Several event kinds (rising
+and falling edges) can be fitted together. :func:`align_stream` then puts a stream on the
+reference timeline without touching its samples.
 """
 
 from __future__ import annotations

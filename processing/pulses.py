@@ -5,8 +5,10 @@ the low threshold (30 % by default) and fires above the high one (70 %); the edg
 crossing of the 50 % mid level before the firing sample, interpolated linearly between the two
 samples around it (0.03 sample rms for a band-limited step as a delta-sigma channel delivers it),
 or, with ``refine="sinc"``, where the band-limited (windowed-sinc) reconstruction of the samples
-crosses it (0.0008 sample rms at 60 dB SNR). Re-triggers
-within a hold-off are ignored (debouncing). Detection never spans a gap or an invalid sample.
+crosses it (0.0014 sample rms at 60 dB SNR). Re-triggers within a hold-off are ignored
+(debouncing). Detection never spans a gap, an invalid sample or a NaN.
+:func:`stream_pulses` does all this for a stream channel, removes the module input delay and
+classifies the edges per gap-free segment.
 
 :func:`classify_pulses` checks the interval sequence against the local period: intervals near an
 integer multiple m >= 2 of the period mean m - 1 missing pulses (their times are estimated);
