@@ -32,7 +32,7 @@ BASELINE = "step-by-step (solve_stepwise)"
 FORCES = "joint forces and drive torques: max error / peak, vs full-coordinate reference"
 ACCELERATIONS = "body accelerations: max error / peak, vs full-coordinate reference"
 TORQUE = "drive torque: max error / peak, vs full-coordinate reference"
-POWER = "power balance: max |sum(T omega) - dE/dt| / peak power (physics, no reference)"
+POWER = "power balance: max abs(sum(T omega) - dE/dt) / peak power (physics, no reference)"
 
 
 def _relative(value: xr.DataArray | np.ndarray, reference: xr.DataArray) -> float:

@@ -21,7 +21,8 @@ from matplotlib.figure import Figure
 
 from rigval.validation.bench import STAGES, BenchRow
 
-__all__ = ["markdown_table", "plot_stage", "write_csv", "write_outputs"]
+__all__ = ["compare_text", "markdown_table", "plot_stage", "read_csv", "write_csv",
+           "write_outputs"]
 
 logger = logging.getLogger(__name__)
 
@@ -53,10 +54,70 @@ def write_csv(rows: Sequence[BenchRow], path: Path) -> Path:
     return path
 
 
+def read_csv(path: Path) -> list[BenchRow]:
+    """Read rows written by :func:`write_csv`.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        A ``bench.csv`` file.
+
+    Returns
+    -------
+    list of BenchRow
+        Its rows.
+    """
+    kinds = {f.name: f.type for f in fields(BenchRow)}
+    converters = {"int": int, "float": float, "str": str}
+    with open(path, newline="", encoding="utf-8") as handle:
+        return [BenchRow(**{k: converters[str(kinds[k])](v) for k, v in row.items()})
+                for row in csv.DictReader(handle)]
+
+
+def compare_text(rows: Sequence[BenchRow], reference: Sequence[BenchRow]) -> str:
+    """Return a Markdown table of each row's error and CPU time against an earlier run.
+
+    Rows are matched by stage, case, choice and metric; rows without a partner are listed as
+    such. Errors of the synthetic cases are deterministic (fixed seeds), so their ratio should
+    be 1 up to rounding; CPU times vary with the machine's load.
+
+    Parameters
+    ----------
+    rows : sequence of BenchRow
+        This run.
+    reference : sequence of BenchRow
+        The earlier run (e.g. the one behind ``docs/performance.md``).
+
+    Returns
+    -------
+    str
+        Markdown text.
+    """
+    earlier = {(r.stage, r.case, r.choice, r.metric): r for r in reference}
+    lines = ["| stage | choice | metric | error | earlier | ratio | CPU s | earlier | ratio |",
+             "|" + "---|" * 9]
+    for r in rows:
+        old = earlier.get((r.stage, r.case, r.choice, r.metric))
+        if old is None:
+            lines.append(f"| {r.stage} | {_cell(r.choice)} | {_cell(r.metric)} | "
+                         f"{_number(r.error)} | (no earlier row) | | | | |")
+            continue
+        error_ratio = r.error / old.error if old.error else (1.0 if r.error == 0 else math.inf)
+        time_ratio = r.cpu_s / old.cpu_s if old.cpu_s else math.nan
+        lines.append(f"| {r.stage} | {_cell(r.choice)} | {_cell(r.metric)} | "
+                     f"{_number(r.error)} | {_number(old.error)} | {_number(error_ratio)} | "
+                     f"{_number(r.cpu_s)} | {_number(old.cpu_s)} | {_number(time_ratio)} |")
+    return "\n".join(lines)
+
+
 def _csv_value(value: object) -> object:
     if isinstance(value, float):
         return repr(value) if math.isfinite(value) else str(value)
     return value
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|")
 
 
 def _number(value: float, digits: int = 3) -> str:
@@ -102,10 +163,11 @@ def markdown_table(rows: Sequence[BenchRow], note: str = "") -> str:
                    ["baseline", "baseline error", "baseline wall s"]
             lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
             for r in (r for r in stage_rows if r.case == case):
-                cells = [r.choice, r.metric, _number(r.error), r.unit, _number(r.bound),
+                cells = [_cell(r.choice), _cell(r.metric), _number(r.error), r.unit,
+                         _number(r.bound),
                          _number(r.limit), _number(r.time_s), _number(r.cpu_s), str(r.n)]
                 cells += [_number(r.peak_mib, 4)] if memory else []
-                cells += ["(this row)" if r.is_baseline else r.baseline,
+                cells += ["(this row)" if r.is_baseline else _cell(r.baseline),
                           _number(r.baseline_error), _number(r.baseline_time_s)]
                 lines.append("| " + " | ".join(cells) + " |")
             lines.append("")

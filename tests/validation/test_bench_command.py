@@ -13,6 +13,7 @@ import pytest
 
 from rigval.acquisition.errors import ConfigError
 from rigval.validation.bench import STAGES, BenchRow, run_bench, with_baseline
+from rigval.validation.bench_report import compare_text, read_csv
 from rigval.validation.cli import main
 
 
@@ -117,6 +118,18 @@ def test_model_and_reading_rows(quick_run: tuple[int, Path, list[dict[str, str]]
     reading = _pick(rows, stage="reading")
     assert len(reading) == 5
     assert all(_float(r, "peak_mib") > 0 for r in reading)
+
+
+def test_csv_round_trip_and_comparison(quick_run: tuple[int, Path, list[dict[str, str]]]) -> None:
+    _, out, rows = quick_run
+    read = read_csv(out / "bench.csv")
+    for r, row in zip(read, rows, strict=True):
+        assert r.choice == row["choice"] and r.n == int(row["n"])
+        assert r.error == _float(row, "error") and r.cpu_s == _float(row, "cpu_s")
+    table = compare_text(read, read[1:])
+    lines = table.splitlines()[2:]
+    assert len(lines) == len(read) and "(no earlier row)" in lines[0]
+    assert all(line.count("|") - line.count("\\|") == 10 for line in lines)
 
 
 def test_unknown_stage_and_missing_baseline_are_errors() -> None:

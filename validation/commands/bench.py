@@ -2,7 +2,8 @@
 
 Runs the sweeps of :mod:`rigval.validation.bench` on synthetic cases with known truth and writes
 ``bench.csv``, ``bench.md`` and one ``bench_<stage>.png`` per stage (time against error) into
-``DIR``; prints the Markdown table. Exit code 0 when every error is within its stated bound,
+``DIR``; prints the Markdown table (and, with ``--compare CSV``, each row's error and CPU time
+against an earlier run's ``bench.csv``). Exit code 0 when every error is within its stated bound,
 1 otherwise. ``--quick`` (small cases, fewer choices) takes well under a minute; the full run a
 few minutes on 2 cores. Run it on an otherwise idle machine for figures worth quoting.
 """
@@ -34,19 +35,32 @@ def add_parser(subparsers: Any) -> None:
                         help="small cases and fewer choices (well under a minute)")
     parser.add_argument("--stage", dest="stages", action="append", choices=STAGES,
                         help="run only this stage (repeatable; default: all)")
+    parser.add_argument("--compare", type=Path, metavar="CSV",
+                        help="an earlier bench.csv: print this run's errors and CPU times "
+                             "against it")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweeps, write the files and print the table; return the exit code."""
     from rigval.validation.bench import machine_note, run_bench
-    from rigval.validation.bench_report import markdown_table, write_outputs
+    from rigval.validation.bench_report import (
+        compare_text,
+        markdown_table,
+        read_csv,
+        write_outputs,
+    )
+
+    reference = read_csv(args.compare) if args.compare else None  # fail before the long run
 
     rows = run_bench(args.stages, quick=args.quick)
     note = ("Quick run (small cases). " if args.quick else "") + "Machine: " + machine_note()
     paths = write_outputs(rows, args.out, note)
     print(markdown_table(rows, note))
     print(f"wrote {', '.join(p.name for p in paths)} to {args.out}")
+    if reference is not None:
+        print(f"\n## Against {args.compare}\n")
+        print(compare_text(rows, reference))
     over = [r for r in rows if not r.within_bound]
     for r in over:
         print(f"rigval bench: {r.stage} / {r.case} / {r.choice}: {r.metric} {r.error:.3g} "
