@@ -48,6 +48,7 @@ __all__ = ["DriveAngle", "drive_angle", "drive_excitation", "quantisation_noise"
 logger = logging.getLogger(__name__)
 
 _FloatArray = NDArray[np.float64]
+_Triple = tuple[_FloatArray, _FloatArray, _FloatArray]
 Method = Literal["butterworth", "fourier"]
 
 
@@ -149,12 +150,16 @@ class _FourierFit:
         self.omega = omega
         self.coeffs = coeffs
 
-    def __call__(self, t: _FloatArray) -> tuple[_FloatArray, _FloatArray, _FloatArray]:
-        """Return angle (rad), velocity (rad/s) and acceleration (rad/s^2) at times t (s)."""
+    def __call__(self, t: _FloatArray, out: _Triple | None = None) -> _Triple:
+        """Return angle (rad), velocity (rad/s) and acceleration (rad/s^2) at times t (s).
+
+        ``out`` receives the three results in place when given (bounded memory).
+        """
         n = self.k.size
         a, b = self.coeffs[2:2 + n], self.coeffs[2 + n:]
         kw = self.k * self.omega
-        out = [np.empty(t.size) for _ in range(3)]
+        angle, velocity, acceleration = out or (np.empty(t.size), np.empty(t.size),
+                                                np.empty(t.size))
         for lo in range(0, t.size, _BLOCK):
             tc = t[lo:lo + _BLOCK] - self.centre
             # exp(j k W t) for k = 1..K by repeated products of exp(j W t): one complex
@@ -162,24 +167,31 @@ class _FourierFit:
             phasor = np.cumprod(np.broadcast_to(np.exp(1j * self.omega * tc)[:, None],
                                                 (tc.size, n)), axis=1)
             cos, sin = phasor.real, phasor.imag
-            out[0][lo:lo + _BLOCK] = self.coeffs[0] + self.coeffs[1] * tc + cos @ a + sin @ b
-            out[1][lo:lo + _BLOCK] = self.coeffs[1] + sin @ (-kw * a) + cos @ (kw * b)
-            out[2][lo:lo + _BLOCK] = cos @ (-(kw**2) * a) + sin @ (-(kw**2) * b)
-        return out[0], out[1], out[2]
+            angle[lo:lo + _BLOCK] = self.coeffs[0] + self.coeffs[1] * tc + cos @ a + sin @ b
+            velocity[lo:lo + _BLOCK] = self.coeffs[1] + sin @ (-kw * a) + cos @ (kw * b)
+            acceleration[lo:lo + _BLOCK] = cos @ (-(kw**2) * a) + sin @ (-(kw**2) * b)
+        return angle, velocity, acceleration
 
 
 def _butterworth_run(t: _FloatArray, theta: _FloatArray, fs: float, cutoff_hz: float,
                      order: int, trend_harmonics: int, padtype: PadType,
-                     ) -> tuple[_FloatArray, _FloatArray, _FloatArray]:
+                     out: _Triple) -> None:
+    """Smooth one gap-free run into ``out`` (angle, velocity, acceleration), in place."""
+    angle, velocity, acceleration = out
     # The trend's harmonics lie inside the pass band, so its own noise is filtered like the
     # data's: a thinned fit is enough.
-    trend = _FourierFit(t, theta, trend_harmonics, max_samples=_TREND_SAMPLES)(t)
-    smooth = zero_phase(theta - trend[0], fs, cutoff_hz, order=order, padtype=padtype)
+    _FourierFit(t, theta, trend_harmonics, max_samples=_TREND_SAMPLES)(t, out=out)
+    smooth = zero_phase(theta - angle, fs, cutoff_hz, order=order, padtype=padtype)
+    angle += smooth
     dt = 1.0 / fs
-    acceleration = np.empty_like(smooth)
-    acceleration[1:-1] = (smooth[2:] - 2.0 * smooth[1:-1] + smooth[:-2]) / dt**2
-    acceleration[0], acceleration[-1] = acceleration[1], acceleration[-2]
-    return (trend[0] + smooth, trend[1] + np.gradient(smooth, dt), trend[2] + acceleration)
+    velocity += np.gradient(smooth, dt)
+    # Central second difference, built in one scratch array.
+    scratch = smooth[2:] + smooth[:-2]
+    scratch -= 2.0 * smooth[1:-1]
+    scratch /= dt**2
+    acceleration[1:-1] += scratch
+    acceleration[0] += scratch[0]
+    acceleration[-1] += scratch[-1]
 
 
 def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float,
@@ -262,13 +274,12 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
     for start, stop in runs:
         if stop - start <= shortest:
             continue
+        views = (out[0][start:stop], out[1][start:stop], out[2][start:stop])
         if method == "butterworth":
-            result = _butterworth_run(t[start:stop], theta[start:stop], fs, cutoff_hz, order,
-                                      trend_harmonics, padtype)
+            _butterworth_run(t[start:stop], theta[start:stop], fs, cutoff_hz, order,
+                             trend_harmonics, padtype, views)
         else:
-            result = _FourierFit(t[start:stop], theta[start:stop], harmonics)(t[start:stop])
-        for target, values in zip(out, result, strict=True):
-            target[start:stop] = values
+            _FourierFit(t[start:stop], theta[start:stop], harmonics)(t[start:stop], out=views)
     residual = theta - out[0]
     rms = float(np.sqrt(np.nanmean(residual**2)))
     return DriveAngle(t, out[0], out[1], out[2], *noise, rms, method, params)
