@@ -90,6 +90,8 @@ OUTLIER_SIGMAS = 6.0
 MIN_EVENT_TOLERANCE_S = 1e-3
 #: Spline order of the scene's ``angle.interpolation``.
 INTERPOLATION_ORDER = {"linear": 1, "cubic": 3}
+#: Relative difference of the analytic drive law's speed from the run's that is reported.
+ANALYTIC_SPEED_TOLERANCE = 0.02
 #: Hysteresis half-band of a reference pulse's ``threshold``, as a fraction of it.
 PULSE_HYSTERESIS = 0.1
 #: Half-width of the raw-pulse window in the alignment figure, in main-shaft periods.
@@ -729,6 +731,12 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         mechanism = load_mechanism(scene.mechanism)
         fine = _run_model(scene, mechanism, aligned[scene.alignment.reference], fine_times,
                           fine_angle)
+        if scene.model.drives == "analytic":
+            law_speed = 1.0 / float(fine.attrs["cycle_period_s"])
+            if abs(law_speed / speed - 1.0) > ANALYTIC_SPEED_TOLERANCE:
+                logger.warning("the mechanism's drive law turns at %.4g rev/s, the run at %.4g "
+                               "rev/s: forces scale with the square of the speed; consider "
+                               'drives = "measured"', law_speed, speed)
         model = fine.isel(angle=slice(None, None, FINE_FACTOR))
     with watch.stage("numerics"):
         grid_error = _grid_error(scene, fine)

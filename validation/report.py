@@ -171,6 +171,15 @@ def _summary_rows(result: ValidationResult) -> list[dict[str, Any]]:
     return rows
 
 
+def _drives_text(result: ValidationResult) -> str:
+    """How the model's drives were excited, with the law's speed for analytic drives."""
+    if result.scene.model.drives == "measured":
+        names = ", ".join(f"{d.name} <- {d.encoder}" for d in result.scene.model.drivers.values())
+        return f"measured: {names}, averaged over {result.n_cycles} revolutions per angle"
+    period = float(result.tree["/model"].attrs.get("cycle_period_s", float("nan")))
+    return f"analytic: the mechanism file's laws, {1.0 / period:.4g} rev/s"
+
+
 def _alignment_rows(result: ValidationResult) -> list[dict[str, Any]]:
     return [{"stream": name, "device": a.device, "offset [s]": f"{a.offset_s:.6f}",
              "drift [ppm]": a.drift_ppm, "residual rms [us]": a.residual_rms_s * 1e6,
@@ -205,7 +214,7 @@ def _build_page(result: ValidationResult) -> Page:
     page.paragraph(f"Result: {status}", css_class="ok" if result.passed else "bad")
     page.facts({
         "scene": scene.path, "scene sha256": scene.sha256, "mechanism": scene.mechanism,
-        "drives": scene.model.drives,
+        "drives": _drives_text(result),
         "angle grid": f"{scene.angle.points_per_revolution} points per revolution, "
                       f"{scene.angle.interpolation} interpolation",
         "revolutions compared": result.n_cycles,

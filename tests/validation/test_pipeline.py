@@ -225,3 +225,15 @@ def test_example_runs(script: str, scene_path: Path, tmp_path: Path,
     else:
         assert (tmp_path / "tor1.png").read_bytes()[:4] == b"\x89PNG"
         assert "iso18571_periodic.rating" in printed
+
+
+def test_analytic_drives_agree_at_the_law_speed(scene_path: Path, tmp_path: Path) -> None:
+    """The mechanism file's law (1 rev/s) stands in for the measured drives of a 1 rev/s run."""
+    text = scene_path.read_text()
+    measured = re.search(r'\[model\]\ndrives = "measured"\n.*?(?=\n\[\[comparisons\]\])', text,
+                         re.S).group(0)
+    scene = _edited(scene_path, tmp_path, measured, '[model]\ndrives = "analytic"\n')
+    result = run_scene(scene)
+    assert result.tree["/model"].attrs["cycle_period_s"] == pytest.approx(1.0)
+    ratings = {c.name: c.scores["iso18571_periodic.rating"] for c in result.comparisons}
+    assert min(ratings.values()) > 0.9, ratings
