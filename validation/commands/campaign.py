@@ -46,7 +46,7 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the campaign and return the exit code (see the module docstring)."""
-    from rigval.validation.campaign import run_campaign
+    from rigval.validation.campaign import dask_available, run_campaign
     from rigval.validation.campaign_report import write_campaign_report
 
     # Dask logs its cluster's start and stop at INFO; show that only with -vv.
@@ -61,7 +61,10 @@ def run(args: argparse.Namespace) -> int:
                                 workers=args.workers, force=args.force, on_result=progress.update)
     finally:
         progress.close()
-    details = {"scheduler": args.scheduler or "default", "workers": args.workers or "default",
+    scheduler = args.scheduler or ("local" if dask_available() else "none")
+    workers = {"none": "1 (this process)", "local": args.workers or "one per CPU, at most one "
+               "per run"}.get(scheduler, "those of the cluster")
+    details = {"scheduler": scheduler, "workers": workers,
                "wall time [s]": round(time.perf_counter() - start, 2)}
     files = write_campaign_report(outcomes, args.out, title=args.title, details=details)
     _print_runs(outcomes)
