@@ -39,9 +39,22 @@ from rigval.model.loops import LoopSystem, loop_system
 if TYPE_CHECKING:
     from rigval.model.mechanism import Mechanism
 
-__all__ = ["Tolerances", "assemble", "assembly_rank", "check_constraint_count", "condition_one",
-           "driven_part", "full_angles", "involved_joints", "least_squares", "newton", "phasor",
-           "taylor", "track"]
+__all__ = [
+    "Continuation",
+    "Tolerances",
+    "assemble",
+    "assembly_rank",
+    "check_constraint_count",
+    "condition_one",
+    "driven_part",
+    "full_angles",
+    "involved_joints",
+    "least_squares",
+    "newton",
+    "phasor",
+    "taylor",
+    "track",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -73,8 +86,8 @@ class Tolerances:
     tol: float = 1e-12
     cond_warn: float = 1e4
     cond_max: float = 1e10
-    anchor_spacing: float = 2.0
-    refine_spacings: tuple[float, ...] = (0.3, 0.06, 0.015)
+    anchor_spacing: float = 3.0
+    refine_spacings: tuple[float, ...] = (0.5, 0.1, 0.02)
     max_iter: int = 12
 
 
@@ -96,12 +109,17 @@ def phasor(theta: np.ndarray) -> np.ndarray:
 
 
 def _rotate(z: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """``z * exp(1j angle)``; by its Taylor series (exact to rounding) when all angles are small."""
+    """``z * exp(1j angle)``; cos and sin by their series (exact to rounding) for small angles."""
     if angle.size and float(np.max(np.abs(angle))) <= 1e-3:
         a2 = angle * angle
-        return z * ((1.0 - a2 * (0.5 - a2 / 24.0)) + 1j * (angle * (1.0 - a2 / 6.0 * (
-            1.0 - a2 / 20.0))))
-    return z * phasor(angle)
+        cos = 1.0 - a2 * (0.5 - a2 / 24.0)
+        sin = angle * (1.0 - a2 / 6.0 * (1.0 - a2 / 20.0))
+    else:
+        cos, sin = np.cos(angle), np.sin(angle)
+    turn = np.empty((*angle.shape, 2))
+    turn[..., 0] = cos
+    turn[..., 1] = sin
+    return z * turn.view(complex)[..., 0]
 
 
 def driven_part(system: LoopSystem, z_d: np.ndarray) -> np.ndarray:
@@ -492,9 +510,8 @@ class _Tracker:
 
 
 def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: np.ndarray,
-          tolerances: Tolerances, guess_u: np.ndarray | None = None
-          ) -> tuple[np.ndarray, np.ndarray, BatchLU | None]:
-    """Undriven angles at every step, following the assembly branch of the guess.
+          tolerances: Tolerances, guess_u: np.ndarray | None = None) -> Continuation:
+    """Follow the assembly branch of the guess through every step (all but the last polish).
 
     Parameters
     ----------
@@ -513,22 +530,18 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
 
     Returns
     -------
-    theta_u : numpy.ndarray
-        (n, n_u) undriven angles, rad, continuous along the steps.
-    z_u : numpy.ndarray
-        (n, n_u) their unit phasors.
-    lu : BatchLU or None
-        Factors of ``J_u`` at the returned angles (within ``tol``: the last Newton update was
-        below it), ready for velocities, accelerations and multipliers; None without undriven
-        angles.
+    Continuation
+        Anchors and layers solved, the other steps predicted; :meth:`Continuation.polish`
+        finishes a chunk of steps and returns its factorisation of ``J_u``.
     """
     n = theta_d.shape[0]
     if guess_u is None:
         guess_u = np.array([mechanism.bodies[i].guess[2] for i in system.undriven])
     theta_u = np.empty((n, system.undriven.size))
-    if n == 0 or system.undriven.size == 0:
-        return theta_u, phasor(theta_u), None
     tracker = _Tracker(mechanism, system, times, tolerances)
+    if n == 0 or system.undriven.size == 0:
+        return Continuation(tracker, _unwrap_path(theta_d), theta_d, theta_u,
+                            np.ones(n, dtype=bool), None)
     # The guesses describe the mechanism at t = 0 of the drive laws: assemble there, then follow
     # the shortest change of the driven angles (modulo whole turns) to the first step.
     start_d = np.array([law_motion(d, np.zeros(1))[0][0] for d in mechanism.drivers])
@@ -548,15 +561,13 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
                                     theta_d[nxt], int(nxt))
     solved = np.zeros(n, dtype=bool)
     solved[anchors] = True
-    z_d = phasor(theta_d)
     for spacing in tolerances.refine_spacings:
         targets = _anchor_indices(travel, spacing)
         targets = targets[~solved[targets]]
         if targets.size:
-            _refine(tracker, path, theta_d, z_d, theta_u, np.flatnonzero(solved), targets,
-                    row_order)
+            _refine(tracker, path, theta_d, theta_u, np.flatnonzero(solved), targets, row_order)
             solved[targets] = True
-    return _finish(tracker, path, theta_d, z_d, theta_u, solved, row_order)
+    return Continuation(tracker, path, theta_d, theta_u, solved, row_order)
 
 
 def _predict(system: LoopSystem, path: np.ndarray, theta_d: np.ndarray, theta_u: np.ndarray,
@@ -580,14 +591,13 @@ def _plausible(found: np.ndarray, guess: np.ndarray, start: np.ndarray, delta: n
     return moved <= np.maximum(0.25 * np.maximum(row_max_abs(delta), expected), 1e-6)
 
 
-def _refine(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, z_d: np.ndarray,
-            theta_u: np.ndarray, known: np.ndarray, targets: np.ndarray,
-            row_order: np.ndarray | None) -> None:
+def _refine(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, theta_u: np.ndarray,
+            known: np.ndarray, targets: np.ndarray, row_order: np.ndarray | None) -> None:
     """Solve ``targets`` in one batch from the nearest preceding solved step (in place)."""
     system, tols = tracker.system, tracker.tols
     guess, base, delta = _predict(system, path, theta_d, theta_u, known, targets)
-    found, _z, ok, _gap = newton(system, driven_part(system, z_d[targets]), guess, tols.tol,
-                                 tols.max_iter, row_order)
+    found, _z, ok, _gap = newton(system, driven_part(system, phasor(theta_d[targets])), guess,
+                                 tols.tol, tols.max_iter, row_order)
     good = ok & _plausible(found, guess, theta_u[base], delta)
     theta_u[targets[good]] = found[good]
     for target, start in zip(targets[~good], base[~good], strict=True):
@@ -595,67 +605,104 @@ def _refine(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, z_d: np.nd
                                        path[target] - path[start], theta_d[target], int(target))
 
 
-def _finish(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, z_d: np.ndarray,
-            theta_u: np.ndarray, solved: np.ndarray, row_order: np.ndarray | None
-            ) -> tuple[np.ndarray, np.ndarray, BatchLU]:
-    """Predict the remaining steps, then Newton on every step at once, keeping the last LU."""
-    system, tols = tracker.system, tracker.tols
-    targets = np.flatnonzero(~solved)
-    guess = base = delta = None
-    if targets.size:
-        guess, base, delta = _predict(system, path, theta_d, theta_u, np.flatnonzero(solved),
-                                      targets)
-        theta_u[targets] = guess
-    base_phi = driven_part(system, z_d)
-    w_u = system.loop_points[:, system.undriven]
-    z_u = phasor(theta_u)
-    limit = tols.tol + 8 * _EPS * row_max_abs(theta_u)
-    for attempt in range(tols.max_iter + 1):
-        lu = BatchLU(system.jacobian_stack(z_u), row_order)
-        phi = base_phi + z_u @ w_u.T
-        phi = np.concatenate([phi.real, phi.imag], axis=1)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            step = lu.solve(phi)
-        size = row_max_abs(step)
-        finite = np.isfinite(size)
-        if np.all(finite):
-            theta_u -= step
-            z_u = _rotate(z_u, -step)
-        else:
-            theta_u[finite] -= step[finite]
-            z_u[finite] = _rotate(z_u[finite], -step[finite])
-        converged = size <= limit
-        if not np.all(converged):
-            # near a toggle the angles are only defined to rounding times the condition
-            gap = row_max_abs(phi)
-            converged |= gap <= 16 * _EPS * system.length_scale
-        if np.all(converged):
-            if guess is not None:
-                wrong = ~_plausible(theta_u[targets], guess, theta_u[base], delta)
-                if np.any(wrong):
-                    _redo(tracker, path, theta_d, theta_u, z_u, targets[wrong], base[wrong])
-                    guess = None
-                    continue
-            return theta_u, z_u, lu
-        stuck = np.flatnonzero(~converged)
+class Continuation:
+    """Every step's undriven angles, solved (anchors and layers) or predicted, ready to polish.
+
+    :meth:`polish` runs the last Newton iterations on a chunk of steps and returns the chunk's
+    angles with the factorisation of ``J_u`` of its last iteration, so that velocities,
+    accelerations and multipliers are computed chunk by chunk while the chunk is in cache.
+    """
+
+    def __init__(self, tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray,
+                 theta_u: np.ndarray, solved: np.ndarray, row_order: np.ndarray | None) -> None:
+        self.tracker = tracker
+        self.path = path
+        self.theta_d = theta_d
+        self.theta_u = theta_u
+        self.row_order = row_order
         known = np.flatnonzero(solved)
-        starts = known[np.maximum(np.searchsorted(known, stuck, side="right") - 1, 0)]
-        if attempt == tols.max_iter:
-            first = int(stuck[0])
-            tracker.fail(first, theta_d[starts[0]], theta_u[starts[0]], theta_d[first])
-        if attempt >= 2:
-            _redo(tracker, path, theta_d, theta_u, z_u, stuck, starts)
-    return theta_u, z_u, lu
+        targets = np.flatnonzero(~solved)
+        self.start = np.arange(theta_d.shape[0])
+        self.guess = theta_u.copy()
+        if targets.size and theta_u.shape[1]:
+            guess, base, _delta = _predict(tracker.system, path, theta_d, theta_u, known, targets)
+            theta_u[targets] = guess
+            self.guess[targets] = guess
+            self.start[targets] = base
 
+    @property
+    def size(self) -> int:
+        """Number of steps."""
+        return self.theta_d.shape[0]
 
-def _redo(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, theta_u: np.ndarray,
-          z_u: np.ndarray, steps: np.ndarray, starts: np.ndarray) -> None:
-    """Solve steps by sequential continuation from solved steps (in place)."""
-    for target, start in zip(steps, starts, strict=True):
-        theta_u[target] = tracker.step(theta_d[start], theta_u[start],
-                                       path[target] - path[start], theta_d[target], int(target))
-        z_u[target] = phasor(theta_u[target])
-    logger.debug("%d steps needed sequential continuation", steps.size)
+    def polish(self, part: slice, z_d: np.ndarray) -> tuple[np.ndarray, np.ndarray,
+                                                            BatchLU | None]:
+        """Newton on the steps of ``part`` until the last update is below ``tol``.
+
+        ``z_d`` are the chunk's driven phasors. Returns the chunk's undriven angles (rad), their
+        phasors, and the factors of ``J_u`` of the last iteration (None without undriven angles).
+        """
+        tracker = self.tracker
+        system, tols = tracker.system, tracker.tols
+        theta_u = self.theta_u[part].copy()
+        z_u = phasor(theta_u)
+        if theta_u.shape[1] == 0:
+            return theta_u, z_u, None
+        base_phi = driven_part(system, z_d)
+        w_u = system.loop_points[:, system.undriven]
+        limit = tols.tol + 8 * _EPS * row_max_abs(theta_u)
+        offset = part.start or 0
+        start = self.start[part]
+        checked = False
+        for attempt in range(tols.max_iter + 1):
+            lu = BatchLU(system.jacobian_stack(z_u), self.row_order)
+            phi = base_phi + z_u @ w_u.T
+            phi = np.concatenate([phi.real, phi.imag], axis=1)
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                step = lu.solve(phi)
+            size = row_max_abs(step)
+            finite = np.isfinite(size)
+            if np.all(finite):
+                theta_u -= step
+                z_u = _rotate(z_u, -step)
+            else:
+                theta_u[finite] -= step[finite]
+                z_u[finite] = _rotate(z_u[finite], -step[finite])
+            converged = size <= limit
+            if not np.all(converged):
+                # near a toggle the angles are only defined to rounding times the condition
+                converged |= row_max_abs(phi) <= 16 * _EPS * system.length_scale
+            if np.all(converged):
+                if not checked:
+                    checked = True
+                    delta = self.path[part] - self.path[start]
+                    wrong = np.flatnonzero(~_plausible(theta_u, self.guess[part],
+                                                       self.theta_u[start], delta))
+                    if wrong.size:
+                        self._redo(theta_u, z_u, wrong, offset)
+                        continue
+                self.theta_u[part] = theta_u
+                return theta_u, z_u, lu
+            stuck = np.flatnonzero(~converged)
+            if attempt == tols.max_iter:
+                first = offset + int(stuck[0])
+                origin = int(self.start[first])
+                tracker.fail(first, self.theta_d[origin], self.theta_u[origin],
+                             self.theta_d[first])
+            if attempt >= 2:
+                self._redo(theta_u, z_u, stuck, offset)
+        raise AssemblyError("Newton did not converge", where={"file": tracker.mechanism.source})
+
+    def _redo(self, theta_u: np.ndarray, z_u: np.ndarray, rows: np.ndarray, offset: int) -> None:
+        """Solve chunk rows by sequential continuation from their solved start steps."""
+        for row in rows:
+            target = offset + int(row)
+            origin = int(self.start[target])
+            theta_u[row] = self.tracker.step(self.theta_d[origin], self.theta_u[origin],
+                                             self.path[target] - self.path[origin],
+                                             self.theta_d[target], target)
+            z_u[row] = phasor(theta_u[row])
+        logger.debug("%d steps needed sequential continuation", rows.size)
 
 
 def assembly_rank(mechanism: Mechanism) -> tuple[int, int]:

@@ -114,20 +114,23 @@ class Solution:
 
 
 def _planar(values: np.ndarray, sign: float = 1.0) -> np.ndarray:
-    """Complex (..., n) to real (..., n, 2) with x and y, times ``sign``."""
-    out = np.empty((*values.shape, 2))
-    np.multiply(values.real, sign, out=out[..., 0])
-    np.multiply(values.imag, sign, out=out[..., 1])
-    return out
+    """Complex (..., n) to real (..., n, 2) with x and y, times ``sign``.
+
+    Stored axis-first (contiguous copies) and returned as a view with the axis last.
+    """
+    out = np.empty((2, *values.shape))
+    np.multiply(values.real, sign, out=out[0])
+    np.multiply(values.imag, sign, out=out[1])
+    return np.moveaxis(out, 0, -1)
 
 
 def _body_var(linear: np.ndarray, angular: np.ndarray, units: tuple[str, str], name: str
               ) -> xr.Variable:
-    data = np.empty((*angular.shape, 3))
-    data[..., 0] = linear.real
-    data[..., 1] = linear.imag
-    data[..., 2] = angular
-    return xr.Variable(("time", "body", "coord"), data,
+    data = np.empty((3, *angular.shape))
+    data[0] = linear.real
+    data[1] = linear.imag
+    data[2] = angular
+    return xr.Variable(("time", "body", "coord"), np.moveaxis(data, 0, -1),
                        {"units": units[0], "theta_units": units[1], "long_name": name})
 
 

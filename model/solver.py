@@ -19,8 +19,16 @@ import scipy.interpolate
 import xarray as xr
 
 from rigval.acquisition.errors import ConfigError, DataError, NumericsWarning, SingularityError
-from rigval.model.assembly import Tolerances, full_angles, involved_joints, phasor, track
+from rigval.model.assembly import (
+    Continuation,
+    Tolerances,
+    full_angles,
+    involved_joints,
+    phasor,
+    track,
+)
 from rigval.model.drives import (
+    DriveMotion,
     SampledDrive,
     cycle_period,
     drive_motion,
@@ -33,7 +41,7 @@ from rigval.model.linalg import BatchLU
 from rigval.model.loops import LoopSystem, loop_system
 from rigval.model.mechanism import Mechanism, load_mechanism
 from rigval.model.reference import constraint_jacobian
-from rigval.model.results import Solution, build_dataset, select
+from rigval.model.results import Selection, Solution, build_dataset, select
 
 __all__ = ["interpolate_cycle", "solve", "solve_cycle"]
 
@@ -42,6 +50,8 @@ logger = logging.getLogger(__name__)
 #: Steps whose pivot estimate of the condition exceeds this fraction of ``cond_warn`` get the
 #: exact condition number.
 _SCREEN = 1e-3
+#: Steps finished and post-processed together (their arrays stay in the processor's cache).
+_CHUNK = 4096
 
 def _as_mechanism(mechanism: Mechanism | str | Path) -> Mechanism:
     return mechanism if isinstance(mechanism, Mechanism) else load_mechanism(mechanism)
@@ -101,33 +111,18 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
     tolerances = Tolerances(tol=tol, cond_warn=cond_warn, cond_max=cond_max)
     motion = drive_motion(mech, times, drives)
     system = loop_system(mech)
-    theta_u, z_u, lu = track(mech, system, times, motion.theta, tolerances)
-    theta = full_angles(system, motion.theta, theta_u)
-    z = np.empty(theta.shape, dtype=complex)
-    z[:, system.driven] = phasor(motion.theta)
-    z[:, system.undriven] = z_u
-    solution = Solution(times=times, theta=theta, position=system.positions(z))
-    solution.condition = _check_condition(mech, system, times, theta, lu, tolerances,
-                                          exact="condition_number" in selection.outputs)
-    if selection.velocity:
-        solution.omega = angular_velocities(system, z, lu, motion.omega)
-        solution.omega_driven = motion.omega
-        solution.velocity = -(1j * solution.omega * z) @ system.position_map.T
-    if selection.acceleration:
-        solution.alpha = angular_accelerations(system, z, lu, solution.omega, motion.alpha)
-        solution.acceleration = -((1j * solution.alpha - solution.omega**2) * z) \
-            @ system.position_map.T
-    if selection.forces:
-        force, moment = applied_forces(mech, solution.acceleration, solution.alpha)
-        if mech.redundant_constraints:
-            warnings.warn(
-                f"{mech.name}: {mech.redundant_constraints} redundant constraint equations; "
-                "joint forces and drive torques are not unique, the minimum-norm multipliers "
-                "are returned", NumericsWarning, stacklevel=2)
-            solution.joint, solution.driver = minimum_norm_multipliers(
-                constraint_jacobian(system, theta), force, moment, len(mech.joints))
-        else:
-            solution.joint, solution.driver = multipliers(system, z, lu, force, moment)
+    continuation = track(mech, system, times, motion.theta, tolerances)
+    if mech.redundant_constraints and selection.forces:
+        warnings.warn(
+            f"{mech.name}: {mech.redundant_constraints} redundant constraint equations; joint "
+            "forces and drive torques are not unique, the minimum-norm multipliers are returned",
+            NumericsWarning, stacklevel=2)
+    solution = _empty_solution(mech, times, motion, selection)
+    exact = "condition_number" in selection.outputs
+    for start in range(0, times.size, _CHUNK):
+        part = slice(start, min(start + _CHUNK, times.size))
+        _solve_chunk(mech, system, continuation, motion, selection, solution, part, exact)
+    _check_condition(mech, system, times, solution, tolerances, exact)
     attrs = {"title": f"rigval model: {mech.name}", "mechanism": mech.name,
              "mechanism_source": mech.source, "newton_tol": tol,
              "redundant_constraints": mech.redundant_constraints,
@@ -137,24 +132,82 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
     return build_dataset(mech, solution, selection, attrs)
 
 
-def _check_condition(mechanism: Mechanism, system: LoopSystem, times: np.ndarray,
-                     theta: np.ndarray, lu: BatchLU, tolerances: Tolerances,
-                     exact: bool) -> np.ndarray:
-    """Condition of the reduced ``C_e`` per step; warn or raise past the thresholds.
+def _empty_solution(mechanism: Mechanism, times: np.ndarray, motion: DriveMotion,
+                    selection: Selection) -> Solution:
+    """Output arrays for every stage the selection needs."""
+    n, n_bodies = times.size, len(mechanism.bodies)
+    solution = Solution(times=times, theta=np.empty((n, n_bodies)),
+                        position=np.empty((n, n_bodies), dtype=complex),
+                        condition=np.empty(n))
+    if selection.velocity:
+        solution.omega = np.empty((n, n_bodies))
+        solution.velocity = np.empty((n, n_bodies), dtype=complex)
+        solution.omega_driven = motion.omega
+    if selection.acceleration:
+        solution.alpha = np.empty((n, n_bodies))
+        solution.acceleration = np.empty((n, n_bodies), dtype=complex)
+    if selection.forces:
+        solution.joint = np.empty((n, len(mechanism.joints)), dtype=complex)
+        solution.driver = np.empty((n, len(mechanism.drivers)))
+    return solution
 
-    Every step is screened with the pivot estimate (at most a few hundred times too low for
-    6 x 6 matrices); the exact condition is computed where the estimate exceeds
-    ``_SCREEN * cond_warn``, or everywhere when ``exact``.
-    """
-    if system.undriven.size == 0 or times.size == 0:
-        return np.ones(times.size)
-    if exact:
-        cond = lu.condition()
+
+def _solve_chunk(mechanism: Mechanism, system: LoopSystem, continuation: Continuation,
+                 motion: DriveMotion, selection: Selection, solution: Solution, part: slice,
+                 exact: bool) -> None:
+    """Finish the positions of one chunk of steps and compute what the selection needs."""
+    theta_d = motion.theta[part]
+    z_d = phasor(theta_d)
+    theta_u, z_u, lu = continuation.polish(part, z_d)
+    theta = full_angles(system, theta_d, theta_u)
+    z = np.empty(theta.shape, dtype=complex)
+    z[:, system.driven] = z_d
+    z[:, system.undriven] = z_u
+    s = solution
+    s.theta[part] = theta
+    s.position[part] = system.positions(z)
+    if lu is None:
+        s.condition[part] = 1.0
     else:
-        cond = lu.condition_estimate()
+        s.condition[part] = lu.condition() if exact else lu.condition_estimate()
+    if not selection.velocity:
+        return
+    omega = angular_velocities(system, z, lu, motion.omega[part])
+    s.omega[part] = omega
+    s.velocity[part] = -(1j * omega * z) @ system.position_map.T
+    if not selection.acceleration:
+        return
+    alpha = angular_accelerations(system, z, lu, omega, motion.alpha[part])
+    s.alpha[part] = alpha
+    acceleration = -((1j * alpha - omega**2) * z) @ system.position_map.T
+    s.acceleration[part] = acceleration
+    if not selection.forces:
+        return
+    force, moment = applied_forces(mechanism, acceleration, alpha)
+    if mechanism.redundant_constraints:
+        s.joint[part], s.driver[part] = minimum_norm_multipliers(
+            constraint_jacobian(system, theta), force, moment, len(mechanism.joints))
+    else:
+        s.joint[part], s.driver[part] = multipliers(system, z, lu, force, moment)
+
+
+def _check_condition(mechanism: Mechanism, system: LoopSystem, times: np.ndarray,
+                     solution: Solution, tolerances: Tolerances, exact: bool) -> None:
+    """Warn or raise when the reduced ``C_e`` is ill-conditioned (updates the condition numbers).
+
+    Every step was screened with the pivot estimate (at most a few hundred times too low for
+    6 x 6 matrices); the exact condition is computed where the estimate exceeds
+    ``_SCREEN * cond_warn`` (everywhere when ``exact``).
+    """
+    cond = solution.condition
+    if system.undriven.size == 0:
+        return
+    if not exact:
         suspect = np.flatnonzero(cond > _SCREEN * tolerances.cond_warn)
         if suspect.size:
-            cond[suspect] = lu.condition(suspect)
+            z_u = phasor(solution.theta[suspect][:, system.undriven])
+            cond[suspect] = BatchLU(system.jacobian_stack(z_u)).condition()
+    theta = solution.theta
     worst = int(np.argmax(cond))
     if cond[worst] > tolerances.cond_max:
         joints = involved_joints(mechanism, system, theta[worst])
@@ -172,7 +225,6 @@ def _check_condition(mechanism: Mechanism, system: LoopSystem, times: np.ndarray
             f"{cond[worst]:.3g} > {tolerances.cond_warn:.3g}), close to a toggle position; "
             f"forces in joints {', '.join(joints)} are large and sensitive",
             NumericsWarning, stacklevel=3)
-    return cond
 
 
 def solve_cycle(mechanism: Mechanism | str | Path, angles: int | np.ndarray, *,
