@@ -17,7 +17,7 @@ from rigval.acquisition.channel_map import ChannelSpec, StreamSpec
 from rigval.acquisition.errors import ConfigError, SceneError, UnitError
 from rigval.processing import convert
 from rigval.validation.scene import channel_units
-from rigval.validation.units import dimension
+from rigval.validation.units import same_unit
 
 __all__ = ["NULL_WINDOW_S", "convert_stream"]
 
@@ -58,8 +58,8 @@ def _convert_channel(ds: xr.Dataset, channel: ChannelSpec) -> xr.Dataset:
             inner_diameter=p["inner_diameter"], excitation_voltage=p.get("excitation"),
             unstrained=null, name=_CONVERTED)
     units = str(ds[name].attrs.get("units", "1"))
-    if channel.sensor in ("voltage", "physical") and (
-            dimension(units) != dimension(channel_units(channel))):
+    if channel.sensor in ("voltage", "physical") and not same_unit(units,
+                                                                  channel_units(channel)):
         raise UnitError(f"{channel.source!r} is in {units!r} in the file, the scene says "
                         f"{channel_units(channel)!r}")
     return ds  # encoders and reference pulses: turned into angles and events where used

@@ -21,7 +21,6 @@ import csv
 import json
 import logging
 import math
-from collections.abc import Mapping
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
@@ -315,7 +314,3 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
     logger.info("report written to %s", out)
     return written
 
-
-def stage_table(stage_seconds: Mapping[str, float]) -> str:
-    """Return the stage times as one line of text (``read 0.41 s, align 0.10 s, ...``)."""
-    return ", ".join(f"{k} {v:.2f} s" for k, v in stage_seconds.items())

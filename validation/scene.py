@@ -392,9 +392,6 @@ class Scene:
         """Return the unit of a channel after conversion."""
         return channel_units(self.channel(ref))
 
-    def model_outputs(self) -> tuple[ModelOutput, ...]:
-        """Distinct model outputs the comparisons need, in order of first use."""
-        return tuple(dict.fromkeys(c.model for c in self.comparisons))
 
 
 # ---------------------------------------------------------------------------------------------
