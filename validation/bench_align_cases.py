@@ -28,8 +28,8 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Literal
 
 import numpy as np
@@ -211,8 +211,7 @@ def _choice_rows(label: str, case: str, runs: list[TwoClockRun],
     wall = cpu = 0.0
     sigma = _edge_sigma_s(label)
     for run in runs:
-        fit: Callable[[], align.ClockModel] = lambda run=run: _fit(run, refine)  # noqa: E731
-        result = measure(fit, 1)
+        result = measure(partial(_fit, run, refine), 1)
         clock = result.value
         wall, cpu = wall + result.time_s, cpu + result.cpu_s
         offsets.append(clock.offsets_s[0] - run.offset_s)
