@@ -9,7 +9,8 @@ Public API (see ``docs/model.md``)::
     solve_cycle(mechanism, angles, *, driver=None, angle_origin=None, **solve_options)
           -> xarray.Dataset                                             # dim "angle"
     interpolate_cycle(cycle: xarray.Dataset, angles) -> xarray.Dataset
-    solve_stepwise(mechanism, t, *, drives=None, tol=1e-12) -> xarray.Dataset  # reference
+    solve_stepwise(mechanism, t, *, drives=None, tol=1e-12, max_iter=20)
+          -> xarray.Dataset                                        # plain reference solver
 
 Result variables (design section 3.3): ``position``, ``velocity``, ``acceleration`` (time, body,
 coord = x, y, theta); ``point_position``, ``point_velocity``, ``point_acceleration`` (time, point,

@@ -238,7 +238,12 @@ def taylor(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> Tayl
         velocity[:, system.undriven] = first
         velocity[:, system.driven] = np.eye(n_d)
         pairs = (velocity[:, :, :, None] * velocity[:, :, None, :]).reshape(*z.shape, n_d * n_d)
-        second = -lu.solve(system.curvature(z) @ pairs)
+        # sum_m (d2 Phi / d theta_m2) v_mj v_mk with d2 Phi / d theta_m2 = -W_m z_m, as one
+        # two-dimensional product
+        weighted = np.swapaxes(z[:, :, None] * pairs, 1, 2).reshape(-1, z.shape[1])
+        bend = -(weighted @ system.loop_points.T).reshape(z.shape[0], n_d * n_d, -1)
+        bend = np.swapaxes(np.concatenate([bend.real, bend.imag], axis=2), 1, 2)
+        second = -lu.solve(np.ascontiguousarray(bend))
     return Taylor(theta_u, first, second)
 
 
