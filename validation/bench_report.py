@@ -1,9 +1,10 @@
 """Files of ``rigval bench``: the rows as CSV and Markdown, and plots of time against error.
 
 Plots are made on :class:`matplotlib.figure.Figure` objects (no pyplot state), one PNG per stage:
-one panel per metric, CPU time per item (sample, step, event) on the x axis, the error on the y
-axis, both logarithmic; each choice is one series through its cases, the baseline in black, and
-where the input sets a limit (quantisation, timing noise) it is drawn dotted with open markers.
+one panel per metric and case (alignment: one per metric, the numbers of events joined as a
+line), CPU time per item (sample, step, event) on the x axis, the error on the y axis, both
+logarithmic; the baseline in black; where the input sets a limit (quantisation, timing noise) it
+is drawn dotted with open markers.
 Reading has no error to speak of (every reader returns the exact values), so its panel shows peak
 memory against time instead.
 """
@@ -18,6 +19,7 @@ from dataclasses import fields
 from pathlib import Path
 
 from matplotlib.figure import Figure
+from matplotlib.ticker import NullFormatter
 
 from rigval.validation.bench import STAGES, BenchRow
 
@@ -28,6 +30,9 @@ logger = logging.getLogger(__name__)
 
 #: Smallest error drawn on a log axis (exact results are drawn there).
 _FLOOR = 1e-17
+#: Stages whose cases are steps of one swept parameter (their points are joined across cases);
+#: the other stages get one panel per metric and case.
+_SWEPT_CASES = frozenset({"alignment"})
 
 
 def write_csv(rows: Sequence[BenchRow], path: Path) -> Path:
@@ -190,15 +195,22 @@ def plot_stage(rows: Sequence[BenchRow], stage: str) -> Figure:
         The figure (not attached to pyplot).
     """
     stage_rows = [r for r in rows if r.stage == stage]
-    metrics = list(dict.fromkeys(r.metric for r in stage_rows)) if stage != "reading" else [""]
+    if stage == "reading":
+        panels = [("", "")]
+    elif stage in _SWEPT_CASES:
+        panels = [(m, "") for m in dict.fromkeys(r.metric for r in stage_rows)]
+    else:
+        panels = list(dict.fromkeys((r.metric, r.case) for r in stage_rows))
+    metrics = [p[0] for p in panels]
     ncols = min(2, len(metrics))
     nrows = math.ceil(len(metrics) / ncols)
     fig = Figure(figsize=(6.5 * ncols, 4.4 * nrows), layout="constrained")
     grid = fig.subplots(nrows, ncols, squeeze=False).ravel()
     for ax in grid[len(metrics):]:
         ax.set_visible(False)
-    for ax, metric in zip(grid, metrics, strict=False):
-        chosen = [r for r in stage_rows if r.metric == metric or stage == "reading"]
+    for ax, (metric, case) in zip(grid, panels, strict=False):
+        chosen = [r for r in stage_rows if stage == "reading"
+                  or (r.metric == metric and (not case or r.case == case))]
         for choice in dict.fromkeys(r.choice for r in chosen):
             series = sorted((r for r in chosen if r.choice == choice), key=lambda r: r.cpu_s)
             baseline = series[0].is_baseline
@@ -229,8 +241,10 @@ def plot_stage(rows: Sequence[BenchRow], stage: str) -> Figure:
             ax.set_xlabel("CPU time per item, us")
             ax.set_ylabel(f"error ({unit})" if unit != "1" else "error (relative)")
             limited = any(math.isfinite(r.limit) for r in chosen)
-            ax.set_title(metric + ("\n(open markers, dotted: the input's limit)" if limited
-                                   else ""), fontsize=9)
+            title = f"{case}\n{metric}" if case else metric
+            ax.set_title(title + ("\n(open markers, dotted: the input's limit)" if limited
+                                  else ""), fontsize=8)
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.grid(True, which="major", alpha=0.3)
         ax.legend(fontsize=7)
     fig.suptitle(f"rigval bench: {stage}")
