@@ -472,7 +472,7 @@ class _Tracker:
             found, ok, _gap, jac = self._newton(goal_d, guess)
             moved = float(np.max(np.abs(found - guess)))
             expected = float(np.max(np.abs(guess - current_u)))
-            if ok and moved <= max(0.25 * max(float(np.max(np.abs(delta))), expected), 1e-6):
+            if ok and moved <= max(0.25 * max(travel * (target - fraction), expected), 1e-6):
                 fraction, current_d, current_u = target, goal_d, found
                 if fraction < 1.0:
                     expansion = self._expand(current_d, current_u, jac)
@@ -554,6 +554,9 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
     turn = theta_d[0] - start_d
     turn -= 2 * np.pi * np.round(turn / (2 * np.pi))
     theta_u[0] = tracker.step(start_d, start_u, turn, theta_d[0], 0)
+    if theta_d.shape[1] == 0:  # no drivers: a structure, the same configuration at every step
+        theta_u[1:] = theta_u[0]
+        return Continuation(tracker, theta_d, theta_d, theta_u, np.ones(n, dtype=bool), None)
     row_order = None
     if tracker.square:
         z0 = phasor(full_angles(system, theta_d[0], theta_u[0]))[None]

@@ -3,6 +3,8 @@ the full-coordinate step-by-step solve, and Newton's law for the whole mechanism
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -150,3 +152,24 @@ def test_joint_force_sign_on_first_body(single: rm.Mechanism) -> None:
     np.testing.assert_allclose(ds["support_force"].to_numpy()[0, 0], [0.0, -5.0 * 9.81],
                                atol=1e-12)
     np.testing.assert_allclose(ds["driver_torque"].to_numpy(), 0.0, atol=1e-12)
+
+
+def test_structure_without_drivers_carries_its_weight() -> None:
+    """Two equal bars pinned to the ground and to each other: each pin carries half the weight."""
+    half = 0.5 * math.sqrt(0.5)
+    bar = {"mass": 1.0, "inertia": 0.1}
+    data = {"schema": "rigval-mechanism/1", "bodies": [
+        dict(bar, name="A", guess=[0.25, 0.25, 0.8],
+             points={"O1": [-half, 0.0], "C": [half, 0.0]}),
+        dict(bar, name="B", guess=[0.75, 0.25, 2.3],
+             points={"O2": [-half, 0.0], "C": [half, 0.0]})],
+        "joints": [{"point": "O1", "type": "ground", "body": "A", "at": [0.0, 0.0]},
+                   {"point": "O2", "type": "ground", "body": "B", "at": [1.0, 0.0]},
+                   {"point": "C", "type": "revolute", "bodies": ["A", "B"]}]}
+    ds = rm.solve(rm.load_mechanism(data), np.linspace(0.0, 1.0, 3),
+                  outputs=["joint_force", "position"])
+    force = ds["joint_force"].to_numpy()
+    np.testing.assert_allclose(force[:, :2, 1], 9.81, rtol=1e-12)
+    np.testing.assert_allclose(force[:, 0, 0], -force[:, 1, 0], rtol=1e-12)
+    np.testing.assert_allclose(ds["position"].sel(coord="theta").to_numpy()[:, 0], math.pi / 4,
+                               atol=1e-3)
