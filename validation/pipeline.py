@@ -5,7 +5,8 @@
 also writes the report folder. Stages, timed one by one:
 
 read
-    Each stream's file, only the channels the scene names (:func:`rigval.acquisition.read`).
+    Each stream's file, only the channels the scene names
+    (:func:`rigval.acquisition.channel_map.load_stream`).
 convert
     Raw channels to physical units (:mod:`rigval.validation.convert`).
 align
@@ -22,9 +23,12 @@ model
     drives, each driver's angle, speed and acceleration from its encoder averaged over the
     revolutions at each grid angle; with analytic drives, the mechanism file's laws. The model
     runs on a grid four times finer, so that the error of the chosen grid is measured.
+numerics
+    The chosen grid's error against the finer one (also the V&V 20 ``u_num``), and the power
+    balance of the model on the mechanism file's law.
 compare
-    Metrics of the model against the measured mean, the baseline of every revolution against
-    the mean, and the scene's thresholds.
+    Metrics of the model against the measured mean (with V&V 20 on the peak and RMS features),
+    the baseline of every revolution against the mean, and the scene's thresholds.
 """
 
 from __future__ import annotations
