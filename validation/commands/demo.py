@@ -62,14 +62,15 @@ def _index(out_dir: Path, rows: list[dict[str, Any]]) -> Path:
     from rigval.validation.html import Page, escape, format_value
 
     page = Page("rigval demo: the shipped sample runs",
-                subtitle="PASSED" if all(r["passed"] for r in rows) else "FAILED")
+                subtitle="PASSED" if all(r["passed"] for r in rows) else "FAILED",
+                contents=False)
     page.section("Runs")
     page.paragraph("Virtual-rig runs with known truth, validated against the pendulum model. "
                    "Each row links the run's report; ratings are ISO/TS 18571 (periodic) of the "
                    "model against the measured mean.")
     names = list(dict.fromkeys(name for r in rows for name in r["ratings"]))
-    head = "".join(f"<th>{escape(h)}</th>" for h in
-                   ["run", "speed [rev/s]", "revolutions", *names, "status"])
+    head = '<th class="text">run</th>' + "".join(
+        f"<th>{escape(h)}</th>" for h in ["speed [rev/s]", "revolutions", *names, "status"])
     body = []
     for r in rows:
         link = f'<a href="{escape(r["run"])}/report.html">{escape(r["title"])}</a>'
