@@ -237,3 +237,14 @@ def test_analytic_drives_agree_at_the_law_speed(scene_path: Path, tmp_path: Path
     assert result.tree["/model"].attrs["cycle_period_s"] == pytest.approx(1.0)
     ratings = {c.name: c.scores["iso18571_periodic.rating"] for c in result.comparisons}
     assert min(ratings.values()) > 0.9, ratings
+
+
+def test_file_unit_that_does_not_fit_the_sensor_exits_2(scene_path: Path, tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]
+                                                         ) -> None:
+    """acc1 declared as already in m s-2 while the file holds volts."""
+    block = re.search(r'sensor = "charge_accelerometer"\n(.*\n)*?correct_highpass = true',
+                      scene_path.read_text()).group(0)
+    scene = _edited(scene_path, tmp_path, block, 'sensor = "physical"\nunits = "m s-2"')
+    assert main(["validate", str(scene), "--out", str(tmp_path / "out")]) == 2
+    assert "streams.cdaq.channels.acc1" in capsys.readouterr().err
