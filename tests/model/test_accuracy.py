@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 import rigval.model as rm
 from rigval.model.drives import law_motion
@@ -173,3 +175,45 @@ def test_structure_without_drivers_carries_its_weight() -> None:
     np.testing.assert_allclose(force[:, 0, 0], -force[:, 1, 0], rtol=1e-12)
     np.testing.assert_allclose(ds["position"].sel(coord="theta").to_numpy()[:, 0], math.pi / 4,
                                atol=1e-3)
+
+
+@settings(max_examples=15, deadline=None)
+@given(crank=st.floats(0.05, 0.15), coupler=st.floats(0.5, 0.8), rocker=st.floats(0.3, 0.5),
+       ground=st.floats(0.45, 0.7), start=st.floats(0.0, 6.28))
+def test_random_crank_rockers_match_freudenstein(crank: float, coupler: float, rocker: float,
+                                                 ground: float, start: float) -> None:
+    """Any Grashof crank-rocker built from scratch: angles equal the closed form."""
+    lengths = sorted([crank, coupler, rocker, ground])
+    assume(lengths[0] == crank and lengths[0] + lengths[3] < lengths[1] + lengths[2] - 0.02)
+    first, _second = _freudenstein_rocker(np.array([start]), crank, coupler, rocker, ground)
+    rocker_angle = float(first[0])
+    pin_a = crank * np.exp(1j * start)
+    pin_b = ground + rocker * np.exp(1j * rocker_angle)
+    coupler_angle = float(np.angle(pin_b - pin_a))
+
+    def bar(name: str, length: float, angle: float, centre: complex, ends: tuple[str, str]):
+        return {"name": name, "mass": 1.0, "inertia": 0.01,
+                "guess": [centre.real, centre.imag, angle],
+                "points": {ends[0]: [-length / 2, 0.0], ends[1]: [length / 2, 0.0]}}
+
+    data = {"schema": "rigval-mechanism/1", "bodies": [
+        bar("crank", crank, start, pin_a / 2, ("O2", "A")),
+        bar("coupler", coupler, coupler_angle, (pin_a + pin_b) / 2, ("A", "B")),
+        bar("rocker", rocker, rocker_angle, (ground + pin_b) / 2, ("O4", "B"))],
+        "joints": [{"point": "O2", "type": "ground", "body": "crank", "at": [0.0, 0.0]},
+                   {"point": "A", "type": "revolute", "bodies": ["crank", "coupler"]},
+                   {"point": "B", "type": "revolute", "bodies": ["coupler", "rocker"]},
+                   {"point": "O4", "type": "ground", "body": "rocker", "at": [ground, 0.0]}],
+        "drivers": [{"name": "crank", "body": "crank", "law": "harmonic", "theta0": start,
+                     "omega": 2 * math.pi}]}
+    t = np.linspace(0.0, 1.0, 97)
+    ds = rm.solve(rm.load_mechanism(data), t, outputs=["position"])
+    theta = ds["position"].sel(coord="theta").to_numpy()
+    roots = _freudenstein_rocker(theta[:, 0], crank, coupler, rocker, ground)
+    gaps = [np.abs(np.angle(np.exp(1j * (theta[:, 2] - root)))) for root in roots]
+    np.testing.assert_allclose(np.minimum(*gaps), 0.0, atol=1e-10)
+    # and it stays on the assembly branch it started on (the side of the line A-O4 B is on)
+    pin_a = crank * np.exp(1j * theta[:, 0])
+    pin_b = ground + rocker * np.exp(1j * theta[:, 2])
+    side = np.sign(np.imag(np.conj(ground - pin_a) * (pin_b - pin_a)))
+    assert np.all(side == side[0])
