@@ -92,7 +92,20 @@ class Tolerances:
 
 
 def full_angles(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> np.ndarray:
-    """Body angles (..., n_bodies) from driven (..., n_d) and undriven (..., n_u) angles, rad."""
+    """Merge driven and undriven angles into body order.
+
+    Parameters
+    ----------
+    system : LoopSystem
+        Gives the driven and undriven body indices.
+    theta_d, theta_u : numpy.ndarray
+        (..., n_d) driven and (..., n_u) undriven angles, rad.
+
+    Returns
+    -------
+    numpy.ndarray
+        (..., n_bodies) body angles, rad.
+    """
     n_bodies = system.loop_points.shape[1]
     theta = np.empty((*theta_d.shape[:-1], n_bodies))
     theta[..., system.driven] = theta_d
@@ -228,7 +241,24 @@ class Taylor:
 
 
 def taylor(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> Taylor:
-    """Taylor coefficients of the solution manifold at assembled configurations (batched)."""
+    """Second-order Taylor coefficients of the undriven in the driven angles (batched).
+
+    Differentiating ``Phi(theta) = 0`` once gives ``J_u T = -J_d``; twice, with the diagonal
+    loop Hessian, ``J_u Q_jk = -sum_m (d2 Phi / d theta_m2) v_mj v_mk`` with ``v`` the first
+    derivatives of all angles (``T`` for the undriven, the identity for the driven).
+
+    Parameters
+    ----------
+    system : LoopSystem
+        Reduced constraints.
+    theta_d, theta_u : numpy.ndarray
+        (n, n_d) and (n, n_u) assembled angles, rad.
+
+    Returns
+    -------
+    Taylor
+        Coefficients in rad/rad and rad/rad2.
+    """
     z = phasor(full_angles(system, theta_d, theta_u))
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         lu = BatchLU(system.jacobian_stack(z[:, system.undriven]))
@@ -263,6 +293,18 @@ def involved_joints(mechanism: Mechanism, system: LoopSystem, theta: np.ndarray)
     The left singular vector of the smallest singular value of ``J_u`` is a loop-force mode that
     the undriven angles cannot resist; mapped to the joints (``N^T u``) it names the joints whose
     forces grow without bound.
+
+    Parameters
+    ----------
+    mechanism, system
+        The mechanism and its reduced constraints.
+    theta : numpy.ndarray
+        (n_bodies,) body angles of the configuration, rad.
+
+    Returns
+    -------
+    list of str
+        Joint names with at least 5 % of the largest share of the mode.
     """
     z = phasor(theta)
     jac = system.jacobian(z, system.undriven)
@@ -277,9 +319,25 @@ def involved_joints(mechanism: Mechanism, system: LoopSystem, theta: np.ndarray)
 
 def least_squares(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray, tol: float
                   ) -> np.ndarray:
-    """Undriven angles minimising the loop gaps (Levenberg-Marquardt), (n_u,) rad.
+    """Undriven angles minimising the loop gaps (Levenberg-Marquardt).
 
     Converges from far guesses; where the loops cannot close it stops at the smallest gaps.
+
+    Parameters
+    ----------
+    system : LoopSystem
+        Reduced constraints.
+    theta_d : numpy.ndarray
+        (n_d,) driven angles, rad.
+    theta_u : numpy.ndarray
+        (n_u,) starting guess, rad.
+    tol : float
+        Stop when the loop gaps are below ``tol`` times the mechanism size.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n_u,) undriven angles, rad.
     """
 
     def cost(angles: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
@@ -380,7 +438,18 @@ def _anchor_indices(travel: np.ndarray, spacing: float) -> np.ndarray:
 
 
 def condition_one(jacobian: np.ndarray) -> float:
-    """Condition number of one ``J_u`` as :meth:`BatchLU.condition` defines it."""
+    """Condition number of one ``J_u`` as :meth:`BatchLU.condition` defines it.
+
+    Parameters
+    ----------
+    jacobian : numpy.ndarray
+        (n_equations, n_u) loop Jacobian, m.
+
+    Returns
+    -------
+    float
+        Condition number of the column-equilibrated matrix (1-norm; 2-norm when tall).
+    """
     if jacobian.shape[-1] == 0:
         return 1.0
     scaled = jacobian / np.sum(np.abs(jacobian), axis=0)
