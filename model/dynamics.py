@@ -28,7 +28,24 @@ __all__ = ["applied_forces", "mechanical_energy", "minimum_norm_multipliers", "m
 
 def applied_forces(mechanism: Mechanism, acceleration: np.ndarray, alpha: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """``Q_e - M e''`` split into force (complex, N) and moment (N m) parts, each (n, n_bodies)."""
+    """Right-hand side ``Q_e - M e''`` of the multiplier equations (gravity only in ``Q_e``).
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        Masses, inertias and gravity.
+    acceleration : numpy.ndarray
+        (n, n_bodies) complex centre-of-gravity accelerations, m s-2.
+    alpha : numpy.ndarray
+        (n, n_bodies) angular accelerations, rad s-2.
+
+    Returns
+    -------
+    force : numpy.ndarray
+        (n, n_bodies) complex forces, N.
+    moment : numpy.ndarray
+        (n, n_bodies) moments, N m.
+    """
     mass = np.array([b.mass for b in mechanism.bodies])
     inertia = np.array([b.inertia for b in mechanism.bodies])
     gravity = complex(*mechanism.gravity)

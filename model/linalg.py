@@ -36,7 +36,18 @@ def row_max_abs(values: np.ndarray) -> np.ndarray:
 
 
 def static_row_order(matrix: np.ndarray) -> np.ndarray:
-    """Rows of ``matrix`` in the order partial pivoting takes them as pivots, (m,) int."""
+    """Rows of a representative matrix in the order partial pivoting takes them as pivots.
+
+    Parameters
+    ----------
+    matrix : numpy.ndarray
+        (m, m) square matrix.
+
+    Returns
+    -------
+    numpy.ndarray
+        (m,) row indices.
+    """
     perm = scipy.linalg.lu(matrix, p_indices=True)[0]
     return np.argsort(perm)
 

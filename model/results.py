@@ -90,7 +90,24 @@ def _names(requested: Iterable[str] | str | None, available: tuple[str, ...], wh
 
 def select(mechanism: Mechanism, outputs: Iterable[str] | str | None,
            points: Iterable[str] | str | None, joints: Iterable[str] | str | None) -> Selection:
-    """Check a request: output variable names, point names and joint names (None: all)."""
+    """Check a request against the mechanism.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+    outputs, points, joints : iterable of str, str or None
+        Output variable names (None: :data:`OUTPUTS`), point names and joint names (None: all).
+
+    Returns
+    -------
+    Selection
+
+    Raises
+    ------
+    ChannelNotFoundError
+        For an unknown name, listing the available ones.
+    """
     chosen = _names(outputs, OUTPUTS + EXTRA_OUTPUTS, "output") if outputs is not None else OUTPUTS
     return Selection(chosen, _names(points, mechanism.point_names, "point"),
                      _names(joints, mechanism.joint_names, "joint"))
