@@ -31,6 +31,8 @@ MEASURED = "#1f5fa8"
 MODEL = "#c8322b"
 CYCLES = "#9aa5b1"
 BAND = "#9ec3ea"
+#: Harmonic orders shown under each comparison.
+HARMONIC_ORDERS = 10
 
 
 def _figure(width: float, height: float) -> Figure:
@@ -55,8 +57,15 @@ def _closed(angle: np.ndarray, *values: np.ndarray) -> tuple[np.ndarray, ...]:
     return (degrees, *(np.concatenate([v, v[..., :1]], axis=-1) for v in values))
 
 
-def plot_comparison(result: ComparisonResult, *, width: float = 9.0) -> Figure:
-    """Overlay of measured cycles, measured mean with its band and the model, and the residual.
+def _harmonics(values: np.ndarray, orders: int) -> np.ndarray:
+    """Amplitudes of the orders 1 ... ``orders`` of a signal sampled over one revolution."""
+    spectrum = np.fft.rfft(values) * (2.0 / values.size)
+    return np.abs(spectrum[1:orders + 1])
+
+
+def plot_comparison(result: ComparisonResult, *, width: float = 9.0,
+                    orders: int = HARMONIC_ORDERS) -> Figure:
+    """Overlay of measured cycles, measured mean with its band and the model; residual; orders.
 
     Parameters
     ----------
@@ -64,15 +73,22 @@ def plot_comparison(result: ComparisonResult, *, width: float = 9.0) -> Figure:
         The comparison.
     width : float
         Figure width in inches.
+    orders : int
+        Harmonic orders of the shaft speed shown in the bottom panel.
 
     Returns
     -------
     matplotlib.figure.Figure
-        Top: every cycle (light), the measured mean with its P5-P95 band, the model. Bottom: the
-        residual model minus measured mean, with the band around the mean.
+        Top: every cycle (light), the measured mean with its P5-P95 band, the model, the peaks
+        of both marked. Middle: the residual model minus measured mean, with the band around the
+        mean. Bottom: amplitudes of the first harmonic orders, measured mean and model (rigid-
+        body errors often sit in particular orders).
     """
-    fig = _figure(width, 5.2)
-    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1.6])
+    fig = _figure(width, 7.0)
+    grid = fig.add_gridspec(3, 1, height_ratios=[3, 1.6, 1.5], hspace=0.45)
+    top = fig.add_subplot(grid[0])
+    bottom = fig.add_subplot(grid[1], sharex=top)
+    spectrum = fig.add_subplot(grid[2])
     low, high = result.band
     mean = result.mean
     x, cycles, mean_c, low_c, high_c, model_c = _closed(result.angle, result.cycles, mean, low,
@@ -84,17 +100,31 @@ def plot_comparison(result: ComparisonResult, *, width: float = 9.0) -> Figure:
     top.plot(x, mean_c, color=MEASURED, lw=1.8, label="measured mean")
     model_label = "model" if result.offset == 0 else f"model {result.offset:+.3g} {result.units}"
     top.plot(x, model_c, color=MODEL, lw=1.6, ls="--", label=model_label)
+    for values, color, marker in ((mean, MEASURED, "o"), (result.model, MODEL, "x")):
+        peak = int(np.argmax(np.abs(values)))
+        top.plot(x[peak], values[peak], marker, color=color, ms=7, mew=2)
     top.set_ylabel(f"{result.name} [{result.units}]")
-    top.set_title(f"{result.name}: {result.long_name} against {result.spec.model}")
-    top.legend(loc="best", fontsize=8, framealpha=0.85)
+    top.set_title(f"{result.name} against {result.spec.model}", loc="left", fontsize=10)
+    top.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3, fontsize=8,
+               frameon=False, borderaxespad=0.1)
     _angle_axis(top, label=False)
     bottom.fill_between(x, low_c - mean_c, high_c - mean_c, color=BAND, alpha=0.6, lw=0,
                         label="measured P5-P95 about the mean")
     bottom.plot(x, model_c - mean_c, color=MODEL, lw=1.2, label="model - measured mean")
     bottom.axhline(0.0, color="black", lw=0.6)
     bottom.set_ylabel(f"residual [{result.units}]")
-    bottom.legend(loc="best", fontsize=8, framealpha=0.85)
+    bottom.legend(loc="upper right", fontsize=8, framealpha=0.85)
     _angle_axis(bottom)
+    order = np.arange(1, orders + 1)
+    spectrum.bar(order - 0.2, _harmonics(mean, orders), width=0.4, color=MEASURED,
+                 label="measured mean")
+    spectrum.bar(order + 0.2, _harmonics(result.model, orders), width=0.4, color=MODEL,
+                 label="model")
+    spectrum.set_xticks(order)
+    spectrum.set_xlabel("order (harmonic of the shaft speed)")
+    spectrum.set_ylabel(f"amplitude [{result.units}]")
+    spectrum.grid(True, axis="y", lw=0.4, alpha=0.6)
+    spectrum.legend(loc="upper right", fontsize=8)
     return fig
 
 
