@@ -697,20 +697,30 @@ class Continuation:
         self.theta_d = theta_d
         self.theta_u = theta_u
         self.row_order = row_order
-        known = np.flatnonzero(solved)
-        targets = np.flatnonzero(~solved)
-        self.start = np.arange(theta_d.shape[0])
-        self.guess = theta_u.copy()
-        if targets.size and theta_u.shape[1]:
-            guess, base, _delta = _predict(tracker.system, path, theta_d, theta_u, known, targets)
-            theta_u[targets] = guess
-            self.guess[targets] = guess
-            self.start[targets] = base
+        self.solved = solved
+        self.known = np.flatnonzero(solved)
+        self.start = self.known[np.searchsorted(self.known, np.arange(theta_d.shape[0]),
+                                                side="right") - 1]
+        self.expansion = None
+        if not np.all(solved) and theta_u.shape[1]:
+            self.expansion = taylor(tracker.system, theta_d[self.known], theta_u[self.known])
 
     @property
     def size(self) -> int:
         """Number of steps."""
         return self.theta_d.shape[0]
+
+    def _predict(self, part: slice) -> np.ndarray:
+        """Angles of a chunk: solved steps as they are, the others predicted from their start."""
+        theta_u = self.theta_u[part].copy()
+        if self.expansion is not None:
+            rows = np.flatnonzero(~self.solved[part])
+            if rows.size:
+                steps = rows + (part.start or 0)
+                start = self.start[steps]
+                theta_u[rows] = self.expansion.predict(np.searchsorted(self.known, start),
+                                                       self.path[steps] - self.path[start])
+        return theta_u
 
     def polish(self, part: slice, z_d: np.ndarray) -> tuple[np.ndarray, np.ndarray,
                                                             BatchLU | None]:
@@ -721,7 +731,8 @@ class Continuation:
         """
         tracker = self.tracker
         system, tols = tracker.system, tracker.tols
-        theta_u = self.theta_u[part].copy()
+        theta_u = self._predict(part)
+        guess = theta_u.copy()
         z_u = phasor(theta_u)
         if theta_u.shape[1] == 0:
             return theta_u, z_u, None
@@ -753,8 +764,8 @@ class Continuation:
                 if not checked:
                     checked = True
                     delta = self.path[part] - self.path[start]
-                    wrong = np.flatnonzero(~_plausible(theta_u, self.guess[part],
-                                                       self.theta_u[start], delta))
+                    wrong = np.flatnonzero(~_plausible(theta_u, guess, self.theta_u[start],
+                                                       delta))
                     if wrong.size:
                         self._redo(theta_u, z_u, wrong, offset)
                         continue
