@@ -121,3 +121,24 @@ def test_netcdf_has_provenance_and_compression(result: ValidationResult, tmp_pat
     assert tree["raw/cdaq"]["acc1"].dtype == np.float32
     assert tree["raw/cdaq"]["acc1"].encoding["zlib"] and tree["raw/cdaq"]["acc1"].encoding[
         "complevel"] == 4
+
+
+def test_comparison_figure_draws_the_data(result: ValidationResult) -> None:
+    from matplotlib.figure import Figure
+
+    from rigval.validation.plots import plot_comparison
+
+    comparison = result.comparisons[0]
+    fig = plot_comparison(comparison)
+    assert isinstance(fig, Figure)
+    top, residual, spectrum = fig.axes
+    lines = {line.get_label(): line for line in top.get_lines()}
+    np.testing.assert_allclose(lines["measured mean"].get_ydata()[:-1], comparison.mean)
+    np.testing.assert_allclose(lines["model"].get_ydata()[:-1], comparison.model)
+    assert lines["model"].get_xdata()[-1] == 360.0  # periodic curve closed at 360 deg
+    (difference,) = residual.get_lines()[:1]
+    np.testing.assert_allclose(difference.get_ydata()[:-1], comparison.model - comparison.mean)
+    # the synthetic signal is sin + 0.3 sin 2: orders 1 and 2 carry the amplitude
+    heights = [bar.get_height() for bar in spectrum.patches[:10]]
+    assert heights[0] == pytest.approx(1.0, abs=0.05) and heights[1] == pytest.approx(0.3,
+                                                                                       abs=0.05)
