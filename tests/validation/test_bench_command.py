@@ -116,7 +116,7 @@ def test_model_and_reading_rows(quick_run: tuple[int, Path, list[dict[str, str]]
         "step-by-step (solve_stepwise)", "kinematics only, tol 1e-12",
         "full inverse dynamics, tol 1e-12"}
     reading = _pick(rows, stage="reading")
-    assert len(reading) == 5
+    assert len(reading) == 6
     assert all(_float(r, "peak_mib") > 0 for r in reading)
 
 
