@@ -24,7 +24,6 @@ import math
 import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Literal
@@ -32,7 +31,8 @@ from typing import Any, Literal
 import numpy as np
 
 from rigval.acquisition.channel_map import ChannelSpec, StreamSpec, parse_streams
-from rigval.acquisition.errors import ConfigError, SceneError, UnitError
+from rigval.acquisition.errors import ConfigError, MechanismError, SceneError, UnitError
+from rigval.model.mechanism import builtin_mechanism, load_mechanism
 from rigval.validation.metrics import DEFAULT_METRICS, METRICS, compare
 from rigval.validation.thresholds import parse_threshold
 from rigval.validation.units import dimension, multiply
@@ -451,15 +451,10 @@ def _file(scene_dir: Path, value: str, key: str) -> Path:
 def _mechanism_path(scene_dir: Path, value: str, key: str) -> Path:
     if not value.startswith("builtin:"):
         return _file(scene_dir, value, key)
-    name = value.removeprefix("builtin:")
-    folder = resources.files("rigval.model") / "mechanisms"
-    candidate = folder / f"{name}.toml"
-    if not candidate.is_file():
-        shipped = sorted(p.name.removesuffix(".toml") for p in folder.iterdir()
-                         if p.name.endswith(".toml")) if folder.is_dir() else []
-        raise _error(key, f"no built-in mechanism {name!r}",
-                     hint=f"built-in mechanisms: {', '.join(shipped) or 'none'}; or give a path")
-    return Path(str(candidate))
+    try:
+        return builtin_mechanism(value.removeprefix("builtin:"))
+    except MechanismError as error:
+        raise _error(key, error.message, hint=f"{error.hint}; or give a path") from None
 
 
 def _ref(value: Any, key: str, streams: Mapping[str, StreamSpec],
@@ -740,16 +735,17 @@ def mechanism_names(path: str | Path) -> MechanismNames:
     ----------
     path : str or pathlib.Path
         The mechanism file (``rigval-mechanism/1``).
+
+    Raises
+    ------
+    MechanismError
+        If the mechanism file is invalid (naming its key).
     """
-    doc = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    bodies = doc.get("bodies", [])
-    joints = doc.get("joints", [])
+    mechanism = load_mechanism(path)
     return MechanismNames(
-        bodies=tuple(b["name"] for b in bodies),
-        points=tuple(dict.fromkeys(p for b in bodies for p in b.get("points", {}))),
-        joints=tuple(j["point"] for j in joints),
-        drivers=tuple(d["name"] for d in doc.get("drivers", [])),
-        ground_joints=tuple(j["point"] for j in joints if j.get("type") == "ground"))
+        bodies=mechanism.body_names, points=mechanism.point_names,
+        joints=mechanism.joint_names, drivers=mechanism.driver_names,
+        ground_joints=tuple(j.name for j in mechanism.joints if j.kind == "ground"))
 
 
 def parse_scene(text: str, path: str | Path, *, names: MechanismNames | None = None) -> Scene:

@@ -135,3 +135,13 @@ def test_unit_algebra() -> None:
     assert not same_unit("rad", "1")
     assert dimension("1") == {}
     assert dimension("m s-2") == {"m": 1, "s": -2}
+
+
+def test_builtin_mechanism(scene_dir: Path) -> None:
+    path = scene_dir / "builtin.toml"
+    path.write_text(_example())
+    assert load_scene(path).mechanism.name == "pendulum.toml"
+    path.write_text(_example().replace("builtin:pendulum", "builtin:pendulumm"))
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert info.value.where["key"] == "mechanism" and "pendulum" in str(info.value)
