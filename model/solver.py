@@ -50,6 +50,8 @@ logger = logging.getLogger(__name__)
 #: Steps whose pivot estimate of the condition exceeds this fraction of ``cond_warn`` get the
 #: exact condition number.
 _SCREEN = 1e-3
+#: Steps with the largest condition estimates that get the exact condition number.
+_TOP = 256
 #: Steps finished and post-processed together (their arrays stay in the processor's cache).
 _CHUNK = 4096
 
@@ -197,16 +199,18 @@ def _check_condition(mechanism: Mechanism, system: LoopSystem, times: np.ndarray
 
     Every step was screened with the pivot estimate (at most a few hundred times too low for
     6 x 6 matrices); the exact condition is computed where the estimate exceeds
-    ``_SCREEN * cond_warn`` (everywhere when ``exact``).
+    ``_SCREEN * cond_warn`` and at the ``_TOP`` largest estimates (everywhere when ``exact``), so
+    the largest value reported is an exact one.
     """
     cond = solution.condition
     if system.undriven.size == 0:
         return
     if not exact:
         suspect = np.flatnonzero(cond > _SCREEN * tolerances.cond_warn)
-        if suspect.size:
-            z_u = phasor(solution.theta[suspect][:, system.undriven])
-            cond[suspect] = BatchLU(system.jacobian_stack(z_u)).condition()
+        largest = np.argpartition(cond, -_TOP)[-_TOP:] if cond.size > _TOP else np.arange(cond.size)
+        suspect = np.union1d(suspect, largest)
+        z_u = phasor(solution.theta[suspect][:, system.undriven])
+        cond[suspect] = BatchLU(system.jacobian_stack(z_u)).condition()
     theta = solution.theta
     worst = int(np.argmax(cond))
     if cond[worst] > tolerances.cond_max:
