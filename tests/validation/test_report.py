@@ -5,7 +5,6 @@ from __future__ import annotations
 import csv
 import json
 import re
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -25,20 +24,19 @@ from rigval.validation.thresholds import check_thresholds
 DOC = Path(__file__).resolve().parents[2] / "docs" / "scene.md"
 
 
-def _scene(tmp_path: Path, mechanisms_dir: Path):
+def _scene(tmp_path: Path):
     for name in ("run_1p0_cdaq.tdms", "run_1p0_wls1.tdms", "run_1p0_wls2.csv",
                  "run_1p0_note.txt"):
         (tmp_path / name).write_bytes(b"")
-    shutil.copy(mechanisms_dir / "pendulum.toml", tmp_path / "pendulum.toml")
     text = re.search(r"```toml\n(.+?)\n```", DOC.read_text(), re.S).group(1)
     path = tmp_path / "scene.toml"
-    path.write_text(text.replace('"builtin:pendulum"', '"pendulum.toml"'))
+    path.write_text(text)
     return load_scene(path)
 
 
 @pytest.fixture
-def result(tmp_path: Path, mechanisms_dir: Path) -> ValidationResult:
-    scene = _scene(tmp_path, mechanisms_dir)
+def result(tmp_path: Path) -> ValidationResult:
+    scene = _scene(tmp_path)
     rng = np.random.default_rng(1)
     angle = np.linspace(0, 2 * np.pi, 72, endpoint=False)
     comparisons = []

@@ -20,17 +20,15 @@ def _example() -> str:
 
 
 @pytest.fixture
-def scene_dir(tmp_path: Path, mechanisms_dir: Path) -> Path:
+def scene_dir(tmp_path: Path) -> Path:
     """A folder with the files the documented example names (contents are not read)."""
     for name in ("run_1p0_cdaq.tdms", "run_1p0_wls1.tdms", "run_1p0_wls2.csv",
                  "run_1p0_note.txt"):
         (tmp_path / name).write_bytes(b"")
-    shutil.copy(mechanisms_dir / "pendulum.toml", tmp_path / "pendulum.toml")
     return tmp_path
 
 
 def _write(scene_dir: Path, text: str) -> Path:
-    text = text.replace('mechanism = "builtin:pendulum"', 'mechanism = "pendulum.toml"')
     path = scene_dir / "scene.toml"
     path.write_text(text)
     return path
@@ -137,10 +135,11 @@ def test_unit_algebra() -> None:
     assert dimension("m s-2") == {"m": 1, "s": -2}
 
 
-def test_builtin_mechanism(scene_dir: Path) -> None:
-    path = scene_dir / "builtin.toml"
-    path.write_text(_example())
-    assert load_scene(path).mechanism.name == "pendulum.toml"
+def test_mechanism_file_or_builtin(scene_dir: Path) -> None:
+    path = scene_dir / "own.toml"
+    shutil.copy(load_scene(_write(scene_dir, _example())).mechanism, scene_dir / "mine.toml")
+    path.write_text(_example().replace("builtin:pendulum", "mine.toml"))
+    assert load_scene(path).mechanism == (scene_dir / "mine.toml").resolve()
     path.write_text(_example().replace("builtin:pendulum", "builtin:pendulumm"))
     with pytest.raises(SceneError) as info:
         load_scene(path)
