@@ -15,17 +15,19 @@ from __future__ import annotations
 
 import logging
 import math
+import multiprocessing
 import os
 import platform
 import time
 from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, fields, replace
 from typing import Any, TypeVar
 
 from rigval.acquisition.errors import ConfigError
 
-__all__ = ["STAGES", "BenchRow", "Measured", "machine_note", "measure", "run_bench",
-           "with_baseline"]
+__all__ = ["SINGLE_THREAD_ENV", "STAGES", "BenchRow", "Measured", "machine_note", "measure",
+           "run_bench", "with_baseline"]
 
 logger = logging.getLogger(__name__)
 
@@ -205,7 +207,12 @@ def _sweeps() -> dict[str, Callable[[bool], list[BenchRow]]]:
             "reading": bench_read_cases.reading_rows}
 
 
-def run_bench(stages: Sequence[str] | None = None, *, quick: bool = False) -> list[BenchRow]:
+#: Environment of the worker process: one thread in every BLAS / OpenMP pool.
+SINGLE_THREAD_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def run_bench(stages: Sequence[str] | None = None, *, quick: bool = False,
+              single_thread: bool = True) -> list[BenchRow]:
     """Run the sweeps of the given stages and return all their rows.
 
     Parameters
@@ -215,6 +222,11 @@ def run_bench(stages: Sequence[str] | None = None, *, quick: bool = False) -> li
     quick : bool, default False
         Small cases and fewer choices (well under a minute in all); the full run takes a few
         minutes on 2 cores.
+    single_thread : bool, default True
+        Run the sweeps in a fresh process whose BLAS and OpenMP pools have one thread
+        (:data:`SINGLE_THREAD_ENV`). With helper threads, the CPU time counts their spinning and
+        wall times on a shared 2-core machine scatter by 2-3x; with one thread the batched
+        solver is also faster. False: run in this process as it is.
 
     Returns
     -------
@@ -231,6 +243,8 @@ def run_bench(stages: Sequence[str] | None = None, *, quick: bool = False) -> li
     if unknown:
         raise ConfigError(f"unknown bench stage(s) {unknown}, expected some of {list(STAGES)}",
                           where={"key": "stages"}, hint="leave the stages out to run all")
+    if single_thread:
+        return _in_single_thread_process(chosen, quick)
     sweeps = _sweeps()
     rows: list[BenchRow] = []
     for stage in chosen:
@@ -240,3 +254,19 @@ def run_bench(stages: Sequence[str] | None = None, *, quick: bool = False) -> li
                     time.perf_counter() - start)
         rows.extend(stage_rows)
     return rows
+
+
+def _in_single_thread_process(stages: list[str], quick: bool) -> list[BenchRow]:
+    """Run :func:`run_bench` in a spawned process started with :data:`SINGLE_THREAD_ENV`."""
+    saved = {key: os.environ.get(key) for key in SINGLE_THREAD_ENV}
+    os.environ.update(SINGLE_THREAD_ENV)  # inherited by the worker when it starts
+    try:
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
+            return pool.submit(run_bench, stages, quick=quick, single_thread=False).result()
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value

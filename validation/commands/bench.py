@@ -11,6 +11,7 @@ few minutes on 2 cores. Run it on an otherwise idle machine for figures worth qu
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -43,7 +44,7 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweeps, write the files and print the table; return the exit code."""
-    from rigval.validation.bench import machine_note, run_bench
+    from rigval.validation.bench import STAGES, machine_note, run_bench
     from rigval.validation.bench_report import (
         compare_text,
         markdown_table,
@@ -52,9 +53,13 @@ def run(args: argparse.Namespace) -> int:
     )
 
     reference = read_csv(args.compare) if args.compare else None  # fail before the long run
-
+    print(f"rigval bench: running {', '.join(args.stages or STAGES)} "
+          f"({'well under a minute' if args.quick else 'a few minutes'}, one BLAS thread)",
+          file=sys.stderr)
+    before = machine_note()
     rows = run_bench(args.stages, quick=args.quick)
-    note = ("Quick run (small cases). " if args.quick else "") + "Machine: " + machine_note()
+    note = (("Quick run (small cases). " if args.quick else "") + "Machine: " + before
+            + f"; load average {os.getloadavg()[0]:.2f} after the run")
     paths = write_outputs(rows, args.out, note)
     print(markdown_table(rows, note))
     print(f"wrote {', '.join(p.name for p in paths)} to {args.out}")
