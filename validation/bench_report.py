@@ -21,6 +21,7 @@ from pathlib import Path
 from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
 
+from rigval.acquisition.errors import DataFileError
 from rigval.validation.bench import STAGES, BenchRow
 
 __all__ = ["compare_text", "markdown_table", "plot_stage", "read_csv", "write_csv",
@@ -71,12 +72,26 @@ def read_csv(path: Path) -> list[BenchRow]:
     -------
     list of BenchRow
         Its rows.
+
+    Raises
+    ------
+    DataFileError
+        If the file cannot be read or is not a ``rigval bench`` CSV.
     """
-    kinds = {f.name: f.type for f in fields(BenchRow)}
+    kinds = {f.name: str(f.type) for f in fields(BenchRow)}
     converters = {"int": int, "float": float, "str": str}
-    with open(path, newline="", encoding="utf-8") as handle:
-        return [BenchRow(**{k: converters[str(kinds[k])](v) for k, v in row.items()})
-                for row in csv.DictReader(handle)]
+    try:
+        with open(path, newline="", encoding="utf-8") as handle:
+            reader = csv.DictReader(handle)
+            if reader.fieldnames != list(kinds):
+                raise ValueError(f"columns {reader.fieldnames}, expected {list(kinds)}")
+            return [BenchRow(**{k: converters[kinds[k]](v) for k, v in row.items()})
+                    for row in reader]
+    except (OSError, ValueError, UnicodeDecodeError) as error:
+        raise DataFileError(f"cannot read a rigval bench table: {error}",
+                            where={"file": str(path)},
+                            hint="pass the bench.csv that `rigval bench --out DIR` wrote") \
+            from error
 
 
 def compare_text(rows: Sequence[BenchRow], reference: Sequence[BenchRow]) -> str:

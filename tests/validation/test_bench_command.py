@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from rigval.acquisition.errors import ConfigError
+from rigval.acquisition.errors import ConfigError, DataFileError
 from rigval.validation.bench import STAGES, BenchRow, run_bench, with_baseline
 from rigval.validation.bench_report import compare_text, read_csv
 from rigval.validation.cli import main
@@ -140,3 +140,13 @@ def test_unknown_stage_and_missing_baseline_are_errors() -> None:
     with pytest.raises(ValueError, match="no baseline"):
         with_baseline([row], "b")
     assert main(["bench", "--quick", "--stage", "modle", "--out", "x"]) == 2
+
+
+def test_unreadable_comparison_table_is_a_data_error(tmp_path: Path) -> None:
+    bad = tmp_path / "bench.csv"
+    bad.write_text("stage,choice\nmodel,x\n", encoding="utf-8")
+    with pytest.raises(DataFileError, match="columns"):
+        read_csv(bad)
+    code = main(["bench", "--quick", "--compare", str(tmp_path / "missing.csv"), "--out",
+                 str(tmp_path / "out")])
+    assert code == 3 and not (tmp_path / "out").exists()
