@@ -541,7 +541,8 @@ def _angle(doc: Mapping[str, Any]) -> AngleSpec:
                                   ("linear", "cubic")), cycles)
 
 
-def _model(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> ModelSpec:
+def _model(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec], reference: str
+           ) -> ModelSpec:
     key = "model"
     table = _table(_get(doc, key, "", dict, {}), key)
     _check_keys(table, key, {"drives", "drivers"})
@@ -553,10 +554,13 @@ def _model(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> ModelSp
         entry = _table(raw, dkey)
         _check_keys(entry, dkey, {"encoder", "angle_at_reference", "direction"})
         direction = _get(entry, "direction", dkey, int, 1, (1, -1))
-        drivers[name] = DriverSpec(
-            name, _ref(_get(entry, "encoder", dkey, str), f"{dkey}.encoder", streams,
-                       ("encoder",)),
-            _get(entry, "angle_at_reference", dkey, float), direction)
+        encoder = _ref(_get(entry, "encoder", dkey, str), f"{dkey}.encoder", streams,
+                       ("encoder",))
+        if encoder.stream != reference:
+            raise _error(f"{dkey}.encoder", f"must be on the reference stream {reference!r}, "
+                         f"got {encoder}", hint="drive encoders share the reference clock")
+        drivers[name] = DriverSpec(name, encoder, _get(entry, "angle_at_reference", dkey, float),
+                                   direction)
     if drives == "analytic" and drivers:
         raise _error(f"{key}.drivers", 'driver tables apply only to drives = "measured"',
                      hint='remove them or set drives = "measured"')
@@ -785,13 +789,15 @@ def parse_scene(text: str, path: str | Path, *, names: MechanismNames | None = N
     streams = _streams(doc, scene_dir)
     comparisons = _comparisons(doc, streams)
     note = _get(doc, "note", "", str, None)
+    alignment = _alignment(doc, streams)
     scene = Scene(
         path=path, text=text, sha256=hashlib.sha256(text.encode()).hexdigest(),
         title=_get(doc, "title", "", str, path.stem),
         mechanism=_mechanism_path(scene_dir, _get(doc, "mechanism", "", str), "mechanism"),
         note=_file(scene_dir, note, "note") if note is not None else None,
-        streams=MappingProxyType(streams), alignment=_alignment(doc, streams),
-        angle=_angle(doc), model=_model(doc, streams), comparisons=comparisons,
+        streams=MappingProxyType(streams), alignment=alignment,
+        angle=_angle(doc), model=_model(doc, streams, alignment.reference),
+        comparisons=comparisons,
         predictions=_predictions(doc, comparisons))
     if names is not None:
         check_mechanism_names(scene, names)

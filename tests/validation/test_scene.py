@@ -102,6 +102,8 @@ BAD = {
                             "streams.wls1.channels.tor1.gauge_factor"),
     "wrong schema": (('schema = "rigval-scene/1"', 'schema = "rigval-scene/2"'), "schema"),
     "drive direction": (("direction = 1", "direction = 2"), "model.drivers.theta_F.direction"),
+    "drive encoder that is no encoder": (('encoder = "cdaq.enc2"', 'encoder = "wls1.tor1"'),
+                                         "model.drivers.theta_H.encoder"),
     "missing driver": (('[model.drivers.theta_H]\nencoder = "cdaq.enc2"\n'
                         "angle_at_reference = 4.5895\ndirection = 1", ""),
                        "model.drivers.theta_H"),
@@ -144,3 +146,11 @@ def test_mechanism_file_or_builtin(scene_dir: Path) -> None:
     with pytest.raises(SceneError) as info:
         load_scene(path)
     assert info.value.where["key"] == "mechanism" and "pendulum" in str(info.value)
+
+
+def test_drive_encoder_must_share_the_reference_clock(scene_dir: Path) -> None:
+    text = _example().replace('[streams.wls1.channels.opt2]', '[streams.wls1.channels.enc9]\n'
+                              'sensor = "encoder"\ncounts_per_rev = 8192\n\n'
+                              '[streams.wls1.channels.opt2]')
+    key = _key_of(scene_dir, text.replace('encoder = "cdaq.enc2"', 'encoder = "wls1.enc9"'))
+    assert key == "model.drivers.theta_H.encoder"
