@@ -33,22 +33,11 @@ from scipy.signal import lsim
 from rigval.acquisition.errors import DataError
 from rigval.sample_data.drive import DriveMotion
 
-__all__ = ["TRUTH_UNITS", "TruthGrid", "frame_vibration", "model_truth"]
+__all__ = ["TruthGrid", "frame_vibration", "model_truth"]
 
 logger = logging.getLogger(__name__)
 
 _FloatArray = NDArray[np.float64]
-
-#: Units of the grid quantities (UDUNITS).
-TRUTH_UNITS: dict[str, str] = {
-    "acc_P1_x": "m s-2",
-    "acc_P2_x": "m s-2",
-    "frame_force_P3_x": "N",
-    "rod_B_axial_force": "N",
-    "torque_theta_F": "N m",
-    "torque_theta_H": "N m",
-}
-
 
 @dataclass(frozen=True)
 class TruthGrid:
@@ -59,7 +48,7 @@ class TruthGrid:
     t : numpy.ndarray
         Uniform true times in s, increasing.
     values : mapping of str to numpy.ndarray
-        One array per quantity, same length as ``t`` (names and units in :data:`TRUTH_UNITS`).
+        One array per quantity, same length as ``t`` (names and units in the module docstring).
     """
 
     t: _FloatArray
@@ -106,7 +95,7 @@ def model_truth(mechanism_path: str | Path, drive: DriveMotion, t: ArrayLike) ->
     Returns
     -------
     TruthGrid
-        The quantities of :data:`TRUTH_UNITS` at ``t``.
+        The quantities of the module docstring at ``t``.
     """
     from rigval.model import load_mechanism, solve
 
