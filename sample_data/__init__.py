@@ -8,7 +8,7 @@ Public API
 ----------
 simulate_rig(out_dir, settings=None, *, truth=None) -> RunFiles
     Write one run folder.
-RigSettings(speed, duration, seed, imperfections, mechanism, truth_fs, preroll)
+RigSettings(speed, duration, seed, imperfections, mechanism, truth_fs, preroll, index_reset)
     One run; ``Imperfections`` sets the imperfection levels (``Imperfections.none()``: ideal).
 load_truth(path) -> RunTruth
     The truth of a run, true signals as one Dataset per stream.
