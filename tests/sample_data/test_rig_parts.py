@@ -8,6 +8,8 @@ import struct
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from nptdms import TdmsFile
 
 from rigval.acquisition.errors import ConfigError
@@ -231,3 +233,27 @@ def test_run_stem_names():
     assert run_stem(0.8) == "run_0p8"
     assert run_stem(1.0) == "run_1p0"
     assert run_stem(1.25) == "run_1p25"
+
+
+@given(st.lists(st.sampled_from(["<i2", "<i4", "<u4"]), min_size=1, max_size=5),
+       st.lists(st.integers(1, 700), min_size=1, max_size=3), st.integers(1, 300))
+@settings(max_examples=25, deadline=None)
+def test_daqmx_tdms_any_layout_reads_back_in_nptdms(tmp_path_factory, dtypes, lengths, block):
+    rng = np.random.default_rng(len(dtypes) * 1000 + sum(lengths) + block)
+    acquisitions = []
+    for k, n in enumerate(lengths):
+        channels = tuple(
+            RawChannel(f"ch{i}", rng.integers(np.iinfo(d).min, np.iinfo(d).max, n,
+                                              endpoint=True).astype(d), 0.5 + i, -1.0, "V")
+            for i, d in enumerate(dtypes))
+        acquisitions.append(Acquisition("g", np.datetime64("2026-01-01T00:00:00", "ns")
+                                        + np.timedelta64(k, "s"), 1e-3, channels))
+    path = write_daqmx_tdms(tmp_path_factory.mktemp("tdms") / "p.tdms", acquisitions,
+                            block_samples=block)
+    group = TdmsFile.read(path)["g"]
+    for i, dtype in enumerate(dtypes):
+        expected = np.concatenate([a.channels[i].raw for a in acquisitions])
+        raw = group[f"ch{i}"].read_data(scaled=False)[0]
+        assert raw.dtype == np.dtype(dtype)
+        np.testing.assert_array_equal(raw, expected)
+        np.testing.assert_allclose(group[f"ch{i}"][:], expected * (0.5 + i) - 1.0, rtol=1e-15)
