@@ -14,7 +14,8 @@ missing. Pulse quality:
 
 Each choice runs :func:`rigval.processing.pulses.detect_edges` on both devices and
 :func:`rigval.processing.align.estimate_clock`; the error is the rms over several random runs of
-the fitted offset (at the second device's first sample) and drift minus the truth. The limit
+the fitted offset (at the second device's first sample) and drift minus the truth; the time is
+the median over the runs (edge detection on both devices plus the fit). The limit
 column is the least-squares error that the per-edge timing error alone leaves:
 ``sigma_edge * sqrt(1/N + mean(t)**2 / S_tt)`` for the offset and ``sigma_edge / sqrt(S_tt)`` for
 the drift (``S_tt`` the sum of squared event-time deviations), with ``sigma_edge`` the combined
@@ -208,12 +209,13 @@ def _rms(values: list[float]) -> float:
 def _choice_rows(label: str, case: str, runs: list[TwoClockRun],
                  refine: Literal["linear", "sinc"], revolutions: int) -> list[BenchRow]:
     offsets, drifts, limit_offsets, limit_drifts = [], [], [], []
-    wall = cpu = 0.0
+    walls, cpus = [], []
     sigma = _edge_sigma_s(label)
     for run in runs:
         result = measure(partial(_fit, run, refine), 1)
         clock = result.value
-        wall, cpu = wall + result.time_s, cpu + result.cpu_s
+        walls.append(result.time_s)
+        cpus.append(result.cpu_s)
         offsets.append(clock.offsets_s[0] - run.offset_s)
         drifts.append(clock.drift - run.drift)
         limit_offset, limit_drift = _limits(run, clock, sigma)
@@ -226,5 +228,6 @@ def _choice_rows(label: str, case: str, runs: list[TwoClockRun],
         out.append(BenchRow(stage="alignment", case=case, choice=label,
                             metric=f"{metric} error rms over {len(runs)} runs", unit=unit,
                             error=_rms(errors) * 1e6, bound=4 * limit, limit=limit,
-                            time_s=wall / len(runs), cpu_s=cpu / len(runs), n=revolutions))
+                            time_s=float(np.median(walls)), cpu_s=float(np.median(cpus)),
+                            n=revolutions))
     return out

@@ -91,7 +91,7 @@ def model_rows(quick: bool = False) -> list[BenchRow]:
     """
     mech = rm.load_mechanism(rm.builtin_mechanism("pendulum"))
     seconds = 1.0 if quick else 20.0
-    repeats = 2 if quick else 3
+    repeats = 2 if quick else 5
     t = np.arange(round(seconds * FS)) / FS
     n = t.size
     truth_t = t[: round(FS)][::TRUTH_STRIDE]  # every 10th sample of the first revolution

@@ -91,7 +91,7 @@ def resampling_rows(quick: bool = False) -> list[BenchRow]:
         the whole cycles, relative to the amplitude; baseline: :func:`numpy.interp`.
     """
     seconds = 5.0 if quick else 20.0
-    repeats = 2 if quick else 3
+    repeats = 2 if quick else 5
     t = np.arange(round(seconds * FS)) / FS
     phi = ripple_angle(t)
     methods: dict[str, tuple[Resampler, int]] = {INTERP_BASELINE: (_interp_baseline, 1)}
@@ -163,7 +163,7 @@ def derivative_rows(quick: bool = False) -> list[BenchRow]:
         allowance (1e-4 rad/s, 2e-3 rad/s2), central differences within twice theory.
     """
     seconds = 10.0 if quick else 20.0
-    repeats = 2 if quick else 3
+    repeats = 2 if quick else 5
     t = np.arange(round(seconds * FS)) / FS
     theta = TWO_PI * t + sum(a * np.sin(k * TWO_PI * t + p) for k, a, p in HARMONICS)
     omega = TWO_PI + sum(a * k * TWO_PI * np.cos(k * TWO_PI * t + p) for k, a, p in HARMONICS)
