@@ -105,10 +105,14 @@ def mechanism_drivers(path: str | Path) -> dict[str, tuple[float, tuple[Harmonic
     Raises
     ------
     ConfigError
-        If the file lacks a driver theta_F or theta_H, or a harmonic is not a whole multiple of
-        the main speed.
+        If the file cannot be read, lacks a driver theta_F or theta_H, or a harmonic is not a
+        whole multiple of the main speed.
     """
-    data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError(f"cannot read the mechanism file: {exc}", where={"file": str(path)},
+                          hint="pass a mechanism TOML file (schema rigval-mechanism/1)") from exc
     drivers = {d.get("name"): d for d in data.get("drivers", [])}
     missing = {"theta_F", "theta_H"} - drivers.keys()
     if missing:

@@ -226,6 +226,8 @@ def test_bad_settings_are_config_errors(tmp_path):
     with pytest.raises(ConfigError, match="missing_pulse_probability"):
         RigSettings(imperfections=Imperfections(missing_pulse_probability=1.5)).check()
     assert main(["simulate-rig", "--out", str(tmp_path), "--speed", "0"]) == 2
+    assert main(["simulate-rig", "--out", str(tmp_path), "--mechanism",
+                 str(tmp_path / "missing.toml")]) == 2
     assert not any(tmp_path.iterdir())
 
 
