@@ -72,6 +72,8 @@ class TwoClockRun:
         True drift d (1).
     coarse_offset_s : float
         The start-time estimate of the offset (software stamps), s.
+    pulses_dev : numpy.ndarray
+        True rise times of the pulses the second device records, s on its clock.
     """
 
     t_ref: _FloatArray
@@ -81,6 +83,7 @@ class TwoClockRun:
     offset_s: float
     drift: float
     coarse_offset_s: float
+    pulses_dev: _FloatArray
 
 
 def _pulse_signal(t: _FloatArray, rises: _FloatArray, fs: float, quality: Quality,
@@ -134,7 +137,8 @@ def two_clock_run(revolutions: int, quality: Quality, seed: int) -> TwoClockRun:
         t_ref=t_ref, x_ref=_pulse_signal(t_ref, rises_ref, FS_REF, quality, rng),
         t_dev=t_dev, x_dev=_pulse_signal(t_dev, rises_dev[keep], FS_DEV, quality, rng),
         offset_s=offset, drift=drift,
-        coarse_offset_s=offset + START_STAMP_ERROR_S * rng.standard_normal())
+        coarse_offset_s=offset + START_STAMP_ERROR_S * rng.standard_normal(),
+        pulses_dev=rises_dev[keep])
 
 
 def _fit(run: TwoClockRun, refine: Literal["linear", "sinc"]) -> align.ClockModel:
@@ -155,13 +159,11 @@ def _edge_sigma_s(label: str) -> float:
     return per_sample * math.hypot(1 / FS_REF, 1 / FS_DEV)
 
 
-def _limits(run: TwoClockRun, clock: align.ClockModel, sigma: float) -> tuple[float, float]:
-    """Least-squares offset and drift error the edge timing alone leaves (s, 1)."""
-    n = clock.pulses_matched
-    duration = run.t_dev[-1]
-    # matched events spread about evenly over the record: mean T/2, S_tt = n T^2 / 12
-    s_tt = n * duration**2 / 12
-    return sigma * math.sqrt(1 / n + (duration / 2) ** 2 / s_tt), sigma / math.sqrt(s_tt)
+def _limits(run: TwoClockRun, sigma: float) -> tuple[float, float]:
+    """Return the offset and drift error (s, 1) the edge timing alone leaves in the line fit."""
+    t = run.pulses_dev
+    s_tt = float(np.sum((t - t.mean()) ** 2))
+    return sigma * math.sqrt(1 / t.size + t.mean() ** 2 / s_tt), sigma / math.sqrt(s_tt)
 
 
 def alignment_rows(quick: bool = False) -> list[BenchRow]:
@@ -218,7 +220,7 @@ def _choice_rows(label: str, case: str, runs: list[TwoClockRun],
         cpus.append(result.cpu_s)
         offsets.append(clock.offsets_s[0] - run.offset_s)
         drifts.append(clock.drift - run.drift)
-        limit_offset, limit_drift = _limits(run, clock, sigma)
+        limit_offset, limit_drift = _limits(run, sigma)
         limit_offsets.append(limit_offset)
         limit_drifts.append(limit_drift)
     out = []
