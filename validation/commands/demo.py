@@ -9,6 +9,7 @@ else 1.
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -98,6 +99,9 @@ def run(args: argparse.Namespace) -> int:
     targets = [out / scene.name.removesuffix("_scene.toml") for scene in scenes]
     workers = args.workers or min(len(scenes), os.cpu_count() or 1)
     start = time.perf_counter()
+    # imported once here: forked workers inherit the modules instead of importing them again
+    importlib.import_module("rigval.validation.pipeline")
+    importlib.import_module("rigval.validation.report")
     if workers > 1:
         with ProcessPoolExecutor(max_workers=workers) as pool:
             rows = list(pool.map(validate_one, scenes, targets))
