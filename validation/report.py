@@ -18,6 +18,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import logging
 import math
@@ -31,6 +32,7 @@ import xarray as xr
 from rigval.acquisition.schema import file_sha256
 from rigval.validation import plots
 from rigval.validation.html import Page
+from rigval.validation.iso18571 import IsoParameters
 from rigval.validation.results import ComparisonResult, ValidationResult
 
 __all__ = ["rigval_version", "write_metrics", "write_netcdf", "write_report"]
@@ -218,7 +220,6 @@ def _build_page(result: ValidationResult) -> Page:
                       f"{scene.angle.interpolation} interpolation",
         "revolutions compared": result.n_cycles,
         "mean main-shaft speed [rev/s]": result.speed_rev_s,
-        "rigval version": rigval_version(),
     })
     if scene.note is not None:
         page.preformatted(scene.note.read_text(encoding="utf-8", errors="replace"))
@@ -282,6 +283,13 @@ def _build_page(result: ValidationResult) -> Page:
                        "against a grid four times finer")
 
     page.section("Reproduction")
+    page.facts({"rigval version": rigval_version(),
+                "angle grid": f"{scene.angle.points_per_revolution} points per revolution of "
+                              f"phi_F, {scene.angle.interpolation} interpolation, anti-alias "
+                              "low-pass at 0.4 times the grid rate before resampling",
+                "reference signal of the metrics": "the measured mean over the revolutions",
+                "ISO/TS 18571 parameters": ", ".join(
+                    f"{k} {v}" for k, v in dataclasses.asdict(IsoParameters()).items())})
     page.table([{"file": str(p), "sha256": file_sha256(p)} for p in scene.input_files],
                caption="input files")
     page.preformatted(scene.text)
