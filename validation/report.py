@@ -205,12 +205,8 @@ def _peaks(predictions: xr.Dataset) -> list[dict[str, Any]]:
     return rows
 
 
-def _build_page(result: ValidationResult) -> Page:
+def _summary(page: Page, result: ValidationResult, status: str) -> None:
     scene = result.scene
-    status = "PASSED" if result.passed else "FAILED"
-    page = Page(f"rigval validation: {scene.title}",
-                subtitle=f"{status} · {len(result.comparisons)} comparisons · "
-                         f"{result.n_cycles} revolutions at {result.speed_rev_s:.3f} rev/s")
     page.section("Summary")
     page.paragraph(f"Result: {status}", css_class="ok" if result.passed else "bad")
     page.facts({
@@ -225,6 +221,8 @@ def _build_page(result: ValidationResult) -> Page:
         page.preformatted(scene.note.read_text(encoding="utf-8", errors="replace"))
     page.table(_summary_rows(result), caption="comparisons")
 
+
+def _comparisons(page: Page, result: ValidationResult) -> None:
     page.section("Comparisons")
     page.paragraph("Measured against the model over the main shaft angle phi_F. Light lines: each "
                    "revolution; band: 5th to 95th percentile over revolutions; the baseline rows "
@@ -233,17 +231,18 @@ def _build_page(result: ValidationResult) -> Page:
     for comparison in result.comparisons:
         page.section(f"{comparison.name}: {comparison.spec.measured} against "
                      f"{comparison.spec.model}", level=3)
-        details = {"scale": f"{comparison.spec.scale:g} {comparison.spec.scale_units}",
-                   "low-pass [Hz]": comparison.spec.lowpass_hz,
-                   "model offset added": f"{comparison.offset:.4g} {comparison.units}"
-                   if comparison.spec.remove_offset else "none"}
-        page.facts(details)
-        fig = plots.plot_comparison(comparison)
-        page.figure(fig, caption=f"{comparison.name}: overlay and residual against phi_F")
+        page.facts({"scale": f"{comparison.spec.scale:g} {comparison.spec.scale_units}",
+                    "low-pass [Hz]": comparison.spec.lowpass_hz,
+                    "model offset added": f"{comparison.offset:.4g} {comparison.units}"
+                    if comparison.spec.remove_offset else "none"})
+        page.figure(plots.plot_comparison(comparison),
+                    caption=f"{comparison.name}: overlay, residual and harmonic orders")
         page.table(_metric_table(comparison), caption=f"{comparison.name}: metrics")
         page.table(_metric_table(comparison, everything=True),
                    collapsed=f"all {len(comparison.scores)} scores of {comparison.name}")
 
+
+def _alignment(page: Page, result: ValidationResult) -> None:
     page.section("Alignment")
     page.table(_alignment_rows(result),
                caption="clock model per stream: t_ref = offset + (1 + drift) t_device per "
@@ -259,6 +258,8 @@ def _build_page(result: ValidationResult) -> Page:
     if gap_rows:
         page.table(gap_rows, caption="gaps (stream clock)")
 
+
+def _predictions(page: Page, result: ValidationResult) -> None:
     page.section("Predictions")
     page.paragraph("What the model says about quantities that were not measured, for the drive "
                    "motion of this run (the paper's figs. 15 to 17).")
@@ -270,6 +271,8 @@ def _build_page(result: ValidationResult) -> Page:
                     caption="support forces on the frame (minus the ground pins' joint forces)")
         page.table(_peaks(result.predictions), caption="support force extremes")
 
+
+def _numerics(page: Page, result: ValidationResult) -> None:
     page.section("Numerics")
     numerics = result.numerics
     stage_rows = [{"stage": k, "time [s]": v} for k, v in numerics.stage_seconds.items()]
@@ -279,9 +282,12 @@ def _build_page(result: ValidationResult) -> Page:
                caption=f"model numerics (this run: {numerics.model_points} angle points; power "
                        "balance on the mechanism file's drive law)")
     page.table([{"comparison": k, "max error / range": v} for k, v in numerics.grid_error.items()],
-               caption=f"angle grid: model on {scene.angle.points_per_revolution} points "
+               caption=f"angle grid: model on {result.scene.angle.points_per_revolution} points "
                        "against a grid four times finer")
 
+
+def _reproduction(page: Page, result: ValidationResult) -> None:
+    scene = result.scene
     page.section("Reproduction")
     page.facts({"rigval version": rigval_version(),
                 "angle grid": f"{scene.angle.points_per_revolution} points per revolution of "
@@ -293,6 +299,16 @@ def _build_page(result: ValidationResult) -> Page:
     page.table([{"file": str(p), "sha256": file_sha256(p)} for p in scene.input_files],
                caption="input files")
     page.preformatted(scene.text)
+
+
+def _build_page(result: ValidationResult) -> Page:
+    status = "PASSED" if result.passed else "FAILED"
+    page = Page(f"rigval validation: {result.scene.title}",
+                subtitle=f"{status} · {len(result.comparisons)} comparisons · "
+                         f"{result.n_cycles} revolutions at {result.speed_rev_s:.3f} rev/s")
+    _summary(page, result, status)
+    for section in (_comparisons, _alignment, _predictions, _numerics, _reproduction):
+        section(page, result)
     return page
 
 
