@@ -683,6 +683,68 @@ def _tree(scene: Scene, raw: Mapping[str, xr.Dataset], aligned: Mapping[str, xr.
 # ---------------------------------------------------------------------------------------------
 
 
+@dataclass(frozen=True)
+class _Grid:
+    """The phi_F grid of a run: whole revolutions, fine grid for the model, the chosen grid."""
+
+    turns: np.ndarray
+    fine_angle: np.ndarray
+    fine_times: np.ndarray
+    speed_rev_s: float
+
+    @property
+    def angle(self) -> np.ndarray:
+        """The chosen grid's angles over one revolution (rad)."""
+        return self.fine_angle[::FINE_FACTOR]
+
+    @property
+    def times(self) -> np.ndarray:
+        """Reference times of the chosen grid, (n_cycle, n_angle), s."""
+        return self.fine_times[:, ::FINE_FACTOR]
+
+
+def _grid(scene: Scene, main: MainAngle) -> _Grid:
+    """Whole revolutions of phi_F and the reference times of the fine and the chosen grid."""
+    n = scene.angle.points_per_revolution
+    turns, fine_grid = cycle_grid(main.phi[0], main.phi[-1], n * FINE_FACTOR)
+    if turns.size < scene.angle.min_cycles:
+        raise DataError(f"only {turns.size} whole revolutions in the record, the scene asks "
+                        f"for {scene.angle.min_cycles}", where={"key": "angle.min_cycles"},
+                        hint="record longer, or lower angle.min_cycles")
+    fine_times = main.times_at(fine_grid)
+    duration = float(main.times_at(2 * np.pi * (turns[-1] + 1)) - fine_times[0, 0])
+    return _Grid(turns, fine_grid[0] - fine_grid[0, 0], fine_times, turns.size / duration)
+
+
+def _compare_all(scene: Scene, aligned: Mapping[str, xr.Dataset], model: xr.Dataset,
+                 grid: _Grid, measured: Mapping[str, np.ndarray],
+                 grid_error: Mapping[str, float]) -> tuple[ComparisonResult, ...]:
+    results = []
+    for comparison in scene.comparisons:
+        channel = scene.channel(comparison.measured)
+        long_name = str(aligned[comparison.measured.stream][channel.name].attrs.get(
+            "long_name", channel.name))
+        values = _model_values(model, comparison.model)
+        u_num = grid_error[comparison.name] * float(np.ptp(values)) * abs(comparison.scale)
+        results.append(_compare(comparison, scene.units(comparison.measured), long_name,
+                                grid.angle, measured[comparison.name], values, u_num))
+    return tuple(results)
+
+
+def _history(scene: Scene, grid: _Grid, corners: Mapping[str, float | None],
+             request: Mapping[str, Any], passed: bool) -> list[str]:
+    files = ", ".join(spec.file.name for spec in scene.streams.values())
+    return [
+        f"validation.pipeline read+convert {files}",
+        f"validation.pipeline angle: {grid.turns.size} revolutions, "
+        f"{scene.angle.points_per_revolution} points per revolution, "
+        f"{scene.angle.interpolation} interpolation, low-pass {dict(corners)}",
+        f"validation.pipeline model {scene.mechanism.name}: drives {scene.model.drives}, "
+        f"outputs {dict(request)}",
+        f"validation.pipeline compare {', '.join(c.name for c in scene.comparisons)}: "
+        f"{'passed' if passed else 'failed'}"]
+
+
 def run_scene(scene: Scene | str | Path) -> ValidationResult:
     """Validate one scene: read, convert, align, angle domain, model, compare.
 
@@ -715,69 +777,41 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
     with watch.stage("align"):
         aligned, diagnostics, main = align_streams(scene, converted)
     with watch.stage("angle"):
-        n = scene.angle.points_per_revolution
-        turns, fine_grid = cycle_grid(main.phi[0], main.phi[-1], n * FINE_FACTOR)
-        if turns.size < scene.angle.min_cycles:
-            raise DataError(f"only {turns.size} whole revolutions in the record, the scene asks "
-                            f"for {scene.angle.min_cycles}", where={"key": "angle.min_cycles"},
-                            hint="record longer, or lower angle.min_cycles")
-        fine_times = main.times_at(fine_grid)
-        fine_angle = fine_grid[0] - fine_grid[0, 0]
-        grid_times = fine_times[:, ::FINE_FACTOR]
-        angle = fine_angle[::FINE_FACTOR]
-        speed = turns.size / float(main.times_at(2 * np.pi * (turns[-1] + 1)) - fine_times[0, 0])
+        grid = _grid(scene, main)
         measured, corners = {}, {}
         for comparison in scene.comparisons:
-            stream = aligned[comparison.measured.stream]
             measured[comparison.name], corners[comparison.name] = _resample_channel(
-                scene, comparison, stream, main)
+                scene, comparison, aligned[comparison.measured.stream], main)
     with watch.stage("model"):
         mechanism = load_mechanism(scene.mechanism)
-        fine = _run_model(scene, mechanism, aligned[scene.alignment.reference], fine_times,
-                          fine_angle)
+        fine = _run_model(scene, mechanism, aligned[scene.alignment.reference], grid.fine_times,
+                          grid.fine_angle)
         if scene.model.drives == "analytic":
             law_speed = 1.0 / float(fine.attrs["cycle_period_s"])
-            if abs(law_speed / speed - 1.0) > ANALYTIC_SPEED_TOLERANCE:
+            if abs(law_speed / grid.speed_rev_s - 1.0) > ANALYTIC_SPEED_TOLERANCE:
                 logger.warning("the mechanism's drive law turns at %.4g rev/s, the run at %.4g "
                                "rev/s: forces scale with the square of the speed; consider "
-                               'drives = "measured"', law_speed, speed)
+                               'drives = "measured"', law_speed, grid.speed_rev_s)
         model = fine.isel(angle=slice(None, None, FINE_FACTOR))
     with watch.stage("numerics"):
         grid_error = _grid_error(scene, fine)
     with watch.stage("compare"):
-        results = []
-        for comparison in scene.comparisons:
-            channel = scene.channel(comparison.measured)
-            long_name = str(aligned[comparison.measured.stream][channel.name].attrs.get(
-                "long_name", channel.name))
-            values = _model_values(model, comparison.model)
-            u_num = grid_error[comparison.name] * float(np.ptp(values)) * abs(comparison.scale)
-            result = _compare(comparison, scene.units(comparison.measured), long_name, angle,
-                              measured[comparison.name], values, u_num)
-            results.append(result)
-        results_t = tuple(results)
+        results = _compare_all(scene, aligned, model, grid, measured, grid_error)
     with watch.stage("numerics"):
-        residuals = _energy_residual(mechanism, n)
+        residuals = _energy_residual(mechanism, scene.angle.points_per_revolution)
         residuals["max condition number (this run)"] = float(
             model.attrs.get("max_condition_number", math.nan))
-    predictions = _predictions(scene, model)
-    files = ", ".join(spec.file.name for spec in scene.streams.values())
-    steps = [
-        f"validation.pipeline read+convert {files}",
-        f"validation.pipeline angle: {turns.size} revolutions, {n} points per revolution, "
-        f"{scene.angle.interpolation} interpolation, low-pass {corners}",
-        f"validation.pipeline model {scene.mechanism.name}: drives {scene.model.drives}, "
-        f"outputs {_model_request(scene, mechanism)}",
-        f"validation.pipeline compare {', '.join(c.name for c in scene.comparisons)}: "
-        f"{'passed' if all(r.passed for r in results_t) else 'failed'}"]
-    tree = _tree(scene, raw, aligned, angle, grid_times, measured, results_t, model, steps)
+    passed = all(r.passed for r in results)
+    steps = _history(scene, grid, corners, _model_request(scene, mechanism), passed)
+    tree = _tree(scene, raw, aligned, grid.angle, grid.times, measured, results, model, steps)
     tree["/angle"].attrs["lowpass_hz"] = json.dumps(corners)
-    numerics = NumericsSummary(dict(watch.seconds), residuals, grid_error, fine_angle.size)
+    numerics = NumericsSummary(dict(watch.seconds), residuals, grid_error, grid.fine_angle.size)
     logger.info("validated %s in %.2f s: %s", scene.path.name, sum(watch.seconds.values()),
-                "passed" if all(r.passed for r in results_t) else "failed")
-    return ValidationResult(scene=scene, comparisons=results_t, alignment=diagnostics,
-                            predictions=predictions, numerics=numerics, speed_rev_s=speed,
-                            n_cycles=int(turns.size), tree=tree)
+                "passed" if passed else "failed")
+    return ValidationResult(scene=scene, comparisons=results, alignment=diagnostics,
+                            predictions=_predictions(scene, model), numerics=numerics,
+                            speed_rev_s=grid.speed_rev_s, n_cycles=int(grid.turns.size),
+                            tree=tree)
 
 
 def _predictions(scene: Scene, model: xr.Dataset) -> xr.Dataset:
