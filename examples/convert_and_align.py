@@ -14,8 +14,9 @@ import numpy as np
 
 from rigval.processing.align import channel_time
 from rigval.sample_data import shipped_runs
+from rigval.validation.alignment import align_streams
 from rigval.validation.convert import convert_stream
-from rigval.validation.pipeline import align_streams, read_streams
+from rigval.validation.pipeline import read_streams
 from rigval.validation.scene import load_scene
 
 

@@ -33,7 +33,6 @@ compare
 
 from __future__ import annotations
 
-import dataclasses
 import datetime
 import json
 import logging
@@ -46,65 +45,42 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.interpolate
 import xarray as xr
 
-from rigval.acquisition.channel_map import ChannelSpec, load_stream
-from rigval.acquisition.errors import AlignmentError, ConfigError, DataError
-from rigval.acquisition.schema import parse_start_time
-from rigval.model.mechanism import Mechanism, load_mechanism
-from rigval.model.solver import solve, solve_cycle
+from rigval.acquisition.channel_map import load_stream
+from rigval.acquisition.errors import DataError
+from rigval.model.mechanism import load_mechanism
 from rigval.processing.align import (
-    ClockModel,
-    align_stream,
     channel_time,
-    estimate_clock,
-    identity_clock,
-    match_events,
-    reference_event_times,
 )
-from rigval.processing.angle import cycle_grid, phi_f, resample_to_angle
-from rigval.processing.excitation import drive_excitation
+from rigval.processing.angle import cycle_grid, resample_to_angle
 from rigval.processing.filters import zero_phase
-from rigval.processing.pulses import StreamPulses, stream_pulses
+from rigval.validation.alignment import MainAngle, align_streams
 from rigval.validation.convert import convert_stream
 from rigval.validation.metrics import baseline, check_thresholds, compare
+from rigval.validation.model_run import (
+    FINE_FACTOR,
+    energy_residual,
+    grid_error,
+    model_request,
+    model_values,
+    run_model,
+)
 from rigval.validation.results import (
     ComparisonResult,
     NumericsSummary,
-    StreamAlignment,
     ValidationResult,
 )
-from rigval.validation.scene import ComparisonSpec, ModelOutput, Scene, load_scene
+from rigval.validation.scene import ComparisonSpec, Scene, load_scene
 
-__all__ = ["FINE_FACTOR", "MainAngle", "align_streams", "read_streams", "run_scene",
-           "validate_scene"]
+__all__ = ["read_streams", "run_scene", "validate_scene"]
 
 logger = logging.getLogger(__name__)
 
-#: The model also runs on a grid this many times finer, to measure the chosen grid's error.
-FINE_FACTOR = 4
-#: How far (s) a start time written by a device may be off: software time stamps.
-START_TIME_ERROR_S = 5.0
-#: Start times in or before this year mean "unknown" (NI writes 1904-01-01 for relative time).
-UNKNOWN_START_YEAR = 1904
-#: Matched events farther than this many robust sigmas from the clock fit count as spurious.
-OUTLIER_SIGMAS = 6.0
-#: ... unless they are within this distance in s (a sample period of the slowest device).
-MIN_EVENT_TOLERANCE_S = 1e-3
 #: Spline order of the scene's ``angle.interpolation``.
 INTERPOLATION_ORDER = {"linear": 1, "cubic": 3}
 #: Relative difference of the analytic drive law's speed from the run's that is reported.
 ANALYTIC_SPEED_TOLERANCE = 0.02
-#: Hysteresis half-band of a reference pulse's ``threshold``, as a fraction of it.
-PULSE_HYSTERESIS = 0.1
-#: Half-width of the raw-pulse window in the alignment figure, in main-shaft periods.
-PULSE_WINDOW = 0.04
-
-_ITEM_DIM = {"position": ("body", "coord"), "velocity": ("body", "coord"),
-             "acceleration": ("body", "coord"), "point_position": ("point", "axis"),
-             "point_velocity": ("point", "axis"), "point_acceleration": ("point", "axis"),
-             "joint_force": ("joint", "axis"), "driver_torque": ("driver", None)}
 
 
 class _Stopwatch:
@@ -123,206 +99,6 @@ class _Stopwatch:
             logger.info("stage %s: %.3f s", name, self.seconds[name])
 
 
-@dataclass(frozen=True)
-class MainAngle:
-    """phi_F, the main shaft angle from the reference position, on the reference timeline.
-
-    Parameters
-    ----------
-    time : numpy.ndarray
-        Reference-clock times in s where the encoder angle is defined.
-    phi : numpy.ndarray
-        phi_F in rad, increasing, multiples of 2 pi at the reference pulse.
-    """
-
-    time: np.ndarray
-    phi: np.ndarray
-
-    def times_at(self, angles: np.ndarray) -> np.ndarray:
-        """Return the reference times (s) at which phi_F takes the given values (rad)."""
-        return np.interp(angles, self.phi, self.time)
-
-
-# ---------------------------------------------------------------------------------------------
-# align
-
-
-def _pulses(stream: xr.Dataset, channel: ChannelSpec) -> StreamPulses:
-    """Edges of a reference-pulse channel (delay-corrected, classified) as its table says."""
-    threshold = channel.params.get("threshold")
-    low = high = None
-    if threshold is not None:
-        band = PULSE_HYSTERESIS * max(abs(threshold), float(np.finfo(float).tiny))
-        low, high = threshold - band, threshold + band
-    return stream_pulses(stream, channel.name, polarity=channel.params.get("edge", "rising"),
-                         low=low, high=high)
-
-
-def _main_angle(scene: Scene, ref: xr.Dataset) -> tuple[MainAngle, StreamPulses]:
-    """Return phi_F(t) from the main encoder, zero at the reference pulse, and those pulses."""
-    encoder = scene.alignment.main_encoder
-    params = scene.channel(encoder).params
-    directions = [d.direction for d in scene.model.drivers.values() if d.encoder == encoder]
-    pulses = _pulses(ref, scene.channel(scene.alignment.main_reference_pulse))
-    if pulses.good.size < scene.angle.min_cycles:
-        raise DataError(f"only {pulses.good.size} reference pulses on "
-                        f"{scene.alignment.main_reference_pulse}",
-                        where={"key": "alignment.main_reference_pulse"},
-                        hint="check the pulse channel (threshold, edge, wiring)")
-    angle = phi_f(ref, encoder.channel, pulses, counts_per_rev=params["counts_per_rev"],
-                  direction=float(directions[0] if directions else 1),
-                  index_reset=bool(params.get("index_reset", False)))
-    t = channel_time(ref, encoder.channel)
-    phi = angle["phi_F"].to_numpy()
-    finite = np.isfinite(phi)
-    t, phi = t[finite], phi[finite]
-    if phi.size < 2 or np.any(np.diff(phi) <= 0):
-        raise DataError("the main shaft angle does not increase steadily (standstill, reversal "
-                        "or the encoder counting down)", where={"channel": str(encoder)},
-                        hint="validate runs at steady speed; set direction = -1 in the driver "
-                             "table of an encoder that counts down")
-    return MainAngle(t, phi), pulses
-
-
-def _residuals(mapped: np.ndarray, events: np.ndarray, period: float, per_revolution: int = 1
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """Residual of each mapped event against its nearest expected event; matched mask.
-
-    With several pulses per revolution, each kind of pulse (its place within the revolution)
-    may fire at its own angle; the median residual of each kind is removed, as the clock fit
-    does.
-    """
-    index = np.clip(np.searchsorted(events, mapped), 1, events.size - 1)
-    nearest = np.where(np.abs(mapped - events[index - 1]) <= np.abs(events[index] - mapped),
-                       index - 1, index)
-    residual = mapped - events[nearest]
-    matched = np.abs(residual) < 0.25 * period / per_revolution
-    if matched.sum() > 3:  # a spurious pulse can fall inside a quarter period: robust cut
-        spread = 1.4826 * float(np.median(np.abs(residual[matched]
-                                                 - np.median(residual[matched]))))
-        matched &= np.abs(residual - np.median(residual[matched])) <= max(
-            OUTLIER_SIGMAS * spread, MIN_EVENT_TOLERANCE_S)
-    if per_revolution > 1:
-        kind = nearest % per_revolution
-        for k in range(per_revolution):
-            chosen = matched & (kind == k)
-            if chosen.any():
-                residual[kind == k] -= np.median(residual[chosen])
-    return residual, matched
-
-
-def _recover_segments(clock: ClockModel, events: np.ndarray, edges: np.ndarray,
-                      segments: np.ndarray, period: float, per_revolution: int,
-                      where: Mapping[str, Any]) -> ClockModel:
-    """Align segments the clock fit left out, then refit all segments with one shared drift.
-
-    A restart (Wi-Fi dropout) starts a segment whose device time comes from a new software
-    start stamp, off by milliseconds, not periods: matching it within +-0.4 of a pulse period
-    around the previous segment's offset removes the whole-period ambiguity a short segment
-    has on its own. Every segment's events are then matched around its offset and one least
-    squares fit gives a shared drift, an offset per segment and, with several pulses per
-    revolution, a constant per kind of pulse (each may fire at its own angle); events beyond
-    6 robust sigma are left out. The drift so rests on the whole record.
-    """
-    if not clock.unaligned_segments:
-        return clock
-    offsets = dict(zip(clock.segments, clock.offsets_s, strict=True))
-    pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-    for segment in sorted(set(np.unique(segments).tolist())):
-        known = sorted(offsets, key=lambda s: (abs(s - segment), s > segment))
-        chosen = segments == segment
-        if not known or chosen.sum() < 2:
-            continue
-        coarse = offsets.get(segment, offsets[known[0]])
-        try:
-            ref_index, dev_index = match_events(
-                events, edges[chosen], coarse_offset_s=coarse, max_offset_error_s=0.4 * period,
-                where={**where, "segment": int(segment)})
-        except AlignmentError as error:
-            logger.info("segment %d stays unaligned: %s", segment, error)
-            continue
-        if ref_index.size >= 2:
-            pairs.append((ref_index, edges[chosen][dev_index], np.full(ref_index.size, segment)))
-            offsets.setdefault(int(segment), coarse)
-    index, dev, seg = (np.concatenate(column) for column in zip(*pairs, strict=True))
-    ref, kind = events[index], index % per_revolution
-    order = sorted(set(seg.tolist()))
-    columns = [(seg == s).astype(float) for s in order]
-    columns += [(kind == k).astype(float) for k in range(1, per_revolution)] + [dev]
-    design = np.column_stack(columns)
-    keep = np.ones(ref.size, dtype=bool)
-    for _ in range(2):
-        solution, *_ = np.linalg.lstsq(design[keep], ref[keep] - dev[keep], rcond=None)
-        residual = ref - dev - design @ solution
-        spread = 1.4826 * float(np.median(np.abs(residual[keep] - np.median(residual[keep]))))
-        keep = np.abs(residual) <= max(OUTLIER_SIGMAS * spread, 1e-9)
-    logger.info("clock refit on %d events of segments %s: drift %.4f ppm", int(keep.sum()),
-                order, solution[-1] * 1e6)
-    return dataclasses.replace(
-        clock, segments=tuple(int(s) for s in order),
-        offsets_s=tuple(float(solution[i]) for i in range(len(order))),
-        drift=float(solution[-1]), residual_rms_s=float(np.sqrt(np.mean(residual[keep] ** 2))),
-        pulses_matched=int(keep.sum()),
-        unaligned_segments=tuple(s for s in clock.unaligned_segments if s not in order))
-
-
-def _with_pulse_window(summary: StreamAlignment, aligned: xr.Dataset, channel: str,
-                       edges: np.ndarray, centre: float, half_width: float) -> StreamAlignment:
-    """Attach the raw pulse signal and its edges within ``centre +- half_width`` (s)."""
-    t = channel_time(aligned, channel)
-    inside = np.abs(t - centre) <= half_width
-    return dataclasses.replace(
-        summary, pulse_time=t[inside], pulse_signal=aligned[channel].to_numpy()[inside],
-        pulse_units=str(aligned[channel].attrs.get("units", "")),
-        edge_times=edges[np.abs(edges - centre) <= half_width])
-
-
-def _common_pulse(pulses: np.ndarray, spans: list[tuple[float, float]], margin: float) -> float:
-    """Return the first reference pulse that every stream recorded (else the first pulse)."""
-    start = max(span[0] for span in spans) + margin
-    stop = min(span[1] for span in spans) - margin
-    inside = pulses[(pulses >= start) & (pulses <= stop)]
-    return float(inside[0] if inside.size else pulses[0])
-
-
-def _stream_summary(name: str, aligned: xr.Dataset, clock: ClockModel, *, is_reference: bool,
-                    residual_time: np.ndarray, residual: np.ndarray, matched: int,
-                    missing: int, spurious: int) -> StreamAlignment:
-    empty = np.zeros(0)
-    delays = [float(aligned[v].attrs.get("input_delay_s", 0.0)) for v in aligned.data_vars
-              if v not in ("valid", "segment")]
-    times = aligned["time"].to_numpy()
-    return StreamAlignment(
-        stream=name, device=str(aligned.attrs.get("device", "")), is_reference=is_reference,
-        offset_s=float(clock.offsets_s[0]), drift_ppm=clock.drift * 1e6,
-        residual_rms_s=float(np.sqrt(np.mean(residual**2))) if residual.size else 0.0,
-        events_matched=matched, events_missing=missing, events_spurious=spurious,
-        input_delay_s=max(delays, default=0.0), segments=len(clock.segments),
-        gaps=tuple(json.loads(aligned.attrs.get("gaps", "[]"))),
-        span_s=(float(times[0]), float(times[-1])), residual_time=residual_time,
-        residual_s=residual, pulse_time=empty, pulse_signal=empty, pulse_units="",
-        edge_times=empty)
-
-
-def _coarse_offset(stream: xr.Dataset, ref: xr.Dataset, ref_start: np.datetime64
-                   ) -> tuple[float, float]:
-    """Return a first guess of ``t_ref - t_dev`` in s and how far to search around it.
-
-    From the files' start times when both are known (search +-5 s: software time stamps); a
-    file without a start time (1904-01-01, e.g. a CSV with relative time) is searched over the
-    whole overlap of the two records.
-    """
-    start = parse_start_time(stream.attrs["start_time"])
-    if start.astype("datetime64[Y]").astype(int) + 1970 > UNKNOWN_START_YEAR and (
-            ref_start.astype("datetime64[Y]").astype(int) + 1970 > UNKNOWN_START_YEAR):
-        return float((start - ref_start) / np.timedelta64(1, "s")), START_TIME_ERROR_S
-    ref_span = float(ref["time"].values[-1] - ref["time"].values[0])
-    dev_span = float(stream["time"].values[-1] - stream["time"].values[0])
-    logger.info("stream %s has no start time: searching offsets over the whole record",
-                stream.attrs.get("stream", ""))
-    return 0.5 * (ref_span - dev_span), 0.5 * (ref_span + dev_span)
-
-
 def read_streams(scene: Scene) -> dict[str, xr.Dataset]:
     """Read every stream of a scene: the mapped channels under their scene names.
 
@@ -337,82 +113,6 @@ def read_streams(scene: Scene) -> dict[str, xr.Dataset]:
         Stream name -> stream as read (raw units).
     """
     return {name: load_stream(spec) for name, spec in scene.streams.items()}
-
-
-def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
-                  ) -> tuple[dict[str, xr.Dataset], dict[str, StreamAlignment], MainAngle]:
-    """Put every stream on the reference timeline.
-
-    Parameters
-    ----------
-    scene : Scene
-        The scene (its ``[alignment]`` table).
-    converted : mapping of str to xarray.Dataset
-        The streams after :func:`rigval.validation.convert.convert_stream`.
-
-    Returns
-    -------
-    aligned : dict of str to xarray.Dataset
-        Streams with ``time`` on the reference clock (samples unchanged).
-    diagnostics : dict of str to StreamAlignment
-        Clock model, events and gaps per stream.
-    main : MainAngle
-        phi_F(t).
-
-    Raises
-    ------
-    AlignmentError
-        When a stream's clock cannot be fitted with confidence.
-    """
-    reference = scene.alignment.reference
-    ref = align_stream(converted[reference], identity_clock(converted[reference]["segment"]),
-                       name=reference)
-    main, ref_pulses = _main_angle(scene, ref)
-    pulses = ref_pulses.good[(ref_pulses.good >= main.time[0])
-                             & (ref_pulses.good <= main.time[-1])]
-    period = float(np.median(np.diff(pulses)))
-    expected = main.times_at(2.0 * np.pi * np.arange(math.ceil(main.phi[0] / (2 * np.pi)),
-                                                     math.floor(main.phi[-1] / (2 * np.pi)) + 1))
-    residual, matched = _residuals(pulses, expected, period)
-    aligned = {reference: ref}
-    diagnostics = {reference: _stream_summary(
-        reference, ref, identity_clock(), is_reference=True, residual_time=pulses,
-        residual=residual[matched], matched=int(matched.sum()),
-        missing=max(expected.size - int(matched.sum()), 0),
-        spurious=int(ref_pulses.spurious.sum()))}
-    shown = {reference: (scene.alignment.main_reference_pulse.channel, pulses)}
-    ref_start = parse_start_time(ref.attrs["start_time"])
-    for name, pulse in scene.alignment.pulses.items():
-        stream = converted[name]
-        channel = pulse.channel.channel
-        found = _pulses(stream, scene.channel(pulse.channel))
-        edges, segments = found.times[~found.spurious], found.segment[~found.spurious]
-        events = reference_event_times(main.time, main.phi, event_angle=pulse.angle,
-                                       events_per_rev=pulse.per_revolution)
-        coarse, search = _coarse_offset(stream, ref, ref_start)
-        where = {"stream": name, "channel": channel}
-        clock = estimate_clock(events, edges, segments, coarse_offset_s=coarse,
-                               max_offset_error_s=search, where=where)
-        clock = _recover_segments(clock, events, edges, segments, period,
-                                  pulse.per_revolution, where)
-        aligned[name] = align_stream(stream, clock, name=name)
-        mapped = clock.to_reference(edges, segments)
-        ok = np.isfinite(mapped)
-        residual, matched = _residuals(mapped[ok], events, period, pulse.per_revolution)
-        inside = (events >= aligned[name]["time"].values[0]) & (
-            events <= aligned[name]["time"].values[-1])
-        diagnostics[name] = _stream_summary(
-            name, aligned[name], clock, is_reference=False,
-            residual_time=mapped[ok][matched], residual=residual[matched],
-            matched=int(matched.sum()), missing=max(int(inside.sum()) - int(matched.sum()), 0),
-            spurious=int((~matched).sum() + found.spurious.sum()))
-        shown[name] = (channel, mapped[ok])
-    half_width = PULSE_WINDOW * period
-    centre = _common_pulse(pulses, [d.span_s for d in diagnostics.values()], half_width)
-    diagnostics = {name: _with_pulse_window(summary, aligned[name], *shown[name], centre,
-                                            half_width)
-                   for name, summary in diagnostics.items()}
-    return aligned, diagnostics, main
 
 
 # ---------------------------------------------------------------------------------------------
@@ -445,134 +145,6 @@ def _resample_channel(scene: Scene, comparison: ComparisonSpec, aligned: xr.Data
 
 # ---------------------------------------------------------------------------------------------
 # model
-
-
-def _model_request(scene: Scene, mechanism: Mechanism) -> dict[str, Any]:
-    """Return the outputs, points and joints the comparisons and predictions need, only."""
-    outputs = {c.model.quantity for c in scene.comparisons}
-    points = {c.model.item for c in scene.comparisons if c.model.quantity.startswith("point_")}
-    joints = {c.model.item for c in scene.comparisons if c.model.quantity == "joint_force"}
-    if scene.predictions.points:
-        outputs |= {"point_position", "point_velocity", "point_acceleration"}
-        points |= set(scene.predictions.points)
-    if scene.predictions.supports is None or scene.predictions.supports:
-        outputs.add("support_force")
-    request: dict[str, Any] = {"outputs": sorted(outputs)}
-    if points:
-        request["points"] = [p for p in mechanism.point_names if p in points]
-    if joints:
-        request["joints"] = [j for j in mechanism.joint_names if j in joints]
-    return request
-
-
-def _measured_drives(scene: Scene, ref: xr.Dataset, fine_times: np.ndarray
-                     ) -> tuple[np.ndarray, dict[str, tuple[np.ndarray, ...]]]:
-    """Drive angle, speed and acceleration per driver, averaged over revolutions per angle.
-
-    Parameters
-    ----------
-    fine_times : numpy.ndarray
-        Reference times of the fine phi_F grid, (n_cycle, n_fine).
-
-    Returns
-    -------
-    times : numpy.ndarray
-        Mean time since the start of the revolution per grid angle (s), for the solver.
-    drives : dict
-        Driver name -> (theta, omega, alpha) on the fine grid.
-    """
-    drives = {}
-    for name, driver in scene.model.drivers.items():
-        counts_per_rev = scene.channel(driver.encoder).params["counts_per_rev"]
-        excitation = drive_excitation(
-            ref, driver.encoder.channel, counts_per_rev=counts_per_rev, name=name,
-            direction=float(driver.direction),
-            index_reset=bool(scene.channel(driver.encoder).params.get("index_reset", False)))
-        t = channel_time(ref, driver.encoder.channel)
-        sampled = []
-        for suffix in ("", "_dot", "_ddot"):
-            values = excitation[f"{name}{suffix}"].to_numpy()
-            finite = np.isfinite(values)
-            sampled.append(np.interp(fine_times, t[finite], values[finite]))
-        theta = sampled[0] - sampled[0][0, 0] + driver.angle_at_reference
-        theta -= 2.0 * np.pi * np.round((theta[:, :1] - theta[0, 0]) / (2.0 * np.pi))
-        drives[name] = (theta.mean(axis=0), sampled[1].mean(axis=0), sampled[2].mean(axis=0))
-    times = (fine_times - fine_times[:, :1]).mean(axis=0)
-    return times, drives
-
-
-def _run_model(scene: Scene, mechanism: Mechanism, ref: xr.Dataset, fine_times: np.ndarray,
-               fine_angle: np.ndarray) -> xr.Dataset:
-    """Solve the model on the fine phi_F grid; return it with dim ``angle`` (rad)."""
-    request = _model_request(scene, mechanism)
-    if scene.model.drives == "analytic":
-        return solve_cycle(mechanism, fine_angle.size, **request)
-    times, drives = _measured_drives(scene, ref, fine_times)
-    ds = solve(mechanism, times, drives=drives, **request)
-    for name, (theta, omega, alpha) in drives.items():
-        ds[f"drive_{name}"] = ("time", theta, {"units": "rad", "long_name": f"{name}, mean"})
-        ds[f"drive_{name}_dot"] = ("time", omega, {"units": "rad s-1"})
-        ds[f"drive_{name}_ddot"] = ("time", alpha, {"units": "rad s-2"})
-    ds = ds.assign_coords(angle=("time", fine_angle, {"units": "rad", "long_name": "phi_F"}))
-    return ds.swap_dims(time="angle")
-
-
-def _model_values(model: xr.Dataset, output: ModelOutput) -> np.ndarray:
-    """One model quantity as a vector over ``angle``."""
-    item_dim, axis_dim = _ITEM_DIM[output.quantity]
-    var = model[output.quantity].sel({item_dim: output.item})
-    if axis_dim is not None:
-        var = var.sel({axis_dim: output.axis})
-    return var.to_numpy().astype(np.float64)
-
-
-def _periodic_interp(angle: np.ndarray, values: np.ndarray, targets: np.ndarray) -> np.ndarray:
-    closed = np.append(angle, angle[0] + 2.0 * np.pi)
-    spline = scipy.interpolate.CubicSpline(closed, np.append(values, values[0]),
-                                           bc_type="periodic")
-    return spline(targets)
-
-
-def _grid_error(scene: Scene, fine: xr.Dataset) -> dict[str, float]:
-    """Per comparison: max |model on the grid, interpolated - model on the fine grid| / range."""
-    angle = fine["angle"].to_numpy()
-    errors = {}
-    for comparison in scene.comparisons:
-        values = _model_values(fine, comparison.model)
-        coarse = _periodic_interp(angle[::FINE_FACTOR], values[::FINE_FACTOR], angle)
-        span = float(np.ptp(values)) or 1.0
-        errors[comparison.name] = float(np.max(np.abs(coarse - values)) / span)
-    return errors
-
-
-def _energy_residual(mechanism: Mechanism, points: int) -> dict[str, float]:
-    """Power balance of the model on the file's drive laws: drive power against dE/dt."""
-    try:
-        cycle = solve_cycle(mechanism, points, outputs=["kinetic_energy", "potential_energy",
-                                                         "drive_power"])
-    except ConfigError as error:  # drive laws that do not repeat per revolution
-        logger.info("power balance skipped: %s", error)
-        return {}
-    energy = (cycle["kinetic_energy"] + cycle["potential_energy"]).to_numpy()
-    power = cycle["drive_power"].sum("driver").to_numpy()
-    slope = float(cycle.attrs["cycle_period_s"]) / (2 * np.pi)
-    # dE/dt = (dE/dphi) / (dt/dphi); t(phi) - slope phi is periodic, so both derivatives are
-    # spectral (exact to rounding for these smooth periodic signals)
-    dt_dphi = _periodic_derivative(cycle["time"].to_numpy() - slope * cycle["angle"].to_numpy())
-    balance = power - _periodic_derivative(energy) / (dt_dphi + slope)
-    return {"power balance max |P - dE/dt| / max |P|":
-            float(np.max(np.abs(balance)) / max(float(np.max(np.abs(power))), 1e-300)),
-            "max condition number of C_e": float(cycle.attrs["max_condition_number"]),
-            "Newton tolerance": float(cycle.attrs["newton_tol"])}
-
-
-def _periodic_derivative(values: np.ndarray) -> np.ndarray:
-    """d/dphi of samples of a periodic function on a uniform grid over one revolution."""
-    spectrum = np.fft.rfft(values)
-    order = np.arange(spectrum.size, dtype=np.float64)
-    if values.size % 2 == 0:
-        order[-1] = 0.0  # the Nyquist term has no defined derivative
-    return np.fft.irfft(1j * order * spectrum, n=values.size)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -718,14 +290,14 @@ def _grid(scene: Scene, main: MainAngle) -> _Grid:
 
 def _compare_all(scene: Scene, aligned: Mapping[str, xr.Dataset], model: xr.Dataset,
                  grid: _Grid, measured: Mapping[str, np.ndarray],
-                 grid_error: Mapping[str, float]) -> tuple[ComparisonResult, ...]:
+                 errors: Mapping[str, float]) -> tuple[ComparisonResult, ...]:
     results = []
     for comparison in scene.comparisons:
         channel = scene.channel(comparison.measured)
         long_name = str(aligned[comparison.measured.stream][channel.name].attrs.get(
             "long_name", channel.name))
-        values = _model_values(model, comparison.model)
-        u_num = grid_error[comparison.name] * float(np.ptp(values)) * abs(comparison.scale)
+        values = model_values(model, comparison.model)
+        u_num = errors[comparison.name] * float(np.ptp(values)) * abs(comparison.scale)
         results.append(_compare(comparison, scene.units(comparison.measured), long_name,
                                 grid.angle, measured[comparison.name], values, u_num))
     return tuple(results)
@@ -784,7 +356,7 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
                 scene, comparison, aligned[comparison.measured.stream], main)
     with watch.stage("model"):
         mechanism = load_mechanism(scene.mechanism)
-        fine = _run_model(scene, mechanism, aligned[scene.alignment.reference], grid.fine_times,
+        fine = run_model(scene, mechanism, aligned[scene.alignment.reference], grid.fine_times,
                           grid.fine_angle)
         if scene.model.drives == "analytic":
             law_speed = 1.0 / float(fine.attrs["cycle_period_s"])
@@ -794,18 +366,18 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
                                'drives = "measured"', law_speed, grid.speed_rev_s)
         model = fine.isel(angle=slice(None, None, FINE_FACTOR))
     with watch.stage("numerics"):
-        grid_error = _grid_error(scene, fine)
+        errors = grid_error(scene, fine)
     with watch.stage("compare"):
-        results = _compare_all(scene, aligned, model, grid, measured, grid_error)
+        results = _compare_all(scene, aligned, model, grid, measured, errors)
     with watch.stage("numerics"):
-        residuals = _energy_residual(mechanism, scene.angle.points_per_revolution)
+        residuals = energy_residual(mechanism, scene.angle.points_per_revolution)
         residuals["max condition number (this run)"] = float(
             model.attrs.get("max_condition_number", math.nan))
     passed = all(r.passed for r in results)
-    steps = _history(scene, grid, corners, _model_request(scene, mechanism), passed)
+    steps = _history(scene, grid, corners, model_request(scene, mechanism), passed)
     tree = _tree(scene, raw, aligned, grid.angle, grid.times, measured, results, model, steps)
     tree["/angle"].attrs["lowpass_hz"] = json.dumps(corners)
-    numerics = NumericsSummary(dict(watch.seconds), residuals, grid_error, grid.fine_angle.size)
+    numerics = NumericsSummary(dict(watch.seconds), residuals, errors, grid.fine_angle.size)
     logger.info("validated %s in %.2f s: %s", scene.path.name, sum(watch.seconds.values()),
                 "passed" if passed else "failed")
     return ValidationResult(scene=scene, comparisons=results, alignment=diagnostics,

@@ -1,0 +1,242 @@
+"""The model side of a validation: only what the comparisons and predictions need, on phi_F.
+
+:func:`run_model` solves the scene's mechanism on a phi_F grid :data:`FINE_FACTOR` times finer
+than the comparison grid (the chosen grid is every :data:`FINE_FACTOR`-th point, so its error is
+measured by :func:`grid_error`): with measured drives, each driver's angle, speed and
+acceleration from its encoder averaged over the revolutions at each grid angle; with analytic
+drives, the mechanism file's laws over one revolution. :func:`energy_residual` checks the model's
+numerics by its power balance.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+import numpy as np
+import scipy.interpolate
+import xarray as xr
+
+from rigval.acquisition.errors import ConfigError
+from rigval.model.mechanism import Mechanism
+from rigval.model.solver import solve, solve_cycle
+from rigval.processing.align import channel_time
+from rigval.processing.excitation import drive_excitation
+from rigval.validation.scene import ModelOutput, Scene
+
+__all__ = ["FINE_FACTOR", "energy_residual", "grid_error", "model_request", "model_values",
+           "run_model"]
+
+logger = logging.getLogger(__name__)
+
+#: The model also runs on a grid this many times finer, to measure the chosen grid's error.
+FINE_FACTOR = 4
+
+_ITEM_DIM = {"position": ("body", "coord"), "velocity": ("body", "coord"),
+             "acceleration": ("body", "coord"), "point_position": ("point", "axis"),
+             "point_velocity": ("point", "axis"), "point_acceleration": ("point", "axis"),
+             "joint_force": ("joint", "axis"), "driver_torque": ("driver", None)}
+
+
+def model_request(scene: Scene, mechanism: Mechanism) -> dict[str, Any]:
+    """Return the :func:`rigval.model.solve` request of a scene: only what it compares or predicts.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (its comparisons and ``[predictions]``).
+    mechanism : rigval.model.Mechanism
+        The mechanism (for the order of points and joints).
+
+    Returns
+    -------
+    dict
+        ``outputs`` and, where needed, ``points`` and ``joints``.
+    """
+    outputs = {c.model.quantity for c in scene.comparisons}
+    points = {c.model.item for c in scene.comparisons if c.model.quantity.startswith("point_")}
+    joints = {c.model.item for c in scene.comparisons if c.model.quantity == "joint_force"}
+    if scene.predictions.points:
+        outputs |= {"point_position", "point_velocity", "point_acceleration"}
+        points |= set(scene.predictions.points)
+    if scene.predictions.supports is None or scene.predictions.supports:
+        outputs.add("support_force")
+    request: dict[str, Any] = {"outputs": sorted(outputs)}
+    if points:
+        request["points"] = [p for p in mechanism.point_names if p in points]
+    if joints:
+        request["joints"] = [j for j in mechanism.joint_names if j in joints]
+    return request
+
+
+def _measured_drives(scene: Scene, ref: xr.Dataset, fine_times: np.ndarray
+                     ) -> tuple[np.ndarray, dict[str, tuple[np.ndarray, ...]]]:
+    """Drive angle, speed and acceleration per driver, averaged over revolutions per angle.
+
+    The angle is counted from the driver's ``angle_at_reference`` at the first revolution's
+    phi_F = 0, each revolution brought to the same branch (whole turns removed) before averaging.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (``[model.drivers]``).
+    ref : xarray.Dataset
+        The aligned reference stream holding the encoders.
+    fine_times : numpy.ndarray
+        Reference times of the fine phi_F grid, (n_cycle, n_fine).
+
+    Returns
+    -------
+    times : numpy.ndarray
+        Mean time since the start of the revolution per grid angle (s), for the solver.
+    drives : dict
+        Driver name -> (theta, omega, alpha) on the fine grid.
+    """
+    drives = {}
+    for name, driver in scene.model.drivers.items():
+        counts_per_rev = scene.channel(driver.encoder).params["counts_per_rev"]
+        excitation = drive_excitation(
+            ref, driver.encoder.channel, counts_per_rev=counts_per_rev, name=name,
+            direction=float(driver.direction),
+            index_reset=bool(scene.channel(driver.encoder).params.get("index_reset", False)))
+        t = channel_time(ref, driver.encoder.channel)
+        sampled = []
+        for suffix in ("", "_dot", "_ddot"):
+            values = excitation[f"{name}{suffix}"].to_numpy()
+            finite = np.isfinite(values)
+            sampled.append(np.interp(fine_times, t[finite], values[finite]))
+        theta = sampled[0] - sampled[0][0, 0] + driver.angle_at_reference
+        theta -= 2.0 * np.pi * np.round((theta[:, :1] - theta[0, 0]) / (2.0 * np.pi))
+        drives[name] = (theta.mean(axis=0), sampled[1].mean(axis=0), sampled[2].mean(axis=0))
+    times = (fine_times - fine_times[:, :1]).mean(axis=0)
+    return times, drives
+
+
+def run_model(scene: Scene, mechanism: Mechanism, ref: xr.Dataset, fine_times: np.ndarray,
+               fine_angle: np.ndarray) -> xr.Dataset:
+    """Solve the model on the fine phi_F grid.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    mechanism : rigval.model.Mechanism
+        Its mechanism.
+    ref : xarray.Dataset
+        The aligned reference stream (encoders, for measured drives).
+    fine_times : numpy.ndarray
+        Reference times of the fine grid, (n_cycle, n_fine), s.
+    fine_angle : numpy.ndarray
+        The fine grid over one revolution, rad.
+
+    Returns
+    -------
+    xarray.Dataset
+        The requested model outputs with dim ``angle`` (rad); with measured drives also the mean
+        drive angles ``drive_<driver>`` and their derivatives.
+    """
+    request = model_request(scene, mechanism)
+    if scene.model.drives == "analytic":
+        return solve_cycle(mechanism, fine_angle.size, **request)
+    times, drives = _measured_drives(scene, ref, fine_times)
+    ds = solve(mechanism, times, drives=drives, **request)
+    for name, (theta, omega, alpha) in drives.items():
+        ds[f"drive_{name}"] = ("time", theta, {"units": "rad", "long_name": f"{name}, mean"})
+        ds[f"drive_{name}_dot"] = ("time", omega, {"units": "rad s-1"})
+        ds[f"drive_{name}_ddot"] = ("time", alpha, {"units": "rad s-2"})
+    ds = ds.assign_coords(angle=("time", fine_angle, {"units": "rad", "long_name": "phi_F"}))
+    return ds.swap_dims(time="angle")
+
+
+def model_values(model: xr.Dataset, output: ModelOutput) -> np.ndarray:
+    """Return one model quantity (unscaled) as a vector over ``angle``.
+
+    Parameters
+    ----------
+    model : xarray.Dataset
+        Output of :func:`run_model`.
+    output : ModelOutput
+        Quantity, item and axis.
+    """
+    item_dim, axis_dim = _ITEM_DIM[output.quantity]
+    var = model[output.quantity].sel({item_dim: output.item})
+    if axis_dim is not None:
+        var = var.sel({axis_dim: output.axis})
+    return var.to_numpy().astype(np.float64)
+
+
+def _periodic_interp(angle: np.ndarray, values: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    closed = np.append(angle, angle[0] + 2.0 * np.pi)
+    spline = scipy.interpolate.CubicSpline(closed, np.append(values, values[0]),
+                                           bc_type="periodic")
+    return spline(targets)
+
+
+def grid_error(scene: Scene, fine: xr.Dataset) -> dict[str, float]:
+    """Return the error of the chosen angle grid per comparison.
+
+    The model on the chosen grid (every :data:`FINE_FACTOR`-th point), interpolated with a
+    periodic cubic spline, against the model on the fine grid: largest difference over the
+    model's range.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (its comparisons).
+    fine : xarray.Dataset
+        Output of :func:`run_model`.
+    """
+    angle = fine["angle"].to_numpy()
+    errors = {}
+    for comparison in scene.comparisons:
+        values = model_values(fine, comparison.model)
+        coarse = _periodic_interp(angle[::FINE_FACTOR], values[::FINE_FACTOR], angle)
+        span = float(np.ptp(values)) or 1.0
+        errors[comparison.name] = float(np.max(np.abs(coarse - values)) / span)
+    return errors
+
+
+def energy_residual(mechanism: Mechanism, points: int) -> dict[str, float]:
+    """Check the model's numerics by its power balance on the file's drive laws.
+
+    Drive power against the rate of change of kinetic plus potential energy over one
+    revolution, both derivatives spectral; with the conditioning and the Newton tolerance.
+
+    Parameters
+    ----------
+    mechanism : rigval.model.Mechanism
+        The mechanism.
+    points : int
+        Angle points per revolution.
+
+    Returns
+    -------
+    dict of str to float
+        Check name to value; empty when the drive laws do not repeat per revolution.
+    """
+    try:
+        cycle = solve_cycle(mechanism, points, outputs=["kinetic_energy", "potential_energy",
+                                                         "drive_power"])
+    except ConfigError as error:  # drive laws that do not repeat per revolution
+        logger.info("power balance skipped: %s", error)
+        return {}
+    energy = (cycle["kinetic_energy"] + cycle["potential_energy"]).to_numpy()
+    power = cycle["drive_power"].sum("driver").to_numpy()
+    slope = float(cycle.attrs["cycle_period_s"]) / (2 * np.pi)
+    # dE/dt = (dE/dphi) / (dt/dphi); t(phi) - slope phi is periodic, so both derivatives are
+    # spectral (exact to rounding for these smooth periodic signals)
+    dt_dphi = _periodic_derivative(cycle["time"].to_numpy() - slope * cycle["angle"].to_numpy())
+    balance = power - _periodic_derivative(energy) / (dt_dphi + slope)
+    return {"power balance max |P - dE/dt| / max |P|":
+            float(np.max(np.abs(balance)) / max(float(np.max(np.abs(power))), 1e-300)),
+            "max condition number of C_e": float(cycle.attrs["max_condition_number"]),
+            "Newton tolerance": float(cycle.attrs["newton_tol"])}
+
+
+def _periodic_derivative(values: np.ndarray) -> np.ndarray:
+    """d/dphi of samples of a periodic function on a uniform grid over one revolution."""
+    spectrum = np.fft.rfft(values)
+    order = np.arange(spectrum.size, dtype=np.float64)
+    if values.size % 2 == 0:
+        order[-1] = 0.0  # the Nyquist term has no defined derivative
+    return np.fft.irfft(1j * order * spectrum, n=values.size)
