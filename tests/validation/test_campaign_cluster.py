@@ -23,8 +23,6 @@ from rigval.validation.campaign_report import open_campaign, write_campaign_repo
 
 distributed = pytest.importorskip("distributed", reason="the parallel extra is not installed")
 
-pytestmark = pytest.mark.slow
-
 SPEEDS = (1.5, 2.0)  # rev/s; at least 6 revolutions in each short record
 LFS_POINTER = "version https://git-lfs.github.com/spec/v1\noid sha256:0\nsize 1\n"
 
