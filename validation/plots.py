@@ -181,7 +181,7 @@ def plot_clock_residuals(alignment: Mapping[str, StreamAlignment], *,
     ax.set_ylabel("clock-fit residual [us]")
     ax.grid(True, lw=0.4, alpha=0.6)
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=8)
+        ax.legend(loc="upper right", fontsize=8)
     return fig
 
 
@@ -226,15 +226,19 @@ def plot_support_forces(predictions: xr.Dataset, *, width: float = 9.0) -> Figur
     force = predictions["support_force"]
     fig = _figure(width, 5.6)
     axes = fig.subplots(2, 1, sharex=True)
+    values = force.transpose("support", "axis", "angle").to_numpy()
+    angle = predictions["angle"].to_numpy()
     for ax, axis, label in zip(axes, ("x", "y"), ("horizontal", "vertical"), strict=True):
-        for support in force["support"].values:
-            values = force.sel(support=support, axis=axis).values
-            x, y = _closed(predictions["angle"].values, values)
+        column = list(force["axis"].values).index(axis)
+        for row, support in enumerate(force["support"].values):
+            x, y = _closed(angle, values[row, column])
             ax.plot(x, y / 1e3, lw=1.3, label=str(support))
         ax.set_ylabel(f"{label} force on frame [kN]")
-        ax.legend(fontsize=8, ncol=4)
         _angle_axis(ax, label=ax is axes[-1])
-    axes[0].set_title("support forces on the frame (model prediction)")
+    axes[0].legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=len(values), fontsize=8,
+                   frameon=False, borderaxespad=0.1)
+    axes[0].set_title("support forces on the frame (model prediction)", loc="left",
+                      fontsize=10)
     return fig
 
 
