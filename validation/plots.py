@@ -31,6 +31,9 @@ MEASURED = "#1f5fa8"
 MODEL = "#c8322b"
 CYCLES = "#9aa5b1"
 BAND = "#9ec3ea"
+#: Title height in axes coordinates; fixed, so matplotlib does not measure every tick label to
+#: place it.
+TITLE_Y = 1.01
 #: Harmonic orders shown under each comparison.
 HARMONIC_ORDERS = 10
 
@@ -104,7 +107,8 @@ def plot_comparison(result: ComparisonResult, *, width: float = 9.0,
         peak = int(np.argmax(np.abs(values)))
         top.plot(x[peak], values[peak], marker, color=color, ms=7, mew=2)
     top.set_ylabel(f"{result.name} [{result.units}]")
-    top.set_title(f"{result.name} against {result.spec.model}", loc="left", fontsize=10)
+    top.set_title(f"{result.name} against {result.spec.model}", loc="left", fontsize=10,
+                  y=TITLE_Y)
     top.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3, fontsize=8,
                frameon=False, borderaxespad=0.1)
     _angle_axis(top, label=False)
@@ -151,7 +155,7 @@ def plot_pulse_edges(alignment: Mapping[str, StreamAlignment], *, width: float =
         ax.set_ylabel(f"{stream.stream} [{stream.pulse_units}]")
         ax.grid(True, lw=0.4, alpha=0.6)
         edges = ", ".join(f"{edge:.5f} s" for edge in stream.edge_times)
-        ax.set_title(f"{stream.stream} ({stream.device}): edge at {edges or 'none'}",
+        ax.set_title(f"{stream.stream} ({stream.device}): edge at {edges or 'none'}", y=TITLE_Y,
                      fontsize=9, loc="left")
     axes[-1].set_xlabel("time on the reference timeline [s]")
     return fig
@@ -237,7 +241,7 @@ def plot_support_forces(predictions: xr.Dataset, *, width: float = 9.0) -> Figur
         _angle_axis(ax, label=ax is axes[-1])
     axes[0].legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=len(values), fontsize=8,
                    frameon=False, borderaxespad=0.1)
-    axes[0].set_title("support forces on the frame (model prediction)", loc="left",
+    axes[0].set_title("support forces on the frame (model prediction)", loc="left", y=TITLE_Y,
                       fontsize=10)
     return fig
 
@@ -273,5 +277,6 @@ def plot_point_kinematics(predictions: xr.Dataset, point: str, *,
         ax.plot(x, y, color=MODEL, lw=1.5)
         ax.set_ylabel(label)
         _angle_axis(ax, label=ax is axes[-1])
-    axes[0].set_title(f"{point}: position, speed and acceleration (model prediction)")
+    axes[0].set_title(f"{point}: position, speed and acceleration (model prediction)",
+                      y=TITLE_Y)
     return fig
