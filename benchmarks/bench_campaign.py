@@ -8,8 +8,9 @@ fresh folder (nothing reused), ``--repeat`` rounds interleaved, and prints the b
 * ``local`` with 1 and with 2 worker processes (the embedded LocalCluster).
 
 Wall time is what a user waits for ``rigval campaign``: cluster start, worker imports, the runs, and
-shutting the cluster down. ``mean run s`` is the mean wall time of one validation inside its worker.
-The machine's load average is printed: other processes on the machine slow every figure down.
+shutting the cluster down. ``mean run s`` is the mean wall time of one validation inside its worker,
+``CPU s/run`` the CPU time its process spent on it. The machine's load average is printed: other
+processes on the machine stretch wall times, not CPU times.
 
 Usage::
 
@@ -54,7 +55,8 @@ def main() -> None:
         print(f"generated {len(scenes)} runs of {args.duration:g} s in "
               f"{time.perf_counter() - start:.1f} s; {os.cpu_count()} CPUs")
         print(f"{'scheduler':<10} {'workers':>7} {'repeat':>6} {'runs':>5} {'errors':>6} "
-              f"{'wall s':>8} {'runs/min':>9} {'mean run s':>10} {'load avg':>8}")
+              f"{'wall s':>8} {'runs/min':>9} {'mean run s':>10} {'CPU s/run':>9} "
+              f"{'load avg':>8}")
         best: dict[tuple[str, int], float] = {}
         for repeat in range(args.repeat):  # interleaved, so that load changes hit every mode
             for scheduler, workers in MODES:
@@ -64,10 +66,12 @@ def main() -> None:
                 wall = time.perf_counter() - start
                 errors = sum(o.status == "error" for o in outcomes)
                 mean_run = statistics.fmean(o.elapsed_s for o in outcomes)
+                mean_cpu = statistics.fmean(o.cpu_s for o in outcomes)
                 rate = 60 * len(outcomes) / wall
                 best[scheduler, workers] = max(best.get((scheduler, workers), 0.0), rate)
                 print(f"{scheduler:<10} {workers:>7} {repeat:>6} {len(outcomes):>5} {errors:>6} "
-                      f"{wall:8.1f} {rate:9.2f} {mean_run:10.1f} {os.getloadavg()[0]:8.1f}")
+                      f"{wall:8.1f} {rate:9.2f} {mean_run:10.1f} {mean_cpu:9.1f} "
+                      f"{os.getloadavg()[0]:8.1f}")
         print("best runs/min: " + ", ".join(f"{s} x{w}: {rate:.2f}"
                                             for (s, w), rate in best.items()))
 

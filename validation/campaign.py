@@ -183,6 +183,10 @@ class RunOutcome:
         Output files, relative to ``run_dir``.
     elapsed_s : float
         Wall time of the validation in s (of the original computation for a reused run).
+    cpu_s : float
+        CPU time of the validating process during the validation in s (all its threads; same
+        convention as ``elapsed_s`` for a reused run). On a busy machine ``elapsed_s`` grows,
+        ``cpu_s`` hardly does.
     reused : bool
         True when the outputs of an earlier campaign were up to date and nothing was recomputed.
     error : RunError or None
@@ -197,6 +201,7 @@ class RunOutcome:
     speed_rev_s: float | None = None
     outputs: tuple[str, ...] = ()
     elapsed_s: float = 0.0
+    cpu_s: float = 0.0
     reused: bool = False
     error: RunError | None = None
 
@@ -212,7 +217,7 @@ class RunOutcome:
         return {
             "name": self.name, "scene": str(self.scene), "run_dir": str(self.run_dir),
             "status": self.status, "speed_rev_s": _jsonable(self.speed_rev_s),
-            "elapsed_s": self.elapsed_s, "reused": self.reused,
+            "elapsed_s": self.elapsed_s, "cpu_s": self.cpu_s, "reused": self.reused,
             "outputs": list(self.outputs), "metrics": _jsonable(list(self.metrics)),
             "error": self.error.to_dict() if self.error else None,
         }
@@ -318,7 +323,7 @@ def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunctio
             logger.info("run %s is up to date; not recomputed", name)
             return reused
     validate = validate or _validate_with_pipeline
-    start = time.perf_counter()
+    start, cpu_start = time.perf_counter(), time.process_time()
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
         (run_dir / MANIFEST_NAME).unlink(missing_ok=True)  # invalid until this run completes
@@ -330,13 +335,14 @@ def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunctio
             metrics=tuple(_jsonable(dict(row)) for row in report.metrics),
             speed_rev_s=_jsonable(report.speed_rev_s),
             outputs=tuple(os.path.relpath(path, run_dir) for path in report.outputs),
-            elapsed_s=time.perf_counter() - start,
+            elapsed_s=time.perf_counter() - start, cpu_s=time.process_time() - cpu_start,
         )
         _write_manifest(outcome, report.inputs)
     except Exception as error:  # one run's failure must not stop the campaign
         logger.info("run %s: %s: %s", name, type(error).__name__, error)
         return RunOutcome(name=name, scene=scene, run_dir=run_dir, status="error",
                           elapsed_s=time.perf_counter() - start,
+                          cpu_s=time.process_time() - cpu_start,
                           error=RunError.from_exception(error))
     return outcome
 
@@ -505,7 +511,7 @@ def _reuse(name: str, scene: Path, run_dir: Path) -> RunOutcome | None:
         outcome = RunOutcome(name=name, scene=scene, run_dir=run_dir, status=result["status"],
                              metrics=tuple(result["metrics"]), speed_rev_s=result["speed_rev_s"],
                              outputs=tuple(manifest["outputs"]), elapsed_s=result["elapsed_s"],
-                             reused=True)
+                             cpu_s=result["cpu_s"], reused=True)
     except (KeyError, TypeError, AttributeError):
         stale = "the manifest is not in the expected format"
     except OSError as error:
@@ -550,7 +556,8 @@ def _write_manifest(outcome: RunOutcome, inputs: Sequence[Path]) -> None:
         "inputs": {os.path.relpath(path, base): file_sha256(path) for path in inputs},
         "outputs": {name: (outcome.run_dir / name).stat().st_size for name in outcome.outputs},
         "result": {"status": outcome.status, "metrics": list(outcome.metrics),
-                   "speed_rev_s": outcome.speed_rev_s, "elapsed_s": outcome.elapsed_s},
+                   "speed_rev_s": outcome.speed_rev_s, "elapsed_s": outcome.elapsed_s,
+                   "cpu_s": outcome.cpu_s},
     }
     target = outcome.run_dir / MANIFEST_NAME
     partial = target.with_suffix(".json.partial")

@@ -215,7 +215,7 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
 
     page.section("Runs")
     page.table([{"run": o.name, "status": o.status, "speed [rev/s]": o.speed_rev_s,
-                 "time [s]": o.elapsed_s, "reused": o.reused,
+                 "time [s]": o.elapsed_s, "CPU [s]": o.cpu_s, "reused": o.reused,
                  "error": o.error.kind if o.error else None} for o in outcomes], digits=3)
     links = []
     for outcome in outcomes:

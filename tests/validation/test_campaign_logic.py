@@ -148,6 +148,8 @@ def test_up_to_date_runs_are_reused_and_changed_ones_recomputed(
     assert [o.reused for o in second] == [True, False, True]
     assert [(o.status, o.metrics, o.speed_rev_s) for o in second] == [
         (o.status, o.metrics, o.speed_rev_s) for o in first]
+    assert [(o.elapsed_s, o.cpu_s) for o in second[::2]] == [  # of the original computation
+        (o.elapsed_s, o.cpu_s) for o in first[::2]]
 
     (scenes[0].parent / "slow.csv").write_text("0.1\n0.2\n")  # an input changed
     (out / "fast" / "metrics.json").unlink()  # an output lost
