@@ -49,7 +49,10 @@ def run(args: argparse.Namespace) -> int:
     from rigval.validation.campaign import dask_available, run_campaign
     from rigval.validation.campaign_report import write_campaign_report
 
-    # Dask logs its cluster's start and stop at INFO; show that only with -vv.
+    # Dask logs its cluster's start and stop at INFO; show that only with -vv. Importing
+    # distributed (dask_available does) sets its loggers' levels, so this comes after.
+    has_dask = dask_available()
+    scheduler = args.scheduler or ("local" if has_dask else "none")
     verbose = logging.getLogger().getEffectiveLevel() <= logging.DEBUG
     logging.getLogger("distributed").setLevel(logging.INFO if verbose else logging.WARNING)
 
@@ -61,7 +64,6 @@ def run(args: argparse.Namespace) -> int:
                                 workers=args.workers, force=args.force, on_result=progress.update)
     finally:
         progress.close()
-    scheduler = args.scheduler or ("local" if dask_available() else "none")
     workers = {"none": "1 (this process)", "local": args.workers or "one per CPU, at most one "
                "per run"}.get(scheduler, "those of the cluster")
     details = {"scheduler": scheduler, "workers": workers,
@@ -116,7 +118,8 @@ class _ProgressLine:
             return
         done = sum(self.counts.values())
         elapsed = time.perf_counter() - self.start
-        left = f", ~{elapsed / done * (self.total - done):.0f} s left" if done else ""
+        left = f", ~{elapsed / done * (self.total - done):.0f} s left" if 0 < done < self.total \
+            else ""
         width = 24
         filled = width * done // max(self.total, 1)
         self.stream.write(
