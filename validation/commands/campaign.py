@@ -118,8 +118,9 @@ class _ProgressLine:
             return
         done = sum(self.counts.values())
         elapsed = time.perf_counter() - self.start
-        left = f", ~{elapsed / done * (self.total - done):.0f} s left" if 0 < done < self.total \
-            else ""
+        left = ""
+        if 0 < done < self.total:
+            left = f", ~{elapsed / done * (self.total - done):.0f} s left"
         width = 24
         filled = width * done // max(self.total, 1)
         self.stream.write(
