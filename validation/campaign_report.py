@@ -159,7 +159,9 @@ def plot_metrics_against_speed(table: pd.DataFrame, *, metrics: Sequence[str] | 
         ax.set_xlabel("running speed [rev/s]")
         ax.grid(alpha=0.3)
     if len(metrics):
-        axes[0].legend(fontsize="small", title="comparison", title_fontsize="small")
+        handles, labels = axes[0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="outside right upper", fontsize="small",
+                   title="comparison", title_fontsize="small")
     return fig
 
 
@@ -230,7 +232,8 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
     if not table.empty:
         page.section("Metrics against running speed")
         fig = plot_metrics_against_speed(table)
-        page.figure(fig, caption="Each marker is a run; a red ring marks a missed threshold.",
+        page.figure(fig, caption="Each marker is a run; a red ring marks a missed threshold; a "
+                                 "dashed line is the threshold where all comparisons share one.",
                     fmt="svg")
         page.section("Metrics per comparison")
         model_rows = table[table["row"] == "model"]
