@@ -53,6 +53,7 @@ __all__ = [
     "grade",
     "iso18571",
     "iso18571_periodic",
+    "iso18571_periodic_many",
 ]
 
 logger = logging.getLogger(__name__)
@@ -301,22 +302,77 @@ def iso18571_periodic(measured: Any, model: Any, angle: Any = None, *,
     params = params or IsoParameters()
     reference, comparison = paired(measured, model)
     revolution_angle(angle, reference.size, measured)
+    return _rate_periodic(reference, comparison[np.newaxis], params, max_samples)[0]
+
+
+def iso18571_periodic_many(measured: Any, models: Any, angle: Any = None, *,
+                           params: IsoParameters | None = None,
+                           max_samples: int = DEFAULT_MAX_SAMPLES) -> list[IsoScores]:
+    """Rate several model signals over one revolution against one measured signal.
+
+    The result equals ``[iso18571_periodic(measured, model, angle, ...) for model in models]``
+    (the same operations on every sample, so the same scores to the last bit) but takes one DTW
+    sweep for all of them: the sweep is a Python loop over anti-diagonals, so its cost hardly
+    grows with the number of signals. :func:`rigval.validation.metrics.baseline` rates every
+    measured cycle against the cycle mean with it.
+
+    Parameters
+    ----------
+    measured : array_like or xarray.DataArray
+        Reference signal over one revolution (any units).
+    models : array_like
+        Signals to rate, shape ``(m, n)``, on the reference's angle grid and in its units.
+    angle : array_like, optional
+        Shaft angle of the samples, rad (see :func:`iso18571_periodic`).
+    params : IsoParameters, optional
+        Rating parameters; the standard's by default.
+    max_samples : int
+        Longer signals are Fourier-resampled to this many samples before rating.
+
+    Returns
+    -------
+    list of IsoScores
+        One result per row of ``models``, in order.
+
+    Raises
+    ------
+    DataError
+        If ``models`` is not 2-D or holds no signal, or as :func:`iso18571_periodic`.
+    """
+    params = params or IsoParameters()
+    stack = np.asarray(getattr(models, "values", models), dtype=np.float64)
+    if stack.ndim != 2 or stack.shape[0] == 0:
+        raise DataError(f"models must have shape (m >= 1, n_samples), got {stack.shape}",
+                        where={"signal": "model"}, hint="stack the model signals row by row")
+    pairs = [paired(measured, row) for row in stack]
+    reference = pairs[0][0]
+    revolution_angle(angle, reference.size, measured)
+    return _rate_periodic(reference, np.array([row for _, row in pairs]), params, max_samples)
+
+
+def _rate_periodic(reference: np.ndarray, comparisons: np.ndarray, params: IsoParameters,
+                   max_samples: int) -> list[IsoScores]:
+    """Periodic ISO rating of each row of ``comparisons`` against ``reference`` (checked inputs)."""
     if reference.size > max_samples:
         logger.info("ISO 18571 periodic: resampling %d samples to %d", reference.size,
                     max_samples)
         reference = scipy.signal.resample(reference, max_samples)
-        comparison = scipy.signal.resample(comparison, max_samples)
+        comparisons = np.array([scipy.signal.resample(row, max_samples) for row in comparisons])
     _check_reference(reference)
     n = reference.size
     limit = int(np.floor(n * params.phase_window))
-    shifts, rho = _circular_correlation(reference, comparison, limit)
-    shift = _best_shift(shifts, rho)
-    rotated = np.roll(comparison, -shift)
+    shifts = []
+    for comparison in comparisons:
+        candidates, rho = _circular_correlation(reference, comparison, limit)
+        shifts.append(_best_shift(candidates, rho))
+    rotated = np.array([np.roll(comparison, -shift)
+                        for comparison, shift in zip(comparisons, shifts, strict=True)])
     slope_ref = _smoothed_slope_circular(reference)
-    slope_cmp = _smoothed_slope_circular(rotated)
-    magnitude_error = _magnitude_error_circular(reference, rotated, params)
-    return _scores(reference, comparison, magnitude_error, slope_ref, slope_cmp, shift,
-                   shift * 360.0 / n, params)
+    magnitude_errors = _magnitude_errors_circular(reference, rotated, params)
+    return [_scores(reference, comparison, magnitude_error, slope_ref,
+                    _smoothed_slope_circular(turned), shift, shift * 360.0 / n, params)
+            for comparison, turned, shift, magnitude_error
+            in zip(comparisons, rotated, shifts, magnitude_errors, strict=True)]
 
 
 def dtw_path(x: np.ndarray, y: np.ndarray, radius: int) -> tuple[np.ndarray, np.ndarray]:
@@ -354,36 +410,53 @@ def dtw_path(x: np.ndarray, y: np.ndarray, radius: int) -> tuple[np.ndarray, np.
     if y.size != n:
         raise DataError(f"DTW needs equal lengths, got {n} and {y.size} samples",
                         hint="truncate or resample both signals to one grid")
-    # Per anti-diagonal k and cell (i, k - i), column i - first(k): was the vertical step
-    # (from (i-1, j)) not taken, and, if not, was the horizontal one (from (i, j-1)) not taken.
-    not_vertical = np.zeros((2 * n + 1, radius + 1), dtype=bool)
-    not_horizontal = np.zeros((2 * n + 1, radius + 1), dtype=bool)
-    y_reversed = y[::-1].copy()
-    before_last = np.full(n + 1, np.inf)
-    before_last[0] = 0.0
-    last = np.full(n + 1, np.inf)
-    current = np.full(n + 1, np.inf)
-    shortcut = np.empty(radius + 1)
+    not_vertical, not_horizontal = _dtw_steps(x[np.newaxis], y[np.newaxis], radius)
+    return _backtrack(not_vertical[:, 0], not_horizontal[:, 0], n, radius)
+
+
+def _dtw_steps(x: np.ndarray, y: np.ndarray, radius: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sweep the DTW cost of a stack of signal pairs; return the steps taken, for backtracking.
+
+    ``x`` has shape ``(m, n)``, ``y`` the same or ``(1, n)`` (one signal for all): pair ``p``
+    warps ``x[p]`` against ``y[p]`` (or ``y[0]``). All pairs share the grid and the band, so each
+    anti-diagonal is one vectorised step over an ``(m, <= radius + 1)`` block; every cell sees the
+    same floating-point operations as for a single pair, so the paths are those of separate
+    sweeps.
+
+    Returns ``not_vertical`` and ``not_horizontal`` of shape ``(2 n + 1, m, radius + 1)``: for
+    anti-diagonal ``k`` and cell ``(i, k - i)`` (1-based, column ``i - first(k)``), was the
+    vertical step (from ``(i-1, j)``) not taken, and, if not, was the horizontal one (from
+    ``(i, j-1)``) not taken.
+    """
+    m, n = x.shape
+    not_vertical = np.zeros((2 * n + 1, m, radius + 1), dtype=bool)
+    not_horizontal = np.zeros((2 * n + 1, m, radius + 1), dtype=bool)
+    y_reversed = y[:, ::-1].copy()
+    before_last = np.full((m, n + 1), np.inf)
+    before_last[:, 0] = 0.0
+    last = np.full((m, n + 1), np.inf)
+    current = np.full((m, n + 1), np.inf)
+    shortcut = np.empty((m, radius + 1))
     for k in range(2, 2 * n + 1):
         first = (k - radius + 1) // 2
         lo, hi = max(1, k - n, first), min(n, k - 1, (k + radius) // 2)
-        vertical, horizontal = last[lo - 1:hi], last[lo:hi + 1]
-        diagonal = before_last[lo - 1:hi]
-        best = shortcut[:hi - lo + 1]
+        vertical, horizontal = last[:, lo - 1:hi], last[:, lo:hi + 1]
+        diagonal = before_last[:, lo - 1:hi]
+        best = shortcut[:, :hi - lo + 1]
         np.minimum(horizontal, diagonal, out=best)
-        np.greater(vertical, best, out=not_vertical[k, lo - first:hi - first + 1])
-        np.greater(horizontal, diagonal, out=not_horizontal[k, lo - first:hi - first + 1])
+        np.greater(vertical, best, out=not_vertical[k, :, lo - first:hi - first + 1])
+        np.greater(horizontal, diagonal, out=not_horizontal[k, :, lo - first:hi - first + 1])
         np.minimum(vertical, best, out=best)
-        cells = current[lo:hi + 1]
-        np.subtract(x[lo - 1:hi], y_reversed[n - k + lo:n - k + hi + 1], out=cells)
+        cells = current[:, lo:hi + 1]
+        np.subtract(x[:, lo - 1:hi], y_reversed[:, n - k + lo:n - k + hi + 1], out=cells)
         np.multiply(cells, cells, out=cells)
         cells += best
         # the next two diagonals read this one only from lo - 1 to hi + 1
-        current[lo - 1] = np.inf
+        current[:, lo - 1] = np.inf
         if hi < n:
-            current[hi + 1] = np.inf
+            current[:, hi + 1] = np.inf
         before_last, last, current = last, current, before_last
-    return _backtrack(not_vertical, not_horizontal, n, radius)
+    return not_vertical, not_horizontal
 
 
 def _backtrack(not_vertical: np.ndarray, not_horizontal: np.ndarray, n: int,
@@ -560,19 +633,27 @@ def _magnitude_error(reference: np.ndarray, comparison: np.ndarray,
     return _relative_l1(comparison[ix], reference[iy], "magnitude")
 
 
-def _magnitude_error_circular(reference: np.ndarray, comparison: np.ndarray,
-                              params: IsoParameters) -> float:
-    """Relative L1 error of the DTW-warped pair over one revolution, free of the path's anchors.
+def _magnitude_errors_circular(reference: np.ndarray, comparisons: np.ndarray,
+                               params: IsoParameters) -> list[float]:
+    """Relative L1 error of each DTW-warped pair over one revolution, free of the path's anchors.
 
     Both signals are repeated to three revolutions, so that the path's fixed start and end lie a
     revolution away from the middle one; the path cells whose measured sample lies in the middle
     revolution are scored. (Two band widths of margin were not enough: on dissimilar signals the
-    anchors still moved E_M by up to 0.3; half a revolution moved it by up to 0.14.)
+    anchors still moved E_M by up to 0.3; half a revolution moved it by up to 0.14.) One DTW sweep
+    serves all rows of ``comparisons``.
     """
     n = reference.size
-    ix, iy = dtw_path(np.tile(comparison, 3), np.tile(reference, 3), _band_radius(n, params))
-    inside = (iy >= n) & (iy < 2 * n)
-    return _relative_l1(comparison[ix[inside] % n], reference[iy[inside] % n], "magnitude")
+    radius = _band_radius(n, params)
+    tiled = np.tile(comparisons, 3)
+    not_vertical, not_horizontal = _dtw_steps(tiled, np.tile(reference, 3)[np.newaxis], radius)
+    errors = []
+    for row, comparison in enumerate(comparisons):
+        ix, iy = _backtrack(not_vertical[:, row], not_horizontal[:, row], 3 * n, radius)
+        inside = (iy >= n) & (iy < 2 * n)
+        errors.append(_relative_l1(comparison[ix[inside] % n], reference[iy[inside] % n],
+                                   "magnitude"))
+    return errors
 
 
 def _corridor_score(reference: np.ndarray, comparison: np.ndarray,

@@ -30,7 +30,14 @@ from typing import Any
 import numpy as np
 
 from rigval.acquisition.errors import ConfigError
-from rigval.validation.iso18571 import IsoParameters, IsoScores, grade, iso18571, iso18571_periodic
+from rigval.validation.iso18571 import (
+    IsoParameters,
+    IsoScores,
+    grade,
+    iso18571,
+    iso18571_periodic,
+    iso18571_periodic_many,
+)
 from rigval.validation.metric_core import Scores, as_cycles, as_signal, paired, revolution_angle
 from rigval.validation.thresholds import ThresholdCheck, check_thresholds, parse_threshold
 from rigval.validation.vv20 import VV20Feature, VV20Scores, vv20
@@ -208,6 +215,15 @@ def compare(measured: Any, model: Any, angle: Any = None, *,
     DataError
         For bad samples, unequal lengths or an angle grid that is not one revolution.
     """
+    _check_options(metrics, uncertainty)
+    m, c = paired(measured, model)
+    angle_deg = np.degrees(revolution_angle(angle, m.size, measured))
+    return _score_pair(m, c, angle_deg, metrics=metrics, normaliser=normaliser,
+                       iso_params=iso_params, cycles=cycles, uncertainty=uncertainty)
+
+
+def _check_options(metrics: Sequence[str], uncertainty: Mapping[str, Any] | None) -> None:
+    """Raise ConfigError for an unknown metric name or uncertainty option."""
     unknown = [name for name in metrics if name not in METRICS]
     if unknown:
         raise ConfigError(f"unknown metric {unknown[0]!r}", where={"key": "metrics"},
@@ -217,10 +233,19 @@ def compare(measured: Any, model: Any, angle: Any = None, *,
         raise ConfigError(f"unknown uncertainty option {unknown[0]!r}",
                           where={"key": f"uncertainty.{unknown[0]}"},
                           hint=f"use: {', '.join(_UNCERTAINTY_OPTIONS)}")
-    m, c = paired(measured, model)
-    angle_deg = np.degrees(revolution_angle(angle, m.size, measured))
+
+
+def _score_pair(m: np.ndarray, c: np.ndarray, angle_deg: np.ndarray, *, metrics: Sequence[str],
+                normaliser: str, iso_params: IsoParameters | None, cycles: Any = None,
+                uncertainty: Mapping[str, Any] | None = None,
+                periodic: IsoScores | None = None) -> dict[str, Any]:
+    """Return the scores of :func:`compare` for a checked pair.
+
+    ``periodic`` is the pair's ISO periodic rating when it was computed already (with
+    ``iso_params``); it is then not computed again.
+    """
     runners = {
-        "iso18571_periodic": lambda: iso18571_periodic(m, c, params=iso_params),
+        "iso18571_periodic": lambda: periodic or iso18571_periodic(m, c, params=iso_params),
         "iso18571": lambda: iso18571(m, c, dt=360.0 / m.size, params=iso_params),
         "sprague_geers": lambda: sprague_geers(m, c, periodic=True),
         "russell": lambda: russell(m, c, periodic=True),
@@ -279,11 +304,16 @@ def baseline(cycles: Any, mean: Any = None, *, angle: Any = None,
     if "vv20" in metrics:
         raise ConfigError("vv20 compares features with uncertainties, not single cycles",
                           where={"key": "metrics"}, hint="leave vv20 out of the baseline")
+    _check_options(metrics, None)
     array = as_cycles(cycles)
-    angle = revolution_angle(angle, array.shape[1], cycles)
+    angle_deg = np.degrees(revolution_angle(angle, array.shape[1], cycles))
     reference = array.mean(axis=0) if mean is None else as_signal(mean, "mean")
-    rows = [compare(reference, cycle, angle, metrics=metrics, normaliser=normaliser,
-                    iso_params=iso_params) for cycle in array]
+    pairs = [paired(reference, cycle) for cycle in array]
+    periodic = (iso18571_periodic_many(reference, array, params=iso_params)
+                if "iso18571_periodic" in metrics else [None] * array.shape[0])
+    rows = [_score_pair(m, c, angle_deg, metrics=metrics, normaliser=normaliser,
+                        iso_params=iso_params, periodic=rating)
+            for (m, c), rating in zip(pairs, periodic, strict=True)]
     numeric = [key for key, value in rows[0].items()
                if isinstance(value, int | float) and not isinstance(value, bool)]
     per_cycle = {key: np.array([row[key] for row in rows], dtype=np.float64) for key in numeric}
