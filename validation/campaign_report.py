@@ -125,7 +125,8 @@ def plot_metrics_against_speed(table: pd.DataFrame, *, metrics: Sequence[str] | 
     Returns
     -------
     matplotlib.figure.Figure
-        Markers show runs; a hollow red ring marks a run that missed that metric's threshold,
+        Markers show runs, joined by lines unless several runs share a speed; a hollow red ring
+        marks a run that missed that metric's threshold,
         a dashed line shows the threshold when all comparisons share one.
     """
     table = table[(table["row"] == "model") & table["value"].notna()]
@@ -144,7 +145,9 @@ def plot_metrics_against_speed(table: pd.DataFrame, *, metrics: Sequence[str] | 
         part = table[table["metric"] == metric]
         for comparison, group in part.groupby("comparison", sort=False):
             group = group.sort_values("speed_rev_s")
-            ax.plot(group["speed_rev_s"], group["value"], marker="o", label=str(comparison))
+            repeated = group["speed_rev_s"].duplicated().any()  # repeated runs: no zigzag line
+            ax.plot(group["speed_rev_s"], group["value"], marker="o", label=str(comparison),
+                    linestyle="none" if repeated else "-", alpha=0.7 if repeated else 1.0)
             missed = group[group["passed"].map(lambda p: p is False or p is np.False_)]
             ax.plot(missed["speed_rev_s"], missed["value"], linestyle="none", marker="o",
                     markersize=11, markerfacecolor="none", color="tab:red")  # keeps the cycle

@@ -266,3 +266,13 @@ def test_unreadable_manifest_means_recompute(tmp_path: Path, scenes: list[Path],
     outcome = run_one(scenes[0], tmp_path / "run", validate=standin_validate)
     assert (outcome.status, outcome.reused) == ("passed", False)
     assert json.loads((tmp_path / "run" / campaign.MANIFEST_NAME).read_text())["result"]
+
+
+def test_runs_at_one_speed_are_not_joined_by_a_line(tmp_path: Path) -> None:
+    rows = ({"comparison": "acc1", "metric": "nrmse", "value": 0.1},)
+    outcomes = [campaign.RunOutcome(name=f"day{i}", scene=tmp_path / f"day{i}.toml",
+                                    run_dir=tmp_path / f"day{i}", status="passed", metrics=rows,
+                                    speed_rev_s=1.0) for i in range(2)]
+    (line,) = plot_metrics_against_speed(metrics_table(outcomes)).axes[0].get_lines()[:1]
+    assert line.get_linestyle() == "None"
+    np.testing.assert_allclose(line.get_xydata(), [[1.0, 0.1], [1.0, 0.1]])
