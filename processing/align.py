@@ -275,7 +275,11 @@ def match_events(ref_times: ArrayLike, dev_times: ArrayLike, *, coarse_offset_s:
             hint="build reference events at the device pulse rate (events_per_rev) and check "
                  "that both sensors watch the same shaft")
     scoring = dev[dev <= dev[0] + max(_SCORING_SPAN_S, 10 * period)]
-    seeds = dev[: min(3, dev.size)]
+    # Seeds: the first device events that can have a partner (a device that started before the
+    # reference has events before the reference record).
+    shifted = dev + coarse_offset_s
+    seeds = dev[(shifted >= ref[0] - max_offset_error_s)
+                & (shifted <= ref[-1] + max_offset_error_s)][:3]
     candidates = []
     for seed in seeds:
         lo, hi = np.searchsorted(ref, [seed + coarse_offset_s - max_offset_error_s,

@@ -8,8 +8,9 @@ restarted after a gap of tens to hundreds of ms, with a new software start time.
 
 Modules delay their data: a sample taken at true time t holds the input at ``t - delay``. For the
 NI 9237 (delta-sigma) the delay is ``(40 + 5/512) / fs + 4.5 us`` (NI KB, research/data_formats.md
-section 5) and its anti-alias filter turns edges into band-limited steps (10-90 % rise of about one
-sample period); the NI 9215 (SAR) has none, the NI 9411 digital input (encoders) 500 ns.
+section 5) and its anti-alias filter band-limits the signal to 0.45 fs (an edge becomes a
+sine-integral step, 10-90 % rise of about one sample period, with the filter's ringing); the
+NI 9215 (SAR) has neither, the NI 9411 digital input (encoders) a delay of 500 ns.
 """
 
 from __future__ import annotations
@@ -22,12 +23,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from rigval.acquisition.errors import ConfigError
 
-__all__ = ["MODULES", "ClockSegment", "DeviceClock", "Module", "dropout_segments",
+__all__ = ["ANTI_ALIAS_BAND", "MODULES", "ClockSegment", "DeviceClock", "Module", "dropout_segments",
            "ni9237_delay"]
 
 logger = logging.getLogger(__name__)
 
 _FloatArray = NDArray[np.float64]
+
+
+#: Pass band of a delta-sigma module's anti-alias (decimation) filter, as a fraction of its rate.
+ANTI_ALIAS_BAND = 0.45
 
 
 def ni9237_delay(fs: float) -> float:
@@ -67,9 +72,14 @@ class Module:
         """Input delay in s at rate fs (Hz)."""
         return ni9237_delay(fs) if self.delta_sigma else self.fixed_delay
 
-    def filter_rise_time(self, fs: float) -> float:
-        """10-90 % rise time (s) of the anti-alias filter (pass band 0.45 fs); 0 for SAR modules."""
-        return 1.0 / fs if self.delta_sigma else 0.0
+    def filter_bandwidth(self, fs: float) -> float | None:
+        """Return the anti-alias filter's band edge in Hz at rate fs (Hz); None for SAR modules.
+
+        A delta-sigma module's decimation filter passes 0.45 fs and rejects everything the
+        sample rate would alias (linear phase, its group delay is part of :meth:`delay`): its
+        samples are those of a signal band-limited to 0.45 fs, modelled as an ideal low-pass.
+        """
+        return ANTI_ALIAS_BAND * fs if self.delta_sigma else None
 
     def quantise(self, values: ArrayLike, full_scale: float) -> tuple[NDArray, float]:
         """Return raw ADC codes and the scale slope (unit per code) for a +-full_scale range.

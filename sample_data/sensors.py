@@ -7,7 +7,8 @@ sensors add: zero offsets, a slow thermal drift and noise. Noise is added by the
 the sensor (:mod:`rigval.sample_data.devices`), from each sensor's ``noise_rms``.
 
 Optical once-per-revolution sensors are pulse trains with a finite rise time (an error-function
-edge of 10-90 % rise time ``rise_time``), per-edge jitter, and occasional missing or spurious
+edge of 10-90 % rise time ``rise_time``; through a delta-sigma module's anti-alias filter, that
+edge band-limited by an ideal low-pass), per-edge jitter, and occasional missing or spurious
 pulses (:func:`optical_pulses`).
 """
 
@@ -18,8 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import erf
+from scipy.special import erf, sici
 
+from rigval.acquisition.errors import ConfigError
 from rigval.processing.accelerometer import charge_chain_voltage
 from rigval.processing.bridge import bridge_ratio
 from rigval.processing.torsion import rosette_bridge_ratio, shear_strain_from_torque
@@ -41,6 +43,10 @@ _FloatArray = NDArray[np.float64]
 
 #: 10-90 % rise time of an error-function edge in units of its sigma: 2 sqrt(2) erfinv(0.8).
 RISE_PER_SIGMA = 2.5631031310892007
+#: Gauss-Hermite nodes and weights that average a band-limited step over a sensor's Gaussian edge.
+_HERMITE = np.polynomial.hermite.hermgauss(16)
+#: Largest ``band_limit * rise_time`` for which that quadrature is exact to rounding.
+_MAX_BAND_RISE = 0.3
 
 
 @dataclass(frozen=True)
@@ -278,28 +284,51 @@ class PulseTrain:
     high: float
     rise_time: float
 
-    def value(self, t: ArrayLike, extra_rise_time: float = 0.0) -> _FloatArray:
+    def value(self, t: ArrayLike, band_limit: float | None = None) -> _FloatArray:
         """Return the output (unit of ``low`` and ``high``) at true times t (s).
 
         Parameters
         ----------
         t : array_like
             True times in s.
-        extra_rise_time : float, default 0
-            10-90 % rise time of a filter the signal passes afterwards (a delta-sigma module's
-            anti-alias filter), combined with the sensor's in quadrature.
+        band_limit : float, optional
+            Band edge in Hz of an ideal low-pass the signal passes afterwards (a delta-sigma
+            module's anti-alias filter); None: the sensor's output as it is.
         """
         t = np.asarray(t, dtype=np.float64)
-        scale = np.sqrt(2.0) * np.hypot(self.rise_time, extra_rise_time) / RISE_PER_SIGMA
         out = np.zeros_like(t)
         if self.rises.size:
             last = np.searchsorted(self.rises, t) - 1  # the pulse that rose last (-1: none yet)
             for index in (last, last + 1):
                 ok = (index >= 0) & (index < self.rises.size)
                 i = np.clip(index, 0, self.rises.size - 1)
-                pulse = 0.5 * (erf((t - self.rises[i]) / scale) - erf((t - self.falls[i]) / scale))
+                pulse = (self._step(t - self.rises[i], band_limit)
+                         - self._step(t - self.falls[i], band_limit))
                 out += np.where(ok, pulse, 0.0)
         return self.low + (self.high - self.low) * out
+
+    def _step(self, u: _FloatArray, band_limit: float | None) -> _FloatArray:
+        """Return one edge's response (0 to 1) at times u (s) after it.
+
+        The sensor's edge is an error function (Gaussian impulse response of standard deviation
+        ``rise_time / RISE_PER_SIGMA``); an ideal low-pass at ``band_limit`` turns a step into
+        ``1/2 + Si(2 pi band_limit u) / pi``, and the two in series are that sine integral
+        averaged over the Gaussian (16-point Gauss-Hermite quadrature, exact to rounding while
+        ``band_limit * rise_time <= 0.3``, i.e. a filter slower than the sensor).
+        """
+        sigma = self.rise_time / RISE_PER_SIGMA
+        if band_limit is None:
+            return 0.5 * (1.0 + erf(u / (np.sqrt(2.0) * sigma)))
+        if band_limit * self.rise_time > _MAX_BAND_RISE:
+            raise ConfigError(
+                f"a {band_limit:.4g} Hz band limit on a {self.rise_time:.3g} s sensor edge: the "
+                "filter is faster than the sensor, which this edge model does not cover",
+                where={"key": "band_limit"},
+                hint=f"keep band_limit * rise_time <= {_MAX_BAND_RISE} or pass band_limit=None")
+        omega = 2.0 * np.pi * band_limit
+        nodes, weights = _HERMITE
+        shifted = u[..., None] - np.sqrt(2.0) * sigma * nodes
+        return 0.5 + (sici(omega * shifted)[0] @ weights) / (np.pi * np.sqrt(np.pi))
 
 
 def optical_pulses(sensor: OpticalSensor, drive: DriveMotion, drive_name: str,

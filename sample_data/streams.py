@@ -130,7 +130,8 @@ def _analog(name: str, module: str, clock: DeviceClock, signal: _Signal, noise_r
             rng: np.random.Generator) -> SampledChannel:
     """Sample a sensor output through an analog module on every segment of a clock."""
     mod = MODULES[module]
-    delay = mod.delay(clock.fs_nominal)
+    # A delta-sigma module's delay is counted in periods of the device's own (drifting) clock.
+    delay = mod.delay(clock.fs_true)
     raw, slope = [], 1.0
     for i in range(len(clock.segments)):
         t = clock.sample_times(i)
@@ -143,8 +144,8 @@ def _analog(name: str, module: str, clock: DeviceClock, signal: _Signal, noise_r
 
 
 def _pulse_signal(train: PulseTrain, module: str, fs: float) -> _Signal:
-    extra = MODULES[module].filter_rise_time(fs)
-    return lambda t: train.value(t, extra_rise_time=extra)
+    band = MODULES[module].filter_bandwidth(fs)
+    return lambda t: train.value(t, band_limit=band)
 
 
 def sample_streams(draw: RigDraw, grid: TruthGrid) -> tuple[dict[str, Stream],

@@ -148,12 +148,13 @@ def _recover_segments(clock: ClockModel, events: np.ndarray, edges: np.ndarray,
     """Align segments the clock fit left out, then refit all segments with one shared drift.
 
     A restart (Wi-Fi dropout) starts a segment whose device time comes from a new software
-    start stamp, off by milliseconds, not periods: matching it within +-0.4 of a pulse period
-    around the previous segment's offset removes the whole-period ambiguity a short segment
-    has on its own. Every segment's events are then matched around its offset and one least
-    squares fit gives a shared drift, an offset per segment and, with several pulses per
-    revolution, a constant per kind of pulse (each may fire at its own angle); events beyond
-    6 robust sigma are left out. The drift so rests on the whole record.
+    start stamp, off by milliseconds, not periods: matching it within +-0.4 of an event period
+    (a pulse period over ``per_revolution``) around the nearest segment's offset removes the
+    whole-period ambiguity a short segment has on its own. Every segment's events are then
+    matched around its offset and one least squares fit gives a shared drift, an offset per
+    segment and, with several pulses per revolution, a constant per kind of pulse (each may fire
+    at its own angle); events beyond 6 robust sigma are left out. The drift so rests on the
+    whole record.
     """
     if not clock.unaligned_segments:
         return clock
@@ -167,7 +168,8 @@ def _recover_segments(clock: ClockModel, events: np.ndarray, edges: np.ndarray,
         coarse = offsets.get(segment, offsets[known[0]])
         try:
             ref_index, dev_index = match_events(
-                events, edges[chosen], coarse_offset_s=coarse, max_offset_error_s=0.4 * period,
+                events, edges[chosen], coarse_offset_s=coarse,
+                max_offset_error_s=0.4 * period / per_revolution,
                 where={**where, "segment": int(segment)})
         except AlignmentError as error:
             logger.info("segment %d stays unaligned: %s", segment, error)
