@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from rigval.acquisition.errors import DataFileError
+from rigval.acquisition.errors import ConfigError, DataFileError
 from rigval.sample_data.drive import DriveMotion, Harmonic, SpeedWander
 
 __all__ = ["RunTruth", "load_truth"]
@@ -49,6 +49,53 @@ class RunTruth:
     record: dict[str, Any]
     drive: DriveMotion
     streams: dict[str, xr.Dataset]
+
+    def clock_on_reference(self, stream: str, reference: str = "cdaq"
+                           ) -> tuple[tuple[float, ...], float]:
+        """Return the exact clock model of a stream on a reference stream's own clock.
+
+        That is what a clock alignment should recover: ``t_ref = offsets[j] + (1 + drift) u``
+        for a sample of segment j at device time u (the time axis a reader builds), where
+        ``t_ref`` is the reference device's time axis, which drifts too. The reference reads
+        ``u_r0 + (1 + d_r) (t - s_r0)`` at true time t, and sample k of segment j was taken at
+        ``t = s_j + k / (fs (1 + d))`` and is stamped ``u = u_j + k / fs``, so the drift is
+        ``(1 + d_r) / (1 + d) - 1`` and ``offsets[j] = u_r0 + (1 + d_r) (s_j - s_r0)
+        - (1 + drift) u_j`` (no input delay: that is each channel's own).
+
+        Parameters
+        ----------
+        stream : str
+            Stream name (``"wls1"``, ...).
+        reference : str, default "cdaq"
+            The reference stream; it must be gap-free.
+
+        Returns
+        -------
+        offsets : tuple of float
+            Offset in s (reference clock) per gap-free segment of the stream.
+        drift : float
+            Relative rate ``b - 1`` (1, times 1e6 for ppm).
+
+        Raises
+        ------
+        ConfigError
+            If either stream is unknown or the reference has gaps.
+        """
+        clocks = self.record["streams"]
+        for name in (stream, reference):
+            if name not in clocks:
+                raise ConfigError(f"no stream {name!r} in the truth", where={"key": name},
+                                  hint=f"use one of {sorted(clocks)}")
+        if len(clocks[reference]["segments"]) != 1:
+            raise ConfigError(f"reference {reference!r} has gaps: its clock is not one line",
+                              where={"key": reference}, hint="use a gap-free reference stream")
+        first = clocks[reference]["segments"][0]
+        ref_rate = 1.0 + clocks[reference]["drift_ppm"] * 1e-6
+        ratio = ref_rate / (1.0 + clocks[stream]["drift_ppm"] * 1e-6)
+        offsets = tuple(first["device_start_s"] + ref_rate * (s["true_start_s"]
+                                                              - first["true_start_s"])
+                        - ratio * s["device_start_s"] for s in clocks[stream]["segments"])
+        return offsets, ratio - 1.0
 
 
 def _drive(record: dict[str, Any]) -> DriveMotion:

@@ -8,7 +8,8 @@ of a wireless segment j is taken at ``t = s_j + k / (fs (1 + d_w))`` and stamped
     t_ref = (1 + d_c) s_j - (1 + d_c) / (1 + d_w) u_j + (1 + d_c) / (1 + d_w) u,
 
 an offset per segment and the drift ``(1 + d_c) / (1 + d_w) - 1``, both relative to the
-reference's own drifting clock (not to true time).
+reference's own drifting clock (not to true time): ``RunTruth.clock_on_reference``. The test of
+that function checks it against the truth's sample times directly.
 
 What the fit cannot know is where the reference pulses put phi_F = 0: the cDAQ records opt1
 through an NI 9215 (no anti-alias filter) at 5 kS/s, and its 100 us edge falls between samples,
@@ -41,7 +42,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from rigval.sample_data import Imperfections, RigSettings, simulate_rig
+from rigval.sample_data import Imperfections, RigSettings, load_truth, simulate_rig
 from rigval.validation.alignment import MainAngle, align_streams
 from rigval.validation.convert import convert_stream
 from rigval.validation.pipeline import read_streams
@@ -69,8 +70,10 @@ def _aligned_run(folder: Path, imperfections: Imperfections, seed: int) -> dict:
         raw = read_streams(scene)
     converted = {name: convert_stream(raw[name], spec) for name, spec in scene.streams.items()}
     aligned, diagnostics, main = align_streams(scene, converted)
-    truth = json.loads(next(folder.glob("*_truth.json")).read_text())
-    return {"aligned": aligned, "diagnostics": diagnostics, "main": main, "truth": truth}
+    truth = load_truth(next(folder.glob("*_truth.json")))
+    return {"aligned": aligned, "diagnostics": diagnostics, "main": main, "truth": truth.record,
+            "run_truth": truth,
+            "clocks": {name: truth.clock_on_reference(name) for name in WIRELESS}}
 
 
 @pytest.fixture(scope="module")
@@ -83,15 +86,6 @@ def quiet_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
 def default_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
     """Every default imperfection, 20 us rms edge jitter included."""
     return _aligned_run(tmp_path_factory.mktemp("default"), Imperfections(), seed=4)
-
-
-def _true_clock(truth: dict, name: str) -> tuple[dict[int, float], float]:
-    """Return the exact offset (s) per segment and drift (1) on the reference clock."""
-    ref_rate = 1.0 + truth["streams"]["cdaq"]["drift_ppm"] * 1e-6
-    ratio = ref_rate / (1.0 + truth["streams"][name]["drift_ppm"] * 1e-6)
-    offsets = {j: ref_rate * s["true_start_s"] - ratio * s["device_start_s"]
-               for j, s in enumerate(truth["streams"][name]["segments"])}
-    return offsets, ratio - 1.0
 
 
 def _fitted_clock(aligned: xr.Dataset) -> tuple[dict[int, float], float]:
@@ -140,7 +134,8 @@ def _ringing_shift_s(truth: dict, name: str) -> float:
 def _check(run: dict, name: str, sigma_s: float) -> None:
     """Assert one stream's clock (every segment's offset, the drift) against the truth."""
     truth, aligned = run["truth"], run["aligned"][name]
-    true_offsets, true_drift = _true_clock(truth, name)
+    offsets_true, true_drift = run["clocks"][name]
+    true_offsets = dict(enumerate(offsets_true))
     offsets, drift = _fitted_clock(aligned)
     offset_std, drift_std = _standard_errors(aligned, run["diagnostics"][name], sigma_s)
     assert set(offsets) == set(true_offsets), "every segment aligned"
@@ -151,6 +146,23 @@ def _check(run: dict, name: str, sigma_s: float) -> None:
     for segment, offset in offsets.items():
         error = offset - true_offsets[segment] - zero
         assert abs(error) <= SIGMAS * offset_std[segment] + shift, (segment, error * 1e6)
+
+
+@pytest.mark.parametrize("name", WIRELESS)
+def test_true_clock_maps_every_sample_to_the_reference_clock(quiet_run: dict, name: str) -> None:
+    truth = quiet_run["run_truth"]
+    reference, stream = truth.streams["cdaq"], truth.streams[name]
+    # the reference clock's reading at each sample's true time (its clock is one line)
+    expected = np.interp(stream["time_true"], reference["time_true"], reference["time_device"],
+                         left=np.nan, right=np.nan)
+    slope = np.diff(reference["time_device"][[0, -1]]) / np.diff(reference["time_true"][[0, -1]])
+    outside = np.isnan(expected)
+    expected[outside] = (reference["time_device"][0].item()
+                         + slope[0] * (stream["time_true"][outside] - reference["time_true"][0]))
+    offsets, drift = truth.clock_on_reference(name)
+    segment = stream["segment"].to_numpy()
+    mapped = np.asarray(offsets)[segment] + (1 + drift) * stream["time_device"].to_numpy()
+    np.testing.assert_allclose(mapped, expected, rtol=0, atol=1e-9)
 
 
 @pytest.mark.parametrize("name", WIRELESS)
