@@ -73,6 +73,9 @@ _TIE_TOLERANCE = 1e-12
 _SLOPE_HALF_WIDTH = 4
 """Half-width of the 9-point moving average applied to the derivatives, samples."""
 
+_SWEEP_BLOCK = 128
+"""Anti-diagonals per block of the DTW sweep (bounds the memory of the stored costs)."""
+
 
 @dataclasses.dataclass(frozen=True)
 class IsoParameters:
@@ -403,8 +406,8 @@ def dtw_path(x: np.ndarray, y: np.ndarray, radius: int) -> tuple[np.ndarray, np.
     Notes
     -----
     The accumulated cost is swept one anti-diagonal at a time (each a vectorised step over at most
-    ``radius + 1`` cells), so time is O(n radius) and memory is two bytes per band cell plus
-    three vectors.
+    ``radius + 1`` cells), so time is O(n radius) and memory is two bytes per band cell (the
+    steps taken) plus the costs of one block of :data:`_SWEEP_BLOCK` anti-diagonals.
     """
     n = x.size
     if y.size != n:
@@ -419,43 +422,68 @@ def _dtw_steps(x: np.ndarray, y: np.ndarray, radius: int) -> tuple[np.ndarray, n
 
     ``x`` has shape ``(m, n)``, ``y`` the same or ``(1, n)`` (one signal for all): pair ``p``
     warps ``x[p]`` against ``y[p]`` (or ``y[0]``). All pairs share the grid and the band, so each
-    anti-diagonal is one vectorised step over an ``(m, <= radius + 1)`` block; every cell sees the
+    anti-diagonal is one vectorised step over a ``(<= radius + 1, m)`` block; every cell sees the
     same floating-point operations as for a single pair, so the paths are those of separate
     sweeps.
 
+    The sweep runs in blocks of :data:`_SWEEP_BLOCK` anti-diagonals. Per block, the local costs
+    are computed at once; the loop then only takes ``D = cost + min(vertical, horizontal,
+    diagonal)`` per anti-diagonal, and the steps are read off the block's accumulated costs at
+    once afterwards. Accumulated costs are kept in band coordinates: anti-diagonal ``k``, cell
+    ``(i, k - i)`` (1-based) at row ``i - first(k) + 1`` with ``first(k) = (k - radius + 1) // 2``
+    and infinity outside the grid and the band (row 0 and ``radius + 2`` are padding).
+
     Returns ``not_vertical`` and ``not_horizontal`` of shape ``(2 n + 1, m, radius + 1)``: for
-    anti-diagonal ``k`` and cell ``(i, k - i)`` (1-based, column ``i - first(k)``), was the
-    vertical step (from ``(i-1, j)``) not taken, and, if not, was the horizontal one (from
-    ``(i, j-1)``) not taken.
+    anti-diagonal ``k`` and cell ``(i, k - i)`` (column ``i - first(k)``), was the vertical step
+    (from ``(i-1, j)``) not taken, and, if not, was the horizontal one (from ``(i, j-1)``) not
+    taken.
     """
     m, n = x.shape
-    not_vertical = np.zeros((2 * n + 1, m, radius + 1), dtype=bool)
-    not_horizontal = np.zeros((2 * n + 1, m, radius + 1), dtype=bool)
-    y_reversed = y[:, ::-1].copy()
-    before_last = np.full((m, n + 1), np.inf)
-    before_last[:, 0] = 0.0
-    last = np.full((m, n + 1), np.inf)
-    current = np.full((m, n + 1), np.inf)
-    shortcut = np.empty((m, radius + 1))
-    for k in range(2, 2 * n + 1):
-        first = (k - radius + 1) // 2
-        lo, hi = max(1, k - n, first), min(n, k - 1, (k + radius) // 2)
-        vertical, horizontal = last[:, lo - 1:hi], last[:, lo:hi + 1]
-        diagonal = before_last[:, lo - 1:hi]
-        best = shortcut[:, :hi - lo + 1]
-        np.minimum(horizontal, diagonal, out=best)
-        np.greater(vertical, best, out=not_vertical[k, :, lo - first:hi - first + 1])
-        np.greater(horizontal, diagonal, out=not_horizontal[k, :, lo - first:hi - first + 1])
-        np.minimum(vertical, best, out=best)
-        cells = current[:, lo:hi + 1]
-        np.subtract(x[:, lo - 1:hi], y_reversed[:, n - k + lo:n - k + hi + 1], out=cells)
-        np.multiply(cells, cells, out=cells)
-        cells += best
-        # the next two diagonals read this one only from lo - 1 to hi + 1
-        current[:, lo - 1] = np.inf
-        if hi < n:
-            current[:, hi + 1] = np.inf
-        before_last, last, current = last, current, before_last
+    width = radius + 1
+    not_vertical = np.zeros((2 * n + 1, m, width), dtype=bool)
+    not_horizontal = np.zeros((2 * n + 1, m, width), dtype=bool)
+    xt, yt = np.ascontiguousarray(x.T), np.ascontiguousarray(y.T)
+    # accumulated cost of the block's anti-diagonals, after those of the two before it
+    history = np.full((2, width + 2, m), np.inf)
+    history[0, 1 - (1 - radius) // 2] = 0.0  # the origin (0, 0) on anti-diagonal 0
+    columns = np.arange(width)
+    for block_start in range(2, 2 * n + 1, _SWEEP_BLOCK):
+        diagonals = np.arange(block_start, min(block_start + _SWEEP_BLOCK, 2 * n + 1))
+        first = (diagonals - radius + 1) // 2
+        lo = np.maximum.reduce([np.ones_like(diagonals), diagonals - n, first])
+        hi = np.minimum.reduce([np.full_like(diagonals, n), diagonals - 1,
+                                (diagonals + radius) // 2])
+        rows_i = first[:, np.newaxis] + columns  # cell i of each band column
+        cost = np.empty((diagonals.size, width + 2, m))
+        np.subtract(xt[np.clip(rows_i - 1, 0, n - 1)],
+                    yt[np.clip(diagonals[:, np.newaxis] - rows_i - 1, 0, n - 1)],
+                    out=cost[:, 1:width + 1])
+        np.multiply(cost[:, 1:width + 1], cost[:, 1:width + 1], out=cost[:, 1:width + 1])
+        total = np.full((diagonals.size + 2, width + 2, m), np.inf)
+        total[:2] = history
+        # per anti-diagonal, in rows of this block: its cells, (i-1, j) and (i, j-1) on the one
+        # before and (i-1, j-1) on the one before that, for i = lo ... hi
+        f1 = (diagonals - radius) // 2
+        # (i-1, j-1) on k-2 has the same row as (i, k - i) on k, since first(k-2) = first(k) - 1
+        starts = np.stack([lo - first + 1, lo - f1, lo - f1 + 1]).T.tolist()
+        for row, ((own, up, left), count) in enumerate(zip(starts, (hi - lo + 1).tolist(),
+                                                           strict=True)):
+            cells = total[row + 2, own:own + count]
+            np.minimum(total[row + 1, left:left + count], total[row, own:own + count],
+                       out=cells)
+            np.minimum(total[row + 1, up:up + count], cells, out=cells)
+            cells += cost[row, own:own + count]
+        # (i-1, j) and (i, j-1) sit one row further on anti-diagonal k-1 when first(k) > first(k-1)
+        shifted = (first > f1)[:, np.newaxis, np.newaxis]
+        before = total[1:-1]
+        vertical = np.where(shifted, before[:, 1:width + 1], before[:, :width])
+        horizontal = np.where(shifted, before[:, 2:], before[:, 1:width + 1])
+        diagonal = total[:-2, 1:width + 1]
+        best = np.minimum(horizontal, diagonal)
+        block = slice(diagonals[0], diagonals[-1] + 1)
+        not_vertical[block] = (vertical > best).transpose(0, 2, 1)
+        not_horizontal[block] = (horizontal > diagonal).transpose(0, 2, 1)
+        history = total[-2:].copy()
     return not_vertical, not_horizontal
 
 
