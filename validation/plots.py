@@ -1,6 +1,7 @@
 """Figures of a validation, built on :class:`matplotlib.figure.Figure` without pyplot.
 
-Every function returns a new Figure and keeps no global state, so it is safe in long-running
+Every function returns a new Figure (:func:`plot_comparisons` one figure it redraws for each
+comparison) and keeps no global state, so it is safe in long-running
 processes and worker pools. Margins are fixed rather than computed by a layout engine, which would
 draw every figure twice. Angles are shown in degrees of phi_F, the main shaft angle from the
 reference position; labels carry units.
@@ -8,7 +9,7 @@ reference position; labels carry units.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 import xarray as xr
@@ -21,6 +22,7 @@ from rigval.validation.results import ComparisonResult, StreamAlignment
 __all__ = [
     "plot_clock_residuals",
     "plot_comparison",
+    "plot_comparisons",
     "plot_point_kinematics",
     "plot_pulse_edges",
     "plot_stream_coverage",
@@ -87,49 +89,105 @@ def plot_comparison(result: ComparisonResult, *, width: float = 9.0,
         mean. Bottom: amplitudes of the first harmonic orders, measured mean and model (rigid-
         body errors often sit in particular orders).
     """
-    fig = _figure(width, 7.0)
-    grid = fig.add_gridspec(3, 1, height_ratios=[3, 1.6, 1.5], hspace=0.45)
-    top = fig.add_subplot(grid[0])
-    bottom = fig.add_subplot(grid[1], sharex=top)
-    spectrum = fig.add_subplot(grid[2])
-    low, high = result.band
-    mean = result.mean
-    x, cycles, mean_c, low_c, high_c, model_c = _closed(result.angle, result.cycles, mean, low,
-                                                        high, result.model)
-    top.add_collection(LineCollection([np.column_stack([x, c]) for c in cycles], colors=CYCLES,
-                                      linewidths=0.5, alpha=0.45))
-    top.fill_between(x, low_c, high_c, color=BAND, alpha=0.6, lw=0,
-                     label=f"measured P5-P95 ({result.cycles.shape[0]} cycles)")
-    top.plot(x, mean_c, color=MEASURED, lw=1.8, label="measured mean")
-    model_label = "model" if result.offset == 0 else f"model {result.offset:+.3g} {result.units}"
-    top.plot(x, model_c, color=MODEL, lw=1.6, ls="--", label=model_label)
-    for values, color, marker in ((mean, MEASURED, "o"), (result.model, MODEL, "x")):
-        peak = int(np.argmax(np.abs(values)))
-        top.plot(x[peak], values[peak], marker, color=color, ms=7, mew=2)
-    top.set_ylabel(f"{result.name} [{result.units}]")
-    top.set_title(f"{result.name} against {result.spec.model}", loc="left", fontsize=10,
-                  y=TITLE_Y)
-    top.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3, fontsize=8,
-               frameon=False, borderaxespad=0.1)
-    _angle_axis(top, label=False)
-    bottom.fill_between(x, low_c - mean_c, high_c - mean_c, color=BAND, alpha=0.6, lw=0,
-                        label="measured P5-P95 about the mean")
-    bottom.plot(x, model_c - mean_c, color=MODEL, lw=1.2, label="model - measured mean")
-    bottom.axhline(0.0, color="black", lw=0.6)
-    bottom.set_ylabel(f"residual [{result.units}]")
-    bottom.legend(loc="upper right", fontsize=8, framealpha=0.85)
-    _angle_axis(bottom)
-    order = np.arange(1, orders + 1)
-    spectrum.bar(order - 0.2, _harmonics(mean, orders), width=0.4, color=MEASURED,
-                 label="measured mean")
-    spectrum.bar(order + 0.2, _harmonics(result.model, orders), width=0.4, color=MODEL,
-                 label="model")
-    spectrum.set_xticks(order)
-    spectrum.set_xlabel("order (harmonic of the shaft speed)")
-    spectrum.set_ylabel(f"amplitude [{result.units}]")
-    spectrum.grid(True, axis="y", lw=0.4, alpha=0.6)
-    spectrum.legend(loc="upper right", fontsize=8)
-    return fig
+    return _ComparisonFigure(width, orders).show(result)
+
+
+def plot_comparisons(results: Iterable[ComparisonResult], *, width: float = 9.0,
+                     orders: int = HARMONIC_ORDERS) -> Iterator[Figure]:
+    """Yield :func:`plot_comparison` of each comparison, drawn into one reused figure.
+
+    Building a figure's axes and tick marks takes a good part of its rendering time; this
+    generator builds them once and redraws only the data, titles and legends for each
+    comparison. The rendered images equal those of :func:`plot_comparison`.
+
+    Parameters
+    ----------
+    results : iterable of ComparisonResult
+        The comparisons.
+    width : float
+        Figure width in inches.
+    orders : int
+        Harmonic orders of the shaft speed shown in the bottom panel.
+
+    Yields
+    ------
+    matplotlib.figure.Figure
+        The figure of the current comparison. It is the same object every time: render or save
+        it before asking for the next one.
+    """
+    figure = _ComparisonFigure(width, orders)
+    for result in results:
+        yield figure.show(result)
+
+
+class _ComparisonFigure:
+    """The three panels of :func:`plot_comparison`, redrawn for one comparison after another."""
+
+    def __init__(self, width: float, orders: int) -> None:
+        self.orders = orders
+        self.fig = _figure(width, 7.0)
+        grid = self.fig.add_gridspec(3, 1, height_ratios=[3, 1.6, 1.5], hspace=0.45)
+        self.top = self.fig.add_subplot(grid[0])
+        self.bottom = self.fig.add_subplot(grid[1], sharex=self.top)
+        self.spectrum = self.fig.add_subplot(grid[2])
+        _angle_axis(self.top, label=False)
+        _angle_axis(self.bottom)
+        order = np.arange(1, orders + 1)
+        self.spectrum.set_xticks(order)
+        self.spectrum.set_xlabel("order (harmonic of the shaft speed)")
+        self.spectrum.grid(True, axis="y", lw=0.4, alpha=0.6)
+        self.drawn: list[object] = []
+
+    def _clear(self) -> None:
+        """Remove the previous comparison's artists and forget their data limits."""
+        for artist in self.drawn:
+            artist.remove()  # type: ignore[attr-defined]
+        self.drawn.clear()
+        for ax in (self.top, self.bottom, self.spectrum):
+            ax.relim()  # data limits of what is left (nothing): autoscaling starts afresh
+
+    def show(self, result: ComparisonResult) -> Figure:
+        """Draw one comparison (see :func:`plot_comparison`) and return the figure."""
+        self._clear()
+        top, bottom, spectrum, orders = self.top, self.bottom, self.spectrum, self.orders
+        low, high = result.band
+        mean = result.mean
+        x, cycles, mean_c, low_c, high_c, model_c = _closed(result.angle, result.cycles, mean,
+                                                            low, high, result.model)
+        drawn = self.drawn
+        drawn.append(top.add_collection(LineCollection(
+            [np.column_stack([x, c]) for c in cycles], colors=CYCLES, linewidths=0.5,
+            alpha=0.45)))
+        drawn.append(top.fill_between(x, low_c, high_c, color=BAND, alpha=0.6, lw=0,
+                                      label=f"measured P5-P95 ({result.cycles.shape[0]} cycles)"))
+        drawn += top.plot(x, mean_c, color=MEASURED, lw=1.8, label="measured mean")
+        model_label = ("model" if result.offset == 0
+                       else f"model {result.offset:+.3g} {result.units}")
+        drawn += top.plot(x, model_c, color=MODEL, lw=1.6, ls="--", label=model_label)
+        for values, color, marker in ((mean, MEASURED, "o"), (result.model, MODEL, "x")):
+            peak = int(np.argmax(np.abs(values)))
+            drawn += top.plot(x[peak], values[peak], marker, color=color, ms=7, mew=2)
+        top.set_ylabel(f"{result.name} [{result.units}]")
+        top.set_title(f"{result.name} against {result.spec.model}", loc="left", fontsize=10,
+                      y=TITLE_Y)
+        drawn.append(top.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3,
+                                fontsize=8, frameon=False, borderaxespad=0.1))
+        drawn.append(bottom.fill_between(x, low_c - mean_c, high_c - mean_c, color=BAND,
+                                         alpha=0.6, lw=0,
+                                         label="measured P5-P95 about the mean"))
+        drawn += bottom.plot(x, model_c - mean_c, color=MODEL, lw=1.2,
+                             label="model - measured mean")
+        drawn.append(bottom.axhline(0.0, color="black", lw=0.6))
+        bottom.set_ylabel(f"residual [{result.units}]")
+        drawn.append(bottom.legend(loc="upper right", fontsize=8, framealpha=0.85))
+        order = np.arange(1, orders + 1)
+        drawn.append(spectrum.bar(order - 0.2, _harmonics(mean, orders), width=0.4,
+                                  color=MEASURED, label="measured mean"))
+        drawn.append(spectrum.bar(order + 0.2, _harmonics(result.model, orders), width=0.4,
+                                  color=MODEL, label="model"))
+        spectrum.set_ylabel(f"amplitude [{result.units}]")
+        drawn.append(spectrum.legend(loc="upper right", fontsize=8))
+        return self.fig
 
 
 def plot_pulse_edges(alignment: Mapping[str, StreamAlignment], *, width: float = 9.0) -> Figure:

@@ -228,14 +228,16 @@ def _comparisons(page: Page, result: ValidationResult) -> None:
                    "revolution; band: 5th to 95th percentile over revolutions; the baseline rows "
                    "score each measured revolution against the measured mean (median and worst "
                    "revolution): the agreement no model can beat.")
-    for comparison in result.comparisons:
+    # one figure redrawn per comparison; page.figure renders it before the next one is drawn
+    figures = plots.plot_comparisons(result.comparisons)
+    for comparison, figure in zip(result.comparisons, figures, strict=True):
         page.section(f"{comparison.name}: {comparison.spec.measured} against "
                      f"{comparison.spec.model}", level=3)
         page.facts({"scale": f"{comparison.spec.scale:g} {comparison.spec.scale_units}",
                     "low-pass [Hz]": comparison.spec.lowpass_hz,
                     "model offset added": f"{comparison.offset:.4g} {comparison.units}"
                     if comparison.spec.remove_offset else "none"})
-        page.figure(plots.plot_comparison(comparison),
+        page.figure(figure,
                     caption=f"{comparison.name}: overlay, residual and harmonic orders")
         page.table(_metric_table(comparison), caption=f"{comparison.name}: metrics")
         page.table(_metric_table(comparison, everything=True),

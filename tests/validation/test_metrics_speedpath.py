@@ -143,3 +143,31 @@ def test_periodic_many_rejects_a_single_vector_and_unequal_lengths():
         iso18571_periodic_many(reference, reference)
     with pytest.raises(DataError, match="length"):
         iso18571_periodic_many(reference, np.ones((2, 31)))
+
+
+def _comparison(name: str, amplitude: float, n_cycles: int, offset: float, seed: int):
+    from types import SimpleNamespace
+
+    from rigval.validation.results import ComparisonResult
+
+    rng = np.random.default_rng(seed)
+    angle = np.arange(120) * 2 * np.pi / 120
+    shape = np.sin(angle) + 0.3 * np.sin(2 * angle + seed)
+    cycles = amplitude * (shape + rng.normal(scale=0.05, size=(n_cycles, angle.size)))
+    return ComparisonResult(spec=SimpleNamespace(name=name, model=f"{name}_model"),
+                            units="N" if seed % 2 else "m/s^2", long_name=name, angle=angle,
+                            cycles=cycles, model=amplitude * 1.1 * np.roll(shape, 3),
+                            offset=offset, scores={}, baseline={}, checks=())
+
+
+def test_reused_comparison_figure_renders_like_a_new_one():
+    """Large, then small, then offset signals: no limit, label or artist of one is left over."""
+    from rigval.validation.html import figure_data_uri
+    from rigval.validation.plots import plot_comparison, plot_comparisons
+
+    results = [_comparison("torque", 300.0, 12, 0.0, 1), _comparison("acc", 0.02, 5, 0.0, 2),
+               _comparison("force", 40.0, 8, -2.5, 3)]
+    fresh = [figure_data_uri(plot_comparison(r), dpi=40) for r in results]
+    reused = [figure_data_uri(fig, dpi=40) for fig in plot_comparisons(results)]
+    assert len(set(fresh)) == len(results)
+    assert reused == fresh
