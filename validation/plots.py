@@ -1,8 +1,8 @@
 """Figures of a validation, built on :class:`matplotlib.figure.Figure` without pyplot.
 
-Every function returns a new Figure (:func:`plot_comparisons` one figure it redraws for each
-comparison) and keeps no global state, so it is safe in long-running
-processes and worker pools. Margins are fixed rather than computed by a layout engine, which would
+Every function returns a new Figure (:func:`plot_comparisons`: one figure, redrawn for each
+comparison) and keeps no global state, so it is safe in long-running processes and worker pools.
+Margins are fixed rather than computed by a layout engine, which would
 draw every figure twice. Angles are shown in degrees of phi_F, the main shaft angle from the
 reference position; labels carry units.
 """
