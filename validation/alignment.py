@@ -142,10 +142,31 @@ def _residuals(mapped: np.ndarray, events: np.ndarray, period: float, per_revolu
     return residual, matched
 
 
+def _consistent_offsets(clock: ClockModel, segments: np.ndarray, event_period: float
+                        ) -> dict[int, float]:
+    """Return the fitted offsets (s) per segment, without those a whole period off.
+
+    Segments differ in offset only by their start stamps' errors (tens of ms), so a segment whose
+    offset is more than half an event period (s) from that of the segment with the most events
+    was matched to the wrong pulses (a short segment's pulse intervals may not tell periods
+    apart); it is left out, to be matched again around its neighbour's offset.
+    """
+    offsets = dict(zip(clock.segments, clock.offsets_s, strict=True))
+    anchor = max(offsets, key=lambda s: (int(np.count_nonzero(segments == s)), -s))
+    wrong = [s for s, offset in offsets.items()
+             if abs(offset - offsets[anchor]) > 0.5 * event_period]
+    for segment in wrong:
+        logger.info("segment %d: offset %.6f s is %.3f s from segment %d's, a whole period off; "
+                    "matching it again", segment, offsets[segment],
+                    offsets[segment] - offsets[anchor], anchor)
+        del offsets[segment]
+    return offsets
+
+
 def _recover_segments(clock: ClockModel, events: np.ndarray, edges: np.ndarray,
                       segments: np.ndarray, period: float, per_revolution: int,
                       where: Mapping[str, Any]) -> ClockModel:
-    """Align segments the clock fit left out, then refit all segments with one shared drift.
+    """Align segments the clock fit left out or matched a whole period off, then refit them all.
 
     A restart (Wi-Fi dropout) starts a segment whose device time comes from a new software
     start stamp, off by milliseconds, not periods: matching it within +-0.4 of an event period
@@ -156,9 +177,9 @@ def _recover_segments(clock: ClockModel, events: np.ndarray, edges: np.ndarray,
     at its own angle); events beyond 6 robust sigma are left out. The drift so rests on the
     whole record.
     """
-    if not clock.unaligned_segments:
+    offsets = _consistent_offsets(clock, segments, period / per_revolution)
+    if not clock.unaligned_segments and len(offsets) == len(clock.segments):
         return clock
-    offsets = dict(zip(clock.segments, clock.offsets_s, strict=True))
     pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     for segment in sorted(set(np.unique(segments).tolist())):
         known = sorted(offsets, key=lambda s: (abs(s - segment), s > segment))
@@ -196,7 +217,8 @@ def _recover_segments(clock: ClockModel, events: np.ndarray, edges: np.ndarray,
         offsets_s=tuple(float(solution[i]) for i in range(len(order))),
         drift=float(solution[-1]), residual_rms_s=float(np.sqrt(np.mean(residual[keep] ** 2))),
         pulses_matched=int(keep.sum()),
-        unaligned_segments=tuple(s for s in clock.unaligned_segments if s not in order))
+        unaligned_segments=tuple(s for s in sorted({*clock.segments, *clock.unaligned_segments})
+                                 if s not in order))
 
 
 def _with_pulse_window(summary: StreamAlignment, aligned: xr.Dataset, channel: str,
