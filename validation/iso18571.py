@@ -489,18 +489,21 @@ def _dtw_steps(x: np.ndarray, y: np.ndarray, radius: int) -> tuple[np.ndarray, n
 
 def _backtrack(not_vertical: np.ndarray, not_horizontal: np.ndarray, n: int,
                radius: int) -> tuple[np.ndarray, np.ndarray]:
-    """Follow the stored steps from (n, n) back to (1, 1); return 0-based indices."""
+    """Follow the stored steps from (n, n) back to (1, 1); return 0-based indices.
+
+    The steps are packed into bytes (0: vertical, 1: horizontal, 2: diagonal) first, so that the
+    walk reads plain Python integers.
+    """
+    width = not_vertical.shape[1]
+    steps = (not_vertical.astype(np.uint8) + (not_vertical & not_horizontal)).tobytes()
     i = j = n
     path_i, path_j = [i], [j]
     while i > 1 or j > 1:
         k = i + j
-        column = i - (k - radius + 1) // 2
-        if not not_vertical[k, column]:
+        step = steps[k * width + i - (k - radius + 1) // 2]
+        if step != 1:
             i -= 1
-        elif not not_horizontal[k, column]:
-            j -= 1
-        else:
-            i -= 1
+        if step != 0:
             j -= 1
         path_i.append(i)
         path_j.append(j)
