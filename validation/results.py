@@ -103,7 +103,8 @@ class StreamAlignment:
     offset_s : float
         Clock offset in s (reference time of the stream's time zero).
     drift_ppm : float
-        Clock drift in ppm (stream clock fast: positive).
+        Clock drift in ppm, as in ``t_ref = offset + (1 + drift) t_stream``: positive when the
+        stream's clock runs slow against the reference's.
     residual_rms_s : float
         RMS of the clock-fit residuals on the matched events in s.
     events_matched : int
