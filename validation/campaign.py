@@ -17,10 +17,11 @@ outcome with status ``"error"`` and a :class:`RunError` (class, message, where, 
 and the other runs go on. rigval's errors pickle with their fields, so the original exception
 object crosses the process boundary intact.
 
-Resume: after a run is validated (passed or failed), :func:`run_one` writes ``OUT/<run>/manifest.json`` with the SHA-256
-of the scene and of every input file the validation read, the rigval version, the size of every
-output file and the run's metrics. A later campaign skips the run (status as before, ``reused``
-True) while all of these are unchanged and the outputs are all present.
+Resume: after a run is validated (passed or failed), :func:`run_one` writes
+``OUT/<run>/manifest.json`` with the SHA-256 of the scene and of every input file the validation
+read, the rigval version, the size of every output file and the run's metrics. A later
+campaign skips the run (status as before, ``reused`` True) while all of these are unchanged and
+the outputs are all present.
 """
 
 from __future__ import annotations
