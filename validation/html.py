@@ -35,7 +35,7 @@ __all__ = ["STATUS_CLASSES", "Page", "escape", "figure_data_uri", "figure_svg", 
 
 #: CSS class per status word; :meth:`Page.table` colours cells whose text is one of these.
 STATUS_CLASSES = {"pass": "ok", "passed": "ok", "ok": "ok", "fail": "bad", "failed": "bad",
-                  "inconclusive": "warn", "warning": "warn"}
+                  "error": "bad", "inconclusive": "warn", "warning": "warn"}
 
 _STYLE = """
 body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;margin:0;color:#1b1f24;

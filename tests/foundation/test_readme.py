@@ -5,6 +5,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parents[2]
 
 
@@ -23,3 +25,12 @@ def test_ci_runs_the_readme_commands_verbatim() -> None:
     ci = (REPO / ".ci" / "run").read_text().splitlines()
     for command in _readme_commands():
         assert command in ci, f"{command!r} is not a line of .ci/run"
+
+
+def test_readme_python_example_runs(capsys: pytest.CaptureFixture[str]) -> None:
+    text = (REPO / "README.md").read_text()
+    (snippet,) = re.findall(r"```python\n(.+?)\n```", text, flags=re.S)
+    exec(compile(snippet, "README.md", "exec"), {})
+    value, unit = capsys.readouterr().out.strip().split(" ", 1)
+    # the pendulum's main-drive torque peaks at a few kN m (docs/predict.md: 3289 N m)
+    assert unit == "N m" and 1000.0 < float(value) < 10000.0
