@@ -104,7 +104,7 @@ def model_rows(quick: bool = False) -> list[BenchRow]:
         return BenchRow(stage="model", case=case, choice=choice, metric=metric, unit="1",
                         error=error, bound=bound, time_s=time_s, cpu_s=cpu_s, n=steps)
 
-    base = measure(lambda: rm.solve_stepwise(mech, truth_t), 1)
+    base = measure(lambda: rm.solve_stepwise(mech, truth_t), repeats)
     for metric, error in ((FORCES, _forces_error(base.value, reference)),
                           (ACCELERATIONS, _relative(base.value["acceleration"],
                                                     reference["acceleration"])),
