@@ -28,20 +28,22 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rigval.acquisition.errors import ConfigError
+from rigval.acquisition.tdms_layout import (
+    DAQMX_FORMAT_CHANGING,
+    DAQMX_TYPE,
+    NO_DATA,
+    TOC_DAQMX,
+    TOC_INTERLEAVED,
+    TOC_META_DATA,
+    TOC_NEW_OBJ_LIST,
+    TOC_RAW_DATA,
+)
 
 __all__ = ["Acquisition", "RawChannel", "write_daqmx_tdms"]
 
 logger = logging.getLogger(__name__)
 
-_TOC_META = 1 << 1
-_TOC_NEW_OBJECTS = 1 << 2
-_TOC_RAW = 1 << 3
-_TOC_INTERLEAVED = 1 << 5
-_TOC_DAQMX = 1 << 7
 _VERSION = 4713
-_NO_DATA = 0xFFFFFFFF
-_FORMAT_CHANGING_SCALER = 0x00001269
-_DAQMX_TYPE = 0xFFFFFFFF
 #: Scaler data type codes (nptdms daqmx.DAQMX_TYPES).
 _SCALER_CODES = {np.dtype("<u1"): 0, np.dtype("<i1"): 1, np.dtype("<u2"): 2,
                  np.dtype("<i2"): 3, np.dtype("<u4"): 4, np.dtype("<i4"): 5}
@@ -152,7 +154,7 @@ def _channel_properties(channel: RawChannel, acq: Acquisition) -> dict[str, obje
 def _segment(objects: list[tuple[str, bytes, bytes]], data: bytes) -> bytes:
     meta = struct.pack("<I", len(objects)) + b"".join(
         _string(path) + index + props for path, index, props in objects)
-    toc = _TOC_META | _TOC_NEW_OBJECTS | _TOC_RAW | _TOC_INTERLEAVED | _TOC_DAQMX
+    toc = TOC_META_DATA | TOC_NEW_OBJ_LIST | TOC_RAW_DATA | TOC_INTERLEAVED | TOC_DAQMX
     lead_in = b"TDSm" + struct.pack("<IIQQ", toc, _VERSION, len(meta) + len(data), len(meta))
     return lead_in + meta + data
 
@@ -182,12 +184,12 @@ def _acquisition_segments(acq: Acquisition, root_props: dict[str, object] | None
         objects: list[tuple[str, bytes, bytes]] = []
         if first == 0:
             if root_props is not None:
-                objects.append(("/", struct.pack("<I", _NO_DATA), _properties(root_props)))
+                objects.append(("/", struct.pack("<I", NO_DATA), _properties(root_props)))
             if new_group:
-                objects.append((_path(acq.group), struct.pack("<I", _NO_DATA),
+                objects.append((_path(acq.group), struct.pack("<I", NO_DATA),
                                 struct.pack("<I", 0)))
         for i, (channel, dtype) in enumerate(zip(acq.channels, dtypes, strict=True)):
-            index = struct.pack("<IIIQI", _FORMAT_CHANGING_SCALER, _DAQMX_TYPE, 1, count, 1)
+            index = struct.pack("<IIIQI", DAQMX_FORMAT_CHANGING, DAQMX_TYPE, 1, count, 1)
             index += struct.pack("<IIIII", _SCALER_CODES[dtype], 0, int(offsets[i]), 0, 0)
             index += struct.pack("<II", 1, width)
             props = (_properties(_channel_properties(channel, acq)) if first == 0
