@@ -34,6 +34,7 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 
+from rigval.acquisition.devices import ni9237_input_delay
 from rigval.acquisition.errors import AlignmentError, DataError, DataWarning
 from rigval.acquisition.schema import append_history, parse_start_time
 
@@ -62,11 +63,6 @@ _SCORING_SPAN_S = 60.0
 _AMBIGUITY_FACTOR = 3.0
 #: Residual scales below this (s) count as equal: no clock is timed better than a nanosecond.
 _TIMING_FLOOR_S = 1e-9
-
-
-def ni9237_input_delay(fs: float) -> float:
-    """Return the NI 9237 input delay ``(40 + 5/512) / fs + 4.5e-6`` in s at a data rate fs (Hz)."""
-    return (40.0 + 5.0 / 512.0) / fs + 4.5e-6
 
 
 def input_delay(attrs: Mapping[str, Any], fs: float) -> float:

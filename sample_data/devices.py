@@ -21,10 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rigval.acquisition.devices import ni9237_input_delay
 from rigval.acquisition.errors import ConfigError
 
-__all__ = ["ANTI_ALIAS_BAND", "MODULES", "ClockSegment", "DeviceClock", "Module", "dropout_segments",
-           "ni9237_delay"]
+__all__ = ["ANTI_ALIAS_BAND", "MODULES", "ClockSegment", "DeviceClock", "Module", "dropout_segments"]
 
 logger = logging.getLogger(__name__)
 
@@ -33,11 +33,6 @@ _FloatArray = NDArray[np.float64]
 
 #: Pass band of a delta-sigma module's anti-alias (decimation) filter, as a fraction of its rate.
 ANTI_ALIAS_BAND = 0.45
-
-
-def ni9237_delay(fs: float) -> float:
-    """Return the NI 9237 input delay ``(40 + 5/512) / fs + 4.5e-6`` in s at rate fs (Hz)."""
-    return (40.0 + 5.0 / 512.0) / fs + 4.5e-6
 
 
 @dataclass(frozen=True)
@@ -70,7 +65,7 @@ class Module:
 
     def delay(self, fs: float) -> float:
         """Input delay in s at rate fs (Hz)."""
-        return ni9237_delay(fs) if self.delta_sigma else self.fixed_delay
+        return ni9237_input_delay(fs) if self.delta_sigma else self.fixed_delay
 
     def filter_bandwidth(self, fs: float) -> float | None:
         """Return the anti-alias filter's band edge in Hz at rate fs (Hz); None for SAR modules.

@@ -14,7 +14,7 @@ from nptdms import TdmsFile
 
 from rigval.acquisition.errors import ConfigError
 from rigval.sample_data import RigSettings, run_stem
-from rigval.sample_data.devices import MODULES, dropout_segments, ni9237_delay
+from rigval.sample_data.devices import MODULES, dropout_segments
 from rigval.sample_data.drive import DriveMotion, Harmonic, SpeedWander
 from rigval.sample_data.rig import Imperfections, draw_rig
 from rigval.sample_data.sensors import Encoder, OpticalSensor, PulseTrain, optical_pulses
@@ -124,7 +124,7 @@ def test_module_quantisation_and_delay():
     assert codes.max() == 32767 and codes.min() == -32768
     assert MODULES["NI 9237"].quantise([0.0], 0.025)[0].dtype == np.int32
     assert MODULES["NI 9237"].delay(50000 / 31) == pytest.approx(0.0248106, abs=1e-7)
-    assert ni9237_delay(5000.0) == pytest.approx((40 + 5 / 512) / 5000 + 4.5e-6)
+    assert MODULES["NI 9237"].delay(5000.0) == pytest.approx((40 + 5 / 512) / 5000 + 4.5e-6)
     assert MODULES["NI 9215"].delay(5000.0) == 0.0
 
 
