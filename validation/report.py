@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from rigval.acquisition.schema import file_sha256
+from rigval.acquisition.detect import source_checksum
 from rigval.validation import plots
 from rigval.validation.html import Page
 from rigval.validation.iso18571 import IsoParameters
@@ -115,7 +115,7 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
     """
     tree = result.tree.copy()
     scene = result.scene
-    inputs = [{"path": str(p), "sha256": file_sha256(p)} for p in scene.input_files]
+    inputs = [{"path": str(p), "sha256": source_checksum(p)} for p in scene.input_files]
     tree.attrs.update({
         "Conventions": "CF-1.13",
         "title": scene.title,
@@ -298,7 +298,7 @@ def _reproduction(page: Page, result: ValidationResult) -> None:
                 "reference signal of the metrics": "the measured mean over the revolutions",
                 "ISO/TS 18571 parameters": ", ".join(
                     f"{k} {v}" for k, v in dataclasses.asdict(IsoParameters()).items())})
-    page.table([{"file": str(p), "sha256": file_sha256(p)} for p in scene.input_files],
+    page.table([{"file": str(p), "sha256": source_checksum(p)} for p in scene.input_files],
                caption="input files")
     page.preformatted(scene.text)
 
