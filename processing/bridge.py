@@ -20,8 +20,8 @@ quarter_ii    exact (the dummy gauge sits in R3 and sees no strain)
 half_i        exact, including the lead term
 half_ii       exact, including the lead term
 full_i        exact
-full_ii       NI's equation is a 2nd-order approximation: relative error ``(GF eps (1-nu)/2)^2``
-              (4.9e-7 at 1000 microstrain, GF 2, nu 0.3)
+full_ii       exact (NI's arms: R1 ``-nu eps``, R2 ``+nu eps``, R3 ``-eps``, R4 ``+eps``, so
+              ``Vr = -GF eps (1 + nu) / 2`` with no higher-order term)
 full_iii      exact
 ============  ==========================================================================
 
@@ -123,7 +123,7 @@ def _arm_strains(eps: _FloatArray, bridge_type: str, poisson: float) -> tuple[_F
         "half_i": (zero, zero, -nu * eps, eps),
         "half_ii": (zero, zero, -eps, eps),
         "full_i": (-eps, eps, -eps, eps),
-        "full_ii": (-eps, nu * eps, -nu * eps, eps),
+        "full_ii": (-nu * eps, nu * eps, -eps, eps),
         "full_iii": (-nu * eps, eps, -nu * eps, eps),
     }
     return arms[bridge_type]

@@ -11,7 +11,7 @@ from rigval.acquisition.errors import ConfigError
 from rigval.processing import accelerometer, bridge, stress, torsion
 
 STRAINS = np.array([-3e-3, -1e-3, -2.5e-4, 1e-6, 2.5e-4, 1e-3, 3e-3])
-EXACT = ["quarter_i", "quarter_ii", "half_i", "half_ii", "full_i", "full_iii"]
+EXACT = ["quarter_i", "quarter_ii", "half_i", "half_ii", "full_i", "full_ii", "full_iii"]
 
 
 @pytest.mark.parametrize("bridge_type", EXACT)
@@ -24,14 +24,18 @@ def test_ni_equations_invert_the_exact_bridge(bridge_type: str, lead: float) -> 
     np.testing.assert_allclose(back, STRAINS, rtol=1e-12, atol=0)
 
 
-def test_full_ii_is_nis_documented_second_order_approximation() -> None:
-    gf, nu = 2.0, 0.3
+def test_full_ii_arms_are_nis_and_nis_equation_is_exact() -> None:
+    # NI Full Bridge II: R1 compressive Poisson (-nu eps), R2 tensile Poisson (+nu eps),
+    # R3 compressive (-eps), R4 tensile (+eps); then Vr = -GF eps (1 + nu) / 2 exactly.
+    gf, nu, rg, eps = 2.0, 0.3, 350.0, 1e-3
+    r1, r2, r3, r4 = bridge.bridge_arms(eps, "full_ii", gauge_factor=gf, poisson=nu,
+                                        gauge_resistance=rg)
+    expected = rg * (1 + gf * np.array([-nu * eps, nu * eps, -eps, eps]))
+    np.testing.assert_allclose([r1, r2, r3, r4], expected, rtol=1e-15)
     vr = bridge.bridge_ratio(STRAINS, "full_ii", gauge_factor=gf, poisson=nu)
+    np.testing.assert_allclose(vr, -gf * STRAINS * (1 + nu) / 2, rtol=1e-12, atol=0)
     back = bridge.strain_from_ratio(vr, "full_ii", gauge_factor=gf, poisson=nu)
-    relative = back / STRAINS - 1
-    predicted = (gf * STRAINS * (1 - nu) / 2) ** 2      # third-order term of the divider
-    np.testing.assert_allclose(relative, predicted, rtol=0.02, atol=1e-14)
-    assert abs(relative[np.argmin(abs(STRAINS - 1e-3))]) == pytest.approx(4.9e-7, rel=0.01)
+    np.testing.assert_allclose(back, STRAINS, rtol=1e-12, atol=0)
 
 
 def test_quarter_bridge_leads_attenuate_as_vishay_says() -> None:
