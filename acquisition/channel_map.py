@@ -29,6 +29,11 @@ encoder                counts_per_rev* (int, after x4 decoding), index_reset (bo
 reference_pulse        threshold [V] (default: 50 % of the range), edge ("rising" | "falling")
 voltage                none (the channel is used in volts)
 physical               units* (UDUNITS string of the already-scaled values)
+linear                 slope* [units per input_units], offset [units] (0), units* (UDUNITS
+                       output unit), input_units ("V": the unit the slope is per)
+iepe_accelerometer     sensitivity* [mV/g]
+load_cell              sensitivity* [mV/V rated output], capacity* [N], excitation [V],
+                       null_offset ("none" | "first_second")
 =====================  =================================================================
 
 Every channel also accepts ``source`` (the channel name in the file; default the table name),
@@ -107,6 +112,11 @@ SENSORS: Mapping[str, Mapping[str, _Param]] = MappingProxyType({
     },
     "voltage": {},
     "physical": {"units": _Param("text", True)},
+    "linear": {"slope": _Param("number", True), "offset": _Param("number", default=0.0),
+               "units": _Param("text", True), "input_units": _Param("text", default="V")},
+    "iepe_accelerometer": {"sensitivity": _Param("positive", True)},
+    "load_cell": {"sensitivity": _Param("positive", True), "capacity": _Param("positive", True),
+                  "excitation": _Param("positive"), "null_offset": _NULL},
 })
 
 
@@ -242,6 +252,9 @@ def _parse_channel(name: str, table: Any, key: str) -> ChannelSpec:
         raise SceneError(f"{key}.inner_diameter must be smaller than outer_diameter "
                          f"({params['inner_diameter']} >= {params['outer_diameter']} m)",
                          where={"key": f"{key}.inner_diameter"})
+    if sensor == "linear" and params["slope"] == 0:
+        raise SceneError(f"{key}.slope must be non-zero (output units per input unit)",
+                         where={"key": f"{key}.slope"})
     source = table.get("source", name)
     if not isinstance(source, str) or not source:
         raise SceneError(f"{key}.source must be a channel name, got {source!r}",

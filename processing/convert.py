@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, UnitError
 from rigval.acquisition.schema import append_history
-from rigval.processing import accelerometer, bridge, encoder, stress, torsion
+from rigval.processing import accelerometer, bridge, encoder, stress, torsion, transducers
 from rigval.processing.bridge import BridgeType
 from rigval.processing.filters import contiguous_runs
 from rigval.processing.torsion import Rosette
@@ -34,6 +34,9 @@ __all__ = [
     "axial_stress_channel",
     "bridge_ratio_values",
     "encoder_angle_channel",
+    "iepe_acceleration_channel",
+    "linear_channel",
+    "load_cell_channel",
     "strain_channel",
     "torque_channel",
 ]
@@ -359,3 +362,115 @@ def encoder_angle_channel(ds: xr.Dataset, channel: str, *, counts_per_rev: float
                           conversion="2 pi direction counts / (CPR gear_ratio)",
                           parameters={"counts_per_rev": counts_per_rev,
                                       "gear_ratio": gear_ratio, "direction": direction})
+
+
+#: Units a linear channel's input may be given in: unit -> (base unit, factor to the base).
+_PREFIXED = {"V": ("V", 1.0), "mV": ("V", 1e-3), "V/V": ("V/V", 1.0), "mV/V": ("V/V", 1e-3),
+             "A": ("A", 1.0), "mA": ("A", 1e-3)}
+
+
+def linear_channel(ds: xr.Dataset, channel: str, *, slope: float, offset: float = 0.0,
+                   units: str, input_units: str = "V", name: str | None = None) -> xr.Dataset:
+    """Add ``slope x + offset`` of a channel, with ``x`` in ``input_units``.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Stream.
+    channel : str
+        Input channel; its ``units`` must be ``input_units`` or a prefixed form of the same
+        unit (``mV`` for ``V``, ``mV/V`` for ``V/V``, ``mA`` for ``A``), rescaled first.
+    slope : float
+        Output units per input unit (finite, non-zero).
+    offset : float, default 0
+        Output at zero input, in ``units``.
+    units : str
+        Output unit (UDUNITS).
+    input_units : str, default "V"
+        The unit ``slope`` is per.
+    name : str, optional
+        Output variable; default ``<channel>_scaled``.
+
+    Raises
+    ------
+    UnitError
+        When the channel's unit cannot be expressed in ``input_units``.
+    """
+    var = _channel(ds, channel)
+    file_units = str(var.attrs.get("units", ""))
+    if file_units == input_units:
+        factor = 1.0
+    elif (file_units in _PREFIXED and input_units in _PREFIXED
+          and _PREFIXED[file_units][0] == _PREFIXED[input_units][0]):
+        factor = _PREFIXED[file_units][1] / _PREFIXED[input_units][1]
+    else:
+        raise UnitError(f"channel {channel!r} is in {file_units!r}; the linear scale expects "
+                        f"{input_units!r}", where={"channel": channel, "key": "input_units"},
+                        hint="set input_units to the channel's unit in the file (rigval info "
+                             "FILE) and the slope per that unit")
+    values = transducers.linear_scale(var.to_numpy().astype(np.float64) * factor, slope=slope,
+                                      offset=offset)
+    return _with_variable(ds, name or f"{channel}_scaled", values, var, channel, units=units,
+                          long_name=f"{channel} scaled", conversion="y = slope x + offset",
+                          parameters={"slope": slope, "offset": offset,
+                                      "input_units": input_units})
+
+
+def iepe_acceleration_channel(ds: xr.Dataset, channel: str, *, sensitivity: float,
+                              name: str | None = None) -> xr.Dataset:
+    """Add the acceleration (m s-2) of an IEPE accelerometer channel (V or mV).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Stream.
+    channel : str
+        Sensor output (V or mV).
+    sensitivity : float
+        S in mV/g.
+    name : str, optional
+        Output variable; default ``<channel>_acceleration``.
+    """
+    var = _channel(ds, channel)
+    units = str(var.attrs.get("units", ""))
+    if units not in _VOLT_UNITS:
+        raise UnitError(f"IEPE channel {channel!r} has units {units!r}, expected V or mV",
+                        where={"channel": channel})
+    volts = var.to_numpy().astype(np.float64) * _VOLT_UNITS[units]
+    accel = transducers.iepe_acceleration(volts, sensitivity=sensitivity)
+    return _with_variable(ds, name or f"{channel}_acceleration", accel, var, channel,
+                          units="m s-2", long_name=f"acceleration from {channel}",
+                          conversion="a = V / (S / 1000) g0",
+                          parameters={"sensitivity_mv_per_g": sensitivity})
+
+
+def load_cell_channel(ds: xr.Dataset, channel: str, *, sensitivity: float, capacity: float,
+                      excitation_voltage: float | None = None, unstrained: Null = None,
+                      name: str | None = None) -> xr.Dataset:
+    """Add the force (N) of a bridge load cell channel (V/V, mV/V, V or mV).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Stream.
+    channel : str
+        Bridge channel.
+    sensitivity : float
+        Rated output in mV/V.
+    capacity : float
+        Rated capacity in N.
+    excitation_voltage : float, optional
+        Excitation in V for channels in volts.
+    unstrained : float or (float, float), optional
+        Offset null (see :func:`bridge_ratio_values`).
+    name : str, optional
+        Output variable; default ``<channel>_force``.
+    """
+    ratio = bridge_ratio_values(ds, channel, excitation_voltage=excitation_voltage,
+                                unstrained=unstrained)
+    force = transducers.load_cell_force(ratio, sensitivity=sensitivity, capacity=capacity)
+    return _with_variable(ds, name or f"{channel}_force", force, ds[channel], channel,
+                          units="N", long_name=f"force from {channel}",
+                          conversion="F = Vr / (S / 1000) F_rated",
+                          parameters={"sensitivity_mv_per_v": sensitivity,
+                                      "capacity_n": capacity, "unstrained": str(unstrained)})

@@ -57,6 +57,30 @@ def _convert_channel(ds: xr.Dataset, channel: ChannelSpec) -> xr.Dataset:
             shear_modulus=p["shear_modulus"], outer_diameter=p["outer_diameter"],
             inner_diameter=p["inner_diameter"], excitation_voltage=p.get("excitation"),
             unstrained=null, name=_CONVERTED)
+    if channel.sensor == "linear":
+        try:
+            return convert.linear_channel(ds, name, slope=p["slope"], offset=p["offset"],
+                                          units=p["units"], input_units=p["input_units"],
+                                          name=_CONVERTED)
+        except UnitError as error:
+            raise SceneError(f"{channel.key}.input_units: {error.message}",
+                             where={"key": f"{channel.key}.input_units"},
+                             hint=error.hint) from None
+    if channel.sensor == "iepe_accelerometer":
+        return convert.iepe_acceleration_channel(ds, name, sensitivity=p["sensitivity"],
+                                                 name=_CONVERTED)
+    if channel.sensor == "load_cell":
+        try:
+            return convert.load_cell_channel(
+                ds, name, sensitivity=p["sensitivity"], capacity=p["capacity"],
+                excitation_voltage=p.get("excitation"), unstrained=null, name=_CONVERTED)
+        except ConfigError as error:
+            if error.where.get("key") != "excitation_voltage":
+                raise
+            raise SceneError(f"{channel.key}.excitation: {error.message}",
+                             where={"key": f"{channel.key}.excitation"},
+                             hint="give the bridge excitation in V for a channel read in volts"
+                             ) from None
     units = str(ds[name].attrs.get("units", "1"))
     if channel.sensor in ("voltage", "physical") and not same_unit(units,
                                                                   channel_units(channel)):

@@ -72,7 +72,15 @@ _SENSOR_UNITS: Mapping[str, Callable[[Mapping[str, Any]], str]] = MappingProxyTy
     "reference_pulse": lambda p: "V",
     "voltage": lambda p: "V",
     "physical": lambda p: str(p["units"]),
+    "linear": lambda p: str(p["units"]),
+    "iepe_accelerometer": lambda p: "m s-2",
+    "load_cell": lambda p: "N",
 })
+
+
+#: Sensor kinds a comparison may measure (encoders and reference pulses serve the alignment).
+_MEASURED_SENSORS = ("charge_accelerometer", "strain_bridge", "torsion_bridge", "physical",
+                     "voltage", "linear", "iepe_accelerometer", "load_cell")
 
 
 def channel_units(channel: ChannelSpec) -> str:
@@ -633,8 +641,7 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
         if name in {s.name for s in specs}:
             raise _error(f"{key}.name", f"duplicate comparison name {name!r}")
         measured = _ref(_get(table, "measured", key, str), f"{key}.measured", streams,
-                        ("charge_accelerometer", "strain_bridge", "torsion_bridge", "physical",
-                         "voltage"))
+                        _MEASURED_SENSORS)
         output = _model_output(_get(table, "model", key, dict), f"{key}.model")
         scale = _get(table, "scale", key, float, 1.0)
         if not math.isfinite(scale) or scale == 0:
