@@ -56,6 +56,7 @@ __all__ = [
     "load_scene",
     "mechanism_names",
     "parse_scene",
+    "todo_keys",
 ]
 
 logger = logging.getLogger(__name__)
@@ -696,6 +697,36 @@ def _predictions(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...]
     return PredictionSpec(tuple(points), None if supports is None else tuple(supports))
 
 
+#: The marker ``rigval init`` writes for a value the files cannot tell.
+TODO = "TODO"
+
+
+def todo_keys(doc: Mapping[str, Any], key: str = "") -> list[str]:
+    """Return the key path of every string value that starts with ``TODO``, in document order.
+
+    Parameters
+    ----------
+    doc : mapping
+        A parsed TOML document or table.
+    key : str
+        Key path of ``doc`` (empty for the document).
+    """
+    found: list[str] = []
+
+    def visit(value: Any, path: str) -> None:
+        if isinstance(value, str) and value.strip().startswith(TODO):
+            found.append(path)
+        elif isinstance(value, Mapping):
+            for name, sub in value.items():
+                visit(sub, f"{path}.{name}" if path else str(name))
+        elif isinstance(value, list):
+            for index, sub in enumerate(value):
+                visit(sub, f"{path}[{index}]")
+
+    visit(doc, key)
+    return found
+
+
 def check_mechanism_names(scene: Scene, names: MechanismNames) -> None:
     """Check the scene's model references against a mechanism's names.
 
@@ -787,6 +818,13 @@ def parse_scene(text: str, path: str | Path, *, names: MechanismNames | None = N
     except tomllib.TOMLDecodeError as error:
         raise SceneError(f"not valid TOML: {error}", where={"file": str(path)},
                          hint="check quotes, brackets and '=' on the line named") from None
+    todo = todo_keys(doc)
+    if todo:
+        raise SceneError(
+            f"{len(todo)} value(s) still marked TODO: {', '.join(todo)}",
+            where={"key": todo[0], "file": str(path)}, keys=todo,
+            hint="fill each value (the comment next to it in the skeleton written by rigval "
+                 "init says what it is); docs/scene.md describes every key")
     _check_keys(doc, "", {"schema", "title", "mechanism", "note", "streams", "alignment", "angle",
                           "model", "comparisons", "predictions"})
     schema = _get(doc, "schema", "", str)

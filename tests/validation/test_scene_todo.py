@@ -1,0 +1,50 @@
+"""A scene with values still marked TODO is refused, naming every such key (exit code 2)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from rigval.acquisition.errors import ConfigError, SceneError
+from rigval.sample_data import runs_dir
+from rigval.validation.cli import EXIT_USAGE, main
+from rigval.validation.scene import load_scene, todo_keys
+
+
+def _shipped(tmp_path: Path) -> str:
+    text = (runs_dir() / "run_0p8_scene.toml").read_text()
+    return re.sub(r'(file|note) = "(run_[^"]+)"',
+                  lambda m: f'{m.group(1)} = "{(runs_dir() / m.group(2)).as_posix()}"', text)
+
+
+def test_todo_keys_in_document_order() -> None:
+    doc = {"a": "TODO", "b": {"c": 1, "d": "TODO: gauge factor"},
+           "e": [{"f": "x"}, {"g": "TODO"}], "h": "not a TODO"}
+    assert todo_keys(doc) == ["a", "b.d", "e[1].g"]
+
+
+def test_validate_refuses_todo_naming_each_key(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    text = _shipped(tmp_path)
+    text = text.replace("gauge_factor = 2.02", 'gauge_factor = "TODO"  # from the gauge pack')
+    text = text.replace("angle_at_reference = 4.572840589503044", 'angle_at_reference = "TODO"')
+    text = text.replace('wls2 = { channel = "opt3", per_revolution = 2, angle = '
+                        '0.008221215236712265 }',
+                        'wls2 = { channel = "opt3", per_revolution = 2, angle = "TODO" }')
+    path = tmp_path / "scene.toml"
+    path.write_text(text)
+    keys = ["streams.cdaq.channels.str1.gauge_factor", "alignment.pulses.wls2.angle",
+            "model.drivers.theta_H.angle_at_reference"]
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert isinstance(info.value, ConfigError)
+    assert info.value.extra["keys"] == keys
+    assert info.value.where["key"] == keys[0]
+    code = main(["validate", str(path), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == EXIT_USAGE
+    for key in keys:
+        assert key in err
+    assert not (tmp_path / "out").exists()
