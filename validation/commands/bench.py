@@ -53,9 +53,10 @@ def run(args: argparse.Namespace) -> int:
     )
 
     reference = read_csv(args.compare) if args.compare else None  # fail before the long run
-    print(f"rigval bench: running {', '.join(args.stages or STAGES)} "
-          f"({'well under a minute' if args.quick else 'a few minutes'}, one BLAS thread)",
-          file=sys.stderr)
+    if not getattr(args, "quiet", False):
+        print(f"rigval bench: running {', '.join(args.stages or STAGES)} "
+              f"({'well under a minute' if args.quick else 'a few minutes'}, one BLAS thread)",
+              file=sys.stderr)
     before = machine_note()
     rows = run_bench(args.stages, quick=args.quick)
     note = (("Quick run (small cases). " if args.quick else "") + "Machine: " + before

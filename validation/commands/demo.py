@@ -46,10 +46,12 @@ def validate_one(scene: Path, out_dir: Path) -> dict[str, Any]:
     import io
 
     from rigval.validation.commands.validate import print_summary
+    from rigval.validation.console import run_context
     from rigval.validation.pipeline import validate_scene
 
     start = time.perf_counter()
-    result = validate_scene(scene, out_dir)
+    with run_context(out_dir.name):
+        result = validate_scene(scene, out_dir)
     text = io.StringIO()
     print_summary(result, out_dir, text)
     ratings = {c.name: c.scores.get("iso18571_periodic.rating") for c in result.comparisons}

@@ -25,6 +25,9 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.add_argument("--all-groups", action="store_true",
                         help="include SignalExpress decimated groups")
+    parser.add_argument("--timezone", metavar="ZONE",
+                        help="time zone of local date-times in LVM and CSV files (IANA name, "
+                             "e.g. Europe/Berlin); default: taken as UTC, with a note")
     parser.set_defaults(func=run)
 
 
@@ -62,6 +65,20 @@ def _print_text(info: dict[str, Any]) -> None:
         print(f"  warning: {warning}")
 
 
+def _reader_options(path: str, timezone: str | None) -> dict[str, Any]:
+    """Return the reader options of one file: the time zone for the text formats."""
+    from rigval.acquisition.detect import detect_format
+    from rigval.acquisition.errors import RigvalError
+
+    if timezone is None:
+        return {}
+    try:
+        kind = detect_format(path)
+    except RigvalError:  # describe() reports the file's problem
+        return {}
+    return {"timezone": timezone} if kind in ("lvm", "csv") else {}
+
+
 def run(args: argparse.Namespace) -> int:
     """Describe each file; return 0, or 3 if any file could not be read."""
     from rigval.acquisition.errors import RigvalError
@@ -71,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
     status = 0
     for path in args.files:
         try:
-            info = describe(path, include_decimated=args.all_groups)
+            info = describe(path, include_decimated=args.all_groups,
+                            **_reader_options(path, args.timezone))
         except RigvalError as error:
             print(f"rigval: {path}: {error}", file=sys.stderr)
             status = 3

@@ -15,7 +15,7 @@ def add_parser(subparsers: Any) -> None:
     """Register the ``simulate-rig`` subcommand."""
     parser = subparsers.add_parser(
         "simulate-rig", help="write a virtual rig run with known truth",
-        description="Run the virtual test rig (shared/rig.md set-up on a mechanism file) and "
+        description="Run the virtual test rig (a mechanism file, the rig's sensors and DAQ) and "
                     "write the cDAQ and WLS #1 TDMS files, the WLS #2 CSV, the truth, a scene "
                     "that validates the run and the operator's note into a folder.")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")

@@ -1,0 +1,123 @@
+"""What the ``rigval`` command line shows on the console besides its results.
+
+Warnings become one line each, ``rigval: warning: [run NAME] DataWarning: what (file: ..., channel:
+...)``, instead of Python's two-line ``file.py:337: DataWarning: ...`` form; a progress display
+that is on screen is cleared before the line and redrawn after it, so the two never interleave.
+The run a warning belongs to is set with :func:`run_context` around each run's work.
+
+Only the command line installs this (:func:`install_warning_display`); library code never does.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import sys
+import warnings
+from collections.abc import Iterator
+from typing import Any, Protocol, TextIO
+
+__all__ = ["Progress", "format_warning", "install_warning_display", "progress_display",
+           "run_context", "silence"]
+
+_RUN: contextvars.ContextVar[str | None] = contextvars.ContextVar("rigval_run", default=None)
+
+
+class Progress(Protocol):
+    """A progress display drawn on one terminal line."""
+
+    def clear(self) -> None:
+        """Erase the line."""
+
+    def redraw(self) -> None:
+        """Draw the line again."""
+
+
+_state: dict[str, Any] = {"progress": None, "silent": False, "stream": None}
+
+
+def format_warning(message: Warning | str, category: type[Warning]) -> str:
+    """Return a warning as one console line (no file name, no source line).
+
+    Parameters
+    ----------
+    message : Warning or str
+        The warning.
+    category : type
+        Its class; its name is shown (``DataWarning``, ``NumericsWarning``, ...).
+
+    Returns
+    -------
+    str
+        ``rigval: warning: [run NAME] Category: text``, newlines folded into spaces.
+    """
+    text = " ".join(str(message).split())
+    run = _RUN.get()
+    place = f"[run {run}] " if run else ""
+    return f"rigval: warning: {place}{category.__name__}: {text}"
+
+
+def _show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+          file: TextIO | None = None, line: str | None = None) -> None:
+    """``warnings.showwarning`` replacement: one line through the progress display."""
+    if _state["silent"]:
+        return
+    stream = file or _state["stream"] or sys.stderr
+    progress = _state["progress"]
+    if progress is not None:
+        progress.clear()
+    stream.write(format_warning(message, category) + "\n")
+    stream.flush()
+    if progress is not None:
+        progress.redraw()
+
+
+def install_warning_display(stream: TextIO | None = None) -> None:
+    """Show every warning of this process as one line on ``stream`` (default ``sys.stderr``).
+
+    Parameters
+    ----------
+    stream : file, optional
+        Where the lines go; default the current ``sys.stderr`` at the time of each warning.
+    """
+    _state["stream"] = stream
+    _state["silent"] = False
+    warnings.showwarning = _show
+
+
+def silence() -> None:
+    """Show no more warnings in this process (after Ctrl-C: the shutdown's noise is dropped)."""
+    _state["silent"] = True
+
+
+@contextlib.contextmanager
+def progress_display(progress: Progress | None) -> Iterator[None]:
+    """Clear and redraw ``progress`` around every warning line while the block runs."""
+    before = _state["progress"]
+    _state["progress"] = progress
+    try:
+        yield
+    finally:
+        _state["progress"] = before
+
+
+@contextlib.contextmanager
+def run_context(name: str) -> Iterator[None]:
+    """Name the run that warnings raised inside the block belong to.
+
+    Inside the block warnings are shown as one line with ``[run NAME]`` also in processes where
+    the command line did not install its display (Dask workers).
+
+    Parameters
+    ----------
+    name : str
+        The run's name.
+    """
+    token = _RUN.set(name)
+    try:
+        with warnings.catch_warnings():
+            if warnings.showwarning is not _show:
+                warnings.showwarning = _show
+            yield
+    finally:
+        _RUN.reset(token)
