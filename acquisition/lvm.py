@@ -377,6 +377,16 @@ def read_lvm(path: str | os.PathLike[str], *, channels: Sequence[str] | None = N
     lvm = parse_lvm(read_text_lines(file, encoding), file)
     decimal = decimal or _guess_decimal(lvm)
     columns = _columns(lvm, decimal, timezone, file)
+    if not columns:
+        raise DataFileError(
+            f"LVM file has {len(lvm.segments)} names row(s) but no data rows with values",
+            where={"file": str(file), "line": lvm.segments[0].line},
+            hint="the file holds only headers (an aborted or empty acquisition)")
+    empty = [s.line for s in lvm.segments if not s.rows]
+    if empty:
+        warn_data(f"{len(empty)} segment(s) have a names row but no data rows (names rows on "
+                  f"lines {empty})", where={"file": str(file)},
+                  hint="the acquisition wrote headers without data there", stacklevel=2)
     available = sorted({c.name for c in columns})
     if channels is not None:
         missing = [c for c in channels if c not in available]

@@ -372,8 +372,13 @@ def plan_tdms(layout: TdmsLayout, *, group: str | Sequence[str] | None = None,
                     break
             else:
                 streams.append([(path, info)])
+        rates = [1.0 / stream[0][1].dt for stream in streams]
         for stream in streams:
-            plans.append(_plan(layout, group_name, stream, several=len(streams) > 1))
+            plan = _plan(layout, group_name, stream, several=len(streams) > 1)
+            if len(streams) > 1 and rates.count(1.0 / stream[0][1].dt) > 1:
+                # several streams at one rate differ in length: say so in the name
+                plan.name = f"{plan.name}[{max(plan.expected.values())}]"
+            plans.append(plan)
     names = [p.name for p in plans]
     for plan in plans:
         if names.count(plan.name) > 1:
@@ -387,10 +392,13 @@ def _same_time_base(a: tuple[str, _ChannelTime], b: tuple[str, _ChannelTime],
     (pa, ia), (pb, ib) = a, b
     if abs(ia.dt - ib.dt) > 1e-9 * ia.dt or len(ia.blocks) != len(ib.blocks):
         return False
-    if layout.channels[pa].length != layout.channels[pb].length:
-        # a truncated contiguous final chunk may leave channels a few values apart
-        last = max(layout.channels[pa].counts[-1:] + layout.channels[pb].counts[-1:] + [0])
-        if abs(layout.channels[pa].length - layout.channels[pb].length) > last:
+    ca, cb = layout.channels[pa], layout.channels[pb]
+    if ca.expected_length != cb.expected_length:
+        return False  # channels of different lengths are different streams, whatever dt says
+    if ca.length != cb.length:
+        # only a truncated contiguous final chunk may leave channels a few values apart
+        last = max(ca.counts[-1:] + cb.counts[-1:] + [0])
+        if layout.problem is None or abs(ca.length - cb.length) > last:
             return False
     for (fa, na, ta), (fb, nb, tb) in zip(ia.blocks[:-1], ib.blocks[:-1], strict=True):
         if fa != fb or na != nb or abs(ta - tb) > 0.5 * ia.dt:
@@ -544,9 +552,14 @@ def _warn_truncation(layout: TdmsLayout, plan: TdmsStreamPlan) -> None:
                 + (f" ({layout.problem})" if layout.problem else ""))
         if dropped:
             text += f"; values past the last whole sample not used: {dropped}"
+        if layout.good_end < layout.file_size:
+            text += (f"; bytes {layout.good_end} to {layout.file_size} not read "
+                     "(any samples there are lost)")
+        damaged = layout.problem is not None and layout.problem.startswith("damaged")
         warn_data(text, where={"file": str(layout.path)},
-                                  hint="the file was cut short (crash, copy or still being "
-                                       "written)", stacklevel=4)
+                  hint=("the file is damaged there; the segments before the damage were read"
+                        if damaged else "the file was cut short (crash, copy or still being "
+                        "written)"), stacklevel=4)
 
 
 def _build(layout: TdmsLayout, plan: TdmsStreamPlan, data: Mapping[str, np.ndarray],
@@ -595,6 +608,10 @@ def warn_about_plans(layout: TdmsLayout, plans: list[TdmsStreamPlan]) -> None:
     DataWarning
         One per problem, with counts; benign fallbacks are logged at INFO level instead.
     """
+    for note in layout.notes:
+        warn_data(f"damaged metadata: {note}", where={"file": str(layout.path)},
+                  hint="the file is damaged; check the values of the named segment",
+                  stacklevel=3)
     for plan in plans:
         _warn_truncation(layout, plan)
         for note in plan.notes:
@@ -611,6 +628,20 @@ def warn_about_plans(layout: TdmsLayout, plans: list[TdmsStreamPlan]) -> None:
                     f"scale type {scale!r} is not applied by nptdms: channel {name!r} holds raw "
                     "values", where={"file": str(layout.path), "channel": path},
                     hint="convert the raw values in processing", stacklevel=3)
+
+
+def _raise_empty(layout: TdmsLayout) -> None:
+    """Raise the DataFileError for a file (selection) without one numeric sample."""
+    found = [f"{'/'.join(object_path_parts(p))} ({c.length} values)"
+             for p, c in layout.channels.items()]
+    raise DataFileError(
+        "no numeric channel with samples" + (f" before the damage ({layout.problem})"
+                                             if layout.problem else "")
+        + (f"; channels found: {found}" if found else "; the file holds no channels"),
+        where={"file": str(layout.path)},
+        hint=("the file is damaged; see 'rigval info'" if layout.problem else
+              "choose a group/channels holding waveforms (include_decimated=True for "
+              "SignalExpress decimated groups)"))
 
 
 def read_tdms(path: str | os.PathLike[str], *, group: str | Sequence[str] | None = None,
@@ -668,6 +699,8 @@ def read_tdms(path: str | os.PathLike[str], *, group: str | Sequence[str] | None
         layout = scan_tdms(file, handle)
         plans = plan_tdms(layout, group=group, channels=channels, fs=fs,
                           include_decimated=include_decimated)
+        if not plans:
+            _raise_empty(layout)
         warn_about_plans(layout, plans)
         tdms = _open_nptdms(handle, layout)
         # hashing (about 0.7 s per GiB) runs on the other core while nptdms reads

@@ -152,6 +152,9 @@ class TdmsLayout:
         Byte offset up to which the file is readable (``file_size`` for a sound file).
     problem : str or None
         What is wrong with the file (truncated or damaged), None for a sound file.
+    notes : list of str
+        Damage that does not end the walk (a property string that is not UTF-8, a ToC that
+        denies raw data the segment holds); each is read as nptdms reads it and warned about.
     root_properties : dict
         Properties of the root object ``/``.
     group_properties : dict
@@ -168,6 +171,7 @@ class TdmsLayout:
     daqmx: bool = False
     good_end: int = 0
     problem: str | None = None
+    notes: list[str] = field(default_factory=list)
     root_properties: dict[str, Any] = field(default_factory=dict)
     group_properties: dict[str, dict[str, Any]] = field(default_factory=dict)
     channels: dict[str, ChannelLayout] = field(default_factory=dict)
@@ -187,10 +191,11 @@ class _Index:
 class _Buffer:
     """Bounds-checked reading of metadata bytes."""
 
-    def __init__(self, data: bytes, endian: str) -> None:
+    def __init__(self, data: bytes, endian: str, notes: list[str] | None = None) -> None:
         self.data = data
         self.pos = 0
         self.endian = endian
+        self.notes = notes if notes is not None else []
 
     def take(self, fmt: str) -> tuple[Any, ...]:
         size = struct.calcsize(self.endian + fmt)
@@ -212,7 +217,11 @@ class _Buffer:
         try:
             return raw.decode("utf-8")
         except UnicodeDecodeError as error:
-            raise _Damaged(f"string is not UTF-8 ({error.reason})") from None
+            # nptdms decodes with replacement characters too: one bad byte loses no samples
+            text = raw.decode("utf-8", errors="replace")
+            self.notes.append(f"metadata string {text[:60]!r} is not UTF-8 ({error.reason} "
+                              f"at its byte {error.start}): read with replacement characters")
+            return text
 
     def value(self, type_code: int) -> Any:
         fmt = _PROPERTY_FORMATS.get(type_code)
@@ -386,9 +395,25 @@ def _read_segment(file: BinaryIO, position: int, layout: TdmsLayout,
         raise _Damaged("segment metadata cut off by the end of the file")
     end = layout.file_size if declared_end is None else min(declared_end, layout.file_size)
     if toc & TOC_META_DATA:
-        _read_metadata(file.read(raw_offset), endian, toc, layout, current, last_index)
+        notes = _read_metadata(file.read(raw_offset), endian, toc, layout, current, last_index)
+        layout.notes.extend(f"segment at byte {position}: {note}" for note in notes)
+    declared_data = (layout.file_size if declared_end is None else declared_end) - data_start
+    chunk = _chunk_bytes(current)
+    if chunk > declared_data and (toc & TOC_RAW_DATA or declared_data > 0):
+        # checked before anything is allocated: a corrupted value count never reaches numpy
+        biggest = max(((p, i.n_values) for p, i in current if i is not None),
+                      key=lambda item: item[1], default=("?", 0))
+        raise _Damaged(f"its metadata claims chunks of {chunk} bytes ({biggest[1]} values of "
+                       f"{biggest[0]}) but the segment holds {declared_data} data bytes")
+    if chunk == 0 and declared_data > 0:
+        raise _Damaged(f"{declared_data} data bytes but no channel with values")
     layout.segments += 1
-    if not toc & TOC_RAW_DATA:
+    if not toc & TOC_RAW_DATA and declared_data > 0 and chunk > 0:
+        # nptdms reads these bytes as raw data whatever the ToC says; so does rigval, saying so
+        layout.notes.append(f"segment at byte {position}: its ToC says it has no raw data but "
+                            f"{declared_data} bytes follow its metadata, laid out as its data "
+                            "index describes: read as raw data (as nptdms does)")
+    elif not toc & TOC_RAW_DATA:
         if declared_end is None or declared_end > layout.file_size:
             layout.problem = "last segment incomplete"
         return end
@@ -413,9 +438,13 @@ def _read_segment(file: BinaryIO, position: int, layout: TdmsLayout,
 
 def _read_metadata(raw: bytes, endian: str, toc: int, layout: TdmsLayout,
                    current: list[tuple[str, _Index | None]],
-                   last_index: dict[str, _Index]) -> None:
-    """Parse a segment's metadata block and update the object list ``current`` in place."""
-    buf = _Buffer(raw, endian)
+                   last_index: dict[str, _Index]) -> list[str]:
+    """Parse a segment's metadata block and update the object list ``current`` in place.
+
+    Returns the notes about damage read around (strings that are not UTF-8).
+    """
+    notes: list[str] = []
+    buf = _Buffer(raw, endian, notes)
     n_objects = buf.u32()
     if n_objects * 12 > len(raw):
         raise _Damaged(f"{n_objects} objects cannot fit in {len(raw)} metadata bytes")
@@ -465,3 +494,4 @@ def _read_metadata(raw: bytes, endian: str, toc: int, layout: TdmsLayout,
         else:
             positions[obj_path] = len(current)
             current.append((obj_path, index))
+    return notes
