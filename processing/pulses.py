@@ -219,6 +219,37 @@ class PulseTrain:
         return self.times[~self.spurious]
 
 
+def _local_period(intervals: _FloatArray, window: int, tolerance: float = 0.15) -> _FloatArray:
+    """Return the local pulse period (s) at each interval: the mode, not the median.
+
+    Within ``window`` intervals around each one, the candidate interval that most others equal
+    (within ``tolerance`` of it; ties to the longer) is the period's first guess; the period is
+    then the median of the intervals that are whole multiples of it, each divided by its
+    multiple. A spurious pulse
+    splits one interval into two short ones and a missing pulse doubles one, so a plain running
+    median is pulled off by two spurious pulses in eleven intervals; the mode holds as long as
+    single-period intervals are the most common kind in the window.
+    """
+    half = window // 2
+    padded = np.concatenate((np.full(half, np.nan), intervals, np.full(half, np.nan)))
+    rows = sliding_window_view(padded, 2 * half + 1)
+    with np.errstate(invalid="ignore"):
+        ratio = rows[:, None, :] / rows[:, :, None]
+        votes = np.sum(np.abs(ratio - 1.0) <= tolerance, axis=2)
+    votes[np.isnan(rows)] = -1
+    # Ties go to the longer candidate: spurious pulses shorten intervals more often than
+    # missing ones lengthen them (the two halves of a split interval can agree with each other).
+    longest = float(np.nanmax(rows)) if rows.size else 1.0
+    best = np.argmax(votes + 0.5 * np.nan_to_num(rows) / longest, axis=1)
+    guess = rows[np.arange(rows.shape[0]), best]
+    with np.errstate(invalid="ignore"):
+        cycles = rows / guess[:, None]
+        whole = np.round(cycles)
+        regular = (whole >= 1) & (np.abs(cycles - whole) <= tolerance)
+    return np.nanmedian(np.where(regular, rows / np.where(whole >= 1, whole, 1.0), np.nan),
+                        axis=1)
+
+
 def classify_pulses(times: ArrayLike, *, tolerance: float = 0.15, window: int = 11,
                     period_s: float | None = None) -> PulseTrain:
     """Flag spurious pulses and locate missing ones from the interval sequence.
@@ -246,10 +277,7 @@ def classify_pulses(times: ArrayLike, *, tolerance: float = 0.15, window: int = 
                         hint="check the pulse thresholds and that the shaft turned")
     intervals = np.diff(t)
     if period_s is None:
-        half = window // 2
-        padded = np.concatenate((np.full(half, np.nan), intervals, np.full(half, np.nan)))
-        local = np.nanmedian(sliding_window_view(padded, 2 * half + 1), axis=1)
-        period_at = np.interp(t, t[:-1] + intervals / 2, local)
+        period_at = np.interp(t, t[:-1] + intervals / 2, _local_period(intervals, window))
     else:
         period_at = np.full(t.size, float(period_s))
 
