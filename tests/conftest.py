@@ -1,4 +1,10 @@
-"""Shared test configuration: a non-interactive matplotlib backend and the path to shared/."""
+"""Shared test configuration: a non-interactive matplotlib backend and the third-party files.
+
+Tests of rigval's own features need nothing outside the repository. Only the tests that read
+third-party files written by NI software (``realdata/``) and the check that the built-in mechanism
+files equal the project's reference copies (``mechanisms/``) need the project's shared folder:
+``RIGVAL_SHARED=/path/to/shared`` (default ``../shared`` beside the repository; README, "Tests").
+"""
 
 from __future__ import annotations
 
@@ -19,9 +25,10 @@ SHARED = Path(os.environ.get("RIGVAL_SHARED", REPO.parent / "shared"))
 
 @pytest.fixture(scope="session")
 def shared_dir() -> Path:
-    """The project's ``shared/`` folder (real NI files, mechanisms); skip when absent."""
+    """The project's shared folder (real NI files, mechanisms); skip when absent."""
     if not SHARED.is_dir():
-        pytest.skip(f"shared/ folder not found at {SHARED} (set RIGVAL_SHARED)")
+        pytest.skip(f"needs the third-party files of the shared folder, not found at {SHARED}: "
+                    "set RIGVAL_SHARED=/path/to/shared (README, section Tests)")
     return SHARED
 
 
@@ -30,11 +37,16 @@ def realdata_dir(shared_dir: Path) -> Path:
     """``shared/realdata``: byte copies of NI-written files."""
     path = shared_dir / "realdata"
     if not path.is_dir():
-        pytest.skip(f"real NI files not found at {path}")
+        pytest.skip(f"needs the real NI files, not found at {path}: set RIGVAL_SHARED to a "
+                    "folder holding realdata/ (README, section Tests)")
     return path
 
 
 @pytest.fixture(scope="session")
 def mechanisms_dir(shared_dir: Path) -> Path:
-    """``shared/mechanisms``: the reference mechanism files."""
-    return shared_dir / "mechanisms"
+    """``shared/mechanisms``: the project's reference mechanism files."""
+    path = shared_dir / "mechanisms"
+    if not path.is_dir():
+        pytest.skip(f"needs the reference mechanism files, not found at {path}: set "
+                    "RIGVAL_SHARED to a folder holding mechanisms/ (README, section Tests)")
+    return path

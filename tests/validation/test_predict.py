@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 import xarray as xr
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError
-from rigval.model import load_mechanism, solve, solve_cycle
+from rigval.model import builtin_mechanism, load_mechanism, solve, solve_cycle
 from rigval.validation.drive_laws import Harmonic
 from rigval.validation.predict import (
     file_excitation,
@@ -26,8 +25,8 @@ N = 90
 
 
 @pytest.fixture(scope="module")
-def pendulum(mechanisms_dir: Path):
-    return load_mechanism(mechanisms_dir / "pendulum.toml")
+def pendulum():
+    return load_mechanism(builtin_mechanism("pendulum"))
 
 
 @pytest.fixture(scope="module")
