@@ -6,7 +6,7 @@ tag/value rows up to ``***End_of_Header***`` (``Separator``, ``Decimal_Separator
 an optional header (``Channels``, ``Samples``, ``Date``, ``Time``, ``Y_Unit_Label``, ``X0``,
 ``Delta_X``, one value per data column), a ``X_Value ... Comment`` names row and data rows.
 
-What this reader handles (real files in ``shared/realdata/lvm_read``): several segments; decimal
+What this reader handles (real files in the public lvm_read project's test files): several segments; decimal
 comma everywhere including ``X0``/``Delta_X``/``Time``; no ``Decimal_Separator`` tag (writer 0.92:
 the separator is taken from the data, never from the header times); ``X_Columns`` No/One/Multi;
 unequal ``Samples`` and empty cells (a channel's trailing empty cells are not samples, inner empty

@@ -1,6 +1,6 @@
 """The stream schema: one place that builds and checks the Dataset every reader returns.
 
-A *stream* is one device's channels sharing one time base (design section 3.1). It is an
+A *stream* is one device's channels sharing one time base (docs/formats.md, *What a stream carries*). It is an
 :class:`xarray.Dataset` with
 
 - dim ``time``: seconds on the device's own clock since its first sample (float64, strictly
@@ -146,7 +146,7 @@ def stream_dataset(
     segment: np.ndarray | None = None,
     attrs: Mapping[str, Any] | None = None,
 ) -> xr.Dataset:
-    """Build a stream Dataset with the attributes of design section 3.1.
+    """Build a stream Dataset with the attributes of docs/formats.md, *What a stream carries*.
 
     Parameters
     ----------

@@ -679,7 +679,7 @@ def read_tdms(path: str | os.PathLike[str], *, group: str | Sequence[str] | None
     Returns
     -------
     dict of str to xarray.Dataset
-        Stream name (the group name) -> stream (design section 3.1), in file order.
+        Stream name (the group name) -> stream (docs/formats.md, *What a stream carries*), in file order.
 
     Raises
     ------
@@ -730,7 +730,7 @@ def iter_tdms(path: str | os.PathLike[str], *, group: str | None = None,
               fs: float | None = None, checksum: bool = True) -> Iterator[xr.Dataset]:
     """Stream one TDMS stream in windows of ``chunk_samples`` samples, in bounded memory.
 
-    Each window is a stream Dataset (design section 3.1) whose ``time`` continues the previous
+    Each window is a stream Dataset (docs/formats.md, *What a stream carries*) whose ``time`` continues the previous
     one; the attribute ``first_sample`` gives its first sample's index in the stream. Memory stays
     about ``chunk_samples x channels x 8`` bytes plus one file segment, whatever the file size.
 

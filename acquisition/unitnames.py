@@ -1,7 +1,7 @@
 """Turn unit names written by NI software or in text headers into UDUNITS strings.
 
 NI writes ``unit_string = "Volts"``, LVM headers ``Newtons`` or ``m/s^2``, CSV headers
-``acc1 [m/s^2]``. Streams carry UDUNITS strings (design section 3), so readers map the common NI
+``acc1 [m/s^2]``. Streams carry UDUNITS strings (docs/formats.md), so readers map the common NI
 names and turn simple ``a/b^n`` forms into ``a b-n``; anything else is kept as written (and the
 original text is always kept in the channel attribute ``units_in_file``).
 """

@@ -12,7 +12,7 @@ Public API (see ``docs/model.md``)::
     solve_stepwise(mechanism, t, *, drives=None, tol=1e-12, max_iter=20)
           -> xarray.Dataset                                        # plain reference solver
 
-Result variables (design section 3.3): ``position``, ``velocity``, ``acceleration`` (time, body,
+Result variables (docs/model.md, *Result contract*): ``position``, ``velocity``, ``acceleration`` (time, body,
 coord = x, y, theta); ``point_position``, ``point_velocity``, ``point_acceleration`` (time, point,
 axis = x, y); ``joint_force`` (time, joint, axis): force ON the joint's first body (ground pin: ON
 the body), N; ``driver_torque`` (time, driver): torque ON the driven body, N m, counter-clockwise

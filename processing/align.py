@@ -2,7 +2,7 @@
 
 Each device has its own oscillator (offset: file start times are software stamps, off by ms to
 seconds; drift: tens of ppm; Wi-Fi restarts start new segments). The model is fitted by least
-squares on matched reference events (research section 4.2):
+squares on matched reference events (docs/processing.md, *Accuracy measured*):
 
 1. events on both clocks, with module input delays removed (:func:`input_delay`);
 2. for each device segment, candidate offsets from pairing its first events with every reference

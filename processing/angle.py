@@ -5,7 +5,7 @@ revolution), smoothed (:mod:`rigval.processing.excitation`) and zeroed so that t
 reference pulses fall on multiples of 2 pi (:func:`zero_at_reference`). A cycle is one revolution
 ``[2 pi k, 2 pi (k + 1))``.
 
-Resampling (computed order tracking, research section 5.1): the times of the grid angles follow
+Resampling (computed order tracking, [Fyfe-Munck] and [Blough] in docs/references.md): the times of the grid angles follow
 from a cubic spline through the inverse of the increasing phi_F(t) (``np.interp`` alone limits
 the accuracy to 4e-6 at 0.05 fs); each channel is evaluated at those times (minus its module
 input delay) with an interpolating spline of the chosen order (quintic by default), per gap-free

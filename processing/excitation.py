@@ -2,7 +2,7 @@
 
 Raw counts are never differenced: a central second difference of an angle quantised to ``q =
 2 pi / CPR`` has a noise of ``sqrt(6) q / sqrt(12) / dt^2`` (thousands of rad/s^2 at 5 kHz). Two
-estimators (research section 3.3):
+estimators (docs/processing.md; [Schafer] in docs/references.md):
 
 ``"butterworth"`` (default, any motion)
     Per gap-free run: remove a least-squares Fourier trend of a few harmonics (as below), filter

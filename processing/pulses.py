@@ -1,6 +1,6 @@
 """Reference pulses: edges with hysteresis and sub-sample timing, missing and spurious pulses.
 
-Detection (research section 4.1): state levels from the histogram; a Schmitt trigger arms below
+Detection (docs/processing.md): state levels from the histogram; a Schmitt trigger arms below
 the low threshold (30 % by default) and fires above the high one (70 %); the edge time is the last
 crossing of the 50 % mid level before the firing sample, interpolated linearly between the two
 samples around it (0.03 sample rms for a band-limited step as a delta-sigma channel delivers it),

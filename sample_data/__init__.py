@@ -1,6 +1,6 @@
 """Sample data: a virtual test rig and the sample runs it writes.
 
-The rig reproduces the set-up of ``shared/rig.md``: the model along a true drive motion, sensor
+The rig reproduces the set-up of docs/references.md ([paper] section 4.1): the model along a true drive motion, sensor
 models, devices with their own clocks, and the files the devices write (NI-DAQmx TDMS, a European
 LabVIEW CSV), with the truth and a scene that validates the run. See ``sample_data/README.md``.
 

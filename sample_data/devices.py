@@ -91,7 +91,7 @@ class Module:
         return codes.astype(self.raw_dtype), slope
 
 
-#: The modules of the reference rig (rig.md).
+#: The modules of the reference rig ([paper] section 4.1).
 MODULES: dict[str, Module] = {
     "NI 9215": Module("NI 9215", 16, False),
     "NI 9237": Module("NI 9237", 24, True),

@@ -1,6 +1,6 @@
 """The virtual rig: settings, the random draws of one run, and the run from drive motion to files.
 
-:func:`rigval.sample_data.simulate_rig` reproduces the set-up of ``shared/rig.md`` on a mechanism:
+:func:`rigval.sample_data.simulate_rig` reproduces the set-up of docs/references.md ([paper] section 4.1) on a mechanism:
 
 1. true drive motion (:mod:`~rigval.sample_data.drive`) and the model truth along it
    (:mod:`~rigval.sample_data.truth`);

@@ -5,7 +5,7 @@ at ``t_k - delay`` (true time of the sample minus the module's input delay), plu
 sensor's ``noise_rms``, quantised by the module's ADC (counters store counts). Alongside, the
 physical truth of each analog channel is kept at the sample instants ``t_k`` themselves.
 
-Channel map (``shared/rig.md``):
+Channel map (docs/references.md ([paper] section 4.1)):
 
 ========  ======  =========  ========  ==================================================
 stream    chan.   module     unit      truth (physical)

@@ -13,7 +13,7 @@ The rating combines four scores in [0, 1] (ISO/TS 18571, ed. 2 2024; ed. 1 2014)
 fair (> 0.58) or poor. The computational details (window limits, DTW band, step pattern, tie order,
 end treatment of the slope smoothing) follow the TU Graz reference implementation
 ``objective_rating_metrics`` 1.3, which reproduces the 42 rating cases of the standard's Annex C
-within its 0.001 tolerance (see ``shared/research/validation_metrics.md``).
+within its 0.001 tolerance (see docs/metrics.md and docs/references.md).
 
 :func:`iso18571_periodic` is this package's variant for signals over exactly one revolution, with
 no ends: the phase shift is circular (no truncation, all samples kept); the DTW runs on the signals

@@ -12,7 +12,7 @@
 ``alignment.json``
     Per stream: offset, drift, residual, events matched, missing and spurious, gaps.
 ``<scene>.nc``
-    The run's netCDF file (design section 3.4).
+    The run's netCDF file (docs/formats.md).
 """
 
 from __future__ import annotations

@@ -89,7 +89,7 @@ def channel_units(channel: ChannelSpec) -> str:
     return _SENSOR_UNITS[channel.sensor](channel.params)
 
 
-#: Model quantities a comparison may name (design section 3.3): item kind, axes, unit per axis.
+#: Model quantities a comparison may name (docs/model.md, *Result contract*): item kind, axes, unit per axis.
 MODEL_QUANTITIES: Mapping[str, tuple[str, tuple[str, ...] | None, Mapping[str, str]]] = (
     MappingProxyType({
         "position": ("body", ("x", "y", "theta"), {"x": "m", "y": "m", "theta": "rad"}),
@@ -226,7 +226,7 @@ class ModelSpec:
 
 @dataclass(frozen=True)
 class ModelOutput:
-    """One model quantity (design section 3.3).
+    """One model quantity (docs/model.md, *Result contract*).
 
     Parameters
     ----------

@@ -2,7 +2,7 @@
 
 Every function takes the measured (reference) signal first and the model signal second, sampled on
 the same grid, and returns a frozen :class:`~rigval.validation.metric_core.Scores` record. Sources
-of the formulas are cited per function; ``shared/research/validation_metrics.md`` collects them.
+of the formulas are cited per function; docs/metrics.md and docs/references.md collects them.
 """
 
 from __future__ import annotations
