@@ -23,6 +23,7 @@ from matplotlib.ticker import NullFormatter
 
 from rigval.acquisition.errors import DataFileError
 from rigval.validation.bench import STAGES, BenchRow
+from rigval.validation.outputs import atomic_output, write_text_atomic
 
 __all__ = ["compare_text", "markdown_table", "plot_stage", "read_csv", "write_csv",
            "write_outputs"]
@@ -52,7 +53,8 @@ def write_csv(rows: Sequence[BenchRow], path: Path) -> Path:
         ``path``.
     """
     names = [f.name for f in fields(BenchRow)]
-    with open(path, "w", newline="", encoding="utf-8") as handle:
+    with atomic_output(path) as partial, open(partial, "w", newline="",
+                                              encoding="utf-8") as handle:
         writer = csv.DictWriter(handle, fieldnames=names)
         writer.writeheader()
         for row in rows:
@@ -286,12 +288,13 @@ def write_outputs(rows: Sequence[BenchRow], out: Path, note: str = "") -> list[P
     out.mkdir(parents=True, exist_ok=True)
     paths = [write_csv(rows, out / "bench.csv")]
     markdown = out / "bench.md"
-    markdown.write_text(markdown_table(rows, note) + "\n", encoding="utf-8")
+    write_text_atomic(markdown, markdown_table(rows, note) + "\n")
     paths.append(markdown)
     for stage in dict.fromkeys(r.stage for r in rows):
         figure = plot_stage(rows, stage)
         path = out / f"bench_{stage}.png"
-        figure.savefig(path, dpi=110)
+        with atomic_output(path) as partial:
+            figure.savefig(partial, dpi=110, format="png")
         paths.append(path)
     logger.info("bench: wrote %d files to %s", len(paths), out)
     return paths

@@ -48,6 +48,7 @@ import numpy as np
 
 from rigval.acquisition.errors import ConfigError, RigvalError
 from rigval.acquisition.schema import file_sha256
+from rigval.validation.outputs import write_text_atomic
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -561,9 +562,7 @@ def _write_manifest(outcome: RunOutcome, inputs: Sequence[Path]) -> None:
                    "cpu_s": outcome.cpu_s},
     }
     target = outcome.run_dir / MANIFEST_NAME
-    partial = target.with_suffix(".json.partial")
-    partial.write_text(json.dumps(manifest, indent=1, allow_nan=False), encoding="utf-8")
-    partial.replace(target)
+    write_text_atomic(target, json.dumps(manifest, indent=1, allow_nan=False))
 
 
 def _rigval_version() -> str:

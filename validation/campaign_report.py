@@ -36,6 +36,7 @@ from matplotlib.figure import Figure
 from rigval.acquisition.errors import DataFileError
 from rigval.validation.campaign import RunOutcome, dask_available
 from rigval.validation.html import Page, escape
+from rigval.validation.outputs import atomic_output, write_text_atomic
 
 __all__ = [
     "CampaignFiles",
@@ -196,13 +197,13 @@ def write_campaign_report(outcomes: Sequence[RunOutcome], out_dir: str | Path, *
     files = CampaignFiles(html=out_dir / "campaign.html",
                           metrics_csv=out_dir / "campaign_metrics.csv",
                           outcomes_json=out_dir / "campaign.json")
-    table.to_csv(files.metrics_csv, index=False)
+    with atomic_output(files.metrics_csv) as partial:
+        table.to_csv(partial, index=False)
     counts = {status: sum(o.status == status for o in outcomes)
               for status in ("passed", "failed", "error")}
     document = {"written": datetime.now(UTC).isoformat(timespec="seconds"), "counts": counts,
                 **details, "runs": [outcome.to_dict() for outcome in outcomes]}
-    files.outcomes_json.write_text(json.dumps(document, indent=1, allow_nan=False),
-                                   encoding="utf-8")
+    write_text_atomic(files.outcomes_json, json.dumps(document, indent=1, allow_nan=False))
     _summary_page(outcomes, table, out_dir, title, counts, details).write(files.html)
     logger.info("campaign summary written to %s", files.html)
     return files
@@ -262,6 +263,23 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
     return page
 
 
+def _damaged_output(paths: list[Path], group: str, engine: str,
+                    error: BaseException) -> DataFileError:
+    """Return the error naming the first run file that cannot be opened (each tried alone)."""
+    for path in paths:
+        try:
+            xr.open_dataset(path, group=group, engine=engine).close()
+        except (OSError, ValueError, RuntimeError, KeyError) as failure:
+            return DataFileError(
+                f"cannot read group {group!r} of a run's netCDF file {path.name}: {failure}",
+                where={"file": path, "group": group},
+                hint="the file is missing or damaged (a run stopped while writing it?): rerun "
+                     "the campaign with --force for that run, or delete its folder and rerun")
+    return DataFileError(f"cannot open the campaign's netCDF files together: {error}",
+                         where={"file": paths[0].parent.parent, "group": group},
+                         hint="check that every run wrote the same groups and dimensions")
+
+
 def open_campaign(directory: str | Path, group: str = "validation", *,
                   parallel: bool | None = None, **kwargs: Any) -> xr.Dataset:
     """Open one group of every validated run's netCDF file as one dataset with a ``run`` dim.
@@ -303,13 +321,17 @@ def open_campaign(directory: str | Path, group: str = "validation", *,
                             hint="check the errors in campaign.html; rerun the failed runs")
     has_dask = dask_available()
     options: dict[str, Any] = {
-        "engine": "h5netcdf", "combine": "nested", "concat_dim": "run", "data_vars": "all",
+        "engine": "netcdf4", "combine": "nested", "concat_dim": "run", "data_vars": "all",
         "coords": "minimal", "compat": "override", "join": "outer",
         "parallel": has_dask if parallel is None else parallel,
         "chunks": {} if has_dask else None, "combine_attrs": "drop_conflicts",
     }
     options.update(kwargs)
-    dataset = xr.open_mfdataset([str(path) for _, path in found], group=group, **options)
+    try:
+        dataset = xr.open_mfdataset([str(path) for _, path in found], group=group, **options)
+    except (OSError, ValueError, RuntimeError, KeyError) as error:
+        raise _damaged_output([path for _, path in found], group, options["engine"],
+                              error) from error
     return dataset.assign_coords(
         run=[run["name"] for run, _ in found],
         speed_rev_s=("run", [np.nan if run["speed_rev_s"] is None else run["speed_rev_s"]

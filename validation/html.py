@@ -31,6 +31,8 @@ from typing import Any, Literal
 
 from matplotlib.figure import Figure
 
+from rigval.validation.outputs import write_text_atomic
+
 __all__ = ["STATUS_CLASSES", "Page", "escape", "figure_data_uri", "figure_svg", "format_value"]
 
 #: CSS class per status word; :meth:`Page.table` colours cells whose text is one of these.
@@ -269,7 +271,5 @@ class Page:
         )
 
     def write(self, path: str | Path) -> Path:
-        """Render the page and write it to ``path`` (UTF-8); return the path."""
-        path = Path(path)
-        path.write_text(self.render(), encoding="utf-8")
-        return path
+        """Render the page and write it to ``path`` (UTF-8, temporary name, then renamed)."""
+        return write_text_atomic(path, self.render())

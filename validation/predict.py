@@ -3,8 +3,9 @@
 :func:`predict` runs the model over one cycle for an excitation (the mechanism file's drive laws,
 laws changed on the command line or in TOML, a tabulated profile, or a measured run) and returns
 the quantities engineers look at when they change the drives: the path, speed and acceleration of
-the pendulum tip P1, the drive torques and power, the support forces on the frame at every ground
-pin (with peaks and the angles where they occur) and the forces of chosen joints.
+the mechanism's tip (the pendulum's P1, see :func:`default_tip`), the drive torques and power,
+the support forces on the frame at every ground pin (with peaks and the angles where they occur)
+and the forces of chosen joints.
 
 :func:`sweep` varies one or two parameters over a grid and returns only summary numbers per point
 (tip-path vertical range, peak tip acceleration, peak support forces, peak and RMS drive torques).
@@ -45,6 +46,7 @@ __all__ = [
     "BUILTIN_PREFIX",
     "SUMMARIES",
     "DriveSpec",
+    "default_tip",
     "file_excitation",
     "ground_pins",
     "make_excitation",
@@ -155,6 +157,38 @@ def ground_pins(mechanism: Mechanism) -> tuple[str, ...]:
     return tuple(j.name for j in mechanism.joints if j.kind == "ground")
 
 
+def default_tip(mechanism: Mechanism) -> str:
+    """Return the mechanism's tip: the point farthest from every ground pin.
+
+    Distances are taken in the configuration of the body guesses (the file's assembled
+    configuration at t = 0): the point whose smallest distance to a ground pin is largest. This is
+    ``P1`` for the built-in pendulum, the rocker pin ``B`` for the four-bar and ``tip`` for the
+    single pendulum. A mechanism without ground pins measures from the origin.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+
+    Returns
+    -------
+    str
+        A point name of the mechanism.
+    """
+    pins = [np.asarray(j.at, dtype=float) for j in mechanism.joints
+            if j.kind == "ground" and j.at is not None] or [np.zeros(2)]
+    best, best_distance = mechanism.point_names[0], -1.0
+    for body in mechanism.bodies:
+        x, y, theta = body.guess
+        c, s = math.cos(theta), math.sin(theta)
+        for name, (u, v) in body.points.items():
+            where = np.array([x + c * u - s * v, y + s * u + c * v])
+            distance = min(float(np.hypot(*(where - pin))) for pin in pins)
+            if distance > best_distance + 1e-12:
+                best, best_distance = name, distance
+    return best
+
+
 def _check_names(kind: str, names: Sequence[str], available: Sequence[str]) -> None:
     for name in names:
         if name not in available:
@@ -225,7 +259,7 @@ def _peak(values: np.ndarray, angle: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def predict(mechanism: Mechanism | str | Path, drives: DriveSpec = None, *, n_points: int = 360,
-            tip: str = "P1", points: Sequence[str] = (), joints: Sequence[str] = (),
+            tip: str | None = None, points: Sequence[str] = (), joints: Sequence[str] = (),
             main: str | None = None, base_dir: Path | None = None) -> xr.Dataset:
     """Predict the response of a mechanism to an excitation over one cycle.
 
@@ -237,8 +271,8 @@ def predict(mechanism: Mechanism | str | Path, drives: DriveSpec = None, *, n_po
         The excitation (see :func:`make_excitation`); None for the file's drive laws.
     n_points : int
         Grid points over one cycle of the main drive (uniform in its angle).
-    tip : str
-        The point whose path is reported (the pendulum's tip ``P1``).
+    tip : str, optional
+        The point whose path is reported; default :func:`default_tip` (the pendulum's ``P1``).
     points : sequence of str
         Further points whose kinematics are reported.
     joints : sequence of str
@@ -265,6 +299,7 @@ def predict(mechanism: Mechanism | str | Path, drives: DriveSpec = None, *, n_po
     """
     mech = resolve_mechanism(mechanism)
     excitation = make_excitation(mech, drives, main=main, base_dir=base_dir)
+    tip = default_tip(mech) if tip is None else tip
     point_names = list(dict.fromkeys([tip, *points]))
     _check_names("point", point_names, mech.point_names)
     _check_names("joint", joints, mech.joint_names)
@@ -554,7 +589,7 @@ def _body_value(mechanism: Mechanism, name: str) -> float:
 
 def sweep(mechanism: Mechanism | str | Path, parameters: Mapping[str, npt.ArrayLike], *,
           drives: DriveSpec = None, summary: Sequence[str] = tuple(SUMMARIES),
-          n_points: int = 180, tip: str = "P1", main: str | None = None,
+          n_points: int = 180, tip: str | None = None, main: str | None = None,
           base_dir: Path | None = None) -> xr.Dataset:
     """Evaluate summary quantities over a grid of one or two parameters.
 
@@ -584,8 +619,8 @@ def sweep(mechanism: Mechanism | str | Path, parameters: Mapping[str, npt.ArrayL
         Quantities to evaluate, keys of :data:`SUMMARIES`.
     n_points : int
         Grid points per cycle.
-    tip : str
-        The tip point.
+    tip : str, optional
+        The tip point; default :func:`default_tip`.
     main : str, optional
         Main drive.
     base_dir : pathlib.Path, optional
@@ -602,6 +637,7 @@ def sweep(mechanism: Mechanism | str | Path, parameters: Mapping[str, npt.ArrayL
     started = time.perf_counter()
     mech = resolve_mechanism(mechanism)
     base = make_excitation(mech, drives, main=main, base_dir=base_dir)
+    tip = default_tip(mech) if tip is None else tip
     _check_names("point", [tip], mech.point_names)
     unknown = sorted(set(summary) - set(SUMMARIES))
     if unknown or not summary:

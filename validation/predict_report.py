@@ -30,6 +30,7 @@ from matplotlib.figure import Figure
 
 from rigval.acquisition.schema import append_history
 from rigval.validation.html import Page
+from rigval.validation.outputs import StagedOutputs
 from rigval.validation.plots import plot_point_kinematics, plot_support_forces
 
 __all__ = ["PredictReportFiles", "cycle_table", "peak_table", "sweep_table",
@@ -297,7 +298,7 @@ def _write_netcdf(prediction: xr.Dataset, sweep: xr.Dataset | None, path: Path,
     tree = xr.DataTree.from_dict({"/": root, **{f"/{k}": v for k, v in children.items()}})
     encoding = {f"/{k}": {name: {"zlib": True, "complevel": 4} for name in v.data_vars}
                 for k, v in children.items()}
-    tree.to_netcdf(path, engine="h5netcdf", encoding=encoding)
+    tree.to_netcdf(path, engine="netcdf4", encoding=encoding)  # core dependency, no extra
 
 
 def _version() -> str:
@@ -329,15 +330,12 @@ def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
         The paths written.
     """
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     tip = str(prediction.attrs.get("tip_point", "P1"))
     cycles = cycle_table(prediction)
     peaks = peak_table(prediction)
     files = PredictReportFiles(html=out / "report.html", cycle_csv=out / "cycle.csv",
                                peaks_csv=out / "peaks.csv", netcdf=out / "prediction.nc",
                                sweep_csv=out / "sweep.csv" if sweep is not None else None)
-    cycles.to_csv(files.cycle_csv, index=False)
-    peaks.to_csv(files.peaks_csv, index=False)
     page = Page(f"Prediction: {prediction.attrs.get('mechanism', '')}",
                 subtitle=f"{prediction.attrs.get('frequency_hz', float('nan')):.4g} Hz, "
                          f"{prediction.attrs.get('n_points')} points per cycle")
@@ -385,10 +383,8 @@ def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
     if prediction.sizes.get("joint", 0):
         page.section("Joint forces")
         page.figure(_joint_force_figure(prediction), caption="forces of the chosen joints")
-    if sweep is not None:
-        table = sweep_table(sweep)
-        assert files.sweep_csv is not None
-        table.to_csv(files.sweep_csv, index=False)
+    table = None if sweep is None else sweep_table(sweep)
+    if sweep is not None and table is not None:
         page.section("Sweep")
         page.facts({"parameters": ", ".join(_sweep_dims(sweep)),
                     "points": sweep.attrs.get("points"),
@@ -397,7 +393,13 @@ def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
                     "points per cycle": sweep.attrs.get("n_points")})
         page.figure(_sweep_figure(sweep), caption="sweep summaries")
         page.table(table.to_dict("records"), caption="sweep summaries per point")
-    page.write(files.html)
-    _write_netcdf(prediction, sweep, files.netcdf, command)
+    # every file under a temporary name first: a failure leaves no half-written folder
+    with StagedOutputs(out) as stage:
+        cycles.to_csv(stage.path(files.cycle_csv), index=False)
+        peaks.to_csv(stage.path(files.peaks_csv), index=False)
+        if table is not None and files.sweep_csv is not None:
+            table.to_csv(stage.path(files.sweep_csv), index=False)
+        page.write(stage.path(files.html))
+        _write_netcdf(prediction, sweep, stage.path(files.netcdf), command)
     logger.info("wrote the prediction report to %s", out)
     return files

@@ -33,6 +33,7 @@ from rigval.acquisition.detect import source_checksum
 from rigval.validation import plots
 from rigval.validation.html import Page
 from rigval.validation.iso18571 import IsoParameters
+from rigval.validation.outputs import atomic_output, write_text_atomic
 from rigval.validation.results import ComparisonResult, ValidationResult
 
 __all__ = ["rigval_version", "write_metrics", "write_netcdf", "write_report"]
@@ -71,7 +72,8 @@ def write_metrics(result: ValidationResult, out_dir: Path) -> list[Path]:
     rows = result.metric_rows()
     csv_path = out_dir / "metrics.csv"
     columns = ["comparison", "row", "metric", "value", "threshold", "passed"]
-    with csv_path.open("w", newline="", encoding="utf-8") as handle:
+    with atomic_output(csv_path) as partial, partial.open("w", newline="",
+                                                          encoding="utf-8") as handle:
         writer = csv.DictWriter(handle, fieldnames=columns)
         writer.writeheader()
         for row in rows:
@@ -82,7 +84,7 @@ def write_metrics(result: ValidationResult, out_dir: Path) -> list[Path]:
         "passed": result.passed, "speed_rev_s": result.speed_rev_s, "cycles": result.n_cycles,
         "rows": [{k: _finite(v) for k, v in row.items()} for row in rows],
     }
-    json_path.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+    write_text_atomic(json_path, json.dumps(document, indent=2) + "\n")
     return [csv_path, json_path]
 
 
@@ -91,8 +93,7 @@ def write_alignment(result: ValidationResult, out_dir: Path) -> Path:
     path = out_dir / "alignment.json"
     document = {name: {k: _finite(v) for k, v in a.summary().items()}
                 for name, a in result.alignment.items()}
-    path.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
-    return path
+    return write_text_atomic(path, json.dumps(document, indent=2) + "\n")
 
 
 def _encoding(ds: xr.Dataset) -> dict[str, dict[str, Any]]:
@@ -128,7 +129,8 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
     })
     encoding = {node.path: _encoding(node.to_dataset(inherit=False))
                 for node in tree.subtree if node.has_data}
-    tree.to_netcdf(path, engine="netcdf4", encoding=encoding)
+    with atomic_output(path) as partial:
+        tree.to_netcdf(partial, engine="netcdf4", encoding=encoding)
     return path
 
 
@@ -331,11 +333,12 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
         file; also stored in ``result.outputs``.
     """
     out = Path(out_dir)
+    page = _build_page(result)  # everything that can fail before the first file is written
     out.mkdir(parents=True, exist_ok=True)
     written = write_metrics(result, out)
     written.append(write_alignment(result, out))
     written.append(write_netcdf(result, out / f"{result.scene.path.stem}.nc"))
-    written.insert(0, _build_page(result).write(out / "report.html"))
+    written.insert(0, page.write(out / "report.html"))
     result.outputs[:] = written
     logger.info("report written to %s", out)
     return written

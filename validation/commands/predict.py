@@ -50,7 +50,8 @@ def add_parser(subparsers: Any) -> None:
                         help="grid points per cycle of the prediction (default 360)")
     parser.add_argument("--sweep-points", type=int, default=180, metavar="N",
                         help="grid points per cycle of each sweep point (default 180)")
-    parser.add_argument("--tip", default="P1", help="the tip point (default P1)")
+    parser.add_argument("--tip", help="the tip point (default: the mechanism's point farthest "
+                                      "from its ground pins, P1 for the pendulum)")
     parser.add_argument("--joint", action="append", default=[], metavar="JOINT",
                         help="also report the force of this joint (repeatable)")
     parser.add_argument("--main", metavar="DRIVER",
@@ -108,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"{error.message} (available: {available or 'none'})",
                           where=error.where, hint=error.hint) from error
     files = write_predict_report(prediction, args.out, sweep=swept, command=_command_line(args))
-    tip = args.tip
+    tip = prediction.attrs["tip_point"]
     print(f"{tip} vertical range {float(prediction['tip_vertical_range']):.4g} m, "
           f"peak |a| {float(prediction['tip_acceleration_peak']):.4g} m/s2")
     for driver in prediction["driver"].values:
@@ -150,6 +151,7 @@ def _command_line(args: argparse.Namespace) -> str:
                           ("--main", args.main)):
         if value is not None:
             words += [option, value]
-    words += ["--points", str(args.points), "--sweep-points", str(args.sweep_points),
-              "--tip", args.tip]
+    words += ["--points", str(args.points), "--sweep-points", str(args.sweep_points)]
+    if args.tip is not None:
+        words += ["--tip", args.tip]
     return " ".join(shlex.quote(str(word)) for word in words)
