@@ -3,7 +3,8 @@
 Run (Exudyn is not a rigval dependency; install it next to rigval in a throwaway venv):
 
     python3 -m venv /tmp/exu && /tmp/exu/bin/pip install exudyn==1.13.6 /path/to/rigval
-    /tmp/exu/bin/python benchmarks/bench_exudyn.py [--steps 100000] [--repeats 3] [--threads default]
+    /tmp/exu/bin/python benchmarks/bench_exudyn.py [--steps 100000] [--repeats 3] \
+        [--threads default|1]
 
 Both solvers compute the same thing for the same 100,000 steps (20 s at 5 kHz): positions,
 velocities, accelerations, all 11 joint forces and both drive torques of the builtin pendulum.
@@ -37,11 +38,11 @@ if "--threads" in sys.argv and sys.argv[sys.argv.index("--threads") + 1] == "1":
     for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ[_var] = "1"
 
-import time  # noqa: E402
+import time
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-import rigval.model as rm  # noqa: E402
+import rigval.model as rm
 
 FS = 5000.0
 STRIDE = 50
@@ -74,7 +75,7 @@ def _offset_law(driver, reference, esym):
     Exudyn's node coordinates are displacements from the reference coordinates, so the offset
     is the law minus the node's reference angle ``reference`` (rad).
     """
-    def offset(mbs, t, itemNumber, lOffset):  # noqa: N803 (Exudyn's argument names)
+    def offset(mbs, t, itemNumber, lOffset):
         value = (driver.theta0 - reference) + driver.omega * t
         for h in driver.harmonics:
             value = value + h.amplitude * esym.sin(h.omega * t + h.phase)
