@@ -28,3 +28,8 @@ def __getattr__(name: str) -> Any:
     if name in _LAZY:
         return getattr(import_module(f"rigval.acquisition.{_LAZY[name]}"), name)
     raise AttributeError(f"module 'rigval.acquisition' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    """List the module's names including the lazily imported readers (for ``dir`` and IDEs)."""
+    return sorted(set(globals()) | set(_LAZY))

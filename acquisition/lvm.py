@@ -493,7 +493,7 @@ def _stream(parts: list[list[_Column]], lvm: LvmFile, file: Path, fs: float | No
     for note in notes:
         logger.info("%s: %s", file, note)
     attrs = {"source_format": "lvm", "lvm_header": json.dumps(lvm.tags),
-             "time_fallbacks": json.dumps(sorted(set(notes))), "first_sample": lo,
+             "time_fallbacks": "\n".join(sorted(set(notes))), "first_sample": lo,
              "samples_in_file": int(time.size), "lvm_segments": len(parts)}
     if profile is not None:
         attrs.update(profile.stream_attrs())

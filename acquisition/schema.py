@@ -1,25 +1,34 @@
 """The stream schema: one place that builds and checks the Dataset every reader returns.
 
-A *stream* is one device's channels sharing one time base (docs/formats.md, *What a stream carries*). It is an
-:class:`xarray.Dataset` with
+A *stream* is one device's channels sharing one time base (docs/formats.md, "Stream schema"). It
+is an :class:`xarray.Dataset` (``Conventions = "CF-1.13"``) with
 
 - dim ``time``: seconds on the device's own clock since its first sample (float64, strictly
-  increasing, gaps kept as jumps, never filled);
+  increasing, gaps kept as jumps, never filled). The coordinate carries the CF attributes
+  ``units = "seconds since <start_time>"``, ``calendar = "standard"``, ``standard_name = "time"``,
+  so ``xr.decode_cf`` and ``xr.open_dataset`` turn it into wall-clock ``datetime64``; in memory
+  it stays float seconds. Readers that know the time base as blocks (TDMS) give a lazy index
+  (:mod:`rigval.acquisition.time_index`) that computes times on access;
 - one variable per channel with ``units`` (UDUNITS), ``long_name``, ``source_channel`` and
   ``scaling`` (what was applied to reach these values), plus any sensor metadata;
 - ``valid`` (bool, time): False for samples that exist in the file but cannot be used; the reasons
-  and counts are in the attribute ``invalid_counts`` (JSON);
+  and counts are the coordinates ``invalid_reason`` and ``invalid_count`` (dim
+  ``invalid_reason``, see :func:`invalid_counts`);
 - ``segment`` (int32, time): index of the gap-free segment each sample belongs to;
+- the gap table: coordinates ``gap_start_s`` (last sample before the gap), ``gap_end_s`` (first
+  sample after it) and ``gap_missing_samples`` on dim ``gap`` (see :func:`stream_gaps`);
 - attributes ``device``, ``start_time`` (ISO 8601 UTC), ``source_file``, ``source_sha256``,
-  ``fs_nominal`` (Hz), ``gap_count``, ``missing_samples`` and ``gaps`` (JSON list of
-  ``{"after_s", "duration_s", "missing_samples"}``).
+  ``fs_nominal`` (Hz), ``gap_count`` and ``missing_samples``.
+
+``valid`` and ``segment`` of a stream without invalid samples or gaps are read-only broadcast
+views (no memory per sample); replace them rather than writing into them.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
 import hashlib
-import json
+import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,20 +39,28 @@ import pandas as pd
 import xarray as xr
 
 from rigval.acquisition.errors import DataError
+from rigval.acquisition.timebase import TimeBase
 
 __all__ = [
     "REQUIRED_STREAM_ATTRS",
     "Channel",
     "append_history",
+    "cf_time_attrs",
     "check_stream",
     "file_sha256",
+    "invalid_counts",
     "parse_start_time",
     "stream_dataset",
+    "stream_gaps",
     "utc_iso",
+    "with_invalid_counts",
 ]
 
 REQUIRED_STREAM_ATTRS = ("device", "start_time", "source_file", "source_sha256", "fs_nominal",
-                         "gap_count", "missing_samples", "gaps")
+                         "gap_count", "missing_samples")
+#: Coordinates every stream has besides ``time``: the gap and invalid-sample tables.
+REQUIRED_STREAM_COORDS = ("gap_start_s", "gap_end_s", "gap_missing_samples", "invalid_reason",
+                          "invalid_count")
 REQUIRED_CHANNEL_ATTRS = ("units", "long_name", "source_channel", "scaling")
 
 #: A step between samples larger than this many nominal sample intervals is a gap.
@@ -112,28 +129,114 @@ def file_sha256(path: str | Path, chunk_bytes: int = 1 << 22) -> str:
     return digest.hexdigest()
 
 
-def _segments(time: np.ndarray, fs_nominal: float) -> tuple[np.ndarray, list[dict[str, Any]]]:
-    """Return segment indices and the gaps (steps above ``GAP_FACTOR / fs_nominal``)."""
-    step = np.diff(time)
-    dt = 1.0 / fs_nominal
-    jumps = np.flatnonzero(step > GAP_FACTOR * dt)
+def _segments(time: np.ndarray, fs_nominal: float) -> np.ndarray:
+    """Return segment indices: a new segment after every step above ``GAP_FACTOR / fs``."""
+    jumps = np.flatnonzero(np.diff(time) > GAP_FACTOR / fs_nominal)
+    if not jumps.size:
+        return np.broadcast_to(np.int32(0), time.shape)
     segment = np.zeros(time.size, dtype=np.int32)
-    if jumps.size:
-        segment[jumps + 1] = 1
-        segment = np.cumsum(segment, dtype=np.int32)
-    gaps = [
-        {
-            "after_s": float(time[i]),
-            "duration_s": float(step[i] - dt),
-            "missing_samples": max(round(step[i] / dt) - 1, 0),
-        }
-        for i in jumps
-    ]
-    return segment, gaps
+    segment[jumps + 1] = 1
+    return np.cumsum(segment, dtype=np.int32)
+
+
+def _gap_table(before: np.ndarray, after: np.ndarray, fs_nominal: float) -> dict[str, Any]:
+    """Return the gap coordinates for gaps between times ``before[k]`` and ``after[k]`` (s)."""
+    dt = 1.0 / fs_nominal
+    missing = np.maximum(np.round((after - before) / dt) - 1, 0).astype(np.int64)
+    return {
+        "gap_start_s": ("gap", before.astype(np.float64),
+                        {"units": "s", "long_name": "time of the last sample before the gap"}),
+        "gap_end_s": ("gap", after.astype(np.float64),
+                      {"units": "s", "long_name": "time of the first sample after the gap"}),
+        "gap_missing_samples": ("gap", missing, {
+            "units": "1", "long_name": "samples missing in the gap at the nominal rate"}),
+    }
+
+
+def _blocks_in(timebase: TimeBase, start: int, stop: int) -> list[tuple[int, int, int, Any]]:
+    """Return ``(k, lo, hi, block)`` of the blocks meeting samples ``start ... stop - 1``."""
+    return [(k, max(start, b.first), min(stop, b.first + b.n), b)
+            for k, b in enumerate(timebase.blocks)
+            if max(start, b.first) < min(stop, b.first + b.n)]
+
+
+def _time_from_blocks(timebase: TimeBase, start: int, stop: int, where: dict[str, Any],
+                      attrs: Mapping[str, Any]) -> tuple[xr.Coordinates, np.ndarray,
+                                                         dict[str, Any]]:
+    """Return the lazy time coordinate, the segment index and the gap table of a window."""
+    from rigval.acquisition.time_index import lazy_time_coords
+
+    parts = _blocks_in(timebase, start, stop)
+    for (_, _, hi, b), (_, lo, _, nxt) in itertools.pairwise(parts):
+        if not (b.dt > 0 and nxt.t_start > b.t_start + (hi - 1 - b.first) * b.dt):
+            raise DataError(f"time is not strictly increasing: block at sample {lo} starts at "
+                            f"{nxt.t_start!r} s, before the end of the previous block",
+                            where=where, hint="rigval never reorders samples")
+    if len(parts) <= 1:
+        k = parts[0][0] if parts else 0
+        segment = np.broadcast_to(np.int32(k), (stop - start,))
+    else:
+        segment = np.repeat(np.array([k for k, *_ in parts], dtype=np.int32),
+                            [hi - lo for _, lo, hi, _ in parts])
+    before = np.array([b.t_start + (hi - 1 - b.first) * b.dt for _, _, hi, b in parts[:-1]])
+    after = np.array([b.t_start + (lo - b.first) * b.dt for _, lo, _, b in parts[1:]])
+    return lazy_time_coords(timebase, start, stop, attrs), segment, {"before": before,
+                                                                      "after": after}
+
+
+def cf_time_attrs(start_time: str, long_name: str) -> dict[str, str]:
+    """Return the CF attributes of a ``time`` coordinate in s since ``start_time`` (ISO, UTC).
+
+    ``xr.decode_cf`` and ``xr.open_dataset`` decode such a coordinate to ``datetime64[ns]``
+    equal to the start plus the seconds (to the nanosecond; sub-microsecond starts are kept).
+    """
+    stamp = np.datetime_as_string(parse_start_time(start_time), unit="ns")
+    day, clock = str(stamp).split("T")
+    return {"units": f"seconds since {day} {clock}", "calendar": "standard",
+            "standard_name": "time", "axis": "T", "long_name": long_name}
+
+
+def stream_gaps(ds: xr.Dataset) -> list[dict[str, float | int]]:
+    """Return a stream's gaps as ``{"after_s", "duration_s", "missing_samples"}`` dicts.
+
+    ``after_s`` is the time of the last sample before the gap, ``duration_s`` the time missing
+    beyond one nominal sample interval (``gap_end_s - gap_start_s - 1 / fs_nominal``).
+    """
+    if "gap_start_s" not in ds.coords:
+        return []
+    dt = 1.0 / float(ds.attrs["fs_nominal"])
+    return [{"after_s": float(a), "duration_s": float(b - a - dt), "missing_samples": int(m)}
+            for a, b, m in zip(ds["gap_start_s"].values, ds["gap_end_s"].values,
+                               ds["gap_missing_samples"].values, strict=True)]
+
+
+def invalid_counts(ds: xr.Dataset) -> dict[str, int]:
+    """Return a stream's invalid-sample counts by reason (empty when every sample is valid)."""
+    if "invalid_reason" not in ds.coords:
+        return {}
+    return {str(r): int(c) for r, c in zip(ds["invalid_reason"].values,
+                                            ds["invalid_count"].values, strict=True)}
+
+
+def with_invalid_counts(ds: xr.Dataset, counts: Mapping[str, int]) -> xr.Dataset:
+    """Return ``ds`` with its invalid-sample table replaced by ``counts`` (reason -> samples)."""
+    counts = {str(k): int(v) for k, v in counts.items() if int(v)}
+    ds = ds.drop_vars(["invalid_reason", "invalid_count"], errors="ignore")
+    return ds.assign_coords(_invalid_table(counts))
+
+
+def _invalid_table(counts: Mapping[str, int]) -> dict[str, Any]:
+    """Return the coordinates of the invalid-sample table."""
+    return {
+        "invalid_reason": ("invalid_reason", np.array(list(counts), dtype=object),
+                           {"long_name": "why samples are marked invalid"}),
+        "invalid_count": ("invalid_reason", np.array(list(counts.values()), dtype=np.int64),
+                          {"units": "1", "long_name": "invalid samples for the reason"}),
+    }
 
 
 def stream_dataset(
-    time: np.ndarray,
+    time: np.ndarray | TimeBase,
     channels: Mapping[str, Channel],
     *,
     device: str,
@@ -145,19 +248,22 @@ def stream_dataset(
     invalid_counts: Mapping[str, int] | None = None,
     segment: np.ndarray | None = None,
     attrs: Mapping[str, Any] | None = None,
+    window: tuple[int, int] | None = None,
 ) -> xr.Dataset:
-    """Build a stream Dataset with the attributes of docs/formats.md, *What a stream carries*.
+    """Build a stream Dataset with the attributes of the stream schema (``docs/formats.md``).
 
     Parameters
     ----------
-    time : numpy.ndarray
-        Sample times in s on the device clock since its first sample, strictly increasing.
+    time : numpy.ndarray or TimeBase
+        Sample times in s on the device clock since its first sample, strictly increasing; or the
+        blocks that describe them (:class:`~rigval.acquisition.timebase.TimeBase`), which gives a
+        lazy ``time`` index and the segments and gaps of the blocks.
     channels : mapping of str to Channel
-        The stream's channels by name; every one has ``time.size`` samples.
+        The stream's channels by name; every one has one sample per time.
     device : str
         Device kind, e.g. ``"cDAQ-9172"`` or ``"WLS-9163"``.
     start_time : str, numpy.datetime64 or datetime.datetime
-        Wall-clock time of the first sample as the device wrote it (UTC).
+        Wall-clock time of the first sample of the stream as the device wrote it (UTC).
     source_file : str or pathlib.Path
         File the stream was read from.
     source_sha256 : str
@@ -170,10 +276,12 @@ def stream_dataset(
         Reason -> count for the invalid samples; the counts must add up to the number of False
         entries in ``valid``.
     segment : numpy.ndarray of int, optional
-        Segment index per sample. Default: derived from jumps in ``time`` larger than
-        ``GAP_FACTOR / fs_nominal``.
+        Segment index per sample (array ``time`` only). Default: derived from jumps in ``time``
+        larger than ``GAP_FACTOR / fs_nominal``.
     attrs : mapping, optional
         Further stream attributes (device serial, module, reader notes, ...).
+    window : tuple of int, optional
+        With a TimeBase: the samples ``start ... stop - 1`` the channels hold (default: all).
 
     Returns
     -------
@@ -186,50 +294,48 @@ def stream_dataset(
         If the time axis is not strictly increasing, a channel has the wrong length, or the invalid
         counts do not add up.
     """
-    time = np.asarray(time, dtype=np.float64)
     where = {"file": str(source_file), "device": device}
-    if time.ndim != 1:
-        raise DataError("the time axis must be one-dimensional", where=where)
     if not np.isfinite(fs_nominal) or fs_nominal <= 0:
         raise DataError(f"fs_nominal must be a positive rate in Hz, got {fs_nominal!r}",
                         where=where)
-    if time.size > 1:
-        bad = np.flatnonzero(~(np.diff(time) > 0))
-        if bad.size:
-            i = int(bad[0])
-            raise DataError(
-                f"time is not strictly increasing: sample {i + 1} at {time[i + 1]!r} s follows "
-                f"{time[i]!r} s ({bad.size} such steps)",
-                where=where,
-                hint="check the reader options (time column, start offsets); rigval never reorders",
-            )
+    start_iso = utc_iso(start_time)
+    time_attrs = cf_time_attrs(start_iso, "time on the device clock since first sample")
+    if isinstance(time, TimeBase):
+        if segment is not None:
+            raise DataError("segment comes from the TimeBase blocks; do not pass both",
+                            where=where)
+        lo, hi = window if window is not None else (0, time.length)
+        coords, segment, jumps = _time_from_blocks(time, lo, hi, where, time_attrs)
+        size = hi - lo
+    else:
+        time = np.asarray(time, dtype=np.float64)
+        if time.ndim != 1:
+            raise DataError("the time axis must be one-dimensional", where=where)
+        _check_increasing(time, where)
+        size = time.size
+        if segment is None:
+            segment = _segments(time, fs_nominal)
+        segment = np.asarray(segment, dtype=np.int32)
+        starts = np.flatnonzero(np.diff(segment)) + 1
+        jumps = {"before": time[starts - 1], "after": time[starts]}
+        coords = xr.Coordinates({"time": ("time", time, time_attrs)})
     if valid is None:
-        valid = np.ones(time.size, dtype=bool)
+        valid = np.broadcast_to(np.True_, (size,))
     valid = np.asarray(valid, dtype=bool)
     counts = {k: int(v) for k, v in (invalid_counts or {}).items() if int(v)}
     n_invalid = int(valid.size - np.count_nonzero(valid))
-    if valid.shape != time.shape or sum(counts.values()) != n_invalid:
+    if valid.shape != (size,) or sum(counts.values()) != n_invalid:
         raise DataError(
             f"valid mask ({valid.size} samples, {n_invalid} invalid) does not match the time axis "
-            f"({time.size}) and the invalid counts {counts}",
+            f"({size}) and the invalid counts {counts}",
             where=where,
         )
-    gaps: list[dict[str, Any]]
-    if segment is None:
-        segment, gaps = _segments(time, fs_nominal)
-    else:
-        segment = np.asarray(segment, dtype=np.int32)
-        starts = np.flatnonzero(np.diff(segment)) + 1
-        dt = 1.0 / fs_nominal
-        gaps = [{"after_s": float(time[i - 1]), "duration_s": float(time[i] - time[i - 1] - dt),
-                 "missing_samples": max(round((time[i] - time[i - 1]) / dt) - 1, 0)}
-                for i in starts]
     data_vars: dict[str, Any] = {}
     for name, channel in channels.items():
         values = np.asarray(channel.data)
-        if values.shape != time.shape:
+        if values.shape != (size,):
             raise DataError(
-                f"channel {name!r} has {values.size} samples but the time axis has {time.size}",
+                f"channel {name!r} has {values.size} samples but the time axis has {size}",
                 where={**where, "channel": channel.source_channel},
             )
         data_vars[name] = ("time", values, {
@@ -242,21 +348,36 @@ def stream_dataset(
     data_vars["valid"] = ("time", valid, {"long_name": "sample is usable", "units": "1"})
     data_vars["segment"] = ("time", segment, {"long_name": "gap-free segment index",
                                               "units": "1"})
-    time_attrs = {"units": "s", "long_name": "time on the device clock since first sample"}
-    ds = xr.Dataset(data_vars, coords={"time": ("time", time, time_attrs)})
+    gap_coords = _gap_table(jumps["before"], jumps["after"], fs_nominal)
+    ds = xr.Dataset(data_vars, coords=coords).assign_coords(
+        {**gap_coords, **_invalid_table(counts)})
+    missing = int(ds["gap_missing_samples"].sum())
     ds.attrs = {
+        "Conventions": "CF-1.13",
         **dict(attrs or {}),
         "device": device,
-        "start_time": utc_iso(start_time),
+        "start_time": start_iso,
         "source_file": str(source_file),
         "source_sha256": source_sha256,
         "fs_nominal": float(fs_nominal),
-        "gap_count": len(gaps),
-        "missing_samples": int(sum(g["missing_samples"] for g in gaps)),
-        "gaps": json.dumps(gaps),
-        "invalid_counts": json.dumps(counts),
+        "gap_count": int(ds.sizes["gap"]),
+        "missing_samples": missing,
     }
     return ds
+
+
+def _check_increasing(time: np.ndarray, where: dict[str, Any]) -> None:
+    """Raise DataError at the first step of ``time`` that is not positive."""
+    if time.size > 1:
+        bad = np.flatnonzero(~(np.diff(time) > 0))
+        if bad.size:
+            i = int(bad[0])
+            raise DataError(
+                f"time is not strictly increasing: sample {i + 1} at {time[i + 1]!r} s follows "
+                f"{time[i]!r} s ({bad.size} such steps)",
+                where=where,
+                hint="check the reader options (time column, start offsets); rigval never reorders",
+            )
 
 
 def check_stream(ds: xr.Dataset) -> None:
@@ -275,6 +396,10 @@ def check_stream(ds: xr.Dataset) -> None:
     for name in ("valid", "segment"):
         if name not in ds or ds[name].dims != ("time",):
             raise DataError(f"stream lacks the variable {name!r} on dim 'time'", where=where)
+    lacking = [c for c in REQUIRED_STREAM_COORDS if c not in ds.coords]
+    if lacking:
+        raise DataError(f"stream lacks the coordinates {lacking}", where=where,
+                        hint="build streams with rigval.acquisition.schema.stream_dataset")
     for name, var in ds.data_vars.items():
         if name in ("valid", "segment"):
             continue

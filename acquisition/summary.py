@@ -7,7 +7,6 @@ printed by ``rigval info``.
 
 from __future__ import annotations
 
-import json
 import os
 import warnings
 from pathlib import Path
@@ -17,6 +16,7 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.detect import checked_path, detect_format
+from rigval.acquisition.schema import stream_gaps
 
 __all__ = ["describe"]
 
@@ -68,9 +68,9 @@ def _describe_stream(name: str, ds: xr.Dataset) -> dict[str, Any]:
     return {
         "name": name, "fs_hz": ds.attrs["fs_nominal"], "samples": int(ds.sizes["time"]),
         "duration_s": duration, "start_time": ds.attrs["start_time"],
-        "gaps": json.loads(ds.attrs["gaps"]),
-        "time_fallbacks": json.loads(ds.attrs.get("time_fallbacks", "[]")),
-        "channels": [{"name": v, "samples": int(ds.sizes["time"]),
+        "gaps": stream_gaps(ds),
+        "time_fallbacks": [n for n in str(ds.attrs.get("time_fallbacks", "")).split("\n") if n],
+        "channels": [{"name": str(v), "samples": int(ds.sizes["time"]),
                       "units": ds[v].attrs.get("units_in_file", ds[v].attrs["units"]),
                       "empty_cells": ds[v].attrs.get("empty_cells", 0)}
                      for v in ds.data_vars if v not in ("valid", "segment")],

@@ -26,7 +26,6 @@ its own offset in the attribute ``time_offset_s`` and the data are never shifted
 from __future__ import annotations
 
 import io
-import json
 import logging
 import os
 from collections.abc import Iterator, Mapping, Sequence
@@ -487,8 +486,7 @@ def _channel_attrs(layout: TdmsLayout, plan: TdmsStreamPlan, name: str,
     attrs: dict[str, Any] = {
         "units_in_file": unit_text,
         "time_offset_s": plan.offsets[name],
-        "tdms_properties": json.dumps({k: _json_value(v) for k, v in props.items()},
-                                      default=str),
+        **{f"tdms_{k.replace('/', '_')}": _json_value(v) for k, v in props.items()},
     }
     module_name = _module_for(name, props, profile, modules)
     if module_name is not None:
@@ -579,7 +577,7 @@ def _build(layout: TdmsLayout, plan: TdmsStreamPlan, data: Mapping[str, np.ndarr
         "source_format": "tdms",
         "tdms_group": plan.group,
         "tdms_version": layout.version,
-        "time_fallbacks": json.dumps(plan.notes),
+        "time_fallbacks": "\n".join(plan.notes),
         "first_sample": start,
         "samples_in_file": plan.timebase.length,
     }
@@ -588,9 +586,9 @@ def _build(layout: TdmsLayout, plan: TdmsStreamPlan, data: Mapping[str, np.ndarr
     if profile is not None:
         attrs.update(profile.stream_attrs())
     return stream_dataset(
-        plan.timebase.times(start, stop), channels, device=profile.name if profile else "unknown",
+        plan.timebase, channels, device=profile.name if profile else "unknown",
         start_time=plan.start_time, source_file=layout.path, source_sha256=sha,
-        fs_nominal=plan.fs_nominal, segment=plan.timebase.segments(start, stop), attrs=attrs)
+        fs_nominal=plan.fs_nominal, window=(start, stop), attrs=attrs)
 
 
 def warn_about_plans(layout: TdmsLayout, plans: list[TdmsStreamPlan]) -> None:

@@ -503,7 +503,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     for note in notes:
         logger.info("%s: %s", file, note)
     attrs = {"source_format": "csv", "delimiter": layout.delimiter, "decimal": layout.decimal,
-             "text_header": json.dumps(layout.header), "time_fallbacks": json.dumps(notes),
+             "text_header": json.dumps(layout.header), "time_fallbacks": "\n".join(notes),
              "first_sample": lo, "samples_in_file": int(time.size)}
     if profile is not None:
         attrs.update(profile.stream_attrs())

@@ -36,7 +36,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from rigval.acquisition.devices import ni9237_input_delay
 from rigval.acquisition.errors import AlignmentError, DataError, DataWarning
-from rigval.acquisition.schema import append_history, parse_start_time
+from rigval.acquisition.schema import (
+    append_history,
+    invalid_counts,
+    parse_start_time,
+    with_invalid_counts,
+)
 
 __all__ = [
     "ClockModel",
@@ -533,11 +538,11 @@ def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = No
         offset = (np.interp(np.arange(ref_time.size), good, ref_time[good] - device_time[good])
                   if good.size else np.zeros(ref_time.size))
         ref_time = np.where(lost, device_time + offset, ref_time)
-        counts = json.loads(stream.attrs.get("invalid_counts", "{}"))
+        counts = invalid_counts(stream)
         newly = int(np.count_nonzero(lost & stream["valid"].to_numpy()))
         counts["unaligned segment"] = counts.get("unaligned segment", 0) + newly
         out["valid"] = stream["valid"] & ~xr.DataArray(lost, dims="time")
-        out.attrs["invalid_counts"] = json.dumps(counts)
+        out = with_invalid_counts(out, counts)
     out = out.assign_coords(time=("time", ref_time, {
         "units": "s", "long_name": "time on the reference device clock"}),
         device_time=("time", device_time, {"units": "s",

@@ -13,7 +13,6 @@ report's alignment section and ``alignment.json``.
 from __future__ import annotations
 
 import dataclasses
-import json
 import logging
 import math
 from collections.abc import Mapping
@@ -25,7 +24,7 @@ import xarray as xr
 
 from rigval.acquisition.channel_map import ChannelSpec
 from rigval.acquisition.errors import AlignmentError, DataError
-from rigval.acquisition.schema import parse_start_time
+from rigval.acquisition.schema import parse_start_time, stream_gaps
 from rigval.processing.align import (
     ClockModel,
     align_stream,
@@ -253,7 +252,7 @@ def _stream_summary(name: str, aligned: xr.Dataset, clock: ClockModel, *, is_ref
         residual_rms_s=float(np.sqrt(np.mean(residual**2))) if residual.size else 0.0,
         events_matched=matched, events_missing=missing, events_spurious=spurious,
         input_delay_s=max(delays, default=0.0), segments=len(clock.segments),
-        gaps=tuple(json.loads(aligned.attrs.get("gaps", "[]"))),
+        gaps=tuple(stream_gaps(aligned)),
         span_s=(float(times[0]), float(times[-1])), residual_time=residual_time,
         residual_s=residual, pulse_time=empty, pulse_signal=empty, pulse_units="",
         edge_times=empty)

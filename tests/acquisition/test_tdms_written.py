@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +15,7 @@ from rigval.acquisition.errors import (
     DataFileError,
     DataWarning,
 )
-from rigval.acquisition.schema import parse_start_time
+from rigval.acquisition.schema import parse_start_time, stream_gaps
 
 T0 = np.datetime64("2026-11-21T05:00:00.123456", "ns")  # TdmsWriter keeps microseconds
 FS = 50_000 / 31  # an NI 9237 rate
@@ -71,7 +70,8 @@ def test_restart_with_new_start_time_becomes_a_gap(tmp_path: Path) -> None:
     assert ds.sizes["time"] == 5000
     np.testing.assert_array_equal(ds["tor1"].values[3000:], 1e-7 * b + 0.5)
     assert ds.attrs["gap_count"] == 1
-    gap = json.loads(ds.attrs["gaps"])[0]
+    gap = stream_gaps(ds)[0]
+    assert int(ds["gap_missing_samples"][0]) == gap["missing_samples"]
     assert gap["duration_s"] == pytest.approx(1.25, abs=1e-6)
     assert ds.attrs["missing_samples"] == round(1.25 / dt)
     assert ds.time.values[3000] == pytest.approx(3000 * dt + 1.25, abs=1e-9)

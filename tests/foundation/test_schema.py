@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 
 from rigval.acquisition.errors import DataError
-from rigval.acquisition.schema import Channel, check_stream, parse_start_time, stream_dataset
+from rigval.acquisition.schema import (
+    Channel,
+    check_stream,
+    invalid_counts,
+    parse_start_time,
+    stream_dataset,
+    stream_gaps,
+)
 
 
 def _stream(time: np.ndarray, **kwargs: object) -> object:
@@ -26,8 +31,12 @@ def test_gap_is_found_and_its_missing_samples_counted() -> None:
     assert ds.attrs["missing_samples"] == 30
     assert np.array_equal(np.unique(ds["segment"]), [0, 1])
     assert int((ds["segment"] == 1).sum()) == 20
-    gap = json.loads(ds.attrs["gaps"])[0]
+    assert float(ds["gap_start_s"][0]) == pytest.approx(0.49)
+    assert float(ds["gap_end_s"][0]) == pytest.approx(0.80)
+    assert int(ds["gap_missing_samples"][0]) == 30
+    gap = stream_gaps(ds)[0]
     assert gap["after_s"] == pytest.approx(0.49)
+    assert gap["duration_s"] == pytest.approx(0.80 - 0.49 - 0.01)
 
 
 def test_start_time_keeps_nanoseconds() -> None:
@@ -45,6 +54,7 @@ def test_non_monotonic_time_is_refused() -> None:
 def test_invalid_counts_must_add_up() -> None:
     valid = np.array([True, False, True])
     ds = _stream(np.arange(3) / 100.0, valid=valid, invalid_counts={"overrange": 1})
-    assert json.loads(ds.attrs["invalid_counts"]) == {"overrange": 1}
+    assert invalid_counts(ds) == {"overrange": 1}
+    assert ds["invalid_count"].sel(invalid_reason="overrange").item() == 1
     with pytest.raises(DataError, match="valid mask"):
         _stream(np.arange(3) / 100.0, valid=valid)
