@@ -40,7 +40,7 @@ from rigval.validation.iso18571 import (
 )
 from rigval.validation.metric_core import Scores, as_cycles, as_signal, paired, revolution_angle
 from rigval.validation.thresholds import ThresholdCheck, check_thresholds, parse_threshold
-from rigval.validation.vv20 import VV20Feature, VV20Scores, vv20
+from rigval.validation.vv20 import VV20Curve, VV20Feature, VV20Scores, vv20, vv20_curve
 from rigval.validation.waveform_metrics import (
     LagScores,
     NrmseScores,
@@ -70,6 +70,7 @@ __all__ = [
     "Scores",
     "SpragueGeersScores",
     "ThresholdCheck",
+    "VV20Curve",
     "VV20Feature",
     "VV20Scores",
     "baseline",
@@ -87,6 +88,7 @@ __all__ = [
     "russell",
     "sprague_geers",
     "vv20",
+    "vv20_curve",
 ]
 
 logger = logging.getLogger(__name__)
@@ -99,14 +101,16 @@ DEFAULT_METRICS: tuple[str, ...] = ("iso18571_periodic", "sprague_geers", "russe
                                     "pearson_r", "peak_error", "circular_lag")
 """Metrics :func:`compare` runs unless told otherwise (V&V 20 needs stated uncertainties)."""
 
-_UNCERTAINTY_OPTIONS = ("u_num", "u_input", "u_measurement", "u_measurement_rel", "k")
+_UNCERTAINTY_OPTIONS = ("u_num", "u_input", "u_measurement", "u_measurement_rel", "k", "u_time",
+                        "speed", "u_drive_angle")
 
 _HIGHER = ("iso18571_periodic.rating", "iso18571_periodic.corridor", "iso18571_periodic.phase",
            "iso18571_periodic.magnitude", "iso18571_periodic.slope", "iso18571.rating",
            "iso18571.corridor", "iso18571.phase", "iso18571.magnitude", "iso18571.slope",
            "pearson_r", "circular_lag.correlation")
 _LOWER = ("sprague_geers.phase", "sprague_geers.comprehensive", "russell.phase",
-          "russell.comprehensive", "nrmse", "nrmse.rmse")
+          "russell.comprehensive", "nrmse", "nrmse.rmse", "vv20.curve.error",
+          "vv20.curve.normalised_error")
 _NEAR_ZERO = ("iso18571_periodic.shift_samples", "iso18571_periodic.shift",
               "iso18571.shift_samples", "iso18571.shift", "sprague_geers.magnitude",
               "russell.magnitude", "peak_error.error", "peak_error.relative_error",
@@ -197,7 +201,7 @@ def compare(measured: Any, model: Any, angle: Any = None, *,
         Measured cycles ``(n_cycles, n)``, for the random part of the V&V 20 data uncertainty.
     uncertainty : mapping, optional
         Keyword arguments of :func:`vv20` (``u_num``, ``u_input``, ``u_measurement``,
-        ``u_measurement_rel``, ``k``).
+        ``u_measurement_rel``, ``k``, ``u_time``, ``speed``, ``u_drive_angle``).
 
     Returns
     -------

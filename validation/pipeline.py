@@ -69,9 +69,11 @@ from rigval.validation.model_run import (
 from rigval.validation.results import (
     ComparisonResult,
     NumericsSummary,
+    StreamAlignment,
     ValidationResult,
 )
 from rigval.validation.scene import ComparisonSpec, Scene, load_scene
+from rigval.validation.verdict import carried_uncertainty
 
 __all__ = ["read_streams", "run_scene", "validate_scene"]
 
@@ -130,6 +132,8 @@ def _resample_channel(scene: Scene, comparison: ComparisonSpec, aligned: xr.Data
     name = comparison.measured.channel
     fs = float(aligned.attrs["fs_nominal"])
     values = aligned[name].to_numpy().astype(np.float64)
+    for ref in comparison.summed:  # channels of the same stream and unit, summed
+        values = values + aligned[ref.channel].to_numpy().astype(np.float64)
     valid = aligned["valid"].to_numpy() & np.isfinite(values)
     segment = aligned["segment"].to_numpy()
     corner = comparison.lowpass_hz
@@ -152,10 +156,13 @@ def _resample_channel(scene: Scene, comparison: ComparisonSpec, aligned: xr.Data
 
 
 def _compare(comparison: ComparisonSpec, units: str, long_name: str, angle: np.ndarray,
-             cycles: np.ndarray, model: np.ndarray, u_num: float) -> ComparisonResult:
+             cycles: np.ndarray, model: np.ndarray, u_num: float,
+             carried: Mapping[str, float] | None = None) -> ComparisonResult:
     """Score the model against the measured mean, the baseline and the thresholds.
 
-    ``u_num`` is the numerical uncertainty of the model (signal units) for V&V 20.
+    ``u_num`` is the numerical uncertainty of the model (signal units) for V&V 20; ``carried``
+    the uncertainties carried from alignment and drives (``u_time`` s, ``speed`` rad/s,
+    ``u_drive_angle`` rad, see :func:`rigval.validation.vv20.vv20_curve`).
     """
     whole = cycles[np.all(np.isfinite(cycles), axis=1)]
     if whole.shape[0] < 2:
@@ -168,7 +175,8 @@ def _compare(comparison: ComparisonSpec, units: str, long_name: str, angle: np.n
     model = model + offset
     scores = compare(mean, model, angle, metrics=(*comparison.metrics, "vv20"),
                      normaliser=comparison.nrmse_normaliser, cycles=whole,
-                     uncertainty={"u_num": u_num, **comparison.uncertainty})
+                     uncertainty={"u_num": u_num, **dict(carried or {}),
+                                  **comparison.uncertainty})
     base = baseline(whole, mean, angle=angle, metrics=comparison.metrics,
                     normaliser=comparison.nrmse_normaliser)
     checks = check_thresholds(scores, comparison.thresholds,
@@ -205,7 +213,7 @@ def _tree(scene: Scene, raw: Mapping[str, xr.Dataset], aligned: Mapping[str, xr.
     for result in results:
         name = result.name
         attrs = {"units": result.units, "long_name": result.long_name,
-                 "source": str(result.spec.measured)}
+                 "source": " + ".join(map(str, (result.spec.measured, *result.spec.summed)))}
         angle_ds[name] = (("cycle", "angle"), measured[name].astype(np.float32), attrs)
         low, high = result.band
         stats = {"mean": result.mean, "std": result.cycles.std(axis=0, ddof=1), "p5": low,
@@ -290,7 +298,8 @@ def _grid(scene: Scene, main: MainAngle) -> _Grid:
 
 def _compare_all(scene: Scene, aligned: Mapping[str, xr.Dataset], model: xr.Dataset,
                  grid: _Grid, measured: Mapping[str, np.ndarray],
-                 errors: Mapping[str, float]) -> tuple[ComparisonResult, ...]:
+                 errors: Mapping[str, float], alignment: Mapping[str, StreamAlignment]
+                 ) -> tuple[ComparisonResult, ...]:
     results = []
     for comparison in scene.comparisons:
         channel = scene.channel(comparison.measured)
@@ -298,8 +307,10 @@ def _compare_all(scene: Scene, aligned: Mapping[str, xr.Dataset], model: xr.Data
             "long_name", channel.name))
         values = model_values(model, comparison.model)
         u_num = errors[comparison.name] * float(np.ptp(values)) * abs(comparison.scale)
+        carried = carried_uncertainty(scene, alignment[comparison.measured.stream],
+                                      grid.speed_rev_s)
         results.append(_compare(comparison, scene.units(comparison.measured), long_name,
-                                grid.angle, measured[comparison.name], values, u_num))
+                                grid.angle, measured[comparison.name], values, u_num, carried))
     return tuple(results)
 
 
@@ -368,7 +379,7 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
     with watch.stage("numerics"):
         errors = grid_error(scene, fine)
     with watch.stage("compare"):
-        results = _compare_all(scene, aligned, model, grid, measured, errors)
+        results = _compare_all(scene, aligned, model, grid, measured, errors, diagnostics)
     with watch.stage("numerics"):
         residuals = energy_residual(mechanism, scene.angle.points_per_revolution)
         residuals["max condition number (this run)"] = float(

@@ -286,6 +286,10 @@ class ComparisonSpec:
         Pass/fail criteria: score name to threshold text (``">= 0.8"``, ``"abs <= 0.1"``).
     key : str
         Key path, e.g. ``comparisons[0]``.
+    summed : tuple of ChannelRef
+        Further channels of the same stream and unit added to ``measured`` before comparing
+        (``measured = ["wls1.tor1", "wls1.tor2"]``: both shafts' torques against the whole drive
+        torque); empty for one channel.
     """
 
     name: str
@@ -300,6 +304,7 @@ class ComparisonSpec:
     nrmse_normaliser: str
     thresholds: Mapping[str, str]
     key: str
+    summed: tuple[ChannelRef, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -641,8 +646,7 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
         name = _get(table, "name", key, str)
         if name in {s.name for s in specs}:
             raise _error(f"{key}.name", f"duplicate comparison name {name!r}")
-        measured = _ref(_get(table, "measured", key, str), f"{key}.measured", streams,
-                        _MEASURED_SENSORS)
+        measured, summed = _measured(table, key, streams)
         output = _model_output(_get(table, "model", key, dict), f"{key}.model")
         scale = _get(table, "scale", key, float, 1.0)
         if not math.isfinite(scale) or scale == 0:
@@ -677,8 +681,32 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
             name, measured, output, scale, scale_units, lowpass,
             _get(table, "remove_offset", key, bool, False), metrics, uncertainty,
             _get(table, "nrmse_normaliser", key, str, "range", ("range", "rms", "peak")),
-            thresholds, key))
+            thresholds, key, summed))
     return tuple(specs)
+
+
+def _measured(table: Mapping[str, Any], key: str, streams: Mapping[str, StreamSpec]
+              ) -> tuple[ChannelRef, tuple[ChannelRef, ...]]:
+    """Return the ``measured`` channel and the further channels of a list to be summed."""
+    value = table.get("measured")
+    if not isinstance(value, list):
+        return _ref(_get(table, "measured", key, str), f"{key}.measured", streams,
+                    _MEASURED_SENSORS), ()
+    if not value:
+        raise _error(f"{key}.measured", "empty list of channels",
+                     hint='give "stream.channel" or a list of them to be summed')
+    refs = [_ref(item, f"{key}.measured[{i}]", streams, _MEASURED_SENSORS)
+            for i, item in enumerate(value)]
+    first = channel_units(streams[refs[0].stream].channels[refs[0].channel])
+    for i, ref in enumerate(refs[1:], start=1):
+        if ref.stream != refs[0].stream:
+            raise _error(f"{key}.measured[{i}]", f"summed channels must be on one stream, got "
+                         f"{refs[0]} and {ref}", hint="sum channels of one device only")
+        units = channel_units(streams[ref.stream].channels[ref.channel])
+        if units != first:
+            raise _error(f"{key}.measured[{i}]", f"summed channels must share a unit, got "
+                         f"{first!r} and {units!r}", hint="sum like with like")
+    return refs[0], tuple(refs[1:])
 
 
 def _predictions(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...]

@@ -6,6 +6,12 @@ u_D^2)``; the model error lies in ``[E - k u_val, E + k u_val]`` (k = 2: about 9
 Gaussian errors). ``|E| > k u_val`` resolves a model error of about ``E``; otherwise the model
 error cannot be resolved at this uncertainty, which does not prove the model right (ASME V&V
 20-2009 (R2016), sections 1-2).
+
+The whole curve over phi_F is compared too (:class:`VV20Curve`): ``E`` is the RMS over the angle
+grid of ``S(phi) - D(phi)`` and ``u_val`` the RMS of the pointwise validation uncertainty, built
+from named parts (sensor calibration, clock alignment, cycle-to-cycle scatter, angle grid, drive
+angle, model inputs). Under the hypothesis "no model error" and independent parts the expected
+``E^2`` is ``u_val^2``, so ``|E| > k u_val`` is the curve's statement "model error detected".
 """
 
 from __future__ import annotations
@@ -21,7 +27,8 @@ import numpy as np
 from rigval.acquisition.errors import ConfigError
 from rigval.validation.metric_core import Scores, as_cycles, paired
 
-__all__ = ["FEATURES", "VV20Feature", "VV20Scores", "vv20"]
+__all__ = ["CURVE_PARTS", "FEATURES", "VV20Curve", "VV20Feature", "VV20Scores", "vv20",
+           "vv20_curve"]
 
 logger = logging.getLogger(__name__)
 
@@ -29,6 +36,10 @@ FEATURES: tuple[str, ...] = ("peak", "rms")
 """Features rated: ``peak`` = max |x| and ``rms`` = sqrt(mean x^2) over the samples given."""
 
 Uncertainty = float | Mapping[str, float]
+
+CURVE_PARTS: tuple[str, ...] = ("u_calibration", "u_alignment", "u_scatter", "u_grid", "u_drive",
+                                "u_input")
+"""Parts of the curve's validation uncertainty, in the order they are reported."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -70,17 +81,87 @@ class VV20Feature(Scores):
 
 
 @dataclasses.dataclass(frozen=True)
+class VV20Curve(Scores):
+    """V&V 20 comparison of the whole curve over phi_F (all values in the signals' units).
+
+    Attributes
+    ----------
+    error : float
+        ``E``: RMS over the grid of ``S(phi) - D(phi)`` (>= 0).
+    u_val : float
+        RMS over the grid of the pointwise validation uncertainty; ``u_val^2`` is the sum of the
+        squared parts below.
+    k : float
+        Coverage factor.
+    u_calibration : float
+        Sensor calibration: ``sqrt(u_measurement^2 + (u_measurement_rel D)^2)``, RMS.
+    u_alignment : float
+        Clock alignment carried through: ``|dD/dphi| omega u_time``, RMS.
+    u_scatter : float
+        Cycle-to-cycle scatter of the measured mean: ``std_cycles / sqrt(n_cycles)``, RMS.
+    u_grid : float
+        Angle-grid (numerical) uncertainty of the model, ``u_num``.
+    u_drive : float
+        Drive-angle uncertainty: ``|dS/dphi| u_drive_angle``, RMS.
+    u_input : float
+        Model-input uncertainty stated by the caller.
+    normalised_error : float
+        ``E / u_val`` (+inf when ``u_val`` is 0 and ``E`` is not; 0 when both are).
+    detected : bool
+        ``E > k u_val``: a model error is detected.
+    dominant : str
+        Name of the largest part of ``u_val``.
+    """
+
+    error: float
+    u_val: float
+    k: float
+    u_calibration: float
+    u_alignment: float
+    u_scatter: float
+    u_grid: float
+    u_drive: float
+    u_input: float
+    normalised_error: float
+    detected: bool
+    dominant: str
+
+    def statement(self, units: str = "") -> str:
+        """Return the verdict in words with its numbers.
+
+        Parameters
+        ----------
+        units : str
+            Unit of the signal, appended to ``E`` and ``u_val``.
+
+        Returns
+        -------
+        str
+            ``"Model error detected (|E| > k u_val): E = ..., u_val = ..., k = 2"`` or ``"Model
+            error not detected (|E| <= k u_val): ..."``.
+        """
+        unit = f" {units}" if units and units != "1" else ""
+        head = ("Model error detected (|E| > k u_val)" if self.detected
+                else "Model error not detected (|E| <= k u_val)")
+        return (f"{head}: E = {self.error:.4g}{unit}, u_val = {self.u_val:.4g}{unit}, "
+                f"k = {self.k:g}, |E|/(k u_val) = {_ratio(self.error, self.k * self.u_val):.2f}")
+
+
+@dataclasses.dataclass(frozen=True)
 class VV20Scores(Scores):
-    """V&V 20 comparisons of the peak and the RMS feature.
+    """V&V 20 comparisons of the peak and the RMS feature and of the whole curve.
 
     Attributes
     ----------
     peak, rms : VV20Feature
         One comparison per feature.
+    curve : VV20Curve
+        The whole curve over phi_F.
     """
 
     peak: VV20Feature
     rms: VV20Feature
+    curve: VV20Curve
 
     def as_dict(self) -> dict[str, Any]:
         """Return the scores by name, flattened as ``"<feature>.<field>"``.
@@ -88,15 +169,16 @@ class VV20Scores(Scores):
         Returns
         -------
         dict
-            For example ``{"peak.error": ..., "peak.u_val": ..., "rms.error": ...}``.
+            For example ``{"peak.error": ..., "peak.u_val": ..., "curve.detected": ...}``.
         """
-        return {f"{feature}.{name}": value for feature in FEATURES
+        return {f"{feature}.{name}": value for feature in (*FEATURES, "curve")
                 for name, value in getattr(self, feature).as_dict().items()}
 
 
 def vv20(measured: Any, model: Any, *, u_num: Uncertainty = 0.0, u_input: Uncertainty = 0.0,
          u_measurement: Uncertainty = 0.0, u_measurement_rel: Uncertainty = 0.0,
-         cycles: Any = None, k: float = 2.0) -> VV20Scores:
+         cycles: Any = None, k: float = 2.0, u_time: float = 0.0, speed: float = 0.0,
+         u_drive_angle: float = 0.0) -> VV20Scores:
     """Compare the model's peak and RMS with the measured ones against validation uncertainty.
 
     Parameters
@@ -122,11 +204,14 @@ def vv20(measured: Any, model: Any, *, u_num: Uncertainty = 0.0, u_input: Uncert
         uncertainty, ``std(per-cycle feature) / sqrt(n_cycles)``.
     k : float
         Coverage factor (2: about 95 %).
+    u_time, speed, u_drive_angle : float
+        For the curve only (see :func:`vv20_curve`): clock-alignment standard uncertainty (s),
+        main-shaft speed (rad/s) and drive-angle standard uncertainty (rad).
 
     Returns
     -------
     VV20Scores
-        One :class:`VV20Feature` per feature.
+        One :class:`VV20Feature` per feature and the :class:`VV20Curve`.
 
     Raises
     ------
@@ -161,7 +246,104 @@ def vv20(measured: Any, model: Any, *, u_num: Uncertainty = 0.0, u_input: Uncert
             u_input=parts["u_input"], u_data=u_data, u_val=u_val, k=float(k),
             lower=error - k * u_val, upper=error + k * u_val,
             normalised_error=_normalised(error, u_val), resolved=bool(abs(error) > k * u_val))
-    return VV20Scores(**features)
+    curve = vv20_curve(m, c, cycles=cycles, u_num=_component(u_num, "rms", "u_num"),
+                       u_input=_component(u_input, "rms", "u_input"),
+                       u_measurement=_component(u_measurement, "rms", "u_measurement"),
+                       u_measurement_rel=_component(u_measurement_rel, "rms",
+                                                    "u_measurement_rel"),
+                       u_time=u_time, speed=speed, u_drive_angle=u_drive_angle, k=k)
+    return VV20Scores(**features, curve=curve)
+
+
+def vv20_curve(measured: Any, model: Any, *, cycles: Any = None, u_num: float = 0.0,
+               u_input: float = 0.0, u_measurement: float = 0.0,
+               u_measurement_rel: float = 0.0, u_time: float = 0.0, speed: float = 0.0,
+               u_drive_angle: float = 0.0, k: float = 2.0) -> VV20Curve:
+    """Compare the whole model curve over one revolution with the measured mean.
+
+    Parameters
+    ----------
+    measured : array_like
+        Measured mean over one revolution, uniform angle grid without the repeated end sample.
+    model : array_like
+        Model on the same grid, same units.
+    cycles : array_like, optional
+        Measured cycles ``(n_cycles, n)``: the scatter part ``std / sqrt(n_cycles)`` per angle.
+    u_num : float
+        Angle-grid (numerical) standard uncertainty of the model, signal units.
+    u_input : float
+        Model-input standard uncertainty, signal units.
+    u_measurement : float
+        Absolute calibration standard uncertainty of the sensor, signal units.
+    u_measurement_rel : float
+        Relative calibration standard uncertainty (a gain known to 1 % gives 0.01).
+    u_time : float
+        Standard uncertainty of the channel's time on the reference clock after alignment, s.
+    speed : float
+        Main-shaft speed, rad/s (turns ``u_time`` into an angle).
+    u_drive_angle : float
+        Standard uncertainty of the drive angles the model runs on, rad.
+    k : float
+        Coverage factor.
+
+    Returns
+    -------
+    VV20Curve
+        ``E``, ``u_val``, its parts and the verdict.
+
+    Raises
+    ------
+    ConfigError
+        For a negative or non-finite uncertainty or ``k <= 0``.
+    DataError
+        On bad samples or cycles that do not match the signal's length.
+
+    Notes
+    -----
+    Slopes are periodic central differences over the grid. The parts are taken as independent
+    and combined in quadrature at every angle; each reported part is its RMS over the grid, so
+    ``u_val^2`` is the sum of the squared parts.
+    """
+    m, c = paired(measured, model)
+    if not k > 0:
+        raise ConfigError(f"coverage factor k must be positive, got {k}", where={"key": "k"},
+                          hint="use k = 2 for about 95 %")
+    for name, value in (("u_num", u_num), ("u_input", u_input), ("u_measurement", u_measurement),
+                        ("u_measurement_rel", u_measurement_rel), ("u_time", u_time),
+                        ("speed", speed), ("u_drive_angle", u_drive_angle)):
+        _component(value, "curve", name)
+    step = 2.0 * np.pi / m.size
+    scatter = (np.zeros(m.size) if cycles is None
+               else np.std(as_cycles(cycles, m.size), axis=0, ddof=1)
+               / np.sqrt(as_cycles(cycles, m.size).shape[0]))
+    pointwise = {
+        "u_calibration": np.hypot(u_measurement, u_measurement_rel * np.abs(m)),
+        "u_alignment": np.abs(_slope(m, step)) * abs(speed) * u_time,
+        "u_scatter": scatter,
+        "u_grid": np.full(m.size, float(u_num)),
+        "u_drive": np.abs(_slope(c, step)) * u_drive_angle,
+        "u_input": np.full(m.size, float(u_input)),
+    }
+    parts = {name: float(np.sqrt(np.mean(values**2))) for name, values in pointwise.items()}
+    u_val = math.sqrt(sum(value**2 for value in parts.values()))
+    error = float(np.sqrt(np.mean((c - m) ** 2)))
+    dominant = max(parts, key=parts.__getitem__)
+    logger.debug("V&V 20 curve: E %.4g, u_val %.4g (%s)", error, u_val, parts)
+    return VV20Curve(error=error, u_val=u_val, k=float(k), **parts,
+                     normalised_error=_normalised(error, u_val),
+                     detected=bool(error > k * u_val), dominant=dominant)
+
+
+def _slope(values: np.ndarray, step: float) -> np.ndarray:
+    """d/dphi of one revolution's samples by periodic central differences."""
+    return (np.roll(values, -1) - np.roll(values, 1)) / (2.0 * step)
+
+
+def _ratio(error: float, limit: float) -> float:
+    """``error / limit`` with the limits for ``limit == 0``."""
+    if limit > 0.0:
+        return error / limit
+    return 0.0 if error == 0.0 else math.inf
 
 
 def _feature(values: np.ndarray, feature: str) -> np.ndarray:
