@@ -42,6 +42,7 @@ from rigval.model.loops import LoopSystem, loop_system
 from rigval.model.mechanism import Mechanism, load_mechanism
 from rigval.model.reference import constraint_jacobian
 from rigval.model.results import Selection, Solution, build_dataset, select
+from rigval.model.threads import single_blas_thread
 
 __all__ = ["interpolate_cycle", "solve", "solve_cycle"]
 
@@ -113,7 +114,6 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
     tolerances = Tolerances(tol=tol, cond_warn=cond_warn, cond_max=cond_max)
     motion = drive_motion(mech, times, drives)
     system = loop_system(mech)
-    continuation = track(mech, system, times, motion.theta, tolerances)
     if mech.redundant_constraints and selection.forces:
         warnings.warn(
             f"{mech.name}: {mech.redundant_constraints} redundant constraint equations; joint "
@@ -121,10 +121,12 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
             NumericsWarning, stacklevel=2)
     solution = _empty_solution(mech, times, motion, selection)
     exact = "condition_number" in selection.outputs
-    for start in range(0, times.size, _CHUNK):
-        part = slice(start, min(start + _CHUNK, times.size))
-        _solve_chunk(mech, system, continuation, motion, selection, solution, part, exact)
-    _check_condition(mech, system, times, solution, tolerances, exact)
+    with single_blas_thread():  # many tiny systems: BLAS threads only wait for each other
+        continuation = track(mech, system, times, motion.theta, tolerances)
+        for start in range(0, times.size, _CHUNK):
+            part = slice(start, min(start + _CHUNK, times.size))
+            _solve_chunk(mech, system, continuation, motion, selection, solution, part, exact)
+        _check_condition(mech, system, times, solution, tolerances, exact)
     attrs = {"title": f"rigval model: {mech.name}", "mechanism": mech.name,
              "mechanism_source": mech.source, "newton_tol": tol,
              "redundant_constraints": mech.redundant_constraints,
