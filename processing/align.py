@@ -23,6 +23,7 @@ reference timeline without touching its samples.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import warnings
@@ -33,6 +34,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike, NDArray
+from scipy.stats import t as student_t
 
 from rigval.acquisition.devices import ni9237_input_delay
 from rigval.acquisition.errors import AlignmentError, DataError, DataWarning
@@ -147,11 +149,23 @@ class ClockModel:
     pulses_total : int
         Device events offered.
     offset_std_s : float
-        Standard error of the offsets in s (largest over segments).
+        Residual-based standard error of the offsets in s (largest over segments).
     drift_std : float
-        Standard error of the drift (1).
+        Residual-based standard error of the drift (1).
     unaligned_segments : tuple of int
         Device segments without enough matched events (their samples become invalid).
+    offsets_u95_s : tuple of float
+        Half-width in s of the 95 % interval of each offset (residual-based Student-t interval
+        combined with the bound of sample-switched edge times, docs/processing.md).
+    drift_u95 : float
+        Half-width of the 95 % interval of the drift (1).
+    periods_decided_by : str
+        What decided the whole pulse periods: ``"stamps"`` (the start stamps' window was
+        narrower than a period), ``"data"`` (the pulse intervals), ``"neighbour"`` (a segment
+        matched around another segment's offset), joined with ``+`` when segments differ.
+    clock_groups : tuple of int
+        Clock group of each aligned segment: segments of one group share one offset (a dropout
+        during which the device clock ran on).
     """
 
     segments: tuple[int, ...]
@@ -163,6 +177,10 @@ class ClockModel:
     offset_std_s: float = 0.0
     drift_std: float = 0.0
     unaligned_segments: tuple[int, ...] = field(default_factory=tuple)
+    offsets_u95_s: tuple[float, ...] = field(default_factory=tuple)
+    drift_u95: float = 0.0
+    periods_decided_by: str = "data"
+    clock_groups: tuple[int, ...] = field(default_factory=tuple)
 
     def to_reference(self, time: ArrayLike, segment: ArrayLike | int = 0) -> _FloatArray:
         """Return reference-clock times (s) for device times (s) of the given segment(s).
@@ -184,12 +202,17 @@ class ClockModel:
             "clock_drift_ppm": self.drift * 1e6,
             "clock_drift_std_ppm": self.drift_std * 1e6,
             "clock_offset_std_s": self.offset_std_s,
+            "clock_offset_u95_s": float(self.offsets_u95_s[0]) if self.offsets_u95_s else 0.0,
+            "clock_drift_u95_ppm": self.drift_u95 * 1e6,
+            "periods_decided_by": self.periods_decided_by,
             "residual_rms_s": self.residual_rms_s,
             "pulses_matched": self.pulses_matched,
             "pulses_total": self.pulses_total,
-            "segments": json.dumps([{"segment": s, "clock_offset_s": o}
-                                    for s, o in zip(self.segments, self.offsets_s,
-                                                    strict=True)]),
+            "segments": json.dumps([
+                {"segment": s, "clock_offset_s": o, "clock_offset_u95_s": u, "clock_group": g}
+                for s, o, u, g in zip(self.segments, self.offsets_s,
+                                      self.offsets_u95_s or (0.0,) * len(self.segments),
+                                      self.clock_groups or self.segments, strict=True)]),
             "unaligned_segments": json.dumps(list(self.unaligned_segments)),
         }
 
@@ -230,39 +253,46 @@ def _line_residual(x: _FloatArray, y: _FloatArray) -> tuple[_FloatArray, float]:
     return np.array([coeffs[1] - coeffs[0] * centre, coeffs[0]]), scale
 
 
-def match_events(ref_times: ArrayLike, dev_times: ArrayLike, *, coarse_offset_s: float = 0.0,
-                 max_offset_error_s: float = 5.0, tolerance: float = 0.25,
-                 where: Mapping[str, Any] | None = None) -> tuple[_IntArray, _IntArray]:
-    """Pair device events with reference events starting from a coarse offset.
+@dataclass(frozen=True)
+class _Match:
+    """Matched pairs of one device segment and how their whole periods were decided."""
 
-    Parameters
-    ----------
-    ref_times : array_like
-        Reference events in s on the reference clock, increasing.
-    dev_times : array_like
-        Events of one gap-free device segment in s on the device clock, increasing.
-    coarse_offset_s : float, default 0
-        Rough ``t_ref - t_dev`` in s (from the files' start times).
-    max_offset_error_s : float, default 5
-        How far in s the coarse offset may be wrong.
-    tolerance : float, default 0.25
-        Largest match distance as a fraction of the reference period.
-    where : mapping, optional
-        Context for error messages (stream, channel).
+    ref_index: _IntArray
+    dev_index: _IntArray
+    offset_s: float
+    decided_by: str
 
-    Returns
-    -------
-    ref_index, dev_index : numpy.ndarray of int
-        Indices of the matched pairs.
 
-    Raises
-    ------
-    AlignmentError
-        Too few events, no overlap, inconsistent periods or whole-period ambiguity.
-    """
-    ref = np.asarray(ref_times, dtype=np.float64)
-    dev = np.asarray(dev_times, dtype=np.float64)
-    place = dict(where or {})
+def _settle_hint(keys: Sequence[str] | None, period: float) -> str:
+    """Return the how-to-fix text naming the keys that settle the whole periods."""
+    if keys:
+        offset_key, uncertainty_key = keys
+        return (f"set {offset_key} to the right candidate (e.g. from a note of when each device "
+                f"started, or an event both devices saw), or, if the start stamps are better "
+                f"than assumed, {uncertainty_key} below half a period ({period / 2:.3g} s)")
+    return (f"give coarse_offset_s good to {period / 2:.3g} s and max_offset_error_s below half "
+            "a period")
+
+
+def _score(ref: _FloatArray, scoring: _FloatArray, offset: float, period: float,
+           tolerance: float) -> tuple[int, float, float]:
+    """Return (events matched, robust residual scale in s, offset in s) of one candidate."""
+    predicted = scoring + offset
+    nearest = _nearest(ref, predicted)
+    hit = np.abs(ref[nearest] - predicted) < tolerance * period
+    _, scale = _line_residual(scoring[hit], ref[nearest[hit]])
+    return int(hit.sum()), scale, float(offset)
+
+
+def _describe(scored: Sequence[tuple[int, float, float]]) -> str:
+    return "; ".join(f"{offset:.6g} s ({hits} events, residual scale {scale:.3g} s)"
+                     for hits, scale, offset in scored)
+
+
+def _match(ref: _FloatArray, dev: _FloatArray, *, coarse_offset_s: float,
+           max_offset_error_s: float, tolerance: float, place: Mapping[str, Any],
+           settle_keys: Sequence[str] | None) -> _Match:
+    """Pair one segment's device events with reference events (see :func:`match_events`)."""
     if ref.size < 3 or dev.size < 3:
         raise AlignmentError(f"too few events to align: {ref.size} reference and {dev.size} "
                              "device events (need 3 each)", where=place,
@@ -288,18 +318,13 @@ def match_events(ref_times: ArrayLike, dev_times: ArrayLike, *, coarse_offset_s:
         candidates.extend(ref[lo:hi] - seed)
     if not candidates:
         raise AlignmentError(
-            f"no overlap: no reference event within {max_offset_error_s} s of the device events "
-            f"shifted by the coarse offset {coarse_offset_s:.6g} s", where=place,
-            hint="check the start times of both files or widen max_offset_error_s")
-    candidates = np.unique(np.round(np.asarray(candidates) / (tolerance * period / 4)))
-    candidates = candidates * (tolerance * period / 4)
-    scored = []
-    for offset in candidates:
-        predicted = scoring + offset
-        nearest = _nearest(ref, predicted)
-        hit = np.abs(ref[nearest] - predicted) < tolerance * period
-        _, scale = _line_residual(scoring[hit], ref[nearest[hit]])
-        scored.append((int(hit.sum()), scale, float(offset)))
+            f"no overlap: no reference event within {max_offset_error_s:.3g} s of the device "
+            f"events shifted by the coarse offset {coarse_offset_s:.6g} s", where=place,
+            hint=_settle_hint(settle_keys, period) if settle_keys else
+            "check the start times of both files or widen max_offset_error_s")
+    step = tolerance * period / 4
+    candidates = np.unique(np.round(np.asarray(candidates) / step)) * step
+    scored = [_score(ref, scoring, offset, period, tolerance) for offset in candidates]
     most = max(s[0] for s in scored)
     contenders = sorted((s for s in scored if s[0] >= max(3, 0.8 * most)), key=lambda s: s[1])
     if not contenders:
@@ -307,14 +332,38 @@ def match_events(ref_times: ArrayLike, dev_times: ArrayLike, *, coarse_offset_s:
                              "events found a reference partner", where=place,
                              hint="check the coarse offset and the reference events")
     best = contenders[0]
-    distinct = [s for s in contenders[1:] if abs(s[2] - best[2]) > 0.5 * period]
-    if distinct and distinct[0][1] <= _AMBIGUITY_FACTOR * best[1] + _TIMING_FLOOR_S:
-        raise AlignmentError(
-            f"whole-period ambiguity: offsets {best[2]:.6g} s and {distinct[0][2]:.6g} s fit "
-            f"equally well (residual scale {best[1]:.3g} s vs {distinct[0][1]:.3g} s); the pulse "
-            "intervals are too regular to tell whole periods apart", where=place,
-            hint=f"give a coarse offset good to {period / 2:.3g} s (max_offset_error_s below "
-                 "half a period)")
+    if 2.0 * max_offset_error_s < period:
+        # The stamps' window holds one whole-period class: the stamps decide. A candidate whole
+        # periods outside it that fits far better says the stamps are worse than stated.
+        decided = "stamps"
+        reach = int(np.ceil(min(_SCORING_SPAN_S, 5.0 * period) / period))
+        outside = [_score(ref, scoring, best[2] + k * period, period, tolerance)
+                   for k in range(-reach, reach + 1) if k]
+        better = sorted((s for s in outside if s[0] >= max(3, 0.8 * best[0])
+                         and _AMBIGUITY_FACTOR * s[1] + _TIMING_FLOOR_S < best[1]),
+                        key=lambda s: s[1])
+        if better:
+            raise AlignmentError(
+                f"the start stamps look off by more than their stated uncertainty "
+                f"({max_offset_error_s:.3g} s): inside the window the best offset is "
+                f"{_describe([best])}, but {_describe(better[:2])} fits far better",
+                where=place, hint=_settle_hint(settle_keys, period).replace(
+                    "below half a period", "large enough to hold the better candidate, not"))
+    else:
+        decided = "data"
+        distinct: list[tuple[int, float, float]] = []
+        for s in contenders[1:]:
+            if all(abs(s[2] - d[2]) > 0.5 * period for d in (best, *distinct)):
+                distinct.append(s)
+        if distinct and distinct[0][1] <= _AMBIGUITY_FACTOR * best[1] + _TIMING_FLOOR_S:
+            tied = [best] + [s for s in distinct
+                             if s[1] <= _AMBIGUITY_FACTOR * best[1] + _TIMING_FLOOR_S]
+            raise AlignmentError(
+                f"whole-period ambiguity: {len(tied)} offsets fit equally well within the "
+                f"start stamps' window of +-{max_offset_error_s:.3g} s around "
+                f"{coarse_offset_s:.6g} s: {_describe(sorted(tied, key=lambda s: s[2]))}; the "
+                "pulse intervals are too regular to tell whole periods apart", where=place,
+                hint=_settle_hint(settle_keys, period))
     predicted = scoring + best[2]
     nearest = _nearest(ref, predicted)
     hit = np.abs(ref[nearest] - predicted) < tolerance * period
@@ -328,29 +377,55 @@ def match_events(ref_times: ArrayLike, dev_times: ArrayLike, *, coarse_offset_s:
     order = np.argsort(np.abs(ref[ref_index] - predicted[dev_index]), kind="stable")
     _, first = np.unique(ref_index[order], return_index=True)
     keep = np.sort(order[first])
-    return ref_index[keep].astype(np.int64), dev_index[keep].astype(np.int64)
+    return _Match(ref_index[keep].astype(np.int64), dev_index[keep].astype(np.int64),
+                  float(best[2]), decided)
 
 
-def _joint_fit(ref: _FloatArray, dev: _FloatArray, seg: _IntArray,
-               ) -> tuple[_FloatArray, float, _FloatArray, _FloatArray]:
-    """Least squares ``ref = a_seg + b dev``; return offsets, b, residuals, standard errors."""
-    segments, column = np.unique(seg, return_inverse=True)
-    centre = float(dev.mean())
-    design = np.zeros((dev.size, segments.size + 1))
-    design[np.arange(dev.size), column] = 1.0
-    design[:, -1] = dev - centre
-    target = ref - dev
-    coeffs, *_ = np.linalg.lstsq(design, target, rcond=None)
-    residual = target - design @ coeffs
-    dof = max(dev.size - coeffs.size, 1)
-    sigma2 = float(residual @ residual) / dof
-    cov = sigma2 * np.linalg.pinv(design.T @ design)
-    drift = float(coeffs[-1])
-    offsets = coeffs[:-1] - drift * centre
-    var_offsets = (np.diag(cov)[:-1] + centre**2 * cov[-1, -1]
-                   - 2 * centre * cov[:-1, -1])
-    std = np.sqrt(np.maximum(np.concatenate((var_offsets, [cov[-1, -1]])), 0.0))
-    return offsets, drift, residual, std
+def match_events(ref_times: ArrayLike, dev_times: ArrayLike, *, coarse_offset_s: float = 0.0,
+                 max_offset_error_s: float = 5.0, tolerance: float = 0.25,
+                 where: Mapping[str, Any] | None = None,
+                 settle_keys: Sequence[str] | None = None) -> tuple[_IntArray, _IntArray]:
+    """Pair device events with reference events within the start stamps' window.
+
+    Candidate offsets outside ``coarse_offset_s +- max_offset_error_s`` are not considered.
+    When the window is narrower than a reference period, it holds one whole-period class and the
+    stamps decide the whole periods; otherwise the data must (the true offset leaves timing
+    jitter, one whole periods off leaves the period-to-period speed variation).
+
+    Parameters
+    ----------
+    ref_times : array_like
+        Reference events in s on the reference clock, increasing.
+    dev_times : array_like
+        Events of one gap-free device segment in s on the device clock, increasing.
+    coarse_offset_s : float, default 0
+        Rough ``t_ref - t_dev`` in s (from the files' start times).
+    max_offset_error_s : float, default 5
+        How far in s the coarse offset may be wrong (the start stamps' stated uncertainty).
+    tolerance : float, default 0.25
+        Largest match distance as a fraction of the reference period.
+    where : mapping, optional
+        Context for error messages (stream, channel).
+    settle_keys : (str, str), optional
+        Names of the coarse-offset and the start-time-uncertainty settings, for error messages
+        (e.g. scene keys); default: this function's parameters.
+
+    Returns
+    -------
+    ref_index, dev_index : numpy.ndarray of int
+        Indices of the matched pairs.
+
+    Raises
+    ------
+    AlignmentError
+        Too few events, no overlap, inconsistent periods, whole-period ambiguity (listing each
+        candidate offset with its evidence) or a far better fit outside the stamps' window.
+    """
+    match = _match(np.asarray(ref_times, dtype=np.float64),
+                   np.asarray(dev_times, dtype=np.float64), coarse_offset_s=coarse_offset_s,
+                   max_offset_error_s=max_offset_error_s, tolerance=tolerance,
+                   place=dict(where or {}), settle_keys=settle_keys)
+    return match.ref_index, match.dev_index
 
 
 def _event_kinds(ref_times: ArrayLike | Sequence[ArrayLike],
@@ -374,13 +449,72 @@ def _event_kinds(ref_times: ArrayLike | Sequence[ArrayLike],
     return kinds
 
 
+def _intervals95(design: _FloatArray, residual: _FloatArray, bound: _FloatArray,
+                 transform: _FloatArray) -> tuple[_FloatArray, _FloatArray]:
+    """Return standard errors and 95 % half-widths of ``transform @ coefficients``.
+
+    The half-width combines the residual-based interval (Student t with the fit's degrees of
+    freedom) with the worst case of bounded event-time errors: ``sum_i |w_i| h_i`` where ``w``
+    are the estimator's weights and ``h_i`` the bound of event i (half a sample of a sample-
+    switched edge). A sawtooth quantisation error is correlated from event to event (it beats
+    slowly, and a line absorbs part of it), so it is bounded, not averaged.
+    """
+    weights = transform @ np.linalg.pinv(design)
+    dof = design.shape[0] - design.shape[1]
+    sigma2 = float(residual @ residual) / dof if dof > 0 else np.inf
+    se = np.sqrt(sigma2 * np.sum(weights**2, axis=1))
+    quantile = float(student_t.ppf(0.975, dof)) if dof > 0 else np.inf
+    worst = np.abs(weights) @ bound
+    return se, np.sqrt((quantile * se) ** 2 + worst**2)
+
+
+def _clock_fit(ref: _FloatArray, dev: _FloatArray, group: _IntArray, kind: _IntArray,
+               bound: _FloatArray) -> tuple[dict[int, float], float, _FloatArray, _FloatArray,
+                                            _FloatArray]:
+    """Least squares ``ref = a_group + c_kind + (1 + drift) dev``.
+
+    Returns offsets per group (s), drift, residuals (s), standard errors and 95 % half-widths
+    of (offsets..., drift).
+    """
+    groups, column = np.unique(group, return_inverse=True)
+    kinds = [k for k in np.unique(kind) if k != kind.min()]
+    centre = float(dev.mean())
+    design = np.zeros((dev.size, groups.size + len(kinds) + 1))
+    design[np.arange(dev.size), column] = 1.0
+    for n, k in enumerate(kinds):
+        design[:, groups.size + n] = kind == k
+    design[:, -1] = dev - centre
+    coeffs, *_ = np.linalg.lstsq(design, ref - dev, rcond=None)
+    residual = ref - dev - design @ coeffs
+    drift = float(coeffs[-1])
+    # reported: a_j = c_j - drift * centre, and the drift
+    transform = np.zeros((groups.size + 1, design.shape[1]))
+    transform[np.arange(groups.size), np.arange(groups.size)] = 1.0
+    transform[:groups.size, -1] = -centre
+    transform[-1, -1] = 1.0
+    se, half = _intervals95(design, residual, bound, transform)
+    offsets = {int(g): float(coeffs[i] - drift * centre) for i, g in enumerate(groups)}
+    return offsets, drift, residual, se, half
+
+
 def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
                    dev_times: ArrayLike | Sequence[ArrayLike],
                    dev_segment: ArrayLike | Sequence[ArrayLike] | None = None, *,
                    coarse_offset_s: float = 0.0, max_offset_error_s: float = 5.0,
                    min_events: int = 5, max_residual_s: float = 1e-3,
+                   timing_bound_s: float | Sequence[float] = 0.0,
+                   clock_groups: Mapping[int, int] | None = None, per_revolution: int = 1,
+                   settle_keys: Sequence[str] | None = None,
                    where: Mapping[str, Any] | None = None) -> ClockModel:
     """Estimate a device's clock model from its reference events.
+
+    Every segment is matched within the start stamps' window (:func:`match_events`); a segment
+    the window leaves undecided or that lands whole periods off the best-matched segment is
+    matched again within 0.4 event period of that segment's offset (a restart's new stamp is off
+    by milliseconds, not periods). One least-squares fit then gives one drift, one offset per
+    clock group and, with several pulses per revolution, a constant per pulse (each may fire at
+    its own angle). Residuals beyond 5 robust sigma are left out, unless that would leave out
+    more than a fifth of the pairs (then the residual check decides).
 
     Parameters
     ----------
@@ -396,18 +530,29 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
     coarse_offset_s : float, default 0
         Rough ``t_ref - t_dev`` in s, e.g. from the start-time attributes.
     max_offset_error_s : float, default 5
-        How far in s the coarse offset may be wrong.
+        How far in s the coarse offset may be wrong (the stamps' stated uncertainty).
     min_events : int, default 5
         Fewest matched events overall; a segment needs at least 2 of its own.
     max_residual_s : float, default 1e-3
         Largest acceptable residual rms in s.
+    timing_bound_s : float or sequence of float, default 0
+        Bound in s of each event's time error that is not random from event to event (half a
+        sample of a sample-switched edge on either clock), per kind.
+    clock_groups : mapping of int to int, optional
+        Segment -> clock group: segments of one group share one offset (a dropout during which
+        the device clock ran on). Default: each segment its own.
+    per_revolution : int, default 1
+        Reference events per revolution (a constant per pulse of the revolution is fitted).
+    settle_keys : (str, str), optional
+        Names of the coarse-offset and start-time-uncertainty settings for error messages.
     where : mapping, optional
         Context for error messages.
 
     Returns
     -------
     ClockModel
-        The fitted model; segments without 2 matched events are listed as unaligned.
+        The fitted model with 95 % intervals; segments without 2 matched events are listed as
+        unaligned.
 
     Raises
     ------
@@ -415,63 +560,106 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
         When no trustworthy model can be fitted (with the reason).
     """
     kinds = _event_kinds(ref_times, dev_times, dev_segment)
+    bounds = (list(timing_bound_s) if isinstance(timing_bound_s, (list, tuple))
+              else [float(timing_bound_s)] * len(kinds))
     place = dict(where or {})
-    pairs_ref: list[_FloatArray] = []
-    pairs_dev: list[_FloatArray] = []
-    pairs_seg: list[_IntArray] = []
-    matched: dict[int, int] = {}
     all_segments = np.unique(np.concatenate([seg for _, _, seg in kinds]))
-    n_offered = 0
+    groups = {int(s): int((clock_groups or {}).get(int(s), s)) for s in all_segments}
+    matches: dict[tuple[int, int], _Match] = {}
     for kind, (ref, dev, seg) in enumerate(kinds):
-        n_offered += dev.size
         for s in np.unique(seg):
-            events = dev[seg == s]
             try:
-                ri, di = match_events(ref, events, coarse_offset_s=coarse_offset_s,
-                                      max_offset_error_s=max_offset_error_s,
-                                      where={**place, "segment": int(s), "event_kind": kind})
+                matches[(kind, int(s))] = _match(
+                    ref, dev[seg == s], coarse_offset_s=coarse_offset_s,
+                    max_offset_error_s=max_offset_error_s, tolerance=0.25,
+                    place={**place, "segment": int(s), "event_kind": kind},
+                    settle_keys=settle_keys)
             except AlignmentError as error:
                 if all_segments.size == 1 and len(kinds) == 1:
                     raise
                 logger.info("segment %d, event kind %d not matched: %s", s, kind, error)
-                continue
-            pairs_ref.append(ref[ri])
-            pairs_dev.append(events[di])
-            pairs_seg.append(np.full(ri.size, s, dtype=np.int64))
-            matched[int(s)] = matched.get(int(s), 0) + ri.size
-    unaligned = [int(s) for s in all_segments if matched.get(int(s), 0) < 2]
-    pairs = [(r, d, g) for r, d, g in zip(pairs_ref, pairs_dev, pairs_seg, strict=True)
-             if int(g[0]) not in unaligned]
-    if not pairs:
+    if not matches:
         raise AlignmentError("no segment of the device could be matched to reference events",
                              where=place, hint="check the pulse channel and the coarse offset")
-    pairs_ref, pairs_dev, pairs_seg = ([p[i] for p in pairs] for i in range(3))
-    r, d, g = (np.concatenate(p) for p in (pairs_ref, pairs_dev, pairs_seg))
+    anchor = max(matches, key=lambda k: (matches[k].ref_index.size, -k[1]))
+    anchor_offset = matches[anchor].offset_s
+    for kind, (ref, dev, seg) in enumerate(kinds):
+        period = float(np.median(np.diff(ref))) if ref.size > 1 else np.inf
+        for s in np.unique(seg):
+            found = matches.get((kind, int(s)))
+            if found is not None and abs(found.offset_s - anchor_offset) <= 0.5 * period:
+                continue
+            if np.count_nonzero(seg == s) < 2:
+                continue
+            try:
+                again = _match(ref, dev[seg == s], coarse_offset_s=anchor_offset,
+                               max_offset_error_s=min(max_offset_error_s, 0.4 * period),
+                               tolerance=0.25, place={**place, "segment": int(s)},
+                               settle_keys=settle_keys)
+            except AlignmentError as error:
+                logger.info("segment %d stays unaligned: %s", s, error)
+                matches.pop((kind, int(s)), None)
+                continue
+            logger.info("segment %d matched around segment %d's offset %.6f s", s, anchor[1],
+                        anchor_offset)
+            matches[(kind, int(s))] = dataclasses.replace(again, decided_by="neighbour")
+    count = {int(s): 0 for s in all_segments}
+    for (_, s), m in matches.items():
+        count[s] += m.ref_index.size
+    unaligned = sorted(s for s, n in count.items() if n < 2)
+    rows = [(kinds[k][0][m.ref_index], kinds[k][1][kinds[k][2] == s][m.dev_index],
+             np.full(m.ref_index.size, groups[s]), np.full(m.ref_index.size, s),
+             m.ref_index % per_revolution, np.full(m.ref_index.size, bounds[k]))
+            for (k, s), m in sorted(matches.items()) if s not in unaligned]
+    if not rows:
+        raise AlignmentError("no segment of the device could be matched to reference events",
+                             where=place, hint="check the pulse channel and the coarse offset")
+    r, d, g, segment_of, kind_of, h = (np.concatenate(c) for c in zip(*rows, strict=True))
     keep = np.ones(r.size, dtype=bool)
     for _ in range(2):
-        offsets, drift, residual, std = _joint_fit(r[keep], d[keep], g[keep])
-        full_offsets = dict(zip(np.unique(g[keep]).tolist(), offsets, strict=True))
-        model_all = np.array([full_offsets.get(int(s), np.nan) for s in g]) + (1 + drift) * d
-        res_all = r - model_all
-        sigma = 1.4826 * float(np.median(np.abs(residual - np.median(residual))))
-        keep = np.abs(res_all) <= max(5.0 * sigma, 1e-9)
+        offsets, drift, _res, _se, _half = _clock_fit(r[keep], d[keep], g[keep],
+                                                      kind_of[keep], h[keep])
+        model = np.array([offsets.get(int(x), np.nan) for x in g]) + (1 + drift) * d
+        shift = np.zeros(r.size)
+        for k in np.unique(kind_of):
+            shift[kind_of == k] = np.nanmedian((r - model)[keep & (kind_of == k)])
+        residual = r - model - shift
+        sigma = 1.4826 * float(np.nanmedian(np.abs(residual[keep]
+                                                   - np.nanmedian(residual[keep]))))
+        limit = max(5.0 * sigma, 2.0 * float(h.max()) + 1e-6)
+        trial = np.abs(residual) <= limit
+        if trial.sum() < 0.8 * r.size:
+            logger.info("rejection would leave %d of %d pairs: all kept", trial.sum(), r.size)
+            break
+        keep = trial
     if keep.sum() < min_events:
         raise AlignmentError(f"too few matched events: {int(keep.sum())} (need {min_events})",
                              where=place, hint="record longer or check the pulse channels")
-    offsets, drift, residual, std = _joint_fit(r[keep], d[keep], g[keep])
+    offsets, drift, residual, se, half = _clock_fit(r[keep], d[keep], g[keep], kind_of[keep],
+                                                    h[keep])
     rms = float(np.sqrt(np.mean(residual**2)))
     if rms > max_residual_s:
         raise AlignmentError(
             f"clock fit residual rms {rms:.3g} s exceeds {max_residual_s:.3g} s", where=place,
-            hint="events may be matched to the wrong partner, or the clock wanders; check the "
-                 "event angle and the pulse channel")
-    segments = tuple(int(s) for s in np.unique(g[keep]))
-    unaligned.extend(int(s) for s in np.unique(g) if int(s) not in segments)
-    model = ClockModel(segments, tuple(float(o) for o in offsets), drift, rms, int(keep.sum()),
-                       n_offered, float(np.max(std[:-1])), float(std[-1]),
-                       tuple(sorted(unaligned)))
-    logger.info("clock model: offset %.9f s, drift %.4f ppm, rms %.3g s, %d/%d events",
-                model.offsets_s[0], drift * 1e6, rms, model.pulses_matched, dev.size)
+            hint="events may be matched to the wrong partner (start stamps worse than stated: "
+                 + (_settle_hint(settle_keys, np.inf).split(", or")[0] if settle_keys else
+                    "check coarse_offset_s and max_offset_error_s")
+                 + "), or the clock wanders; check the event angle and the pulse channel")
+    segments = tuple(sorted({int(s) for s in segment_of[keep]}))
+    unaligned.extend(s for s in count if s not in segments and s not in unaligned)
+    ordered = sorted(offsets)
+    decided = sorted({m.decided_by for m in matches.values()})
+    model = ClockModel(
+        segments, tuple(offsets[groups[s]] for s in segments), drift, rms, int(keep.sum()),
+        sum(dev.size for _, dev, _ in kinds), float(np.max(se[:-1])), float(se[-1]),
+        tuple(sorted(unaligned)),
+        offsets_u95_s=tuple(float(half[ordered.index(groups[s])]) for s in segments),
+        drift_u95=float(half[-1]), periods_decided_by="+".join(decided),
+        clock_groups=tuple(groups[s] for s in segments))
+    logger.info("clock model: offset %.9f s +- %.3g s, drift %.4f +- %.4f ppm (95 %%), "
+                "rms %.3g s, %d/%d events, periods decided by %s", model.offsets_s[0],
+                model.offsets_u95_s[0], drift * 1e6, model.drift_u95 * 1e6, rms,
+                model.pulses_matched, model.pulses_total, model.periods_decided_by)
     return model
 
 
