@@ -209,6 +209,13 @@ def write_campaign_report(outcomes: Sequence[RunOutcome], out_dir: str | Path, *
     return files
 
 
+def _vv20_detected(outcome: RunOutcome) -> list[str]:
+    """Comparisons of a run whose V&V 20 curve verdict is "model error detected"."""
+    return [row["comparison"] for row in outcome.metrics
+            if row.get("row") == "model" and row.get("metric") == "vv20.curve.detected"
+            and row.get("value") is True]
+
+
 def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: Path,
                   title: str, counts: dict[str, int], details: dict[str, Any]) -> Page:
     """Build the campaign page."""
@@ -216,11 +223,20 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
     page = Page(title, subtitle=f"{len(outcomes)} runs: {counts['passed']} passed, "
                                 f"{counts['failed']} failed, {counts['error']} errors")
     page.section("Summary")
+    detected = {o.name: _vv20_detected(o) for o in outcomes if o.metrics}
+    page.paragraph("ASME V&V 20: model error detected (|E| > k u_val) in "
+                   f"{sum(bool(d) for d in detected.values())} of {len(detected)} validated runs"
+                   + "".join(f"; {name}: {', '.join(names)}"
+                             for name, names in detected.items() if names),
+                   css_class="bad" if any(detected.values()) else "ok")
     page.facts({"result": verdict, **counts,
                 "reused (up to date)": sum(o.reused for o in outcomes), **details})
 
     page.section("Runs")
-    page.table([{"run": o.name, "status": o.status, "speed [rev/s]": o.speed_rev_s,
+    page.table([{"run": o.name, "status": o.status,
+                 "V&V 20": (None if not o.metrics else "detected: " + ", ".join(
+                     _vv20_detected(o)) if _vv20_detected(o) else "not detected"),
+                 "speed [rev/s]": o.speed_rev_s,
                  "time [s]": o.elapsed_s, "CPU [s]": o.cpu_s, "reused": o.reused,
                  "error": o.error.kind if o.error else None} for o in outcomes], digits=3)
     links = []

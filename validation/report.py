@@ -35,6 +35,7 @@ from rigval.validation.html import Page
 from rigval.validation.iso18571 import IsoParameters
 from rigval.validation.outputs import atomic_output, write_text_atomic
 from rigval.validation.results import ComparisonResult, ValidationResult
+from rigval.validation.verdict import run_verdict
 
 __all__ = ["rigval_version", "write_metrics", "write_netcdf", "write_report"]
 
@@ -67,6 +68,15 @@ def _finite(value: Any) -> Any:
     return value
 
 
+def _json_safe(value: Any) -> Any:
+    """Nested dicts and lists with NaN and infinities as None (see :func:`_finite`)."""
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_json_safe(v) for v in value]
+    return _finite(value)
+
+
 def write_metrics(result: ValidationResult, out_dir: Path) -> list[Path]:
     """Write ``metrics.csv`` and ``metrics.json`` and return their paths."""
     rows = result.metric_rows()
@@ -80,6 +90,7 @@ def write_metrics(result: ValidationResult, out_dir: Path) -> list[Path]:
             writer.writerow({k: "" if row[k] is None else row[k] for k in columns})
     json_path = out_dir / "metrics.json"
     document = {
+        "verdict": _json_safe(run_verdict(result)),
         "scene": str(result.scene.path), "scene_sha256": result.scene.sha256,
         "passed": result.passed, "speed_rev_s": result.speed_rev_s, "cycles": result.n_cycles,
         "rows": [{k: _finite(v) for k, v in row.items()} for row in rows],
@@ -165,6 +176,8 @@ def _summary_rows(result: ValidationResult) -> list[dict[str, Any]]:
         rows.append({
             "comparison": c.name, "measured": str(c.spec.measured), "model": str(c.spec.model),
             "scale": c.spec.scale, "unit": c.units,
+            "V&V 20": "detected" if c.scores.get("vv20.curve.detected") else "not detected",
+            "E": c.scores.get("vv20.curve.error"), "u_val": c.scores.get("vv20.curve.u_val"),
             "ISO rating": c.scores.get("iso18571_periodic.rating"),
             "grade": c.scores.get("iso18571_periodic.grade"),
             "NRMSE": c.scores.get("nrmse"), "r": c.scores.get("pearson_r"),
@@ -210,6 +223,9 @@ def _peaks(predictions: xr.Dataset) -> list[dict[str, Any]]:
 def _summary(page: Page, result: ValidationResult, status: str) -> None:
     scene = result.scene
     page.section("Summary")
+    verdict = run_verdict(result)
+    page.paragraph(f"ASME V&V 20: {verdict['statement']}",
+                   css_class="bad" if verdict["detected"] else "ok")
     page.paragraph(f"Result: {status}", css_class="ok" if result.passed else "bad")
     page.facts({
         "scene": scene.path, "scene sha256": scene.sha256, "mechanism": scene.mechanism,

@@ -103,9 +103,14 @@ def run_verdict(result: ValidationResult) -> dict[str, Any]:
         ``detected`` (bool: a model error is detected on at least one comparison),
         ``statement`` (the headline, one line), ``detected_on`` (comparison names),
         ``worst`` (the comparison with the largest ``E / (k u_val)``) and ``comparisons`` (one
-        :func:`comparison_verdict` each). The ISO rating is the similarity score beside it.
+        :func:`comparison_verdict` each, comparisons without ``vv20.curve`` scores left out).
+        The ISO rating is the similarity score beside it.
     """
-    rows = [comparison_verdict(c) for c in result.comparisons]
+    rows = [comparison_verdict(c) for c in result.comparisons
+            if "vv20.curve.error" in c.scores]
+    if not rows:
+        return {"detected": False, "statement": "V&V 20 not computed (no vv20.curve scores)",
+                "detected_on": [], "worst": None, "comparisons": []}
     detected = [row for row in rows if row["detected"]]
     worst = max(rows, key=lambda row: row["ratio"])
     return {"detected": bool(detected), "statement": _statement(rows, detected, worst),

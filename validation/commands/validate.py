@@ -29,7 +29,7 @@ def add_parser(subparsers: Any) -> None:
 
 
 def print_summary(result: Any, out_dir: Path, stream: TextIO | None = None) -> None:
-    """Print one line per comparison, then the report path and the verdict.
+    """Print the V&V 20 verdict, one line per comparison, the report path and pass/fail.
 
     Parameters
     ----------
@@ -40,7 +40,10 @@ def print_summary(result: Any, out_dir: Path, stream: TextIO | None = None) -> N
     stream : file, optional
         Where to print; default standard output.
     """
+    from rigval.validation.verdict import run_verdict
+
     stream = stream or sys.stdout
+    print(run_verdict(result)["statement"], file=stream)
     print(f"{result.scene.title}: {result.n_cycles} revolutions at {result.speed_rev_s:.3f} "
           "rev/s", file=stream)
     width = max(len(c.name) for c in result.comparisons)
@@ -51,7 +54,12 @@ def print_summary(result: Any, out_dir: Path, stream: TextIO | None = None) -> N
         failed = [f"{c.metric} {c.value:.4g} (needs {c.threshold})" for c in comparison.checks
                   if not c.passed]
         verdict = "pass" if comparison.passed else "FAIL: " + "; ".join(failed)
-        print(f"  {comparison.name:<{width}}  ISO rating {rating:.3f} {grade:<9}  "
+        vv20 = ("error detected" if scores.get("vv20.curve.detected") else
+                "not detected" if "vv20.curve.detected" in scores else "not computed")
+        ratio = scores.get("vv20.curve.normalised_error", float("nan")) / scores.get(
+            "vv20.curve.k", 2.0)
+        print(f"  {comparison.name:<{width}}  V&V 20 {vv20:<14} |E|/(k u_val) {ratio:5.2f}  "
+              f"ISO rating {rating:.3f} {grade:<9}  "
               f"NRMSE {scores.get('nrmse', float('nan')):.4f}  {verdict}", file=stream)
     print(f"report: {out_dir / 'report.html'}", file=stream)
     print("PASSED" if result.passed else "FAILED", file=stream)
