@@ -4,7 +4,9 @@ Plots are made on :class:`matplotlib.figure.Figure` objects (no pyplot state), o
 one panel per metric and case (alignment: one per metric, the numbers of events joined as a
 line), CPU time per item (sample, step, event) on the x axis, the error on the y axis, both
 logarithmic; the baseline in black; where the input sets a limit (quantisation, timing noise) it
-is drawn dotted with open markers.
+is drawn dotted with open markers; the bound ``rigval bench`` checks is a dashed red line, and
+exact results (error 0, which a log axis cannot show) are drawn as downward triangles on the
+bottom edge, labelled "exact 0".
 Reading has no error to speak of (every reader returns the exact values), so its panel shows peak
 memory against time instead.
 """
@@ -18,15 +20,16 @@ from collections.abc import Sequence
 from dataclasses import fields
 from pathlib import Path
 
+from matplotlib.axis import Axis
 from matplotlib.figure import Figure
-from matplotlib.ticker import NullFormatter
+from matplotlib.ticker import LogFormatterSciNotation, LogLocator, NullFormatter
 
 from rigval.acquisition.errors import DataFileError
 from rigval.validation.bench import STAGES, BenchRow
 from rigval.validation.outputs import atomic_output, write_text_atomic
 
-__all__ = ["compare_text", "markdown_table", "plot_stage", "read_csv", "write_csv",
-           "write_outputs"]
+__all__ = ["closing_line", "compare_text", "markdown_table", "plot_stage", "read_csv",
+           "write_csv", "write_outputs"]
 
 logger = logging.getLogger(__name__)
 
@@ -228,6 +231,8 @@ def plot_stage(rows: Sequence[BenchRow], stage: str) -> Figure:
     for ax, (metric, case) in zip(grid, panels, strict=False):
         chosen = [r for r in stage_rows if stage == "reading"
                   or (r.metric == metric and (not case or r.case == case))]
+        xs: list[float] = []
+        ys: list[float] = []
         for choice in dict.fromkeys(r.choice for r in chosen):
             series = sorted((r for r in chosen if r.choice == choice), key=lambda r: r.cpu_s)
             baseline = series[0].is_baseline
@@ -237,16 +242,33 @@ def plot_stage(rows: Sequence[BenchRow], stage: str) -> Figure:
                 y = [r.peak_mib for r in series]
             else:
                 x = [r.cpu_s / r.n * 1e6 for r in series]
-                y = [max(r.error, _FLOOR) for r in series]
+                y = [r.error if r.error > 0 else math.nan for r in series]
             if all(v <= 0 for v in x):  # untimed baseline (e.g. start times): a level
                 ax.axhline(y[0], color="black", linestyle=":", label=choice)
+                ys.append(y[0])
                 continue
+            xs += x
+            ys += y
             lines = ax.plot(x, y, linestyle="-" if len(series) > 1 else "", label=choice,
                             **style)
+            exact = [v for v, r in zip(x, series, strict=True) if r.error == 0.0]
+            if stage != "reading" and exact:  # a log axis has no 0: a mark on the bottom edge
+                ax.plot(exact, [0.0] * len(exact), "v", color=lines[0].get_color(), ms=8,
+                        clip_on=False, transform=ax.get_xaxis_transform(),
+                        label=f"{choice}: exact 0")
             limits = [r.limit for r in series]
             if stage != "reading" and all(math.isfinite(v) for v in limits):
                 ax.plot(x, limits, linestyle=":", marker=style["marker"], fillstyle="none",
                         color=lines[0].get_color())
+        bounded = [r for r in chosen if math.isfinite(r.bound)] if stage != "reading" else []
+        if len({r.bound for r in bounded}) == 1:  # one bound for the panel: a line
+            ax.axhline(bounded[0].bound, color="#c8322b", linestyle="--", lw=1.0,
+                       label=f"bound {bounded[0].bound:.3g} (rigval bench checks)")
+        elif bounded:  # each point its own bound: a red bar above (or below) the point
+            ax.plot([r.cpu_s / r.n * 1e6 for r in bounded], [r.bound for r in bounded], "_",
+                    color="#c8322b", ms=14, mew=2, label="each point's bound (rigval bench "
+                                                          "checks)")
+        ys += [r.bound for r in bounded]
         ax.set_xscale("log")
         ax.set_yscale("log")
         if stage == "reading":
@@ -255,17 +277,50 @@ def plot_stage(rows: Sequence[BenchRow], stage: str) -> Figure:
             ax.set_title(chosen[0].case, fontsize=9)
         else:
             unit = chosen[0].unit
-            ax.set_xlabel("CPU time per item, us")
+            ax.set_xlabel("CPU time per item, µs")
             ax.set_ylabel(f"error ({unit})" if unit != "1" else "error (relative)")
             limited = any(math.isfinite(r.limit) for r in chosen)
             title = f"{case}\n{metric}" if case else metric
             ax.set_title(title + ("\n(open markers, dotted: the input's limit)" if limited
                                   else ""), fontsize=8)
-        ax.xaxis.set_minor_formatter(NullFormatter())
+        _log_ticks(ax.xaxis, xs or [r.cpu_s for r in chosen])
+        _log_ticks(ax.yaxis, ys or [r.peak_mib for r in chosen])
         ax.grid(True, which="major", alpha=0.3)
         ax.legend(fontsize=7)
     fig.suptitle(f"rigval bench: {stage}")
     return fig
+
+
+def closing_line(rows: Sequence[BenchRow]) -> str:
+    """Return the verdict of a bench run in one line.
+
+    Parameters
+    ----------
+    rows : sequence of BenchRow
+        The rows.
+
+    Returns
+    -------
+    str
+        ``"rigval bench: all N rows within their bounds"``, or how many rows exceed their bounds
+        and which (stage / case / choice / metric).
+    """
+    over = [r for r in rows if not r.within_bound]
+    if not over:
+        return f"rigval bench: all {len(rows)} rows within their bounds"
+    names = "; ".join(f"{r.stage} / {r.case} / {r.choice} / {r.metric}" for r in over)
+    return f"rigval bench: {len(over)} of {len(rows)} rows exceed their bounds: {names}"
+
+
+def _log_ticks(axis: Axis, values: Sequence[float]) -> None:
+    """Label a log axis even when its data span less than a decade (1, 2, 5 steps then)."""
+    finite = [v for v in values if math.isfinite(v) and v > 0]
+    decades = math.log10(max(finite) / min(finite)) if finite else 0.0
+    subs = (1.0, 1.5, 2.0, 3.0, 5.0, 7.0) if decades < 1 else (1.0, 2.0, 5.0) if decades < 2.5 \
+        else (1.0,)
+    axis.set_major_locator(LogLocator(base=10.0, subs=subs))
+    axis.set_major_formatter(LogFormatterSciNotation(labelOnlyBase=False))
+    axis.set_minor_formatter(NullFormatter())
 
 
 def write_outputs(rows: Sequence[BenchRow], out: Path, note: str = "") -> list[Path]:

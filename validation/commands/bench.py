@@ -46,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the sweeps, write the files and print the table; return the exit code."""
     from rigval.validation.bench import STAGES, machine_note, run_bench
     from rigval.validation.bench_report import (
+        closing_line,
         compare_text,
         markdown_table,
         read_csv,
@@ -71,4 +72,5 @@ def run(args: argparse.Namespace) -> int:
     for r in over:
         print(f"rigval bench: {r.stage} / {r.case} / {r.choice}: {r.metric} {r.error:.3g} "
               f"{r.unit} exceeds its bound {r.bound:.3g}", file=sys.stderr)
+    print(closing_line(rows), file=sys.stderr if over else sys.stdout)
     return 1 if over else 0

@@ -7,6 +7,7 @@ unknown mechanism); 3 data or model error (unreadable profile, mechanism that ca
 from __future__ import annotations
 
 import argparse
+import re
 import shlex
 from pathlib import Path
 from typing import Any
@@ -24,16 +25,26 @@ def add_parser(subparsers: Any) -> None:
         epilog="Drive laws: NAME=file | NAME=PROFILE.csv | NAME=LAW.toml | NAME='{TOML table}' "
                "with keys frequency (Hz, main drive), ratio, phase (rad), theta0 (rad), "
                "harmonics = [{amplitude, order, phase}], profile, period (s). "
-               "Example: --drive 'theta_F={frequency = 1.2}' --drive 'theta_H={phase = 0.3}'. "
+               "Example: --drive 'theta_F={frequency = 1.2}' --drive 'theta_H={phase = 0.3}'; "
+               "a number alone is the main drive's speed: --drive theta_F=1.2 (rev/s, or "
+               "1.2Hz, 72rpm). --list-drivers shows a mechanism's drivers. "
                "Sweeps: NAME=START:STOP:COUNT[unit] or NAME=V1,V2[unit], e.g. "
                "--sweep frequency=0.5:1.5:10 --sweep theta_H.phase=0:324:10deg. "
                "Exit codes: 0 ok, 2 usage or configuration error, 3 data or model error.",
     )
     parser.add_argument("mechanism", metavar="MECHANISM",
                         help="mechanism TOML file, or builtin:NAME (e.g. builtin:pendulum)")
-    parser.add_argument("--out", required=True, metavar="DIR", help="report folder")
+    parser.add_argument("--out", metavar="DIR", help="report folder (required unless "
+                                                       "--list-drivers)")
+    parser.add_argument("--list-drivers", action="store_true",
+                        help="print the mechanism's drivers and their laws from the file, "
+                             "then stop")
+    parser.add_argument("--speed", type=float, metavar="REV_S",
+                        help="speed of the main drive, rev/s (cycles per second); default: the "
+                             "file's law. Same as --drive MAIN=REV_S")
     parser.add_argument("--drive", action="append", default=[], metavar="NAME=LAW",
-                        help="drive law of one driver (repeatable; default: the file's laws)")
+                        help="drive law of one driver (repeatable; default: the file's laws); "
+                             "MAIN=1.5 sets the main drive's speed in rev/s")
     parser.add_argument("--measured", metavar="FILE.nc",
                         help="netCDF of drive angles identified from a measured run (variables "
                              "named as the drivers, dim time); replaces the file's laws")
@@ -79,9 +90,16 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"at most two --sweep options, got {len(args.sweep)}",
                           where={"option": "--sweep"}, hint="sweep one or two parameters")
     mechanism = resolve_mechanism(args.mechanism)
+    if args.list_drivers:
+        _print_drivers(mechanism, args.main)
+        return 0
+    if args.out is None:
+        raise ConfigError("--out DIR is required", where={"option": "--out"},
+                          hint="give the report folder, e.g. --out predict-report")
+    main_drive = args.main or (mechanism.driver_names[0] if mechanism.driver_names else None)
     if args.measured:
-        if args.drive:
-            raise ConfigError("--measured and --drive exclude each other",
+        if args.drive or args.speed is not None:
+            raise ConfigError("--measured excludes --drive and --speed",
                               where={"option": "--measured"}, hint="give one of them")
         try:
             measured = xr.load_dataset(args.measured)
@@ -92,7 +110,9 @@ def run(args: argparse.Namespace) -> int:
         drives: Any = excitation_from_measured(measured, mechanism.driver_names, main=args.main,
                                                offsets=_offsets(args.measured_offset))
     else:
-        drives = list(args.drive)
+        drives = [_shorthand(text, main_drive) for text in args.drive]
+        if args.speed is not None:
+            drives.append(_shorthand(f"{main_drive}={args.speed!r}", main_drive))
     try:  # a name that does not exist in the mechanism is a usage error here (exit 2)
         excitation = make_excitation(mechanism, drives, main=args.main, base_dir=Path.cwd())
         prediction = predict(mechanism, excitation, n_points=args.points, tip=args.tip,
@@ -104,25 +124,80 @@ def run(args: argparse.Namespace) -> int:
             parameters = dict(parse_sweep_option(text) for text in args.sweep)
             swept = sweep(mechanism, parameters, drives=excitation, summary=summary,
                           n_points=args.sweep_points, tip=args.tip)
+            for text in args.sweep:  # the report shows angles in the unit they were given in
+                name = text.partition("=")[0].strip()
+                if text.strip().lower().endswith("deg") and name in swept.coords:
+                    swept[name].attrs["given_units"] = "deg"
     except ChannelNotFoundError as error:
         available = ", ".join(map(str, error.extra.get("available", [])))
         raise ConfigError(f"{error.message} (available: {available or 'none'})",
                           where=error.where, hint=error.hint) from error
     files = write_predict_report(prediction, args.out, sweep=swept, command=_command_line(args))
     tip = prediction.attrs["tip_point"]
-    print(f"{tip} vertical range {float(prediction['tip_vertical_range']):.4g} m, "
-          f"peak |a| {float(prediction['tip_acceleration_peak']):.4g} m/s2")
+
+    def unit(name: str) -> str:  # the spelling of the files (CF units of prediction.nc)
+        return str(prediction[name].attrs.get("units", ""))
+
+    print(f"{tip} vertical range {float(prediction['tip_vertical_range']):.4g} "
+          f"{unit('tip_vertical_range')}, peak |a| "
+          f"{float(prediction['tip_acceleration_peak']):.4g} {unit('tip_acceleration_peak')}")
     for driver in prediction["driver"].values:
         print(f"{driver}: peak torque {float(prediction['torque_peak'].sel(driver=driver)):.5g} "
-              f"N m, rms {float(prediction['torque_rms'].sel(driver=driver)):.5g} N m")
+              f"{unit('torque_peak')}, rms "
+              f"{float(prediction['torque_rms'].sel(driver=driver)):.5g} {unit('torque_rms')}")
     for support in prediction["support"].values:
         peak = prediction["support_force_peak"].sel(support=support, component="magnitude")
-        print(f"support {support}: peak force on frame {float(peak):.5g} N")
+        print(f"support {support}: peak force on frame {float(peak):.5g} "
+              f"{unit('support_force_peak')}")
     if swept is not None:
         print(f"sweep: {swept.attrs['points']} points, {swept.attrs['model_solves']} model "
               f"solves, {swept.attrs['elapsed_s']:.3g} s")
     print(f"report: {files.html}")
     return 0
+
+
+#: Speed units of the ``NAME=NUMBER`` shorthand, in rev/s (= Hz) per unit.
+_SPEED_UNITS = {"": 1.0, "rev/s": 1.0, "hz": 1.0, "rpm": 1.0 / 60.0}
+
+
+def _shorthand(text: str, main: str | None) -> str:
+    """Turn ``MAIN=1.5`` (rev/s; or ``1.5Hz``, ``90rpm``) into ``MAIN={frequency = 1.5}``.
+
+    Any other drive option is returned unchanged.
+    """
+    from rigval.acquisition.errors import ConfigError
+
+    name, sep, law = (part.strip() for part in text.partition("="))
+    match = re.fullmatch(r"([-+0-9.eE]+)\s*(rev/s|hz|rpm)?", law, flags=re.IGNORECASE)
+    if not sep or match is None:
+        return text
+    try:
+        speed = float(match.group(1)) * _SPEED_UNITS[(match.group(2) or "").lower()]
+    except ValueError:
+        return text  # not a number: the drive-law parser reports it
+    if name != main:
+        raise ConfigError(f"a number alone sets the speed of the main drive {main}, not of {name}",
+                          where={"option": text},
+                          hint=f"write {main}={law}, or for {name} a law such as "
+                               f"'{name}={{ratio = 1.0, phase = 0.3}}'")
+    if not speed > 0:
+        raise ConfigError(f"the main drive's speed must be positive, got {speed:g} rev/s",
+                          where={"option": text}, hint=f"write e.g. {main}=1.5 (rev/s)")
+    return f"{name}={{frequency = {speed!r}}}"
+
+
+def _print_drivers(mechanism: Any, main: str | None) -> None:
+    """Print each driver with its law from the mechanism file (``--list-drivers``)."""
+    from rigval.validation.predict import file_excitation
+
+    excitation = file_excitation(mechanism, main=main)
+    print(f"{len(excitation.names)} drivers; main drive {excitation.main} at "
+          f"{excitation.frequency:.6g} rev/s (cycle frequency, Hz)")
+    for name, law in excitation.laws:
+        role = "main drive" if name == excitation.main else f"ratio {law.ratio:g} to the main"
+        print(f"  {name}: {role}, theta0 {law.theta0:.6g} rad, phase {law.phase:.6g} rad, "
+              f"{len(law.harmonics)} harmonics")
+    print("change them with --speed REV_S or --drive NAME=LAW (rigval predict --help)")
 
 
 def _offsets(options: list[str]) -> dict[str, float]:
@@ -143,6 +218,8 @@ def _offsets(options: list[str]) -> dict[str, float]:
 def _command_line(args: argparse.Namespace) -> str:
     """Return the command line that reproduces this prediction (for the report page)."""
     words = ["rigval", "predict", args.mechanism, "--out", args.out]
+    if args.speed is not None:
+        words += ["--speed", repr(args.speed)]
     for option, values in (("--drive", args.drive), ("--sweep", args.sweep),
                            ("--joint", args.joint), ("--measured-offset", args.measured_offset)):
         for value in values:
