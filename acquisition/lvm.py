@@ -39,7 +39,7 @@ from rigval.acquisition.detect import checked_path, source_checksum
 from rigval.acquisition.devices import get_device, module_attrs
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
 from rigval.acquisition.schema import Channel, stream_dataset
-from rigval.acquisition.text_csv import read_text_lines
+from rigval.acquisition.text_csv import read_text
 from rigval.acquisition.timebase import exact_increment
 from rigval.acquisition.unitnames import udunits
 from rigval.acquisition.warn import warn_data
@@ -52,6 +52,13 @@ END_OF_HEADER = "***End_of_Header***"
 _EPOCH_1904 = np.datetime64("1904-01-01T00:00:00", "ns")
 _SEPARATORS = {"tab": "\t", "comma": ",", "semicolon": ";", "space": " "}
 _COMMA_NUMBER = re.compile(r"^\s*[-+]?\d*,\d+([eE][-+]?\d+)?\s*$")
+#: Tags that start a segment header (NI tutorial 4139, "Segment Header"); any other text in the
+#: first cell of a data row is a damaged X cell, not a new segment.
+_SEGMENT_TAGS = frozenset({"Channels", "Samples", "Date", "Time", "Y_Unit_Label", "X_Dimension",
+                           "X0", "Delta_X", "Notes", "Test_Name", "Test_Numbers", "Test_Series",
+                           "UUT_Name", "UUT_M/N", "UUT_S/N", "Operator", "Description"})
+#: An ``X0`` beyond this (s, about 115 days) is taken as damage, not as an offset (as for TDMS).
+_MAX_X0_S = 1e7
 
 
 @dataclass
@@ -68,12 +75,15 @@ class LvmSegment:
         Data rows split at the separator.
     line : int
         1-based line number of the names row (for messages).
+    row_lines : list of int
+        1-based line number of each data row.
     """
 
     header: dict[str, list[str]] = field(default_factory=dict)
     names: list[str] = field(default_factory=list)
     rows: list[list[str]] = field(default_factory=list)
     line: int = 0
+    row_lines: list[int] = field(default_factory=list)
 
 
 @dataclass
@@ -162,11 +172,12 @@ def parse_lvm(lines: list[str], file: Path | None = None) -> LvmFile:
         if not segment.names:
             segment.header[first] = cells[1:] if first in ("Notes", "Test_Name") else cells
             continue
-        if first and not _looks_numeric(first):
+        if first in _SEGMENT_TAGS:
             segments.append(segment)  # a new segment header starts
             segment = LvmSegment(header={first: cells})
             continue
-        segment.rows.append(cells)
+        segment.rows.append(cells)  # a text X cell stays a data row: see _x_values
+        segment.row_lines.append(k)
     if segment.names:
         segments.append(segment)
     if not segments:
@@ -267,7 +278,8 @@ def _columns(lvm: LvmFile, decimal: str, timezone: str | None, file: Path) -> li
             values = _numbers(cells, decimal, file, names[j])
             x = None
             if x_col is not None:
-                x = _numbers(grid[:count, x_col], decimal, file, names[x_col] or "X_Value")
+                x = _x_values(grid[:count, x_col], decimal, file, names[j],
+                              seg.row_lines[:count])
             date = _header_cell(seg.header, "Date", j) or lvm.tags.get("Date")
             clock = _header_cell(seg.header, "Time", j) or lvm.tags.get("Time")
             start = _to_utc(_clock(date, clock), timezone, file) if date and clock else None
@@ -280,6 +292,27 @@ def _columns(lvm: LvmFile, decimal: str, timezone: str | None, file: Path) -> li
                 dt=_number(dt_text, decimal, file, "Delta_X") if dt_text else None, start=start,
                 segment=s_index, expected=_header_int(seg.header, "Samples", j)))
     return out
+
+
+def _x_values(cells: np.ndarray, decimal: str, file: Path, name: str,
+              lines: list[int]) -> np.ndarray:
+    """Convert X cells to float64; a cell that is not a number becomes NaN, with a warning.
+
+    A NaN X value makes the segment's time come from ``X0 + i * Delta_X`` (see
+    :func:`_segment_times`), so no sample is lost to one damaged X cell.
+    """
+    text = pd.Series(cells, dtype=object).astype(str)
+    if decimal != ".":
+        text = text.str.replace(decimal, ".", regex=False)
+    numbers = pd.to_numeric(text.replace("", np.nan), errors="coerce").to_numpy(float)
+    bad = np.flatnonzero(np.isnan(numbers) & (text != "").to_numpy()
+                         & ~text.str.fullmatch(r"\s*[-+]?nan\s*", case=False).to_numpy())
+    if bad.size:
+        warn_data(f"{bad.size} X cell(s) of channel {name!r} are not numbers (first "
+                  f"{cells[bad[0]]!r} on line {lines[bad[0]]}): its time comes from X0 and "
+                  "Delta_X", where={"file": str(file), "channel": name},
+                  hint="the file was edited or damaged there", stacklevel=5)
+    return numbers
 
 
 def _header_cell(header: Mapping[str, list[str]], tag: str, column: int) -> str | None:
@@ -309,6 +342,23 @@ def _numbers(cells: np.ndarray, decimal: str, file: Path, name: str) -> np.ndarr
                             where={"file": str(file), "channel": name, "row": first},
                             hint="pass decimal=... if the decimal separator was guessed wrong")
     return numbers
+
+
+def _drop_incomplete_last_row(lvm: LvmFile, complete: bool, n_lines: int, file: Path) -> None:
+    """Drop the file's last data row if it is cut (no line end, or fewer cells), with a warning."""
+    seg = lvm.segments[-1]
+    if not seg.rows or seg.row_lines[-1] != n_lines:
+        return
+    filled = [len([c for c in row if c.strip()]) for row in seg.rows[-2:]]
+    if complete and (len(filled) < 2 or filled[-1] >= filled[0]):
+        return
+    reason = ("has no line end (file cut mid-line)" if not complete
+              else "has fewer cells than the row before it")
+    warn_data(f"the last line ({seg.row_lines[-1]}) {reason}: its {filled[-1]} value(s) not "
+              "read", where={"file": str(file)},
+              hint="the file was cut short; the rows before it are read", stacklevel=3)
+    seg.rows.pop()
+    seg.row_lines.pop()
 
 
 def _guess_decimal(lvm: LvmFile) -> str:
@@ -374,7 +424,9 @@ def read_lvm(path: str | os.PathLike[str], *, channels: Sequence[str] | None = N
         Unknown channel names (the message lists the available ones).
     """
     file = checked_path(path)
-    lvm = parse_lvm(read_text_lines(file, encoding), file)
+    lines, complete = read_text(file, encoding)
+    lvm = parse_lvm(lines, file)
+    _drop_incomplete_last_row(lvm, complete, len(lines), file)
     decimal = decimal or _guess_decimal(lvm)
     columns = _columns(lvm, decimal, timezone, file)
     if not columns:
@@ -414,21 +466,46 @@ def read_lvm(path: str | os.PathLike[str], *, channels: Sequence[str] | None = N
 def _segment_times(col: _Column, fs: float | None, notes: list[str], file: Path) -> np.ndarray:
     """Return the time axis of one column in s since its segment's X0."""
     n = col.values.size
-    if col.dt is not None and (col.x is None or np.isnan(col.x).any()):
-        exact = exact_increment(col.dt, decimals=6)
-        dt = col.dt
-        if exact is not None:
-            notes.append(f"Delta_X {col.dt!r} rounded to 6 decimals: using {exact!r} s")
-            dt = exact
-        return col.x0 + np.arange(n) * dt
+    where = {"file": str(file), "channel": col.name, "segment": col.segment}
+    x0 = col.x0
+    if not np.isfinite(x0) or abs(x0) > _MAX_X0_S:
+        warn_data(f"X0 = {x0!r} s is not a usable start offset: taken as 0 s", where=where,
+                  hint="the segment header was edited or damaged", stacklevel=5)
+        x0 = 0.0
+    dt = col.dt if col.dt is not None and np.isfinite(col.dt) and col.dt > 0 else None
+    dt_ok = dt is not None
+    problem = None
     if col.x is not None and not np.isnan(col.x).any():
-        return col.x
-    if fs is not None:
-        notes.append(f"no X values or Delta_X: t = i / {fs} Hz")
+        if _increasing(col.x):
+            return col.x
+        problem = "its X values do not increase (e.g. a constant X column)"
+        fallback = f"Delta_X = {col.dt!r} s" if dt_ok else f"the fs option ({fs} Hz)"
+        if dt_ok or fs is not None:
+            warn_data(f"channel {col.name!r}: {problem}: time from {fallback} instead",
+                      where=where, hint="check the X column", stacklevel=5)
+    if dt is not None:
+        exact = exact_increment(dt, decimals=6)
+        if exact is not None:
+            notes.append(f"Delta_X {dt!r} rounded to 6 decimals: using {exact!r} s")
+            dt = exact
+        time = x0 + np.arange(n) * dt
+        if _increasing(time):
+            return time
+        problem = f"X0 + i * Delta_X (X0 = {x0!r}, Delta_X = {dt!r}) does not increase"
+    if fs is not None and fs > 0 and np.isfinite(fs):
+        notes.append(f"no usable X values or Delta_X: t = i / {fs} Hz")
         return np.arange(n) / fs
-    raise DataFileError(f"channel {col.name!r} has neither X values nor Delta_X",
-                        where={"file": str(file), "channel": col.name},
-                        hint="pass fs=... (Hz)")
+    if problem is None and col.dt is not None:
+        problem = f"Delta_X = {col.dt!r} is not a positive interval"
+    raise DataFileError(
+        f"the time axis of channel {col.name!r} is not increasing: "
+        f"{problem or 'it has neither X values nor Delta_X'}", where=where,
+        hint="pass fs=... (Hz) to read the samples at a known rate")
+
+
+def _increasing(time: np.ndarray) -> bool:
+    """Return True for finite, strictly increasing times (a single sample counts)."""
+    return bool(np.isfinite(time).all() and (time.size < 2 or np.all(np.diff(time) > 0)))
 
 
 def _stream(parts: list[list[_Column]], lvm: LvmFile, file: Path, fs: float | None,
@@ -479,6 +556,9 @@ def _stream(parts: list[list[_Column]], lvm: LvmFile, file: Path, fs: float | No
                                  else time_range[1] + 1e-12, "right"))
     dt_first = np.diff(times[0])
     fs_nominal = fs or (1.0 / float(np.mean(dt_first)) if dt_first.size else 1.0)
+    if not (np.isfinite(fs_nominal) and fs_nominal > 0):  # a span too short for float64
+        raise DataFileError(f"the time axis gives no usable rate ({fs_nominal!r} Hz)",
+                            where={"file": str(file)}, hint="pass fs=... (Hz)")
     channels: dict[str, Channel] = {}
     for j, col in enumerate(parts[0]):
         data = np.concatenate([cols[j].values for cols in parts])[lo:hi]

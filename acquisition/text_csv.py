@@ -22,6 +22,7 @@ channel in the attribute ``empty_cells``.
 
 from __future__ import annotations
 
+import csv
 import io
 import json
 import logging
@@ -42,13 +43,15 @@ from rigval.acquisition.devices import get_device, module_attrs
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
 from rigval.acquisition.schema import Channel, stream_dataset
 from rigval.acquisition.unitnames import split_name_and_unit, udunits
+from rigval.acquisition.warn import warn_data
 
-__all__ = ["CsvLayout", "read_csv", "read_text_lines", "sniff_csv"]
+__all__ = ["CsvLayout", "read_csv", "read_text", "read_text_lines", "sniff_csv"]
 
 logger = logging.getLogger(__name__)
 
 _DELIMITERS = (";", "\t", ",", "|")
-_NUMBER = re.compile(r"^\s*[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?\s*$")
+_NUMBER = re.compile(r"^\s*([-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?|[-+]?(nan|inf|infinity))"
+                     r"\s*$", re.IGNORECASE)
 _COMMA_NUMBER = re.compile(r"^\s*[-+]?\d*,\d+([eE][-+]?\d+)?\s*$")
 _TIME_NAMES = re.compile(r"^(time|zeit|t|x_value|timestamp|zeitstempel|datetime|date|datum|"
                          r"relative time|elapsed time)\b", re.IGNORECASE)
@@ -76,6 +79,9 @@ class CsvLayout:
         Units as written per column (None where absent).
     header : dict
         ``key -> value`` pairs above the column names.
+    skipped : tuple of int
+        Indices of lines at or after ``data_start`` that are not data rows (a text line inside
+        the data, a footer such as ``Statistics``); the reader drops and reports them.
     """
 
     delimiter: str
@@ -84,10 +90,16 @@ class CsvLayout:
     names: list[str]
     units: list[str | None]
     header: dict[str, str]
+    skipped: tuple[int, ...] = ()
 
 
 def read_text_lines(path: Path, encoding: str | None = None) -> list[str]:
-    """Return the lines of a text file.
+    """Return the lines of a text file (see :func:`read_text`)."""
+    return read_text(path, encoding)[0]
+
+
+def read_text(path: Path, encoding: str | None = None) -> tuple[list[str], bool]:
+    """Return the lines of a text file and whether its last line ends with a line end.
 
     Parameters
     ----------
@@ -98,8 +110,10 @@ def read_text_lines(path: Path, encoding: str | None = None) -> list[str]:
 
     Returns
     -------
-    list of str
+    lines : list of str
         Lines without line ends.
+    complete : bool
+        False when the text stops inside its last line (a file cut mid-line).
 
     Raises
     ------
@@ -109,9 +123,13 @@ def read_text_lines(path: Path, encoding: str | None = None) -> list[str]:
         For an unknown encoding name.
     """
     raw = path.read_bytes()
-    for candidate in ([encoding] if encoding else ["utf-8-sig", "cp1252"]):
+    candidates = [encoding] if encoding else ["utf-8-sig", "cp1252"]
+    if not encoding and raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        candidates.insert(0, "utf-16")  # a byte-order mark says UTF-16 (Windows "Unicode")
+    for candidate in candidates:
         try:
-            return raw.decode(candidate).splitlines()
+            text = raw.decode(candidate)
+            return text.splitlines(), not text or text.endswith(("\n", "\r"))
         except UnicodeDecodeError:
             continue
         except LookupError:
@@ -186,6 +204,7 @@ def sniff_csv(lines: list[str], *, delimiter: str | None = None, decimal: str | 
     where = {"file": str(file) if file else None}
     delimiter = delimiter or _guess_delimiter(lines)
     rows = [_split(ln, delimiter) for ln in lines]
+    skipped: set[int] = set()
     if header_row is not None:
         data_start = max(header_row, units_row if units_row is not None else -1) + 1
         width = len(rows[header_row])
@@ -195,13 +214,9 @@ def sniff_csv(lines: list[str], *, delimiter: str | None = None, decimal: str | 
             end -= 1
         if end == 0:
             raise DataFileError("text file holds no lines", where=where)
-        data_start = end
-        while data_start > 0 and (not lines[data_start - 1].strip()
-                                  or _is_data(rows[data_start - 1])):
-            data_start -= 1
-        while data_start < end and not lines[data_start].strip():
-            data_start += 1
-        width = max((len(r) for r in rows[data_start:end]), default=0)
+        data_start, skipped = _data_block(lines, rows, end)
+        width = max((len(r) for k, r in enumerate(rows[data_start:end], data_start)
+                     if k not in skipped), default=0)
         if data_start >= end or not _is_data(rows[data_start]):
             raise DataFileError("no block of numeric rows found at the end of the text file",
                                 where=where, hint="pass header_row=... and delimiter=...")
@@ -232,7 +247,44 @@ def sniff_csv(lines: list[str], *, delimiter: str | None = None, decimal: str | 
         if cells and cells[0]:
             key = cells[0].rstrip(":=").strip()
             header[key] = delimiter.join(c for c in cells[1:] if c).strip()
-    return CsvLayout(delimiter, decimal, data_start, names, units, header)
+    return CsvLayout(delimiter, decimal, data_start, names, units, header, tuple(sorted(skipped)))
+
+
+def _data_block(lines: list[str], rows: list[list[str]], end: int) -> tuple[int, set[int]]:
+    """Return the first line of the data block and the non-data lines inside or below it.
+
+    From the last line upwards: non-data lines below the last data row are a footer; a non-data
+    line with another field count than the data, with data rows above it, is a damaged row; a
+    non-data line with the data's field count (the names row) or a run of non-data lines ends
+    the block.
+    """
+    data = [bool(ln.strip()) and _is_data(r) for ln, r in zip(lines, rows, strict=True)]
+    counts = [len(r) for r, d in zip(rows[max(0, end - 400):end], data[max(0, end - 400):end],
+                                     strict=True) if d]
+    width = max(set(counts), key=counts.count) if counts else 0
+    skipped: set[int] = set()
+    k = end - 1
+    while k >= 0 and not data[k] and len(skipped) < 20 and any(data[:k]):  # footer
+        if lines[k].strip():
+            skipped.add(k)
+        k -= 1
+    data_start = k + 1
+    while k >= 0:
+        if not lines[k].strip():
+            k -= 1
+            continue
+        if data[k]:
+            data_start = k
+            k -= 1
+            continue
+        above = next((j for j in range(k - 1, -1, -1) if lines[j].strip()), None)
+        if len(rows[k]) == width or above is None or not data[above]:
+            break  # the names row, or the lines above the data
+        skipped.add(k)
+        k -= 1
+    if data_start == end:  # no data at all: report nothing as skipped
+        return end, set()
+    return data_start, {j for j in skipped if j >= data_start}
 
 
 def _parse_datetimes(cells: Sequence[str], time_format: str | None, timezone: str | None,
@@ -333,6 +385,19 @@ def _rate_of(time: np.ndarray) -> float:
     return end / float(time[end] - time[0])
 
 
+def _drop_bad_times(table: pd.DataFrame, line_of: np.ndarray, t_index: int,
+                    lost: dict[str, list[int]]) -> tuple[pd.DataFrame, np.ndarray]:
+    """Drop rows whose time cell is not a finite number (when most cells are numbers)."""
+    cells = table[t_index].fillna("").str.strip()
+    numeric = cells.str.match(_NUMBER.pattern, case=False) \
+        & ~cells.str.contains("nan|inf", case=False, regex=True)
+    if numeric.all() or numeric.sum() <= 0.5 * len(cells):
+        return table, line_of  # all good, or absolute time stamps: parsed as such
+    keep = numeric.to_numpy()
+    lost["time cell not a number"] = [int(n) for n in line_of[~keep]]
+    return table[keep].reset_index(drop=True), line_of[keep]
+
+
 def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
              decimal: str | None = None, header_row: int | None = None,
              units_row: int | None = None, time_column: str | int | None = None,
@@ -397,23 +462,48 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     """
     file = checked_path(path)
     where = {"file": str(file)}
-    lines = read_text_lines(file, encoding)
+    lines, complete = read_text(file, encoding)
     layout = sniff_csv(lines, delimiter=delimiter, decimal=decimal, header_row=header_row,
                        units_row=units_row, file=file)
     notes: list[str] = []
     t_index = _time_column(layout.names, time_column, where)
     width = len(layout.names)
-    body = "\n".join(lines[layout.data_start:])
-    fields = max((ln.count(layout.delimiter) + 1 for ln in lines[layout.data_start:]),
-                 default=width)
+    lost: dict[str, list[int]] = {"not a data row (text line, footer)":
+                                  [k + 1 for k in layout.skipped]}
+    numbers_of = [k for k in range(layout.data_start, len(lines))
+                  if lines[k].strip() and k not in set(layout.skipped)]
+    if numbers_of:
+        last = numbers_of[-1]
+        previous = len(_split(lines[numbers_of[-2]], layout.delimiter)) if len(numbers_of) > 1 \
+            else width
+        if not complete and last == len(lines) - 1:
+            lost["last line without its line end (file cut mid-line)"] = [last + 1]
+            numbers_of.pop()
+        elif len(_split(lines[last], layout.delimiter)) < min(previous, width):
+            lost["last line with fewer fields than the line before it"] = [last + 1]
+            numbers_of.pop()
+    line_of = np.array(numbers_of, dtype=np.int64) + 1  # 1-based line number of each row
+    body = "\n".join(lines[k] for k in numbers_of)
+    fields = max((lines[k].count(layout.delimiter) + 1 for k in numbers_of), default=width)
     try:
         table = pd.read_csv(io.StringIO(body), sep=layout.delimiter, decimal=layout.decimal,
                             header=None, names=list(range(max(fields, width))), index_col=False,
-                            dtype=str, keep_default_na=False,
-                            skip_blank_lines=True, engine="c")
-    except (ValueError, pd.errors.ParserError) as error:
+                            dtype=str, keep_default_na=False, quoting=csv.QUOTE_NONE,
+                            skip_blank_lines=False, engine="c")
+    except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as error:
         raise DataFileError(f"cannot split the data rows: {error}", where=where,
                             hint="pass delimiter=... and header_row=...") from None
+    if len(table) != line_of.size:
+        raise DataFileError(f"{len(table)} table rows from {line_of.size} data lines",
+                            where=where, hint="pass delimiter=... and header_row=...")
+    if t_index is not None:
+        table, line_of = _drop_bad_times(table, line_of, t_index, lost)
+    for reason, numbers in lost.items():
+        if numbers:
+            warn_data(f"{len(numbers)} line(s) not read: {reason} (lines "
+                      f"{numbers[:10]}{' ...' if len(numbers) > 10 else ''})", where=where,
+                      hint="the file was edited, damaged or cut short; the other rows are read",
+                      stacklevel=2)
     surplus = [k for k in range(width, table.shape[1])
                if (table[k].fillna("").str.strip() != "").any()]
     if surplus:
@@ -421,6 +511,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
                             f"{width} columns", where=where,
                             hint="check delimiter=... and header_row=...")
     values: dict[int, np.ndarray] = {}
+    text_cells: dict[int, int] = {}
     for k in range(width):
         if k == t_index:
             continue
@@ -428,14 +519,25 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         if layout.decimal == ",":
             cells = cells.str.replace(",", ".", regex=False)
         numbers = pd.to_numeric(cells.replace("", np.nan), errors="coerce").to_numpy(float)
-        bad = int(np.count_nonzero(np.isnan(numbers) & (cells != "").to_numpy()))
+        bad_mask = np.isnan(numbers) & ~cells.str.match(_NUMBER.pattern, case=False).to_numpy() \
+            & (cells != "").to_numpy()
+        bad = int(np.count_nonzero(bad_mask))
         if bad and bad == np.count_nonzero(cells != ""):
-            logger.info("%s: column %r is not numeric; skipped", file, layout.names[k])
+            warn_data(f"column {layout.names[k]!r} holds no numbers ({bad} text cells such as "
+                      f"{cells[bad_mask].iloc[0]!r}): not read", where=where,
+                      hint=f"check decimal={layout.decimal!r} and delimiter", stacklevel=2)
             continue
         if bad:
-            raise DataFileError(f"column {layout.names[k]!r} holds {bad} cells that are not "
-                                "numbers", where={**where, "channel": layout.names[k]},
-                                hint=f"check decimal={layout.decimal!r} and delimiter")
+            first = int(line_of[np.flatnonzero(bad_mask)[0]])
+            warn_data(f"column {layout.names[k]!r}: {bad} cell(s) are not numbers (first on "
+                      f"line {first}: {cells[bad_mask].iloc[0]!r}); read as NaN",
+                      where={**where, "channel": layout.names[k]},
+                      hint=f"check decimal={layout.decimal!r} and delimiter", stacklevel=2)
+            text_cells[k] = bad
+        if numbers.size and not np.isfinite(numbers).any():
+            warn_data(f"column {layout.names[k]!r} holds no finite value ({numbers.size} NaN "
+                      "or empty cells): kept as NaN", where={**where, "channel": layout.names[k]},
+                      hint="check the channel's wiring or export settings", stacklevel=2)
         values[k] = numbers
     n = len(table)
     start = None if start_time is None else np.datetime64(
@@ -443,7 +545,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         else pd.Timestamp(start_time).tz_convert("UTC").tz_localize(None), "ns")
     if t_index is not None:
         cells = table[t_index].fillna("").str.strip()
-        if cells.str.match(_NUMBER.pattern).all():
+        if cells.str.match(_NUMBER.pattern, case=False).all():
             seconds = pd.to_numeric(cells.str.replace(",", ".", regex=False)).to_numpy(float)
             unit = (time_units or layout.units[t_index] or "s").strip()
             scale = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}.get(unit)
@@ -495,7 +597,8 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         unit_text = layout.units[k] or ""
         data = values[k][lo:hi]
         attrs: dict[str, Any] = {"units_in_file": unit_text,
-                                 "empty_cells": int(np.count_nonzero(np.isnan(data)))}
+                                 "empty_cells": int(np.count_nonzero(np.isnan(data))),
+                                 "text_cells": text_cells.get(k, 0)}
         module = (modules or {}).get(column) or (profile.default_module if profile else None)
         if module is not None:
             attrs.update(module_attrs(module, fs_nominal, where={**where, "channel": column}))

@@ -143,3 +143,150 @@ def test_huge_daqmx_value_count_is_refused_before_any_allocation(realdata_dir: P
     path = _copy(source, tmp_path / "huge_count.tdms", edit)
     with pytest.raises(DataFileError, match=r"claims chunks of \d+ bytes .* holds 28000 data"):
         read(path, checksum=False)
+
+
+# --- item 2: LVM time axes that do not increase ---------------------------------------------
+
+def _lvm_edit(source: Path, target: Path, old: str, new: str, count: int = -1) -> Path:
+    """Copy an LVM file replacing ``old`` by ``new`` (``count`` times, default all)."""
+    text = source.read_text()
+    assert old in text
+    target.write_text(text.replace(old, new, count))
+    return target
+
+
+def test_lvm_constant_x_column_is_read_by_delta_x(realdata_dir: Path, tmp_path: Path) -> None:
+    source = realdata_dir / "lvm_read/with_empty_fields.lvm"
+    text = source.read_text()
+    lines = text.splitlines(keepends=True)
+    first = next(k for k, ln in enumerate(lines) if ln.startswith("X_Value")) + 1
+    for k in range(first, len(lines)):
+        lines[k] = "0.000000" + lines[k][lines[k].index("\t"):]
+    path = tmp_path / "constant_x.lvm"
+    path.write_text("".join(lines))
+    original, _ = _read(source)
+    streams, texts = _read(path)
+    ds = streams["constant_x"]
+    np.testing.assert_allclose(ds.time.values, np.arange(7) * 0.001, rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(ds["Dev0/Ai2"].values,
+                                  original["with_empty_fields"]["Dev0/Ai2"].values)
+    assert any("X values do not increase" in t and "Delta_X = 0.001" in t for t in texts)
+
+
+def test_lvm_delta_x_zero_is_an_error_unless_fs_is_given(realdata_dir: Path,
+                                                         tmp_path: Path) -> None:
+    path = _lvm_edit(realdata_dir / "lvm_read/short.lvm", tmp_path / "dx0.lvm",
+                     "3,906250E-5", "0,000000")
+    with pytest.raises(DataFileError, match=r"time axis of channel .* is not increasing"):
+        read(path, checksum=False)
+    streams, _ = _read(path, fs=25600.0)
+    np.testing.assert_allclose(streams["dx0"].time.values, np.arange(10) / 25600.0)
+
+
+@pytest.mark.parametrize("x0", ["NaN", "1,0E+308"])
+def test_lvm_unusable_x0_is_taken_as_zero_with_a_warning(realdata_dir: Path, tmp_path: Path,
+                                                         x0: str) -> None:
+    path = _lvm_edit(realdata_dir / "lvm_read/short.lvm", tmp_path / "x0.lvm",
+                     "0,0000000000000000E+0", x0)
+    streams, texts = _read(path)
+    np.testing.assert_allclose(streams["x0"].time.values, np.arange(10) * 3.90625e-5,
+                               rtol=1e-12)
+    assert any("X0 = " in t and "taken as 0 s" in t for t in texts)
+
+
+# --- item 3: a text X cell in an LVM data row -------------------------------------------------
+
+def test_lvm_text_x_cell_keeps_every_row(realdata_dir: Path, tmp_path: Path) -> None:
+    source = realdata_dir / "lvm_read/with_empty_fields.lvm"
+    path = _lvm_edit(source, tmp_path / "text_x.lvm", "\n0.003000\t", "\nabc\t", 1)
+    original, _ = _read(source)
+    streams, texts = _read(path)
+    ds, ref = streams["text_x"], original["with_empty_fields"]
+    assert ds.sizes["time"] == ref.sizes["time"] == 7
+    np.testing.assert_allclose(ds.time.values, ref.time.values, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(ds["Dev0/Ai0"].values, ref["Dev0/Ai0"].values)
+    line = source.read_text().splitlines().index(
+        next(ln for ln in source.read_text().splitlines() if ln.startswith("0.003000"))) + 1
+    assert any("X cell(s)" in t and "'abc'" in t and f"line {line}" in t for t in texts)
+
+
+# --- item 4: text files cut mid-line ----------------------------------------------------------
+
+def _sample_csv_head(tmp_path: Path, rows: int = 641) -> tuple[Path, list[str]]:
+    """The first ``rows`` data rows of a shipped sample-run CSV (3 header lines)."""
+    from rigval.sample_data import runs_dir
+
+    lines = (runs_dir() / "run_0p8_wls2.csv").read_text().splitlines(keepends=True)[:3 + rows]
+    path = tmp_path / "wls2.csv"
+    path.write_text("".join(lines))
+    return path, lines
+
+
+def test_csv_cut_mid_line_drops_and_counts_the_last_row(tmp_path: Path) -> None:
+    path, lines = _sample_csv_head(tmp_path)
+    intact, _ = _read(path)
+    last = lines[-1].rstrip("\n")
+    cut = tmp_path / "cut.csv"
+    cut.write_text("".join(lines[:-1]) + last[:last.rindex("E")])  # '...E-07' -> '...'
+    streams, texts = _read(cut)
+    ds, ref = streams["cut"], intact["wls2"]
+    assert ds.sizes["time"] == 640
+    for name in ("tor3", "tor4", "opt3"):
+        np.testing.assert_array_equal(ds[name].values, ref[name].values[:640])
+    assert any("1 line(s) not read: last line without its line end" in t
+               and f"[{len(lines)}]" in t for t in texts)
+    fewer = tmp_path / "fewer.csv"
+    fewer.write_text("".join(lines[:-1]) + last[:last.rindex(";")] + "\n")
+    streams, texts = _read(fewer)
+    assert streams["fewer"].sizes["time"] == 640
+    assert any("fewer fields than the line before it" in t for t in texts)
+
+
+def test_lvm_cut_mid_line_drops_and_counts_the_last_row(realdata_dir: Path,
+                                                        tmp_path: Path) -> None:
+    source = realdata_dir / "lvm_read/short.lvm"
+    text = source.read_text().rstrip("\n")
+    path = tmp_path / "cut.lvm"
+    path.write_text(text[:-3])  # '1,212775' -> '1,212'
+    original, _ = _read(source)
+    streams, texts = _read(path)
+    assert streams["cut"].sizes["time"] == 9
+    np.testing.assert_array_equal(streams["cut"]["Response (Trigger)"].values,
+                                  original["short"]["Response (Trigger)"].values[:9])
+    assert any("has no line end" in t for t in texts)
+
+
+# --- item 5: non-data rows in a CSV -----------------------------------------------------------
+
+def test_csv_nan_row_and_footer_lose_only_themselves(tmp_path: Path) -> None:
+    path, lines = _sample_csv_head(tmp_path)
+    intact, _ = _read(path)
+    ref = intact["wls2"]
+    nan_row = tmp_path / "nan_row.csv"
+    nan_row.write_text("".join(lines[:323]) + "NaN;NaN;NaN;NaN\n" + "".join(lines[323:]))
+    streams, texts = _read(nan_row)
+    ds = streams["nan_row"]
+    assert ds.sizes["time"] == 641
+    np.testing.assert_array_equal(ds["tor3"].values, ref["tor3"].values)
+    np.testing.assert_array_equal(ds.time.values, ref.time.values)
+    assert any("time cell not a number (lines [324])" in t for t in texts)
+    footer = tmp_path / "footer.csv"
+    footer.write_text("".join(lines) + "Statistics\nMean;1,1E-05;1,1E-05;1,0E-07\n")
+    streams, texts = _read(footer)
+    ds = streams["footer"]
+    assert ds.sizes["time"] == 641
+    np.testing.assert_array_equal(ds["opt3"].values, ref["opt3"].values)
+    lost = sum(int(re.search(r"(\d+) line\(s\) not read", t).group(1)) for t in texts
+               if "not read" in t)
+    assert lost == 2
+
+
+def test_csv_all_nan_column_is_kept_and_counted(tmp_path: Path) -> None:
+    path, lines = _sample_csv_head(tmp_path, rows=20)
+    edited = [lines[0], lines[1], lines[2].rstrip("\n") + ";spare [V]\n"]
+    edited += [ln.rstrip("\n") + ";NaN\n" for ln in lines[3:]]
+    path.write_text("".join(edited))
+    streams, texts = _read(path)
+    ds = streams["wls2"]
+    assert np.isnan(ds["spare"].values).all() and ds["spare"].attrs["empty_cells"] == 20
+    assert any("'spare' holds no finite value" in t for t in texts)

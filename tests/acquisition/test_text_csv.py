@@ -11,7 +11,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from rigval.acquisition import read, read_csv, read_stream
-from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError, DataFileError
+from rigval.acquisition.errors import (
+    ChannelNotFoundError,
+    ConfigError,
+    DataError,
+    DataFileError,
+    DataWarning,
+)
 from rigval.acquisition.schema import parse_start_time
 
 FS = 50_000 / 31
@@ -140,8 +146,11 @@ def test_every_guess_can_be_overridden(tmp_path: Path) -> None:
 def test_bad_text_files_give_clear_errors(tmp_path: Path) -> None:
     bad_cell = tmp_path / "cell.csv"
     bad_cell.write_text("time;a;b\n0;1;2\n1;x;3\n2;4;5\n3;6;7\n")
-    with pytest.raises(DataFileError, match="column 'a' holds 1 cells that are not numbers"):
-        read(bad_cell)
+    with pytest.warns(DataWarning, match=r"column 'a': 1 cell\(s\) are not numbers \(first on "
+                      r"line 3: 'x'\); read as NaN"):
+        ds = read_stream(bad_cell)
+    np.testing.assert_array_equal(ds["a"].values, [1, np.nan, 4, 6])
+    assert ds["a"].attrs["text_cells"] == 1
     no_time = tmp_path / "notime.csv"
     no_time.write_text("a;b\n1;2\n3;4\n")
     with pytest.raises(DataFileError, match="no time column"):
