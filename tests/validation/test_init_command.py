@@ -1,0 +1,142 @@
+"""``rigval init``: a skeleton from the sample files validates once its TODOs are filled with the
+rig's values; a skeleton from real NI-DAQmx files parses once filled."""
+
+from __future__ import annotations
+
+import json
+import re
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from rigval.acquisition.errors import ConfigError, SceneError
+from rigval.sample_data import runs_dir
+from rigval.validation.cli import EXIT_FAILED, EXIT_OK, EXIT_USAGE, main
+from rigval.validation.scene import load_scene, todo_keys
+from rigval.validation.scene_init import fill_todos
+
+SAMPLE = ("run_0p8_cdaq.tdms", "run_0p8_wls1.tdms", "run_0p8_wls2.csv")
+
+
+def _rig_value(key: str, shipped: dict[str, Any], truth: dict[str, Any]) -> Any:
+    """The value the virtual rig used for a TODO key: from its scene and its truth record."""
+    parts = re.findall(r"[^.\[\]]+|\[\d+\]", key)
+    if parts[0] == "comparisons":
+        return None  # filled by comparison name below
+    if parts[:2] == ["model", "drivers"] and parts[-1] == "angle_at_reference":
+        return truth["angle_at_reference"][parts[2]]
+    node: Any = shipped
+    for part in parts:
+        if part not in node:
+            # keys the shipped scene leaves at their defaults
+            return {"angle": 0.0, "youngs_modulus": None}[part]
+        node = node[part]
+    return node
+
+
+def _fill_sample(text: str) -> str:
+    shipped = tomllib.loads((runs_dir() / "run_0p8_scene.toml").read_text())
+    truth = json.loads((runs_dir() / "run_0p8_truth.json").read_text())
+    doc = tomllib.loads(text)
+    values: dict[str, Any] = {}
+    by_name = {c["name"]: c for c in shipped["comparisons"]}
+    for key in todo_keys(doc):
+        match = re.match(r"comparisons\[(\d+)\]\.(.+)", key)
+        if match:
+            name = doc["comparisons"][int(match.group(1))]["name"]
+            rig = by_name.get(name, by_name["acc2"] if name == "acc3" else None)
+            part = match.group(2)
+            values[key] = (rig["model"][part.split(".")[1]] if part.startswith("model.")
+                           else rig[part])
+        else:
+            values[key] = _rig_value(key, shipped, truth)
+    assert all(v is not None for v in values.values()), values
+    return fill_todos(text, values)
+
+
+def test_sample_skeleton_validates_once_filled(tmp_path: Path,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    scene = tmp_path / "scene.toml"
+    code = main(["init", *(str(runs_dir() / f) for f in SAMPLE), "--out", str(scene),
+                 "--mechanism", "builtin:pendulum"])
+    out = capsys.readouterr().out
+    assert code == EXIT_OK
+    assert "angle_at_reference of theta_F: 1.46133 rad" in out
+    text = scene.read_text()
+    doc = tomllib.loads(text)
+    # what the files tell
+    assert doc["streams"]["cdaq"]["device"] == "cDAQ-9172"
+    assert doc["streams"]["wls1"]["device"] == doc["streams"]["wls2"]["device"] == "WLS-9163"
+    channels = doc["streams"]["cdaq"]["channels"]
+    assert {n for n, c in channels.items() if c["sensor"] == "encoder"} == {"enc1", "enc2"}
+    assert channels["opt1"]["sensor"] == "reference_pulse"
+    assert channels["str1"]["module"] == "NI 9237"
+    assert doc["alignment"]["main_encoder"] == "cdaq.enc1"
+    assert doc["alignment"]["main_reference_pulse"] == "cdaq.opt1"
+    assert doc["alignment"]["pulses"]["wls2"]["per_revolution"] == 2
+    assert "8192 counts per main-shaft revolution" in text
+    assert "16384 counts per main-shaft revolution" in text  # the lifting shaft turns twice
+    # refused while TODOs remain, each named
+    todo = todo_keys(doc)
+    assert "streams.cdaq.channels.str1.gauge_factor" in todo
+    assert "model.drivers.theta_H.angle_at_reference" in todo
+    assert main(["validate", str(scene), "--out", str(tmp_path / "refused")]) == EXIT_USAGE
+    err = capsys.readouterr().err
+    assert all(key in err for key in todo)
+    # filled with the rig's values: validates
+    scene.write_text(_fill_sample(text))
+    code = main(["validate", str(scene), "--out", str(tmp_path / "report")])
+    out = capsys.readouterr()
+    assert code in (EXIT_OK, EXIT_FAILED), out.err
+    assert (tmp_path / "report" / "report.html").is_file()
+
+
+def test_init_refuses_to_overwrite(tmp_path: Path) -> None:
+    scene = tmp_path / "scene.toml"
+    scene.write_text("keep")
+    assert main(["init", str(runs_dir() / SAMPLE[0]), "--out", str(scene)]) == EXIT_USAGE
+    assert scene.read_text() == "keep"
+
+
+def test_fill_todos_names_a_key_that_is_no_todo() -> None:
+    text = '[a]\nx = "TODO"  # what\ny = 1\n[[c]]\nz = "TODO"\n[[c]]\nz = "TODO"\n'
+    filled = fill_todos(text, {"a.x": 2.5, "c[1].z": "P1"})
+    assert tomllib.loads(filled) == {"a": {"x": 2.5, "y": 1}, "c": [{"z": "TODO"}, {"z": "P1"}]}
+    assert "# what" in filled
+    with pytest.raises(ConfigError, match=r"a\.y: not a TODO"):
+        fill_todos(text, {"a.y": 2})
+
+
+def test_real_daqmx_skeleton_parses_once_filled(realdata_dir: Path, tmp_path: Path) -> None:
+    folder = realdata_dir / "nidaqmx-python"
+    files = [folder / f"data_{n}.tdms" for n in ("ai", "ci1", "ci2")]
+    scene = tmp_path / "scene.toml"
+    assert main(["init", *map(str, files), "--out", str(scene),
+                 "--mechanism", "builtin:pendulum"]) == EXIT_OK
+    text = scene.read_text()
+    doc = tomllib.loads(text)
+    streams = doc["streams"]
+    assert set(streams) == {"ai", "ci1", "ci2"}
+    assert streams["ci1"]["channels"]["Rotations01"]["sensor"] == "encoder"
+    assert streams["ai"]["channels"]["Torque01"]["sensor"] == "linear"
+    assert streams["ai"]["channels"]["Torque01"]["units"] == "N m"  # from the name
+    assert doc["alignment"]["reference"] == "ci1"
+    with pytest.raises(SceneError) as info:
+        load_scene(scene)
+    keys = info.value.extra["keys"]
+    assert keys == todo_keys(doc)
+    # what a lab would fill in: transducer scales, pulse channels, sensor positions, items
+    values: dict[str, Any] = {}
+    for key in keys:
+        leaf = key.rsplit(".", 1)[-1]
+        values[key] = {
+            "slope": 20.0, "units": "N m", "counts_per_rev": 4096, "per_revolution": 1,
+            "angle": 0.0, "item": "theta_F", "scale": 0.5,
+            "source": f"PFI{len(values)}"}[leaf]
+    scene.write_text(fill_todos(text, values))
+    parsed = load_scene(scene)
+    assert parsed.streams["ai"].channels["Torque01"].params["slope"] == 20.0
+    assert parsed.alignment.reference == "ci1"
+    assert parsed.units(parsed.comparisons[0].measured) == "N m"

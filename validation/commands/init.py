@@ -1,0 +1,54 @@
+"""``rigval init FILE... --out scene.toml [--mechanism M]``: a scene skeleton from data files.
+
+Reads the files, guesses devices, channel roles and sensor kinds, and writes a commented scene
+whose unknown values are marked ``TODO`` (:mod:`rigval.validation.scene_init`); prints the
+guesses and the ``angle_at_reference`` estimates. ``rigval validate`` refuses the scene until
+every TODO is filled. Exit codes: 0 written, 2 bad option or existing output, 3 unreadable file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register the ``init`` subcommand."""
+    parser = subparsers.add_parser(
+        "init", help="write a commented scene skeleton from data files (unknowns as TODO)",
+        description="Read TDMS, CSV or LVM files and write a scene skeleton: streams, channels "
+                    "with units and rates, guessed device profiles and sensor kinds, the "
+                    "alignment and comparison blocks. What the files cannot tell is marked "
+                    "TODO; rigval validate refuses the scene until each TODO is filled.",
+        epilog="Exit codes: 0 written, 2 bad option or existing --out (use --force), 3 a file "
+               "cannot be read.")
+    parser.add_argument("files", nargs="+", type=Path, metavar="FILE", help="data files")
+    parser.add_argument("--out", type=Path, required=True, help="scene file to write (TOML)")
+    parser.add_argument("--mechanism", metavar="M", default=None,
+                        help="builtin:NAME or a mechanism file (default: TODO in the scene)")
+    parser.add_argument("--force", action="store_true", help="overwrite --out")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Write the skeleton; return 0."""
+    from rigval.acquisition.errors import ConfigError
+    from rigval.validation.scene_init import guess_streams, skeleton_text
+
+    if args.out.exists() and not args.force:
+        raise ConfigError(f"{args.out} exists", where={"file": str(args.out)},
+                          hint="choose another --out or pass --force")
+    streams = guess_streams(args.files)
+    text, notes = skeleton_text(streams, args.out, args.mechanism)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(text, encoding="utf-8")
+    for line in notes:
+        print(line)
+    todo = sum(1 for line in text.splitlines() if '= "TODO' in line)
+    print(f"wrote {args.out}: {todo} value(s) marked TODO (rigval validate lists them)",
+          file=sys.stdout)
+    return 0
