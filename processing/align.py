@@ -68,6 +68,10 @@ _SCORING_SPAN_S = 60.0
 #: A runner-up candidate whose residual scale is within this factor of the best makes the match
 #: ambiguous.
 _AMBIGUITY_FACTOR = 3.0
+#: A candidate whole periods outside the stamps' window, matching as many events, whose residual
+#: scale is this many times smaller than the best inside it, says the stamps are worse than stated
+#: (a wrong whole period leaves the speed wander, milliseconds; the right one timing jitter).
+_OUTSIDE_FACTOR = 10.0
 #: Residual scales below this (s) count as equal: no clock is timed better than a nanosecond.
 _TIMING_FLOOR_S = 1e-9
 
@@ -339,8 +343,8 @@ def _match(ref: _FloatArray, dev: _FloatArray, *, coarse_offset_s: float,
         reach = int(np.ceil(min(_SCORING_SPAN_S, 5.0 * period) / period))
         outside = [_score(ref, scoring, best[2] + k * period, period, tolerance)
                    for k in range(-reach, reach + 1) if k]
-        better = sorted((s for s in outside if s[0] >= max(3, 0.8 * best[0])
-                         and _AMBIGUITY_FACTOR * s[1] + _TIMING_FLOOR_S < best[1]),
+        better = sorted((s for s in outside if s[0] >= best[0]
+                         and _OUTSIDE_FACTOR * s[1] + _TIMING_FLOOR_S < best[1]),
                         key=lambda s: s[1])
         if better:
             raise AlignmentError(
