@@ -5,7 +5,7 @@ Public API (see ``docs/model.md``)::
     load_mechanism(source: str | Path | Mapping) -> Mechanism
     builtin_mechanism(name: str) -> Path            # "pendulum", "fourbar", "single_pendulum"
     solve(mechanism, t, *, outputs=None, points=None, joints=None, drives=None,
-          tol=1e-12, cond_warn=1e4, cond_max=1e10) -> xarray.Dataset      # dim "time"
+          tol=1e-12, cond_warn=1e4, cond_max=2.1e5) -> xarray.Dataset     # dim "time"
     solve_cycle(mechanism, angles, *, driver=None, angle_origin=None, **solve_options)
           -> xarray.Dataset                                             # dim "angle"
     interpolate_cycle(cycle: xarray.Dataset, angles) -> xarray.Dataset

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import math
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -40,6 +41,7 @@ if TYPE_CHECKING:
     from rigval.model.mechanism import Mechanism
 
 __all__ = [
+    "COND_MAX",
     "Continuation",
     "Tolerances",
     "assemble",
@@ -60,6 +62,23 @@ logger = logging.getLogger(__name__)
 
 _EPS = np.finfo(float).eps
 
+#: Largest ``cond(C_e)**2 * eps`` at which forces are still returned (see :data:`COND_MAX`).
+FORCE_TRUST = 1e-5
+#: Condition number of the column-equilibrated, reduced ``C_e`` past which the forces cannot be
+#: trusted and a SingularityError is raised: ``sqrt(FORCE_TRUST / eps)``, about 2.1e5.
+#:
+#: Why ``cond**2 * eps``: near a toggle the undriven angles move ``cond`` times as far as the
+#: driven ones, and the forces are inversely proportional to the distance from the toggle (itself
+#: about ``1 / cond``). The driven angles are known only to rounding (``eps``, relative), so the
+#: distance from the toggle, and with it every force, is uncertain by about ``cond**2 * eps``
+#: relative: a property of the input, not of the solver, that no double-precision method avoids.
+#: Measured on the four-bar driven into its toggle (tests/model/test_toggle_trust.py) the force
+#: error is 100 to 5000 times ``cond**2 * eps`` (1e-3 to 7e-3 at condition 8.3e4, 0.07 to 0.15 at
+#: 2.6e5, 1 to 2 at 8.3e5; docs/numerics.md), so the limit 1e-5 refuses before the error can
+#: exceed about a percent, and always before no digit is left. (The computed condition saturates
+#: near 2e7 to 3e7 at an exact toggle, so a limit like 1e10 never fires.)
+COND_MAX = math.sqrt(FORCE_TRUST / _EPS)
+
 
 @dataclass(frozen=True)
 class Tolerances:
@@ -73,7 +92,8 @@ class Tolerances:
         Condition number of ``C_e`` (column-equilibrated, reduced) past which a NumericsWarning
         is issued.
     cond_max : float
-        Condition number past which a SingularityError is raised.
+        Condition number past which a SingularityError is raised (default :data:`COND_MAX`:
+        forces would carry a relative error of about ``1e2 ... 5e3 * cond**2 * eps``).
     anchor_spacing : float
         Driven-angle travel between sequential anchors, rad.
     refine_spacings : tuple of float
@@ -85,7 +105,7 @@ class Tolerances:
 
     tol: float = 1e-12
     cond_warn: float = 1e4
-    cond_max: float = 1e10
+    cond_max: float = COND_MAX
     anchor_spacing: float = 3.0
     refine_spacings: tuple[float, ...] = (0.5, 0.1, 0.02)
     max_iter: int = 12

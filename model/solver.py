@@ -20,6 +20,7 @@ import xarray as xr
 
 from rigval.acquisition.errors import ConfigError, DataError, NumericsWarning, SingularityError
 from rigval.model.assembly import (
+    COND_MAX,
     Continuation,
     Tolerances,
     full_angles,
@@ -65,7 +66,7 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
           points: Iterable[str] | str | None = None,
           joints: Iterable[str] | str | None = None,
           drives: Mapping[str, SampledDrive] | None = None,
-          tol: float = 1e-12, cond_warn: float = 1e4, cond_max: float = 1e10) -> xr.Dataset:
+          tol: float = 1e-12, cond_warn: float = 1e4, cond_max: float = COND_MAX) -> xr.Dataset:
     """Kinematics and inverse dynamics of a mechanism at the times ``t``.
 
     Parameters
@@ -91,7 +92,9 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
         Condition number of the (column-equilibrated, reduced) ``C_e`` past which a
         NumericsWarning is issued.
     cond_max : float
-        Condition number past which a SingularityError is raised.
+        Condition number past which a SingularityError is raised; default
+        :data:`~rigval.model.assembly.COND_MAX` (about 2.1e5, where ``cond**2 * eps`` reaches
+        1e-5 and the forces stop being trustworthy, see docs/numerics.md).
 
     Returns
     -------
