@@ -13,11 +13,12 @@ from importlib import import_module
 from typing import Any
 
 from rigval.acquisition.errors import RigvalError
-from rigval.acquisition.schema import Channel, check_stream, stream_dataset
 
-#: Readers, imported on first use so that ``import rigval.acquisition.errors`` stays light.
+#: Readers and the schema (numpy, xarray, pandas), imported on first use so that
+#: ``import rigval.acquisition.errors`` (every command line start) stays light.
 _LAZY = {"iter_stream": "reader", "read": "reader", "read_stream": "reader", "read_lvm": "lvm",
-         "iter_tdms": "tdms", "read_tdms": "tdms", "read_csv": "text_csv"}
+         "iter_tdms": "tdms", "read_tdms": "tdms", "read_csv": "text_csv",
+         "Channel": "schema", "check_stream": "schema", "stream_dataset": "schema"}
 
 __all__ = ["Channel", "RigvalError", "check_stream", "iter_stream", "iter_tdms", "read",
            "read_csv", "read_lvm", "read_stream", "read_tdms", "stream_dataset"]

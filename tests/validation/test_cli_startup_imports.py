@@ -1,0 +1,61 @@
+"""``rigval --help`` and ``rigval info`` start without the heavy libraries (no timing asserts).
+
+Each case runs the command line in a fresh interpreter and reports which modules it imported.
+"""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from rigval.sample_data import runs_dir
+
+HEAVY = ("matplotlib", "scipy", "xarray", "pandas", "numpy", "netCDF4", "dask", "nptdms")
+
+SCRIPT = """
+import contextlib, io, json, sys
+if {block_dask}:
+    sys.modules["dask"] = None  # an installation without the parallel extra
+from rigval.validation.cli import main
+with contextlib.redirect_stdout(io.StringIO()) as out:
+    code = main({argv!r})
+print(json.dumps({{"code": code, "out": out.getvalue(),
+                  "modules": [m for m in {heavy!r} if m in sys.modules]}}))
+"""
+
+
+def run_cli(argv, block_dask=False):
+    code = SCRIPT.format(argv=list(argv), heavy=HEAVY, block_dask=block_dask)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["info", "--help"], ["validate", "--help"],
+                                  ["--version"]])
+def test_help_imports_no_numeric_library(argv):
+    result = run_cli(argv)
+    assert result["code"] == 0
+    assert "rigval" in result["out"]
+    assert result["modules"] == []
+
+
+def test_info_of_a_tdms_file_reads_metadata_without_scipy_or_matplotlib():
+    result = run_cli(["info", str(runs_dir() / "run_0p8_cdaq.tdms")])
+    assert result["code"] == 0
+    assert "samples" in result["out"]  # it did describe the file
+    assert "matplotlib" not in result["modules"]
+    assert "scipy" not in result["modules"]
+    assert "dask" not in result["modules"]
+
+
+@pytest.mark.parametrize("name", ["run_0p8_wls2.csv", "run_0p8_wls1.tdms"])
+def test_info_without_the_parallel_extra_imports_no_scipy(name):
+    # With dask installed, xarray imports dask.array (and with it scipy.sparse) on the first
+    # Variable it builds; a default installation has no dask.
+    result = run_cli(["info", str(runs_dir() / name)], block_dask=True)
+    assert result["code"] == 0
+    assert "samples" in result["out"]
+    assert "matplotlib" not in result["modules"]
+    assert "scipy" not in result["modules"]
