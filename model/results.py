@@ -20,6 +20,11 @@ variable                   dims                    units      meaning
 
 ``coord`` is the position's own units per entry, so ``position``, ``velocity`` and
 ``acceleration`` carry ``units`` for x and y and ``theta_units`` for theta.
+
+Derived from these (not a solver output): :func:`axial_joint_force`, a joint force projected on
+a body's axis, the axial force in a rod that its strain gauge measures, in N, **tension
+positive**: ``N = -F . u`` with ``F`` the joint force on that body and ``u`` the unit vector
+from the joint's point towards a second point of the body, both in the global frame.
 """
 
 from __future__ import annotations
@@ -35,7 +40,8 @@ from rigval.model.dynamics import mechanical_energy
 from rigval.model.kinematics import point_motion
 from rigval.model.mechanism import Mechanism
 
-__all__ = ["EXTRA_OUTPUTS", "OUTPUTS", "Selection", "Solution", "build_dataset", "select"]
+__all__ = ["EXTRA_OUTPUTS", "OUTPUTS", "Selection", "Solution", "axial_joint_force",
+           "axial_toward", "build_dataset", "select"]
 
 #: The contract variables, computed by default.
 OUTPUTS = ("position", "velocity", "acceleration", "point_position", "point_velocity",
@@ -252,3 +258,91 @@ def _add_points(mechanism: Mechanism, s: Solution, selection: Selection, out: se
             data[name] = xr.Variable(("time", "point", "axis"), _planar(values),
                                      {"units": units, "long_name": f"point {label}, global "
                                                                    "frame"})
+
+
+def axial_toward(mechanism: Mechanism, joint: str, body: str, toward: str | None = None) -> str:
+    """Return the point of ``body`` that, with the joint's point, defines the body's axis.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+    joint : str
+        The joint (named by its point).
+    body : str
+        One of the joint's bodies.
+    toward : str, optional
+        A point of ``body`` other than the joint's; default the body's only other point (a
+        two-point body such as a rod).
+
+    Raises
+    ------
+    ChannelNotFoundError
+        Unknown joint, a body the joint does not connect, or an unknown ``toward`` point (with
+        the available names).
+    """
+    joints = {j.name: j for j in mechanism.joints}
+    if joint not in joints:
+        raise ChannelNotFoundError(f"no joint {joint!r}", where={"key": "item"},
+                                   available=list(joints))
+    if body not in joints[joint].bodies:
+        raise ChannelNotFoundError(f"joint {joint!r} does not connect body {body!r}",
+                                   where={"key": "body"}, available=list(joints[joint].bodies))
+    others = [p for p in mechanism.bodies[mechanism.body_names.index(body)].points
+              if p != joint]
+    if toward is None:
+        if len(others) != 1:
+            raise ChannelNotFoundError(
+                f"body {body!r} has {len(others)} points besides {joint!r}: name the one that "
+                "defines its axis", where={"key": "toward"}, available=others)
+        return others[0]
+    if toward not in others:
+        raise ChannelNotFoundError(f"{toward!r} is not a point of body {body!r} other than "
+                                   f"{joint!r}", where={"key": "toward"}, available=others)
+    return toward
+
+
+def axial_joint_force(result: xr.Dataset, mechanism: Mechanism, joint: str, body: str,
+                      toward: str | None = None) -> xr.DataArray:
+    """Return a joint force projected on a body's axis: the rod's axial force, tension positive.
+
+    ``N = -F . u``: ``F`` is the force ON ``body`` at the joint (``joint_force`` when ``body``
+    is the joint's first body, its negative otherwise), ``u`` the unit vector from the joint's
+    point towards ``toward``, both points in ``body``'s own frame rotated by its angle. A rod
+    pulled at both ends (tension) gives ``N > 0``; for a two-force member it is the force its
+    strain gauge measures (``sigma = N / A``).
+
+    Parameters
+    ----------
+    result : xarray.Dataset
+        A :func:`rigval.model.solve` result holding ``joint_force`` for ``joint`` and
+        ``position`` (for the body angle); any leading dim (``time`` or ``angle``).
+    mechanism : Mechanism
+        The solved mechanism.
+    joint : str
+        The joint (named by its point).
+    body : str
+        The body whose axis is meant (one of the joint's bodies).
+    toward : str, optional
+        Second point of the axis (see :func:`axial_toward`).
+
+    Returns
+    -------
+    xarray.DataArray
+        Axial force in N over the result's leading dim.
+    """
+    toward = axial_toward(mechanism, joint, body, toward)
+    owner = mechanism.bodies[mechanism.body_names.index(body)]
+    local = complex(*owner.points[toward]) - complex(*owner.points[joint])
+    theta = result["position"].sel(body=body, coord="theta").to_numpy()
+    u = local / abs(local) * np.exp(1j * theta)
+    force = result["joint_force"].sel(joint=joint)
+    sign = 1.0 if mechanism.joints[mechanism.joint_names.index(joint)].bodies[0] == body \
+        else -1.0
+    fx = sign * force.sel(axis="x").to_numpy()
+    fy = sign * force.sel(axis="y").to_numpy()
+    axial = -(fx * u.real + fy * u.imag)
+    dim = result["position"].dims[0]
+    return xr.DataArray(axial, dims=(dim,), coords={dim: result[dim]}, attrs={
+        "units": "N", "long_name": f"axial force in {body} at {joint} (towards {toward}), "
+                                   "tension positive"})
