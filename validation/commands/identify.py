@@ -1,0 +1,156 @@
+"""``rigval identify SCENE --out DIR``: the inertial parameters the measured torques support.
+
+Writes ``identified.json`` (value, standard error and nominal value per parameter, condition
+number, parameters that are not identifiable and why), ``mechanism.toml`` (the scene's mechanism
+with the identified values), ``report.html`` (the V&V 20 verdict and the ratings of the nominal
+and the identified model side by side) and the two validation report folders ``nominal/`` and
+``identified/``. Exit codes: 0 done, 2 bad scene or parameter, 3 data error. See
+``docs/identify.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+__all__ = ["add_parser", "run", "write_identification"]
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register the ``identify`` subcommand."""
+    parser = subparsers.add_parser(
+        "identify", help="identify masses, inertias (and drive friction) from a run",
+        description="Fit the inertial parameters of the scene's mechanism to the measured drive "
+                    "torques (linear least squares on the revolution-averaged curves), write "
+                    "identified.json, mechanism.toml and a report that re-validates the run with "
+                    "the identified values beside the nominal ones.",
+        epilog="Exit codes: 0 done, 2 bad scene or parameter, 3 data error.")
+    parser.add_argument("scene", type=Path, help="scene file (TOML, docs/scene.md)")
+    parser.add_argument("--parameters", default="auto",
+                        help='"auto" (identifiable base parameters) or a comma list such as '
+                             "A.mass,A.inertia,E.mass (kinds: mass, mx, my, inertia; friction: "
+                             "DRIVER.viscous, DRIVER.coulomb)")
+    parser.add_argument("--friction", action="store_true",
+                        help="with auto: also viscous and Coulomb friction of each drive")
+    parser.add_argument("--comparisons", default=None,
+                        help="comma list of the scene's torque/force comparisons to use "
+                             "(default: the drive torques)")
+    parser.add_argument("--out", type=Path, required=True, help="output folder (created)")
+    parser.set_defaults(func=run)
+
+
+def write_identification(identification: Any, out_dir: Path) -> list[Path]:
+    """Write ``identified.json``, ``mechanism.toml`` and the re-validation reports.
+
+    Parameters
+    ----------
+    identification : rigval.validation.identify.Identification
+        The result of :func:`rigval.validation.identify.identify`.
+    out_dir : pathlib.Path
+        Output folder (created).
+
+    Returns
+    -------
+    list of pathlib.Path
+        Files written: ``report.html``, ``identified.json``, ``mechanism.toml`` and the report
+        folders' files.
+    """
+    from rigval.model.mechanism import load_mechanism
+    from rigval.validation.identify import apply_parameters, mechanism_toml
+    from rigval.validation.pipeline import run_scene
+    from rigval.validation.report import write_report
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    nominal = identification.nominal_result
+    scene = nominal.scene
+    document = apply_parameters(load_mechanism(scene.mechanism),
+                                dict(zip(identification.names, identification.value,
+                                         strict=True)))
+    mechanism_path = out_dir / "mechanism.toml"
+    mechanism_path.write_text(mechanism_toml(document, header=(
+        f"{document.get('name', 'mechanism')}: inertial parameters identified by rigval "
+        f"identify\nfrom {scene.path.name} ({', '.join(identification.comparisons)}); see "
+        "identified.json")), encoding="utf-8")
+    json_path = out_dir / "identified.json"
+    json_path.write_text(json.dumps(identification.as_dict(), indent=2) + "\n", encoding="utf-8")
+    identified = run_scene(dataclasses.replace(scene, mechanism=mechanism_path.resolve()))
+    written = [json_path, mechanism_path]
+    written += write_report(nominal, out_dir / "nominal")
+    written += write_report(identified, out_dir / "identified")
+    written.insert(0, _page(identification, identified).write(out_dir / "report.html"))
+    return written
+
+
+def _page(identification: Any, identified: Any) -> Any:
+    """Build the side-by-side page: verdicts, parameters, ratings per comparison."""
+    from rigval.validation.html import Page
+    from rigval.validation.verdict import run_verdict
+
+    nominal = identification.nominal_result
+    verdicts = {"nominal": run_verdict(nominal), "identified": run_verdict(identified)}
+    page = Page(f"rigval identify: {nominal.scene.title}",
+                subtitle=f"{len(identification.names)} parameters from "
+                         f"{', '.join(identification.comparisons)}")
+    page.section("Summary")
+    for which, verdict in verdicts.items():
+        page.paragraph(f"ASME V&V 20, {which} model: {verdict['statement']}",
+                       css_class="bad" if verdict["detected"] else "ok")
+    page.facts({"condition number": identification.condition_number,
+                "revolutions": identification.n_cycles,
+                "not identifiable": ", ".join(identification.not_identifiable) or "none"})
+    page.section("Parameters")
+    page.table([{"parameter": name, "identified": value, "std": std, "nominal": nom,
+                 "change [%]": 100.0 * (value / nom - 1.0) if nom else None,
+                 "calibration part": cal, "unit": unit}
+                for name, value, std, nom, cal, unit in zip(
+                    identification.names, identification.value, identification.std,
+                    identification.nominal, identification.u_calibration, identification.units,
+                    strict=True)], digits=5)
+    if identification.not_identifiable:
+        page.table([{"parameter": k, "why": v}
+                    for k, v in identification.not_identifiable.items()])
+    page.section("Re-validation")
+    rows = []
+    for a, b in zip(nominal.comparisons, identified.comparisons, strict=True):
+        rows.append({"comparison": a.name,
+                     "|E|/(k u_val) nominal": _ratio(a.scores), "|E|/(k u_val) identified":
+                     _ratio(b.scores), "ISO rating nominal": a.scores.get(
+                         "iso18571_periodic.rating"),
+                     "ISO rating identified": b.scores.get("iso18571_periodic.rating")})
+    page.table(rows, digits=3)
+    page.paragraph("Full reports: nominal/report.html and identified/report.html.")
+    return page
+
+
+def _ratio(scores: Any) -> float:
+    """``E / (k u_val)`` of a comparison's curve scores."""
+    return float(scores.get("vv20.curve.normalised_error", float("nan"))) / float(
+        scores.get("vv20.curve.k", 2.0))
+
+
+def run(args: argparse.Namespace) -> int:
+    """Identify, write the outputs and print the parameters; return 0."""
+    from rigval.validation.identify import identify
+
+    parameters = ("auto" if args.parameters.strip() == "auto"
+                  else [p.strip() for p in args.parameters.split(",") if p.strip()])
+    comparisons = (None if args.comparisons is None
+                   else [c.strip() for c in args.comparisons.split(",") if c.strip()])
+    identification = identify(args.scene, parameters, friction=args.friction,
+                              comparisons=comparisons)
+    write_identification(identification, args.out)
+    stream = sys.stdout
+    for name, value, std, nom, unit in zip(identification.names, identification.value,
+                                           identification.std, identification.nominal,
+                                           identification.units, strict=True):
+        print(f"  {name:<18} {value:12.6g} +- {std:.3g} {unit:<12} (nominal {nom:.6g})",
+              file=stream)
+    for name, why in identification.not_identifiable.items():
+        print(f"  {name:<18} not identifiable: {why}", file=stream)
+    print(f"condition number {identification.condition_number:.3g}; report: "
+          f"{args.out / 'report.html'}", file=stream)
+    return 0
