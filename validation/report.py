@@ -33,6 +33,7 @@ from rigval.acquisition.detect import source_checksum
 from rigval.validation import plots
 from rigval.validation.html import Page
 from rigval.validation.iso18571 import IsoParameters
+from rigval.validation.nc_summary import root_summary
 from rigval.validation.outputs import atomic_output, write_text_atomic
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.verdict import run_verdict
@@ -117,6 +118,10 @@ def _encoding(ds: xr.Dataset) -> dict[str, dict[str, Any]]:
 def write_netcdf(result: ValidationResult, path: Path) -> Path:
     """Write the run's DataTree to netCDF-4 (groups, zlib 4, provenance in global attributes).
 
+    The root group holds a summary (verdicts, inputs, group paths;
+    :func:`rigval.validation.nc_summary.root_summary`) for readers that open it with plain
+    ``xr.open_dataset``.
+
     Parameters
     ----------
     result : ValidationResult
@@ -127,7 +132,8 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
     """
     tree = result.tree.copy()
     scene = result.scene
-    inputs = [{"path": str(p), "sha256": source_checksum(p)} for p in scene.input_files]
+    inputs = [(p, source_checksum(p)) for p in scene.input_files]
+    tree.dataset = root_summary(result, tree, inputs)  # what plain xr.open_dataset shows
     tree.attrs.update({
         "Conventions": "CF-1.13",
         "title": scene.title,
@@ -135,7 +141,6 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
         "scene_toml": scene.text,
         "scene_sha256": scene.sha256,
         "scene_file": str(scene.path),
-        "input_files": json.dumps(inputs),
         "validation_passed": int(result.passed),
     })
     encoding = {node.path: _encoding(node.to_dataset(inherit=False))

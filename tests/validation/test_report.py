@@ -115,7 +115,18 @@ def test_netcdf_has_provenance_and_compression(result: ValidationResult, tmp_pat
     tree = xr.open_datatree(tmp_path / "scene.nc")
     assert tree.attrs["scene_sha256"] == result.scene.sha256
     assert tree.attrs["Conventions"].startswith("CF-")
-    assert json.loads(tree.attrs["input_files"])[0]["sha256"]
+    assert len(tree["input_sha256"].values[0]) == 64
+    assert [str(p) for p in tree["input_file"].values] == [
+        str(p) for p in result.scene.input_files]
+    # plain open_dataset shows the root: the verdicts and where the groups are
+    with xr.open_dataset(tmp_path / "scene.nc") as root:
+        assert list(root["comparison"].values) == [c.name for c in result.comparisons]
+        assert list(root["passed"].values) == [int(c.passed) for c in result.comparisons]
+        assert "2 of 3 comparisons pass" in root.attrs["summary"] and "str1" in root.attrs[
+            "summary"]
+        assert "open_datatree" in root.attrs["summary"]
+        assert set(root.attrs["groups"].split()) == {
+            node.path for node in tree.subtree if node.path != "/" and node.has_data}
     assert tree["raw/cdaq"]["acc1"].dtype == np.float32
     assert tree["raw/cdaq"]["acc1"].encoding["zlib"] and tree["raw/cdaq"]["acc1"].encoding[
         "complevel"] == 4
