@@ -19,6 +19,7 @@ import xarray as xr
 
 from rigval.acquisition.errors import ConfigError
 from rigval.model.mechanism import Mechanism
+from rigval.model.results import axial_joint_force
 from rigval.model.solver import solve, solve_cycle
 from rigval.processing.align import channel_time
 from rigval.processing.excitation import drive_excitation
@@ -55,7 +56,10 @@ def model_request(scene: Scene, mechanism: Mechanism) -> dict[str, Any]:
     """
     outputs = {c.model.quantity for c in scene.comparisons}
     points = {c.model.item for c in scene.comparisons if c.model.quantity.startswith("point_")}
-    joints = {c.model.item for c in scene.comparisons if c.model.quantity == "joint_force"}
+    joints = {c.model.item for c in scene.comparisons
+              if c.model.quantity in ("joint_force", "joint_axial_force")}
+    if "joint_axial_force" in outputs:  # derived from joint forces and body angles
+        outputs = (outputs - {"joint_axial_force"}) | {"joint_force", "position"}
     if scene.predictions.points:
         outputs |= {"point_position", "point_velocity", "point_acceleration"}
         points |= set(scene.predictions.points)
@@ -137,7 +141,7 @@ def run_model(scene: Scene, mechanism: Mechanism, ref: xr.Dataset, fine_times: n
     """
     request = model_request(scene, mechanism)
     if scene.model.drives == "analytic":
-        return solve_cycle(mechanism, fine_angle.size, **request)
+        return _with_axial(scene, mechanism, solve_cycle(mechanism, fine_angle.size, **request))
     times, drives = _measured_drives(scene, ref, fine_times)
     ds = solve(mechanism, times, drives=drives, **request)
     for name, (theta, omega, alpha) in drives.items():
@@ -145,7 +149,28 @@ def run_model(scene: Scene, mechanism: Mechanism, ref: xr.Dataset, fine_times: n
         ds[f"drive_{name}_dot"] = ("time", omega, {"units": "rad s-1"})
         ds[f"drive_{name}_ddot"] = ("time", alpha, {"units": "rad s-2"})
     ds = ds.assign_coords(angle=("time", fine_angle, {"units": "rad", "long_name": "phi_F"}))
-    return ds.swap_dims(time="angle")
+    return _with_axial(scene, mechanism, ds.swap_dims(time="angle"))
+
+
+def _axial_label(output: ModelOutput) -> str:
+    """Label of a ``joint_axial_force`` in the model Dataset's ``member`` dim."""
+    return f"{output.item} on {output.body}" + (f" towards {output.toward}"
+                                                 if output.toward else "")
+
+
+def _with_axial(scene: Scene, mechanism: Mechanism, ds: xr.Dataset) -> xr.Dataset:
+    """Add ``joint_axial_force`` (dims angle, member; N, tension positive) where compared."""
+    outputs = list(dict.fromkeys(c.model for c in scene.comparisons
+                                 if c.model.quantity == "joint_axial_force"))
+    if not outputs:
+        return ds
+    forces = [axial_joint_force(ds, mechanism, o.item, o.body or "", o.toward)
+              for o in outputs]
+    stacked = xr.concat(forces, dim="member").transpose(..., "member")
+    stacked = stacked.assign_coords(member=[_axial_label(o) for o in outputs])
+    stacked.attrs = {"units": "N", "long_name": "joint force projected on a body's axis, "
+                                                "tension positive"}
+    return ds.assign(joint_axial_force=stacked)
 
 
 def model_values(model: xr.Dataset, output: ModelOutput) -> np.ndarray:
@@ -158,6 +183,9 @@ def model_values(model: xr.Dataset, output: ModelOutput) -> np.ndarray:
     output : ModelOutput
         Quantity, item and axis.
     """
+    if output.quantity == "joint_axial_force":
+        return model["joint_axial_force"].sel(member=_axial_label(output)).to_numpy().astype(
+            np.float64)
     item_dim, axis_dim = _ITEM_DIM[output.quantity]
     var = model[output.quantity].sel({item_dim: output.item})
     if axis_dim is not None:

@@ -132,8 +132,8 @@ def _resample_channel(scene: Scene, comparison: ComparisonSpec, aligned: xr.Data
     name = comparison.measured.channel
     fs = float(aligned.attrs["fs_nominal"])
     values = aligned[name].to_numpy().astype(np.float64)
-    for ref in comparison.summed:  # channels of the same stream and unit, summed
-        values = values + aligned[ref.channel].to_numpy().astype(np.float64)
+    for sign, ref in comparison.terms[1:]:  # channels of the same stream and unit, summed
+        values = values + sign * aligned[ref.channel].to_numpy().astype(np.float64)
     valid = aligned["valid"].to_numpy() & np.isfinite(values)
     segment = aligned["segment"].to_numpy()
     corner = comparison.lowpass_hz
@@ -213,7 +213,7 @@ def _tree(scene: Scene, raw: Mapping[str, xr.Dataset], aligned: Mapping[str, xr.
     for result in results:
         name = result.name
         attrs = {"units": result.units, "long_name": result.long_name,
-                 "source": " + ".join(map(str, (result.spec.measured, *result.spec.summed)))}
+                 "source": result.spec.measured_text}
         angle_ds[name] = (("cycle", "angle"), measured[name].astype(np.float32), attrs)
         low, high = result.band
         stats = {"mean": result.mean, "std": result.cycles.std(axis=0, ddof=1), "p5": low,

@@ -179,7 +179,7 @@ def _summary_rows(result: ValidationResult) -> list[dict[str, Any]]:
     for c in result.comparisons:
         failed = [ch.metric for ch in c.checks if not ch.passed]
         rows.append({
-            "comparison": c.name, "measured": str(c.spec.measured), "model": str(c.spec.model),
+            "comparison": c.name, "measured": c.spec.measured_text, "model": str(c.spec.model),
             "scale": c.spec.scale, "unit": c.units,
             "V&V 20": "detected" if c.scores.get("vv20.curve.detected") else "not detected",
             "E": c.scores.get("vv20.curve.error"), "u_val": c.scores.get("vv20.curve.u_val"),
@@ -254,7 +254,7 @@ def _comparisons(page: Page, result: ValidationResult) -> None:
     # one figure redrawn per comparison; page.figure renders it before the next one is drawn
     figures = plots.plot_comparisons(result.comparisons)
     for comparison, figure in zip(result.comparisons, figures, strict=True):
-        page.section(f"{comparison.name}: {comparison.spec.measured} against "
+        page.section(f"{comparison.name}: {comparison.spec.measured_text} against "
                      f"{comparison.spec.model}", level=3)
         page.facts({"scale": f"{comparison.spec.scale:g} {comparison.spec.scale_units}",
                     "low-pass [Hz]": comparison.spec.lowpass_hz,
