@@ -722,8 +722,11 @@ def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = No
     lost = ~np.isfinite(ref_time)
     out = stream.copy()
     if lost.any():
-        warnings.warn(f"{int(lost.sum())} samples in segments {list(clock.unaligned_segments)} "
-                      "could not be aligned and were marked invalid", DataWarning, stacklevel=2)
+        label = name or stream.attrs.get("device", "")
+        warnings.warn(f"stream {label}: {int(lost.sum())} samples in segments "
+                      f"{list(clock.unaligned_segments)} could not be aligned (no matched "
+                      "reference pulses) and were marked invalid; alignment.json lists them",
+                      DataWarning, stacklevel=2)
         # Unaligned samples get a placeholder: the device time plus the offset interpolated
         # from the aligned neighbours, so the coordinate stays increasing.
         good = np.flatnonzero(~lost)

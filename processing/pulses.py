@@ -346,6 +346,10 @@ class StreamPulses:
         Estimated times in s of missing pulses.
     delay_s : float
         The input delay that was subtracted, s.
+    timing_bound_s : float, default 0
+        Half a sample period (s) when the edges are sample-switched (the samples jump from one
+        level to the other with nothing between: a digital line, or a sensor faster than the
+        sample rate), so each edge is known only to +-0.5 sample; 0 for band-limited edges.
     """
 
     channel: str
@@ -355,6 +359,7 @@ class StreamPulses:
     spurious: NDArray[np.bool_]
     missing_times: _FloatArray
     delay_s: float
+    timing_bound_s: float = 0.0
 
     @property
     def good(self) -> _FloatArray:
@@ -419,6 +424,29 @@ def stream_pulses(stream: xr.Dataset, channel: str, *,
         missing.append(train.missing_times)
     if spurious.any():
         logger.info("%s: %d spurious pulses at %s s", channel, spurious.sum(), edges[spurious])
+    switched = _sample_switched(stream[channel].to_numpy(), time, edges, polarity, valid)
+    if switched:
+        logger.info("%s: edges are sample-switched, each known to +-0.5 sample", channel)
     return StreamPulses(channel, polarity, edges - delay, edge_segment.astype(np.int64),
                         spurious, np.concatenate(missing) - delay if missing else np.zeros(0),
-                        delay)
+                        delay, 0.5 / fs if switched else 0.0)
+
+
+def _sample_switched(x: _FloatArray, time: _FloatArray, edges: _FloatArray, polarity: str,
+                     valid: NDArray[np.bool_]) -> bool:
+    """Return True when most edges jump between the state levels in one sample.
+
+    An edge is sample-switched when the samples on either side of it lie within 10 % of the
+    level span from the low and the high state level: no sample caught the transition, so the
+    interpolated crossing says nothing below half a sample.
+    """
+    if edges.size == 0:
+        return False
+    low, high = state_levels(x[valid] if valid.any() else x)
+    band = 0.1 * (high - low)
+    j = np.clip(np.searchsorted(time, edges) - 1, 0, x.size - 2)
+    before, after = x[j], x[j + 1]
+    if polarity == "falling":
+        before, after = after, before
+    jumps = (before <= low + band) & (after >= high - band)
+    return bool(np.mean(jumps) >= 0.5)

@@ -113,6 +113,10 @@ def scene_text(settings: RigSettings, draw: RigDraw, files: RunFiles,
                  else '"builtin:pendulum"')
     bridge = draw.str1
     area = bridge.area
+    # WLS #2 is stamped by a second laptop whose clock is off by up to host_clock_s: its stamps'
+    # bound is that plus both devices' profile bounds (WLS-9163 0.1 s, cDAQ-9172 0.016 s).
+    host = settings.imperfections.host_clock_s
+    wls2_window = f", start_time_uncertainty_s = {host + 0.116:.3f}" if host > 0 else ""
     text = f"""# Scene written by the rigval virtual rig (rigval simulate-rig
 # --speed {settings.speed} --duration {settings.duration} --seed {settings.seed});
 # calibration values as the rig used them.
@@ -189,7 +193,7 @@ main_reference_pulse = "cdaq.opt1"
 
 [alignment.pulses]
 wls1 = {{ channel = "opt2", per_revolution = 1 }}
-wls2 = {{ channel = "opt3", per_revolution = 2, angle = {references['opt3_phi_F']!r} }}
+wls2 = {{ channel = "opt3", per_revolution = 2, angle = {references['opt3_phi_F']!r}{wls2_window} }}
 
 [angle]
 points_per_revolution = 360

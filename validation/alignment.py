@@ -23,7 +23,8 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.channel_map import ChannelSpec
-from rigval.acquisition.errors import AlignmentError, DataError
+from rigval.acquisition.devices import get_device
+from rigval.acquisition.errors import AlignmentError, ChannelNotFoundError, DataError
 from rigval.acquisition.schema import parse_start_time, stream_gaps
 from rigval.processing.align import (
     ClockModel,
@@ -31,13 +32,12 @@ from rigval.processing.align import (
     channel_time,
     estimate_clock,
     identity_clock,
-    match_events,
     reference_event_times,
 )
 from rigval.processing.angle import phi_f
 from rigval.processing.pulses import StreamPulses, stream_pulses
 from rigval.validation.results import StreamAlignment
-from rigval.validation.scene import Scene
+from rigval.validation.scene import PulseSpec, Scene
 
 __all__ = ["MainAngle", "align_streams"]
 
@@ -45,6 +45,12 @@ logger = logging.getLogger(__name__)
 
 #: How far (s) a start time written by a device may be off: software time stamps.
 START_TIME_ERROR_S = 5.0
+#: The edges of a stream aligned without pulses (``method = "stamps"``).
+_NO_EDGES = StreamPulses("", "rising", np.zeros(0), np.zeros(0, dtype=np.int64),
+                         np.zeros(0, dtype=bool), np.zeros(0), 0.0)
+#: A gap within this many samples of a whole number of samples was run through by the device
+#: clock (no restart): CSV time columns with microseconds leave 0.002 sample at 1.6 kS/s.
+RUNNING_CLOCK_SAMPLES = 0.01
 #: Start times in or before this year mean "unknown" (NI writes 1904-01-01 for relative time).
 UNKNOWN_START_YEAR = 1904
 #: Matched events farther than this many robust sigmas from the clock fit count as spurious.
@@ -141,85 +147,6 @@ def _residuals(mapped: np.ndarray, events: np.ndarray, period: float, per_revolu
     return residual, matched
 
 
-def _consistent_offsets(clock: ClockModel, segments: np.ndarray, event_period: float
-                        ) -> dict[int, float]:
-    """Return the fitted offsets (s) per segment, without those a whole period off.
-
-    Segments differ in offset only by their start stamps' errors (tens of ms), so a segment whose
-    offset is more than half an event period (s) from that of the segment with the most events
-    was matched to the wrong pulses (a short segment's pulse intervals may not tell periods
-    apart); it is left out, to be matched again around its neighbour's offset.
-    """
-    offsets = dict(zip(clock.segments, clock.offsets_s, strict=True))
-    anchor = max(offsets, key=lambda s: (int(np.count_nonzero(segments == s)), -s))
-    wrong = [s for s, offset in offsets.items()
-             if abs(offset - offsets[anchor]) > 0.5 * event_period]
-    for segment in wrong:
-        logger.info("segment %d: offset %.6f s is %.3f s from segment %d's, a whole period off; "
-                    "matching it again", segment, offsets[segment],
-                    offsets[segment] - offsets[anchor], anchor)
-        del offsets[segment]
-    return offsets
-
-
-def _recover_segments(clock: ClockModel, events: np.ndarray, edges: np.ndarray,
-                      segments: np.ndarray, period: float, per_revolution: int,
-                      where: Mapping[str, Any]) -> ClockModel:
-    """Align segments the clock fit left out or matched a whole period off, then refit them all.
-
-    A restart (Wi-Fi dropout) starts a segment whose device time comes from a new software
-    start stamp, off by milliseconds, not periods: matching it within +-0.4 of an event period
-    (a pulse period over ``per_revolution``) around the nearest segment's offset removes the
-    whole-period ambiguity a short segment has on its own. Every segment's events are then
-    matched around its offset and one least squares fit gives a shared drift, an offset per
-    segment and, with several pulses per revolution, a constant per kind of pulse (each may fire
-    at its own angle); events beyond 6 robust sigma are left out. The drift so rests on the
-    whole record.
-    """
-    offsets = _consistent_offsets(clock, segments, period / per_revolution)
-    if not clock.unaligned_segments and len(offsets) == len(clock.segments):
-        return clock
-    pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-    for segment in sorted(set(np.unique(segments).tolist())):
-        known = sorted(offsets, key=lambda s: (abs(s - segment), s > segment))
-        chosen = segments == segment
-        if not known or chosen.sum() < 2:
-            continue
-        coarse = offsets.get(segment, offsets[known[0]])
-        try:
-            ref_index, dev_index = match_events(
-                events, edges[chosen], coarse_offset_s=coarse,
-                max_offset_error_s=0.4 * period / per_revolution,
-                where={**where, "segment": int(segment)})
-        except AlignmentError as error:
-            logger.info("segment %d stays unaligned: %s", segment, error)
-            continue
-        if ref_index.size >= 2:
-            pairs.append((ref_index, edges[chosen][dev_index], np.full(ref_index.size, segment)))
-            offsets.setdefault(int(segment), coarse)
-    index, dev, seg = (np.concatenate(column) for column in zip(*pairs, strict=True))
-    ref, kind = events[index], index % per_revolution
-    order = sorted(set(seg.tolist()))
-    columns = [(seg == s).astype(float) for s in order]
-    columns += [(kind == k).astype(float) for k in range(1, per_revolution)] + [dev]
-    design = np.column_stack(columns)
-    keep = np.ones(ref.size, dtype=bool)
-    for _ in range(2):
-        solution, *_ = np.linalg.lstsq(design[keep], ref[keep] - dev[keep], rcond=None)
-        residual = ref - dev - design @ solution
-        spread = 1.4826 * float(np.median(np.abs(residual[keep] - np.median(residual[keep]))))
-        keep = np.abs(residual) <= max(OUTLIER_SIGMAS * spread, 1e-9)
-    logger.info("clock refit on %d events of segments %s: drift %.4f ppm", int(keep.sum()),
-                order, solution[-1] * 1e6)
-    return dataclasses.replace(
-        clock, segments=tuple(int(s) for s in order),
-        offsets_s=tuple(float(solution[i]) for i in range(len(order))),
-        drift=float(solution[-1]), residual_rms_s=float(np.sqrt(np.mean(residual[keep] ** 2))),
-        pulses_matched=int(keep.sum()),
-        unaligned_segments=tuple(s for s in sorted({*clock.segments, *clock.unaligned_segments})
-                                 if s not in order))
-
-
 def _with_pulse_window(summary: StreamAlignment, aligned: xr.Dataset, channel: str,
                        edges: np.ndarray, centre: float, half_width: float) -> StreamAlignment:
     """Attach the raw pulse signal and its edges within ``centre +- half_width`` (s)."""
@@ -249,6 +176,8 @@ def _stream_summary(name: str, aligned: xr.Dataset, clock: ClockModel, *, is_ref
     return StreamAlignment(
         stream=name, device=str(aligned.attrs.get("device", "")), is_reference=is_reference,
         offset_s=float(clock.offsets_s[0]), drift_ppm=clock.drift * 1e6,
+        offset_u95_s=float(clock.offsets_u95_s[0]) if clock.offsets_u95_s else 0.0,
+        drift_u95_ppm=clock.drift_u95 * 1e6, periods_decided_by=clock.periods_decided_by,
         residual_rms_s=float(np.sqrt(np.mean(residual**2))) if residual.size else 0.0,
         events_matched=matched, events_missing=missing, events_spurious=spurious,
         input_delay_s=max(delays, default=0.0), segments=len(clock.segments),
@@ -258,23 +187,120 @@ def _stream_summary(name: str, aligned: xr.Dataset, clock: ClockModel, *, is_ref
         edge_times=empty)
 
 
-def _coarse_offset(stream: xr.Dataset, ref: xr.Dataset, ref_start: np.datetime64
-                   ) -> tuple[float, float]:
-    """Return a first guess of ``t_ref - t_dev`` in s and how far to search around it.
+def _stamp_uncertainty(stream: xr.Dataset) -> float:
+    """Return the bound (s) of a stream's start-stamp error from its device profile.
 
-    From the files' start times when both are known (search +-5 s: software time stamps); a
-    file without a start time (1904-01-01, e.g. a CSV with relative time) is searched over the
-    whole overlap of the two records.
+    The reader records the profile's ``start_time_uncertainty_s`` (docs/formats.md); a stream
+    read without a profile gets it from its ``device`` attribute when that names a known
+    profile, else :data:`START_TIME_ERROR_S`.
     """
+    if "start_time_uncertainty_s" in stream.attrs:
+        return float(stream.attrs["start_time_uncertainty_s"])
+    try:
+        return get_device(str(stream.attrs.get("device", ""))).start_time_uncertainty_s
+    except ChannelNotFoundError:
+        return START_TIME_ERROR_S
+
+
+def _known(start: np.datetime64) -> bool:
+    return bool(start.astype("datetime64[Y]").astype(int) + 1970 > UNKNOWN_START_YEAR)
+
+
+def _coarse_offset(stream: xr.Dataset, ref: xr.Dataset, ref_start: np.datetime64,
+                   pulse: PulseSpec) -> tuple[float, float, str]:
+    """Return a first guess of ``t_ref - t_dev`` in s, the window to search around it, and why.
+
+    The scene's ``coarse_offset_s`` when given (window: its ``start_time_uncertainty_s``, else
+    the stream's profile bound); else the files' start times (window: the scene's
+    ``start_time_uncertainty_s``, else the sum of both profiles' bounds); a file without a start
+    time (1904-01-01, e.g. a CSV with relative time) is searched over the whole overlap.
+    """
+    if pulse.coarse_offset_s is not None:
+        window = pulse.start_time_uncertainty_s or _stamp_uncertainty(stream)
+        return pulse.coarse_offset_s, window, "scene coarse_offset_s"
     start = parse_start_time(stream.attrs["start_time"])
-    if start.astype("datetime64[Y]").astype(int) + 1970 > UNKNOWN_START_YEAR and (
-            ref_start.astype("datetime64[Y]").astype(int) + 1970 > UNKNOWN_START_YEAR):
-        return float((start - ref_start) / np.timedelta64(1, "s")), START_TIME_ERROR_S
+    if _known(start) and _known(ref_start):
+        window = pulse.start_time_uncertainty_s or (_stamp_uncertainty(stream)
+                                                    + _stamp_uncertainty(ref))
+        return float((start - ref_start) / np.timedelta64(1, "s")), window, "start stamps"
     ref_span = float(ref["time"].values[-1] - ref["time"].values[0])
     dev_span = float(stream["time"].values[-1] - stream["time"].values[0])
     logger.info("stream %s has no start time: searching offsets over the whole record",
                 stream.attrs.get("stream", ""))
-    return 0.5 * (ref_span - dev_span), 0.5 * (ref_span + dev_span)
+    return 0.5 * (ref_span - dev_span), 0.5 * (ref_span + dev_span), "no start time"
+
+
+def _clock_groups(stream: xr.Dataset) -> dict[int, int]:
+    """Return segment -> clock group: a gap the device clock ran through keeps the group.
+
+    A device whose clock runs on through a dropout writes the samples after it at a whole
+    number of sample periods from those before (CSV time column, TDMS ``wf_start_time``
+    advanced by counted samples); a restart takes a new software stamp, which lands anywhere
+    between samples. Gaps within :data:`RUNNING_CLOCK_SAMPLES` of a whole number of samples
+    keep one clock (one offset across the segments).
+    """
+    fs = float(stream.attrs["fs_nominal"])
+    starts = np.atleast_1d(stream["gap_start_s"].values) if "gap_start_s" in stream else []
+    ends = np.atleast_1d(stream["gap_end_s"].values) if "gap_end_s" in stream else []
+    groups = {0: 0}
+    for k, (before, after) in enumerate(zip(starts, ends, strict=True)):
+        steps = (float(after) - float(before)) * fs
+        running = abs(steps - round(steps)) <= RUNNING_CLOCK_SAMPLES
+        groups[k + 1] = groups[k] if running else k + 1
+    return groups
+
+
+def _stamps_clock(stream: xr.Dataset, coarse: float, window: float) -> ClockModel:
+    """Clock of a stream synchronised with the reference (``method = "stamps"``)."""
+    segments = tuple(int(s) for s in np.unique(stream["segment"].to_numpy()))
+    tolerance = float(stream.attrs.get("clock_tolerance_ppm", 0.0)) * 1e-6
+    return ClockModel(segments, tuple(coarse for _ in segments), 0.0, 0.0, 0, 0,
+                      window / 1.96, tolerance / 1.96, (), tuple(window for _ in segments),
+                      tolerance, "stamps", tuple(0 for _ in segments))
+
+
+def _fit_clock(events: np.ndarray, found: StreamPulses, ref_bound: float, coarse: float,
+               window: float, groups: Mapping[int, int], pulse: PulseSpec, name: str,
+               where: Mapping[str, Any]) -> ClockModel:
+    """Fit the stream's clock on its pulses; segments grouped by a running clock first."""
+    edges, segments = found.times[~found.spurious], found.segment[~found.spurious]
+    key = f"alignment.pulses.{name}"
+    kwargs = {"coarse_offset_s": coarse, "max_offset_error_s": window,
+              "timing_bound_s": found.timing_bound_s + ref_bound,
+              "per_revolution": pulse.per_revolution, "where": where,
+              "settle_keys": (f"{key}.coarse_offset_s", f"{key}.start_time_uncertainty_s")}
+    if len(set(groups.values())) < len(groups):
+        try:
+            return estimate_clock(events, edges, segments, clock_groups=groups, **kwargs)
+        except AlignmentError as error:
+            logger.info("%s: one clock across the dropouts does not fit (%s); a clock per "
+                        "segment", name, error)
+    return estimate_clock(events, edges, segments, **kwargs)
+
+
+def _segment_table(stream: xr.Dataset, clock: ClockModel, groups: Mapping[int, int],
+                   edges: StreamPulses) -> tuple[dict[str, Any], ...]:
+    """Per segment: offset, its 95 % interval, clock group, samples and samples dropped (why)."""
+    segment = stream["segment"].to_numpy()
+    device_time = stream["time"].to_numpy()
+    offsets = dict(zip(clock.segments, clock.offsets_s, strict=True))
+    u95 = dict(zip(clock.segments, clock.offsets_u95_s or (0.0,) * len(clock.segments),
+                   strict=True))
+    rows = []
+    for s in np.unique(segment):
+        mine = segment == s
+        aligned = int(s) in offsets
+        n_edges = int(np.count_nonzero(edges.segment == s)) if edges.times.size else 0
+        rows.append({
+            "segment": int(s), "clock_group": int(groups.get(int(s), int(s))),
+            "device_time_s": [float(device_time[mine][0]), float(device_time[mine][-1])],
+            "samples": int(mine.sum()),
+            "clock_offset_s": offsets.get(int(s)), "clock_offset_u95_s": u95.get(int(s)),
+            "samples_dropped": 0 if aligned else int(mine.sum()),
+            "dropped_because": "" if aligned else (
+                f"not aligned: {n_edges} reference-pulse edges in this segment could not be "
+                "matched to the reference events")})
+    return tuple(rows)
 
 
 def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
@@ -320,34 +346,48 @@ def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
         spurious=int(ref_pulses.spurious.sum()))}
     shown = {reference: (scene.alignment.main_reference_pulse.channel, pulses)}
     ref_start = parse_start_time(ref.attrs["start_time"])
+    ref_bound = ref_pulses.timing_bound_s
     for name, pulse in scene.alignment.pulses.items():
         stream = converted[name]
+        coarse, window, source = _coarse_offset(stream, ref, ref_start, pulse)
+        groups = _clock_groups(stream)
+        if pulse.method == "stamps":
+            clock = _stamps_clock(stream, coarse, window)
+            aligned[name] = align_stream(stream, clock, name=name)
+            diagnostics[name] = _stream_summary(
+                name, aligned[name], clock, is_reference=False, residual_time=np.zeros(0),
+                residual=np.zeros(0), matched=0, missing=0, spurious=0)
+            diagnostics[name] = dataclasses.replace(
+                diagnostics[name], method="stamps", start_time_uncertainty_s=window,
+                coarse_offset_s=coarse, coarse_offset_source=source,
+                segment_table=_segment_table(stream, clock, groups, _NO_EDGES))
+            continue
+        assert pulse.channel is not None  # the scene requires it with method = "pulses"
         channel = pulse.channel.channel
         found = _pulses(stream, scene.channel(pulse.channel))
         edges, segments = found.times[~found.spurious], found.segment[~found.spurious]
         events = reference_event_times(main.time, main.phi, event_angle=pulse.angle,
                                        events_per_rev=pulse.per_revolution)
-        coarse, search = _coarse_offset(stream, ref, ref_start)
         where = {"stream": name, "channel": channel}
-        clock = estimate_clock(events, edges, segments, coarse_offset_s=coarse,
-                               max_offset_error_s=search, where=where)
-        clock = _recover_segments(clock, events, edges, segments, period,
-                                  pulse.per_revolution, where)
+        clock = _fit_clock(events, found, ref_bound, coarse, window, groups, pulse, name, where)
         aligned[name] = align_stream(stream, clock, name=name)
         mapped = clock.to_reference(edges, segments)
         ok = np.isfinite(mapped)
         residual, matched = _residuals(mapped[ok], events, period, pulse.per_revolution)
         inside = (events >= aligned[name]["time"].values[0]) & (
             events <= aligned[name]["time"].values[-1])
-        diagnostics[name] = _stream_summary(
+        diagnostics[name] = dataclasses.replace(_stream_summary(
             name, aligned[name], clock, is_reference=False,
             residual_time=mapped[ok][matched], residual=residual[matched],
             matched=int(matched.sum()), missing=max(int(inside.sum()) - int(matched.sum()), 0),
-            spurious=int((~matched).sum() + found.spurious.sum()))
+            spurious=int((~matched).sum() + found.spurious.sum())),
+            start_time_uncertainty_s=window, coarse_offset_s=coarse,
+            coarse_offset_source=source, segment_table=_segment_table(stream, clock, groups,
+                                                                      found))
         shown[name] = (channel, mapped[ok])
     half_width = PULSE_WINDOW * period
     centre = _common_pulse(pulses, [d.span_s for d in diagnostics.values()], half_width)
     diagnostics = {name: _with_pulse_window(summary, aligned[name], *shown[name], centre,
-                                            half_width)
+                                            half_width) if name in shown else summary
                    for name, summary in diagnostics.items()}
     return aligned, diagnostics, main

@@ -134,6 +134,21 @@ class StreamAlignment:
         Unit of the pulse channel as read.
     edge_times : numpy.ndarray
         Detected rising edges within that stretch in s.
+    offset_u95_s, drift_u95_ppm : float
+        Half-widths of the 95 % intervals of the offset (s) and the drift (ppm).
+    periods_decided_by : str
+        What decided the whole pulse periods (``stamps``, ``data``, ``neighbour``).
+    method : str
+        ``pulses`` or ``stamps`` (the scene's ``alignment.pulses.<stream>.method``).
+    start_time_uncertainty_s : float
+        Half-width in s of the window the offset was searched in.
+    coarse_offset_s : float
+        Centre of that window in s.
+    coarse_offset_source : str
+        Where the centre came from (start stamps, the scene's coarse_offset_s, no start time).
+    segment_table : tuple of mapping
+        Per gap-free segment: clock offset and its 95 % interval, clock group, samples, samples
+        dropped and why.
     """
 
     stream: str
@@ -155,6 +170,14 @@ class StreamAlignment:
     pulse_signal: np.ndarray = field(repr=False)
     pulse_units: str
     edge_times: np.ndarray = field(repr=False)
+    offset_u95_s: float = 0.0
+    drift_u95_ppm: float = 0.0
+    periods_decided_by: str = ""
+    method: str = "pulses"
+    start_time_uncertainty_s: float = 0.0
+    coarse_offset_s: float = 0.0
+    coarse_offset_source: str = ""
+    segment_table: tuple[Mapping[str, Any], ...] = ()
 
     def summary(self) -> dict[str, Any]:
         """Return the JSON-ready summary written to ``alignment.json``."""
@@ -164,7 +187,14 @@ class StreamAlignment:
             "events_matched": self.events_matched, "events_missing": self.events_missing,
             "events_spurious": self.events_spurious, "input_delay_s": self.input_delay_s,
             "segments": self.segments, "gaps": [dict(g) for g in self.gaps],
-            "span_s": list(self.span_s),
+            "span_s": list(self.span_s), "offset_u95_s": self.offset_u95_s,
+            "drift_u95_ppm": self.drift_u95_ppm, "periods_decided_by": self.periods_decided_by,
+            "method": self.method, "start_time_uncertainty_s": self.start_time_uncertainty_s,
+            "coarse_offset_s": self.coarse_offset_s,
+            "coarse_offset_source": self.coarse_offset_source,
+            "samples_dropped": sum(int(row.get("samples_dropped", 0))
+                                   for row in self.segment_table),
+            "segment_table": [dict(row) for row in self.segment_table],
         }
 
 
