@@ -1,7 +1,7 @@
 """The root group of the validation netCDF file: the verdicts and where the data are.
 
 ``xr.open_dataset`` opens only the root group of a netCDF-4 file. So that it shows more than
-attributes, the root holds a short summary (docs/formats.md, "Validation output"):
+attributes, the root holds a short summary (docs/scene.md, output files):
 
 - ``comparison`` and ``passed`` on dim ``verdict``: each comparison's name and whether it met
   every threshold (1) or not (0), with ``thresholds`` (how many were checked);
