@@ -21,6 +21,7 @@ import dataclasses
 import hashlib
 import logging
 import math
+import re
 import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -102,6 +103,7 @@ MODEL_QUANTITIES: Mapping[str, tuple[str, tuple[str, ...] | None, Mapping[str, s
         "point_acceleration": ("point", ("x", "y"), {"x": "m s-2", "y": "m s-2"}),
         "joint_force": ("joint", ("x", "y"), {"x": "N", "y": "N"}),
         "driver_torque": ("driver", None, {"": "N m"}),
+        "joint_axial_force": ("joint", None, {"": "N"}),
     }))
 
 
@@ -248,12 +250,19 @@ class ModelOutput:
     item : str
         The body, point, joint or driver.
     axis : str or None
-        ``x``, ``y`` or ``theta``; None for ``driver_torque``.
+        ``x``, ``y`` or ``theta``; None for ``driver_torque`` and ``joint_axial_force``.
+    body : str or None
+        ``joint_axial_force`` only: the body whose axis the joint force is projected on.
+    toward : str or None
+        ``joint_axial_force`` only: the body's point that, with the joint's, gives the axis
+        (None: the body's only other point).
     """
 
     quantity: str
     item: str
     axis: str | None = None
+    body: str | None = None
+    toward: str | None = None
 
     @property
     def units(self) -> str:
@@ -262,6 +271,8 @@ class ModelOutput:
 
     def __str__(self) -> str:
         suffix = f".{self.axis}" if self.axis else ""
+        if self.body:
+            suffix += f" on {self.body}" + (f" towards {self.toward}" if self.toward else "")
         return f"{self.quantity}[{self.item}]{suffix}"
 
 
@@ -318,6 +329,21 @@ class ComparisonSpec:
     thresholds: Mapping[str, str]
     key: str
     summed: tuple[ChannelRef, ...] = ()
+    signs: tuple[float, ...] = ()
+
+    @property
+    def terms(self) -> tuple[tuple[float, ChannelRef], ...]:
+        """The measured signal as (sign, channel) terms: ``measured`` first, then ``summed``."""
+        signs = self.signs or (1.0,) * len(self.summed)
+        return ((1.0, self.measured), *zip(signs, self.summed, strict=True))
+
+    @property
+    def measured_text(self) -> str:
+        """The measured signal as written: ``wls1.tor1 + wls1.tor2``."""
+        text = str(self.measured)
+        for sign, ref in self.terms[1:]:
+            text += f" {'-' if sign < 0 else '+'} {ref}"
+        return text
 
 
 @dataclass(frozen=True)
@@ -346,6 +372,10 @@ class MechanismNames:
         Names of bodies, points, joints and drivers.
     ground_joints : tuple of str
         Joints that pin a body to the frame.
+    joint_bodies : mapping of str to tuple of str
+        The bodies each joint connects (one for a ground pin).
+    body_points : mapping of str to tuple of str
+        The points of each body.
     """
 
     bodies: tuple[str, ...]
@@ -353,6 +383,8 @@ class MechanismNames:
     joints: tuple[str, ...]
     drivers: tuple[str, ...]
     ground_joints: tuple[str, ...]
+    joint_bodies: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    body_points: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
 
     def of_kind(self, kind: str) -> tuple[str, ...]:
         """Names of a kind: ``"body"``, ``"point"``, ``"joint"`` or ``"driver"``."""
@@ -645,10 +677,19 @@ def _uncertainty(table: Mapping[str, Any], key: str) -> Mapping[str, float]:
 
 def _model_output(value: Any, key: str) -> ModelOutput:
     table = _table(value, key)
-    _check_keys(table, key, {"quantity", "item", "axis"})
+    _check_keys(table, key, {"quantity", "item", "axis", "body", "toward"})
     quantity = _get(table, "quantity", key, str, choices=tuple(MODEL_QUANTITIES))
     item = _get(table, "item", key, str)
     _, axes, _ = MODEL_QUANTITIES[quantity]
+    if quantity == "joint_axial_force":
+        if "axis" in table:
+            raise _error(f"{key}.axis", "joint_axial_force is along the body's axis; remove "
+                                        "the key", hint="name the body (and toward) instead")
+        return ModelOutput(quantity, item, None, _get(table, "body", key, str),
+                           _get(table, "toward", key, str, None))
+    for extra in ("body", "toward"):
+        if extra in table:
+            raise _error(f"{key}.{extra}", f"applies to joint_axial_force only, not {quantity}")
     if axes is None:
         if "axis" in table:
             raise _error(f"{key}.axis", f"{quantity} has no axis; remove the key")
@@ -671,7 +712,7 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
         name = _get(table, "name", key, str)
         if name in {s.name for s in specs}:
             raise _error(f"{key}.name", f"duplicate comparison name {name!r}")
-        measured, summed = _measured(table, key, streams)
+        measured, summed, signs = _measured(table, key, streams)
         output = _model_output(_get(table, "model", key, dict), f"{key}.model")
         scale = _get(table, "scale", key, float, 1.0)
         if not math.isfinite(scale) or scale == 0:
@@ -706,32 +747,63 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
             name, measured, output, scale, scale_units, lowpass,
             _get(table, "remove_offset", key, bool, False), metrics, uncertainty,
             _get(table, "nrmse_normaliser", key, str, "range", ("range", "rms", "peak")),
-            thresholds, key, summed))
+            thresholds, key, summed, signs))
     return tuple(specs)
 
 
+def _measured_terms(value: Any, key: str) -> tuple[list[Any], list[float], list[str]]:
+    """Split ``measured`` into channel texts, signs and key paths.
+
+    A list (``["wls1.tor1", "wls1.tor2"]``, an item may start with ``-``) or an expression
+    with ``+`` and ``-`` between spaces (``"wls1.tor1 - wls1.tor2"``).
+    """
+    if isinstance(value, str):
+        parts = re.split(r"\s+([+-])\s+", value.strip())
+        items = [parts[0]] + [f"{op}{ref}" if op == "-" else ref
+                              for op, ref in zip(parts[1::2], parts[2::2], strict=True)]
+        keys = [f"{key}.measured"] * len(items)
+    else:
+        items, keys = list(value), [f"{key}.measured[{i}]" for i in range(len(value))]
+    texts: list[Any] = []
+    signs: list[float] = []
+    for item in items:
+        sign = 1.0
+        if isinstance(item, str) and item.startswith("-"):
+            sign, item = -1.0, item[1:].strip()
+        texts.append(item)
+        signs.append(sign)
+    if signs and signs[0] < 0:
+        raise _error(keys[0], "the first channel cannot be subtracted",
+                     hint="put a channel that is added first, or set scale = -1")
+    return texts, signs, keys
+
+
 def _measured(table: Mapping[str, Any], key: str, streams: Mapping[str, StreamSpec]
-              ) -> tuple[ChannelRef, tuple[ChannelRef, ...]]:
-    """Return the ``measured`` channel and the further channels of a list to be summed."""
+              ) -> tuple[ChannelRef, tuple[ChannelRef, ...], tuple[float, ...]]:
+    """Return the ``measured`` channel, the further channels summed with it and their signs."""
     value = table.get("measured")
-    if not isinstance(value, list):
-        return _ref(_get(table, "measured", key, str), f"{key}.measured", streams,
-                    _MEASURED_SENSORS), ()
+    if not isinstance(value, list | str):
+        _get(table, "measured", key, str)  # raises: missing or of the wrong type
     if not value:
         raise _error(f"{key}.measured", "empty list of channels",
-                     hint='give "stream.channel" or a list of them to be summed')
-    refs = [_ref(item, f"{key}.measured[{i}]", streams, _MEASURED_SENSORS)
-            for i, item in enumerate(value)]
+                     hint='give "stream.channel", "a.x + a.y" or a list of them to be summed')
+    texts, signs, keys = _measured_terms(value, key)
+    if len(texts) == 1 and isinstance(value, str):
+        return _ref(texts[0], keys[0], streams, _MEASURED_SENSORS), (), ()
+    refs = [_ref(item, ikey, streams, _MEASURED_SENSORS)
+            for item, ikey in zip(texts, keys, strict=True)]
     first = channel_units(streams[refs[0].stream].channels[refs[0].channel])
     for i, ref in enumerate(refs[1:], start=1):
         if ref.stream != refs[0].stream:
-            raise _error(f"{key}.measured[{i}]", f"summed channels must be on one stream, got "
+            raise _error(keys[i], f"summed channels must be on one stream, got "
                          f"{refs[0]} and {ref}", hint="sum channels of one device only")
         units = channel_units(streams[ref.stream].channels[ref.channel])
         if units != first:
-            raise _error(f"{key}.measured[{i}]", f"summed channels must share a unit, got "
+            raise _error(keys[i], f"summed channels must share a unit, got "
                          f"{first!r} and {units!r}", hint="sum like with like")
-    return refs[0], tuple(refs[1:])
+    if len(set(refs)) != len(refs):
+        raise _error(keys[0], "a channel appears twice", hint="give each channel once")
+    return refs[0], tuple(refs[1:]), tuple(signs[1:]) if min(signs) < 0 else ()
 
 
 def _predictions(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...]
@@ -803,6 +875,8 @@ def check_mechanism_names(scene: Scene, names: MechanismNames) -> None:
                          f"unknown {kind} {comparison.model.item!r} for "
                          f"{comparison.model.quantity} in {scene.mechanism.name}",
                          hint=f"{kind}s are {', '.join(known)}")
+        if comparison.model.body is not None and names.joint_bodies:
+            _check_axial(comparison.model, comparison.key, names)
     if scene.model.drives == "measured":
         for name in scene.model.drivers:
             if name not in names.drivers:
@@ -823,6 +897,23 @@ def check_mechanism_names(scene: Scene, names: MechanismNames) -> None:
                          hint=f"ground joints are {', '.join(names.ground_joints)}")
 
 
+def _check_axial(output: ModelOutput, key: str, names: MechanismNames) -> None:
+    """Check the body and toward point of a ``joint_axial_force`` against the mechanism."""
+    bodies = names.joint_bodies[output.item]
+    if output.body not in bodies:
+        raise _error(f"{key}.model.body", f"joint {output.item!r} does not connect body "
+                     f"{output.body!r}", hint=f"it connects {', '.join(bodies)}")
+    others = [p for p in names.body_points[output.body or ""] if p != output.item]
+    if output.toward is None and len(others) != 1:
+        raise _error(f"{key}.model.toward", f"body {output.body!r} has {len(others)} points "
+                     f"besides {output.item!r}: name the one that gives its axis",
+                     hint=f"points: {', '.join(others)}")
+    if output.toward is not None and output.toward not in others:
+        raise _error(f"{key}.model.toward", f"{output.toward!r} is not a point of body "
+                     f"{output.body!r} other than {output.item!r}",
+                     hint=f"points: {', '.join(others)}")
+
+
 def mechanism_names(path: str | Path) -> MechanismNames:
     """Return the names a scene may refer to in a mechanism file.
 
@@ -840,7 +931,9 @@ def mechanism_names(path: str | Path) -> MechanismNames:
     return MechanismNames(
         bodies=mechanism.body_names, points=mechanism.point_names,
         joints=mechanism.joint_names, drivers=mechanism.driver_names,
-        ground_joints=tuple(j.name for j in mechanism.joints if j.kind == "ground"))
+        ground_joints=tuple(j.name for j in mechanism.joints if j.kind == "ground"),
+        joint_bodies={j.name: tuple(j.bodies) for j in mechanism.joints},
+        body_points={b.name: tuple(b.points) for b in mechanism.bodies})
 
 
 def parse_scene(text: str, path: str | Path, *, names: MechanismNames | None = None) -> Scene:
