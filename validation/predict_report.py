@@ -143,7 +143,8 @@ def sweep_table(result: xr.Dataset) -> pd.DataFrame:
     """
     dims = _sweep_dims(result)
     frame = pd.DataFrame(index=pd.MultiIndex.from_product(
-        [result[d].values for d in dims], names=dims)).reset_index()
+        [_parameter_values(result, d) for d in dims],
+        names=[_parameter_column(result, d) for d in dims])).reset_index()
     for name, variable in result.data_vars.items():
         unit = variable.attrs.get("units", "")
         extra = [d for d in variable.dims if d not in dims]
@@ -154,6 +155,24 @@ def sweep_table(result: xr.Dataset) -> pd.DataFrame:
             values = variable.sel({extra[0]: label}).transpose(*dims).values.ravel()
             frame[f"{name} {label} [{unit}]"] = values
     return frame
+
+
+def _parameter_unit(result: xr.Dataset, dim: str) -> str:
+    """Return the unit a sweep parameter is shown in: degrees where it was given in degrees."""
+    attrs = result[dim].attrs
+    return str(attrs.get("given_units") or attrs.get("units") or "1")
+
+
+def _parameter_values(result: xr.Dataset, dim: str) -> np.ndarray:
+    """Return a sweep parameter's values in its shown unit (degrees rounded to 1e-9 deg)."""
+    values = result[dim].values
+    if _parameter_unit(result, dim) == "deg" and result[dim].attrs.get("units") == "rad":
+        return np.round(np.degrees(values), 9)  # 268, not 267.99999999999994
+    return values
+
+
+def _parameter_column(result: xr.Dataset, dim: str) -> str:
+    return f"{dim} [{_parameter_unit(result, dim)}]"
 
 
 def _sweep_dims(result: xr.Dataset) -> list[str]:

@@ -52,9 +52,9 @@ def test_data_files_agree_with_each_other(report_dir: Path) -> None:
     assert p3["peak"] == pytest.approx(magnitude.max())
     assert p3["angle_deg"] == pytest.approx(cycle["angle_deg"][magnitude.idxmax()])
     sweep = pd.read_csv(report_dir / "sweep.csv")
-    assert len(sweep) == 9 and set(sweep["frequency"]) == {0.5, 1.0, 1.5}
-    np.testing.assert_allclose(sorted(set(sweep["theta_H.phase"])),
-                               np.radians([0.0, 120.0, 240.0]))
+    assert len(sweep) == 9 and set(sweep["frequency [Hz]"]) == {0.5, 1.0, 1.5}
+    # given in degrees, shown in degrees (exactly: 240, not 239.99999999999997); stored in rad
+    assert sorted(set(sweep["theta_H.phase [deg]"])) == [0.0, 120.0, 240.0]
     swept = tree["sweep"].to_dataset()
     assert swept["torque_peak"].shape == (3, 3, 2)
 
