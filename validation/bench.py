@@ -226,7 +226,9 @@ def run_bench(stages: Sequence[str] | None = None, *, quick: bool = False,
         Run the sweeps in a fresh process whose BLAS and OpenMP pools have one thread
         (:data:`SINGLE_THREAD_ENV`). With helper threads, the CPU time counts their spinning and
         wall times on a shared 2-core machine scatter by 2-3x; with one thread the batched
-        solver is also faster. False: run in this process as it is.
+        solver is also faster. False: run in this process as it is. With the model stage, two
+        more fresh processes time full inverse dynamics of the pendulum as installed (default
+        BLAS threads) and with one BLAS thread (rows labelled with the thread count used).
 
     Returns
     -------
@@ -244,7 +246,10 @@ def run_bench(stages: Sequence[str] | None = None, *, quick: bool = False,
         raise ConfigError(f"unknown bench stage(s) {unknown}, expected some of {list(STAGES)}",
                           where={"key": "stages"}, hint="leave the stages out to run all")
     if single_thread:
-        return _in_single_thread_process(chosen, quick)
+        rows = _spawned(SINGLE_THREAD_ENV, run_bench, chosen, quick=quick, single_thread=False)
+        if "model" in chosen:
+            rows = _with_blas_rows(rows, quick)
+        return rows
     sweeps = _sweeps()
     rows: list[BenchRow] = []
     for stage in chosen:
@@ -256,14 +261,30 @@ def run_bench(stages: Sequence[str] | None = None, *, quick: bool = False,
     return rows
 
 
-def _in_single_thread_process(stages: list[str], quick: bool) -> list[BenchRow]:
-    """Run :func:`run_bench` in a spawned process started with :data:`SINGLE_THREAD_ENV`."""
-    saved = {key: os.environ.get(key) for key in SINGLE_THREAD_ENV}
-    os.environ.update(SINGLE_THREAD_ENV)  # inherited by the worker when it starts
+def _with_blas_rows(rows: list[BenchRow], quick: bool) -> list[BenchRow]:
+    """Add the model's full inverse dynamics timed as installed and with one BLAS thread.
+
+    Each runs in a fresh process: one with the environment as it is (OpenBLAS's default thread
+    count unless the user set one), one with :data:`SINGLE_THREAD_ENV`; the one-thread row is
+    the baseline. The rows go right after the other model rows.
+    """
+    from rigval.validation.bench_model_cases import blas_thread_row
+
+    one = _spawned(SINGLE_THREAD_ENV, blas_thread_row, quick)
+    default = _spawned({}, blas_thread_row, quick)
+    blas = with_baseline([default, one], one.choice)
+    last_model = max((k for k, r in enumerate(rows) if r.stage == "model"), default=-1)
+    return rows[:last_model + 1] + blas + rows[last_model + 1:]
+
+
+def _spawned(env: dict[str, str], func: Callable[..., T], *args: Any, **kwargs: Any) -> T:
+    """Call ``func`` in a fresh spawned process whose environment adds ``env`` to this one's."""
+    saved = {key: os.environ.get(key) for key in env}
+    os.environ.update(env)  # inherited by the worker when it starts
     try:
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
-            return pool.submit(run_bench, stages, quick=quick, single_thread=False).result()
+            return pool.submit(func, *args, **kwargs).result()
     finally:
         for key, value in saved.items():
             if value is None:

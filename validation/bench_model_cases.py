@@ -11,6 +11,7 @@ solver is timed against. One physical check needs no reference at all: the drive
 from __future__ import annotations
 
 import logging
+import os
 
 import numpy as np
 import xarray as xr
@@ -19,7 +20,7 @@ import rigval.model as rm
 from rigval.model.drives import law_motion
 from rigval.validation.bench import BenchRow, Measured, measure, with_baseline
 
-__all__ = ["model_rows"]
+__all__ = ["blas_label", "blas_thread_row", "model_rows"]
 
 logger = logging.getLogger(__name__)
 
@@ -32,6 +33,7 @@ BASELINE = "step-by-step (solve_stepwise)"
 FORCES = "joint forces and drive torques: max error / peak, vs full-coordinate reference"
 ACCELERATIONS = "body accelerations: max error / peak, vs full-coordinate reference"
 TORQUE = "drive torque: max error / peak, vs full-coordinate reference"
+THREADS_CASE = "pendulum.toml as installed: default BLAS threads and one thread"
 POWER = "power balance: max abs(sum(T omega) - dE/dt) / peak power (physics, no reference)"
 
 
@@ -137,6 +139,53 @@ def model_rows(quick: bool = False) -> list[BenchRow]:
                     full_run.time_s, full_run.cpu_s, n))
     rows = with_baseline(rows, BASELINE)
     return rows + _cycle_rows(mech, t, reference, case, repeats, quick, full_run)
+
+
+def blas_label() -> str:
+    """Return how many BLAS threads this process has and why (``rigval bench`` row labels)."""
+    from threadpoolctl import threadpool_info
+
+    counts = sorted({lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"})
+    threads = "/".join(str(c) for c in counts) or "?"
+    setting = os.environ.get("OPENBLAS_NUM_THREADS")
+    if setting is None:
+        return f"default BLAS threads ({threads}, OPENBLAS_NUM_THREADS not set)"
+    return f"{'one BLAS thread' if counts == [1] else f'{threads} BLAS threads'} " \
+           f"(OPENBLAS_NUM_THREADS={setting})"
+
+
+def blas_thread_row(quick: bool = False) -> BenchRow:
+    """Time full inverse dynamics of the pendulum in this process, as its BLAS is set up.
+
+    ``rigval bench`` runs this in two fresh processes: one with the environment as the user has
+    it (OpenBLAS's default threads) and one with one BLAS thread, so that the speed a user gets
+    as installed is measured next to the one-thread figure. The choice names which.
+
+    Parameters
+    ----------
+    quick : bool, default False
+        1 s of motion (5000 steps) instead of 20 s (100 000 steps).
+
+    Returns
+    -------
+    BenchRow
+        Stage ``"model"``, the joint force and torque error against the full-coordinate
+        reference; no baseline filled in.
+    """
+    label = blas_label()  # before solve: numpy's and scipy's BLAS are loaded by the imports
+    mech = rm.load_mechanism(rm.builtin_mechanism("pendulum"))
+    seconds = 1.0 if quick else 20.0
+    t = np.arange(round(seconds * FS)) / FS
+    truth_t = t[: round(FS)][::TRUTH_STRIDE]
+    reference = rm.solve_stepwise(mech, truth_t, tol=1e-14)
+    rm.solve(mech, t[:1000], outputs=list(FULL))  # warm-up (imports, caches)
+    run = measure(lambda: rm.solve(mech, t, outputs=list(FULL)), 2 if quick else 5)
+    head = run.value.isel(time=slice(0, round(FS), TRUTH_STRIDE))
+    return BenchRow(stage="model", case=f"{THREADS_CASE}, {seconds:g} s at {FS:g} Hz "
+                                        f"({t.size} steps)",
+                    choice=f"batched solve, {label}", metric=FORCES, unit="1",
+                    error=_forces_error(head, reference), bound=1e-10, time_s=run.time_s,
+                    cpu_s=run.cpu_s, n=t.size)
 
 
 def _cycle_rows(mech: rm.Mechanism, t: np.ndarray, reference: xr.Dataset, case: str,

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import itertools
 import math
+import os
 from dataclasses import fields
 from pathlib import Path
 
@@ -150,3 +151,20 @@ def test_unreadable_comparison_table_is_a_data_error(tmp_path: Path) -> None:
     code = main(["bench", "--quick", "--compare", str(tmp_path / "missing.csv"), "--out",
                  str(tmp_path / "out")])
     assert code == 3 and not (tmp_path / "out").exists()
+
+
+def test_model_timed_with_default_and_one_blas_thread(
+        quick_run: tuple[int, Path, list[dict[str, str]]]) -> None:
+    """Two rows say which BLAS threads they ran with; both give the same forces."""
+    _, _, rows = quick_run
+    picked = _pick(rows, stage="model", case="as installed")
+    labels = sorted(r["choice"] for r in picked)
+    assert len(picked) == 2
+    setting = os.environ.get("OPENBLAS_NUM_THREADS")
+    if setting is None:
+        assert "default BLAS threads" in labels[0] and "OPENBLAS_NUM_THREADS not set" in labels[0]
+    else:
+        assert f"(OPENBLAS_NUM_THREADS={setting})" in labels[0]
+    assert "one BLAS thread (OPENBLAS_NUM_THREADS=1)" in labels[1]
+    assert all(r["baseline"] == labels[1] for r in picked)
+    assert all(_float(r, "error") <= 1e-10 for r in picked)

@@ -56,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
     reference = read_csv(args.compare) if args.compare else None  # fail before the long run
     if not getattr(args, "quiet", False):
         print(f"rigval bench: running {', '.join(args.stages or STAGES)} "
-              f"({'well under a minute' if args.quick else 'a few minutes'}, one BLAS thread)",
+              f"({'well under a minute' if args.quick else 'a few minutes'}, one BLAS thread; the "
+              "model's full inverse dynamics also with the default BLAS threads)",
               file=sys.stderr)
     before = machine_note()
     rows = run_bench(args.stages, quick=args.quick)
