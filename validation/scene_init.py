@@ -534,7 +534,8 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
             w.line()
             notes.append(f"  {channel.name}: {channel.units or '-'} -> {channel.sensor} "
                          f"({channel.reason})")
-        if not stream.of_role("pulse"):
+        if not stream.of_role("pulse") and (stream is reference
+                                            or stream.device == "WLS-9163"):
             placeholders[stream.name] = "reference_pulse"
             w.line("# No channel of this file looks like a once-per-revolution pulse, which the")
             w.line("# alignment needs: name the file channel that carries it.")
@@ -600,8 +601,15 @@ def _alignment(w: _Writer, streams: Sequence[StreamGuess], reference: StreamGues
         if stream is reference:
             continue
         own = stream.of_role("pulse")
-        channel = own[0].name if own else placeholders[stream.name]
         w.line(f"[alignment.pulses.{stream.name}]")
+        if not own and stream.name not in placeholders:
+            w.key("method", "stamps", "no pulse channel: aligned by the start stamps, as on one "
+                                      "chassis; a pulse channel gives a fitted clock")
+            notes.append(f"stream {stream.name}: no pulse channel, aligned by its start stamp "
+                         '(method = "stamps")')
+            w.line()
+            continue
+        channel = own[0].name if own else placeholders[stream.name]
         w.key("channel", channel)
         rate = stream.pulse_times[own[0].name].size / stream.duration_s if own else None
         if rate and main_rate:

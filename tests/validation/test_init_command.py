@@ -123,6 +123,11 @@ def test_real_daqmx_skeleton_parses_once_filled(realdata_dir: Path, tmp_path: Pa
     assert streams["ai"]["channels"]["Torque01"]["sensor"] == "linear"
     assert streams["ai"]["channels"]["Torque01"]["units"] == "N m"  # from the name
     assert doc["alignment"]["reference"] == "ci1"
+    # no pulse recorded: the other tasks of the chassis by their start stamps, the reference
+    # stream's pulse channel left to name
+    assert doc["alignment"]["pulses"]["ai"] == {"method": "stamps"}
+    assert doc["alignment"]["pulses"]["ci2"] == {"method": "stamps"}
+    assert streams["ci1"]["channels"]["reference_pulse"]["source"] == "TODO"
     with pytest.raises(SceneError) as info:
         load_scene(scene)
     keys = info.value.extra["keys"]
@@ -139,4 +144,5 @@ def test_real_daqmx_skeleton_parses_once_filled(realdata_dir: Path, tmp_path: Pa
     parsed = load_scene(scene)
     assert parsed.streams["ai"].channels["Torque01"].params["slope"] == 20.0
     assert parsed.alignment.reference == "ci1"
+    assert parsed.alignment.pulses["ai"].method == "stamps"
     assert parsed.units(parsed.comparisons[0].measured) == "N m"
