@@ -195,7 +195,14 @@ def _summary_rows(result: ValidationResult) -> list[dict[str, Any]]:
 def _drives_text(result: ValidationResult) -> str:
     """How the model's drives were excited, with the law's speed for analytic drives."""
     if result.scene.model.drives == "measured":
-        names = ", ".join(f"{d.name} <- {d.encoder}" for d in result.scene.model.drivers.values())
+        from rigval.model.mechanism import load_mechanism
+        from rigval.validation.scene_init import law_angles_at_reference
+
+        law = law_angles_at_reference(load_mechanism(result.scene.mechanism))
+        names = ", ".join(
+            f"{d.name} <- {d.encoder} (angle at the reference pulse {d.angle_at_reference:.5g} "
+            f"rad; the drive law gives {law.get(d.name, float('nan')):.5g} rad)"
+            for d in result.scene.model.drivers.values())
         return f"measured: {names}, averaged over {result.n_cycles} revolutions per angle"
     period = float(result.tree["/model"].attrs.get("cycle_period_s", float("nan")))
     return f"analytic: the mechanism file's laws, {1.0 / period:.4g} rev/s"

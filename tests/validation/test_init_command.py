@@ -90,7 +90,12 @@ def test_sample_skeleton_validates_once_filled(tmp_path: Path,
     code = main(["validate", str(scene), "--out", str(tmp_path / "report")])
     out = capsys.readouterr()
     assert code in (EXIT_OK, EXIT_FAILED), out.err
-    assert (tmp_path / "report" / "report.html").is_file()
+    html = (tmp_path / "report" / "report.html").read_text()
+    # the report shows each driver's angle at the reference pulse next to the drive law's
+    truth = json.loads((runs_dir() / "run_0p8_truth.json").read_text())
+    angle = truth["angle_at_reference"]["theta_H"]
+    assert (f"theta_H &lt;- cdaq.enc2 (angle at the reference pulse {angle:.5g} rad; the drive "
+            "law gives 4.5895 rad)") in html
 
 
 def test_init_refuses_to_overwrite(tmp_path: Path) -> None:
