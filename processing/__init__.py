@@ -6,6 +6,7 @@ that keep the channel metadata and append a ``history`` line):
 - :mod:`~rigval.processing.bridge`, :mod:`~rigval.processing.torsion`,
   :mod:`~rigval.processing.stress`, :mod:`~rigval.processing.accelerometer`: NI's bridge
   equations, rosette torque, stress, the charge chain, and their exact forward models;
+- :mod:`~rigval.processing.transducers`: linear scales, IEPE accelerometers, load cells;
 - :mod:`~rigval.processing.encoder`: counts to angle, quadrature decoding, revolution checks;
 - :mod:`~rigval.processing.convert`: the Dataset-level sensor conversions;
 - :mod:`~rigval.processing.pulses`: reference edges, missing and spurious pulses;
