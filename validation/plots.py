@@ -13,13 +13,15 @@ from collections.abc import Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 import xarray as xr
+from matplotlib.axes import Axes
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
-from matplotlib.ticker import MultipleLocator
+from matplotlib.ticker import MultipleLocator, ScalarFormatter
 
 from rigval.validation.results import ComparisonResult, StreamAlignment
 
 __all__ = [
+    "honest_ylim",
     "plot_clock_residuals",
     "plot_comparison",
     "plot_comparisons",
@@ -38,6 +40,11 @@ BAND = "#9ec3ea"
 TITLE_Y = 1.01
 #: Harmonic orders shown under each comparison.
 HARMONIC_ORDERS = 10
+#: Smallest y span of a panel relative to the largest absolute value shown: a curve that varies
+#: by less (a constant speed, a residual of 1e-4 of the signal) is drawn flat, not magnified.
+MIN_RELATIVE_SPAN = 0.02
+#: Distance of a left-aligned panel title above the axes, points: room for a legend row between.
+TITLE_PAD = 15.0
 
 
 def _figure(width: float, height: float) -> Figure:
@@ -46,6 +53,44 @@ def _figure(width: float, height: float) -> Figure:
     fig.subplots_adjust(left=0.95 / width, right=1 - 0.25 / width, bottom=0.55 / height,
                         top=1 - 0.4 / height, hspace=0.35)
     return fig
+
+
+def honest_ylim(ax: Axes, *curves: np.ndarray, exact_zero_note: bool = True) -> None:
+    """Set y limits that show the curves' variation at its true size, and no offset text.
+
+    A span below :data:`MIN_RELATIVE_SPAN` of the largest absolute value is widened to that
+    (centred), so that a nearly constant curve looks nearly constant; curves that are exactly
+    zero everywhere get the range -1..1 and the note "exactly 0" in the panel.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The panel.
+    *curves : numpy.ndarray
+        Every curve drawn in it (NaN ignored).
+    exact_zero_note : bool
+        Whether to write "exactly 0" into a panel whose curves are all exactly zero.
+    """
+    values = np.concatenate([np.ravel(np.asarray(c, dtype=float)) for c in curves] or [[]])
+    values = values[np.isfinite(values)]
+    formatter = ax.yaxis.get_major_formatter()
+    if isinstance(formatter, ScalarFormatter):
+        formatter.set_useOffset(False)  # no "+2.9" over the panel's title
+    if not values.size:
+        return
+    low, high = float(values.min()), float(values.max())
+    peak = max(abs(low), abs(high))
+    if peak == 0.0:
+        ax.set_ylim(-1.0, 1.0)
+        if exact_zero_note:
+            ax.text(0.5, 0.62, "exactly 0", transform=ax.transAxes, ha="center", fontsize=9,
+                    color="#57606a")
+        return
+    span = high - low
+    least = MIN_RELATIVE_SPAN * peak
+    if span < least:
+        middle = 0.5 * (low + high)
+        ax.set_ylim(middle - 0.55 * least, middle + 0.55 * least)
 
 
 def _angle_axis(ax: object, label: bool = True) -> None:
@@ -126,6 +171,7 @@ class _ComparisonFigure:
     def __init__(self, width: float, orders: int) -> None:
         self.orders = orders
         self.fig = _figure(width, 7.0)
+        self.fig.subplots_adjust(top=1 - 0.62 / 7.0)  # the title above the legend row
         grid = self.fig.add_gridspec(3, 1, height_ratios=[3, 1.6, 1.5], hspace=0.45)
         self.top = self.fig.add_subplot(grid[0])
         self.bottom = self.fig.add_subplot(grid[1], sharex=self.top)
@@ -169,7 +215,11 @@ class _ComparisonFigure:
             drawn += top.plot(x[peak], values[peak], marker, color=color, ms=7, mew=2)
         top.set_ylabel(f"{result.name} [{result.units}]")
         top.set_title(f"{result.name} against {result.spec.model}", loc="left", fontsize=10,
-                      y=TITLE_Y)
+                      y=1.0, pad=TITLE_PAD)
+        for ax in (top, bottom, spectrum):
+            formatter = ax.yaxis.get_major_formatter()
+            if isinstance(formatter, ScalarFormatter):
+                formatter.set_useOffset(False)
         drawn.append(top.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3,
                                 fontsize=8, frameon=False, borderaxespad=0.1))
         drawn.append(bottom.fill_between(x, low_c - mean_c, high_c - mean_c, color=BAND,
@@ -221,7 +271,7 @@ def plot_pulse_edges(alignment: Mapping[str, StreamAlignment], *, width: float =
 
 def plot_clock_residuals(alignment: Mapping[str, StreamAlignment], *,
                          width: float = 9.0) -> Figure:
-    """Residuals of each stream's clock fit (offset + drift) at its matched events, in us.
+    """Residuals of each stream's clock fit (offset + drift) at its matched events, in µs.
 
     Parameters
     ----------
@@ -236,11 +286,11 @@ def plot_clock_residuals(alignment: Mapping[str, StreamAlignment], *,
         if stream.is_reference or not stream.residual_s.size:
             continue
         ax.plot(stream.residual_time, stream.residual_s * 1e6, ".", ms=3,
-                label=f"{stream.stream}: rms {stream.residual_rms_s * 1e6:.1f} us, "
+                label=f"{stream.stream}: rms {stream.residual_rms_s * 1e6:.1f} µs, "
                       f"{stream.events_matched} events")
     ax.axhline(0.0, color="black", lw=0.6)
     ax.set_xlabel("time on the reference timeline [s]")
-    ax.set_ylabel("clock-fit residual [us]")
+    ax.set_ylabel("clock-fit residual [µs]")
     ax.grid(True, lw=0.4, alpha=0.6)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="upper right", fontsize=8)
@@ -287,6 +337,7 @@ def plot_support_forces(predictions: xr.Dataset, *, width: float = 9.0) -> Figur
     """
     force = predictions["support_force"]
     fig = _figure(width, 5.6)
+    fig.subplots_adjust(top=1 - 0.62 / 5.6)
     axes = fig.subplots(2, 1, sharex=True)
     values = force.transpose("support", "axis", "angle").to_numpy()
     angle = predictions["angle"].to_numpy()
@@ -296,11 +347,12 @@ def plot_support_forces(predictions: xr.Dataset, *, width: float = 9.0) -> Figur
             x, y = _closed(angle, values[row, column])
             ax.plot(x, y / 1e3, lw=1.3, label=str(support))
         ax.set_ylabel(f"{label} force on frame [kN]")
+        honest_ylim(ax, values[:, column] / 1e3)
         _angle_axis(ax, label=ax is axes[-1])
     axes[0].legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=len(values), fontsize=8,
                    frameon=False, borderaxespad=0.1)
-    axes[0].set_title("support forces on the frame (model prediction)", loc="left", y=TITLE_Y,
-                      fontsize=10)
+    axes[0].set_title("support forces on the frame (model prediction)", loc="left", y=1.0,
+                      pad=TITLE_PAD, fontsize=10)
     return fig
 
 
@@ -334,6 +386,7 @@ def plot_point_kinematics(predictions: xr.Dataset, point: str, *,
         x, y = _closed(angle, values)
         ax.plot(x, y, color=MODEL, lw=1.5)
         ax.set_ylabel(label)
+        honest_ylim(ax, values)
         _angle_axis(ax, label=ax is axes[-1])
     axes[0].set_title(f"{point}: position, speed and acceleration (model prediction)",
                       y=TITLE_Y)

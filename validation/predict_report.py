@@ -26,12 +26,18 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import xarray as xr
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from rigval.acquisition.schema import append_history
 from rigval.validation.html import Page
 from rigval.validation.outputs import StagedOutputs
-from rigval.validation.plots import plot_point_kinematics, plot_support_forces
+from rigval.validation.plots import (
+    TITLE_PAD,
+    honest_ylim,
+    plot_point_kinematics,
+    plot_support_forces,
+)
 
 __all__ = ["PredictReportFiles", "cycle_table", "peak_table", "sweep_table",
            "write_predict_report"]
@@ -180,26 +186,77 @@ def _sweep_dims(result: xr.Dataset) -> list[str]:
 
 
 def _tip_path_figure(prediction: xr.Dataset, tip: str) -> Figure:
-    """Plot the tip path in the plane, the main-drive angle marked every 45 degrees."""
+    """Plot the tip path in the plane, the main-drive angle marked every 45 degrees.
+
+    The axes are not to the same scale (the path is long and flat: to scale, its vertical
+    range would be a line); labels are placed where they overlap neither each other nor a mark.
+    """
     position = prediction["point_position"].sel(point=tip)
     x, y = position.sel(axis="x").values, position.sel(axis="y").values
-    fig = Figure(figsize=(6.0, 5.0), layout="constrained")
+    fig = Figure(figsize=(7.0, 4.6), layout="constrained")
     ax = fig.add_subplot()
     ax.plot(np.append(x, x[0]), np.append(y, y[0]), color="#c8322b", lw=1.6)
     degrees = np.degrees(prediction["angle"].values)
     marks = np.flatnonzero(np.isclose(np.mod(degrees, _MARK_EVERY_DEG), 0.0, atol=1e-9))
     ax.plot(x[marks], y[marks], "o", color="#1b1f24", ms=4)
-    for i in marks:
-        ax.annotate(f"{degrees[i]:.0f}°", (x[i], y[i]), textcoords="offset points",
-                    xytext=(5, 4), fontsize=8)
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.plot(x[0], y[0], "s", color="#1b1f24", ms=6)
     ax.set_xlabel(f"$x_{{{tip}}}$ [m]")
     ax.set_ylabel(f"$y_{{{tip}}}$ [m]")
     ax.grid(True, lw=0.4, alpha=0.6)
+    ax.margins(x=0.08)  # room for the labels of the outermost marks
+    honest_ylim(ax, y)
     span = float(prediction["tip_vertical_range"])
-    ax.set_title(f"path of {tip} in the plane (vertical range {span * 1e3:.1f} mm; "
-                 r"labels: $\varphi_F$)")
+    ax.set_title(f"path of {tip} (vertical range {span * 1e3:.1f} mm; labels: main shaft angle "
+                 r"$\varphi_F$; axes not to scale)", fontsize=10)
+    _place_labels(fig, ax, x[marks], y[marks], [f"{degrees[i]:.0f}°" for i in marks],
+                  avoid=(x, y))
     return fig
+
+
+#: Label offsets tried around a mark, points (right, left, above, below, then farther out).
+_OFFSETS = [(6, 4), (6, -12), (-30, 4), (-30, -12), (-12, 10), (-12, -18), (6, 16), (6, -24),
+            (-30, 16), (-30, -24), (20, 4), (-44, 4)]
+
+
+def _place_labels(fig: Figure, ax: Axes, x: np.ndarray, y: np.ndarray, labels: list[str], *,
+                  avoid: tuple[np.ndarray, np.ndarray]) -> None:
+    """Annotate marks, each label at the first offset where it covers no label, mark or curve.
+
+    Positions are compared in points (the layout of the figure as drawn now); the labels are
+    anchored at their marks in data coordinates, so a later resolution does not move them.
+    """
+    fig.draw_without_rendering()  # final limits and layout, so data -> display is known
+    scale = 72.0 / fig.dpi  # points per pixel
+    marks = ax.transData.transform(np.column_stack([x, y])) * scale
+    curve = ax.transData.transform(np.column_stack(avoid)) * scale
+    taken: list[tuple[float, float, float, float]] = []
+
+    def covers(box: tuple[float, float, float, float], points: np.ndarray,
+               margin: float) -> bool:
+        return bool(np.any((points[:, 0] > box[0] - margin) & (points[:, 0] < box[2] + margin)
+                           & (points[:, 1] > box[1] - margin) & (points[:, 1] < box[3] + margin)))
+
+    for (px, py), (xd, yd), text in zip(marks, np.column_stack([x, y]), labels, strict=True):
+        width, height = 5.0 * len(text) + 2.0, 9.0
+        for strict in (True, False):  # first also away from the curve, then marks and labels only
+            for dx, dy in _OFFSETS:
+                box = (px + dx, py + dy, px + dx + width, py + dy + height)
+                if (not any(_overlap(box, other) for other in taken)
+                        and not covers(box, marks, 3.0)
+                        and not (strict and covers(box, curve, 1.0))):
+                    break
+            else:
+                continue
+            break
+        else:
+            dx, dy = _OFFSETS[0]
+            box = (px + dx, py + dy, px + dx + width, py + dy + height)
+        taken.append(box)
+        ax.annotate(text, (xd, yd), xytext=(dx, dy), textcoords="offset points", fontsize=8)
+
+
+def _overlap(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
 def _angle_panels(prediction: xr.Dataset, panels: list[tuple[str, str, float]],
@@ -218,13 +275,16 @@ def _angle_panels(prediction: xr.Dataset, panels: list[tuple[str, str, float]],
             for item in variable[other[0]].values:
                 values = variable.sel({other[0]: item}).values
                 ax.plot(degrees, np.append(values, values[0]) * scale, lw=1.4, label=str(item))
-            ax.legend(fontsize=8, ncol=4)
+        honest_ylim(ax, variable.values * scale)
         ax.set_ylabel(label)
         ax.set_xlim(0.0, 360.0)
         ax.set_xticks(np.arange(0, 361, 45))
         ax.grid(True, lw=0.4, alpha=0.6)
     axes[-1].set_xlabel(r"main shaft angle $\varphi_F$ [deg]")
-    axes[0].set_title(title)
+    axes[0].set_title(title, loc="left", fontsize=10, pad=TITLE_PAD)
+    if axes[0].get_legend_handles_labels()[0]:  # one legend, above the panels, right
+        axes[0].legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=6, fontsize=8,
+                       frameon=False, borderaxespad=0.1)
     return fig
 
 
@@ -239,12 +299,15 @@ def _joint_force_figure(prediction: xr.Dataset) -> Figure:
             values = force.sel(joint=joint, axis=axis).values
             ax.plot(degrees, np.append(values, values[0]) / 1e3, lw=1.3, label=str(joint))
         ax.set_ylabel(f"{axis} force on first body [kN]")
-        ax.legend(fontsize=8, ncol=4)
+        honest_ylim(ax, force.sel(axis=axis).values / 1e3)
         ax.set_xlim(0.0, 360.0)
         ax.set_xticks(np.arange(0, 361, 45))
         ax.grid(True, lw=0.4, alpha=0.6)
     axes[-1].set_xlabel(r"main shaft angle $\varphi_F$ [deg]")
-    axes[0].set_title("joint forces (on the joint's first body)")
+    axes[0].set_title("joint forces (on the joint's first body)", loc="left", fontsize=10,
+                      pad=TITLE_PAD)
+    axes[0].legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=6, fontsize=8,
+                   frameon=False, borderaxespad=0.1)
     return fig
 
 
