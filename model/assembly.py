@@ -27,12 +27,18 @@ from __future__ import annotations
 import itertools
 import logging
 import math
+import warnings
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rigval.acquisition.errors import AssemblyError, MechanismError, SingularityError
+from rigval.acquisition.errors import (
+    AssemblyError,
+    MechanismError,
+    NumericsWarning,
+    SingularityError,
+)
 from rigval.model.drives import law_motion
 from rigval.model.linalg import BatchLU, row_max_abs, static_row_order
 from rigval.model.loops import LoopSystem, loop_system
@@ -42,6 +48,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "COND_MAX",
+    "GUESS_TOL",
     "Continuation",
     "Tolerances",
     "assemble",
@@ -61,6 +68,11 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 _EPS = np.finfo(float).eps
+
+#: Default stated accuracy of the body guess angles, rad (docs/mechanism.md, ``guess``). Branches
+#: of the built-in mechanisms are at least 1.06 rad apart in some body angle, so guesses within
+#: 0.5 rad select one branch unambiguously.
+GUESS_TOL = 0.5
 
 #: Largest ``cond(C_e)**2 * eps`` at which forces are still returned (see :data:`COND_MAX`).
 FORCE_TRUST = 1e-5
@@ -101,6 +113,10 @@ class Tolerances:
         the remaining steps are predicted from the finest layer.
     max_iter : int
         Newton iterations per attempt.
+    guess_tol : float
+        Stated accuracy of the bodies' guess angles, rad: a body assembled farther than this from
+        its guess (modulo whole turns) gets a NumericsWarning, since the assembly then cannot be
+        the configuration the guesses describe (another branch, or a guess that is wrong).
     """
 
     tol: float = 1e-12
@@ -109,6 +125,7 @@ class Tolerances:
     anchor_spacing: float = 3.0
     refine_spacings: tuple[float, ...] = (0.5, 0.1, 0.02)
     max_iter: int = 12
+    guess_tol: float = GUESS_TOL
 
 
 def full_angles(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> np.ndarray:
@@ -603,6 +620,27 @@ class _Tracker:
             residual_m=residual)
 
 
+def _check_guesses(mechanism: Mechanism, system: LoopSystem, guess_u: np.ndarray,
+                   assembled_u: np.ndarray, guess_tol: float) -> None:
+    """Warn when bodies assembled farther from their guess angles than ``guess_tol`` (rad)."""
+    offset = np.remainder(assembled_u - guess_u + np.pi, 2 * np.pi) - np.pi
+    far = np.flatnonzero(np.abs(offset) > guess_tol)
+    if far.size == 0:
+        return
+    bodies = [mechanism.bodies[system.undriven[k]].name for k in far]
+    detail = ", ".join(f"{mechanism.bodies[system.undriven[k]].name} guessed "
+                       f"{guess_u[k]:.4g} rad, assembled {guess_u[k] + offset[k]:.4g} rad"
+                       for k in far)
+    logger.info("assembly far from the guesses: %s", detail)
+    warnings.warn(
+        f"{mechanism.name}: at t = 0 of the drive laws the mechanism assembled farther than "
+        f"{guess_tol:g} rad from the guess angles of {len(bodies)} bodies ({detail}): probably "
+        f"another assembly branch (mirror image) than the guesses describe. Fix: set the guess "
+        f"angles of {', '.join(bodies)} in {mechanism.source} to the machine's configuration at "
+        "t = 0, or pass a larger guess_tol if they are known to be rough",
+        NumericsWarning, stacklevel=4)
+
+
 def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: np.ndarray,
           tolerances: Tolerances, guess_u: np.ndarray | None = None) -> Continuation:
     """Follow the assembly branch of the guess through every step (all but the last polish).
@@ -640,6 +678,7 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
     # the shortest change of the driven angles (modulo whole turns) to the first step.
     start_d = np.array([law_motion(d, np.zeros(1))[0][0] for d in mechanism.drivers])
     start_u = assemble(mechanism, system, start_d, guess_u, tolerances.tol, 0.0)
+    _check_guesses(mechanism, system, guess_u, start_u, tolerances.guess_tol)
     turn = theta_d[0] - start_d
     turn -= 2 * np.pi * np.round(turn / (2 * np.pi))
     theta_u[0] = tracker.step(start_d, start_u, turn, theta_d[0], 0)

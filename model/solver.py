@@ -21,6 +21,7 @@ import xarray as xr
 from rigval.acquisition.errors import ConfigError, DataError, NumericsWarning, SingularityError
 from rigval.model.assembly import (
     COND_MAX,
+    GUESS_TOL,
     Continuation,
     Tolerances,
     full_angles,
@@ -37,6 +38,7 @@ from rigval.model.drives import (
     times_at_angles,
 )
 from rigval.model.dynamics import applied_forces, minimum_norm_multipliers, multipliers
+from rigval.model.finite import check_finite
 from rigval.model.kinematics import angular_accelerations, angular_velocities
 from rigval.model.linalg import BatchLU
 from rigval.model.loops import LoopSystem, loop_system
@@ -66,7 +68,8 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
           points: Iterable[str] | str | None = None,
           joints: Iterable[str] | str | None = None,
           drives: Mapping[str, SampledDrive] | None = None,
-          tol: float = 1e-12, cond_warn: float = 1e4, cond_max: float = COND_MAX) -> xr.Dataset:
+          tol: float = 1e-12, cond_warn: float = 1e4, cond_max: float = COND_MAX,
+          guess_tol: float = GUESS_TOL) -> xr.Dataset:
     """Kinematics and inverse dynamics of a mechanism at the times ``t``.
 
     Parameters
@@ -95,6 +98,9 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
         Condition number past which a SingularityError is raised; default
         :data:`~rigval.model.assembly.COND_MAX` (about 2.1e5, where ``cond**2 * eps`` reaches
         1e-5 and the forces stop being trustworthy, see docs/numerics.md).
+    guess_tol : float
+        Stated accuracy of the bodies' guess angles, rad (default 0.5): bodies assembled farther
+        from their guesses get a NumericsWarning naming them (another assembly branch).
 
     Returns
     -------
@@ -114,7 +120,8 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
         raise DataError("t must be a non-empty 1-D array of finite times in s",
                         where={"key": "t"}, hint="pass sample times as a 1-D float array")
     selection = select(mech, outputs, points, joints)
-    tolerances = Tolerances(tol=tol, cond_warn=cond_warn, cond_max=cond_max)
+    tolerances = Tolerances(tol=tol, cond_warn=cond_warn, cond_max=cond_max,
+                            guess_tol=guess_tol)
     motion = drive_motion(mech, times, drives)
     system = loop_system(mech)
     if mech.redundant_constraints and selection.forces:
@@ -126,9 +133,12 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
     exact = "condition_number" in selection.outputs
     with single_blas_thread():  # many tiny systems: BLAS threads only wait for each other
         continuation = track(mech, system, times, motion.theta, tolerances)
-        for start in range(0, times.size, _CHUNK):
-            part = slice(start, min(start + _CHUNK, times.size))
-            _solve_chunk(mech, system, continuation, motion, selection, solution, part, exact)
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow: check_finite names it
+            for start in range(0, times.size, _CHUNK):
+                part = slice(start, min(start + _CHUNK, times.size))
+                _solve_chunk(mech, system, continuation, motion, selection, solution, part,
+                             exact)
+        check_finite(mech, motion, solution)
         _check_condition(mech, system, times, solution, tolerances, exact)
     attrs = {"title": f"rigval model: {mech.name}", "mechanism": mech.name,
              "mechanism_source": mech.source, "newton_tol": tol,

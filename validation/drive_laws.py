@@ -345,10 +345,16 @@ class ProfileFit(NamedTuple):
     frequency: float
 
 
+#: Largest cycle frequency accepted, Hz: far beyond any machine a rigid-body model describes, and
+#: small enough that speeds and accelerations (2 pi f)**2 stay far from overflow.
+MAX_FREQUENCY_HZ = 1e6
+
+
 def _check_frequency(value: Any, key: str) -> float:
     if not isinstance(value, int | float) or isinstance(value, bool) or not value > 0 \
-            or not math.isfinite(value):
-        raise ConfigError(f"the cycle frequency must be a positive number of Hz, got {value!r}",
+            or not math.isfinite(value) or value > MAX_FREQUENCY_HZ:
+        raise ConfigError(f"the cycle frequency must be a positive number of Hz up to "
+                          f"{MAX_FREQUENCY_HZ:g}, got {value!r}",
                           where={"key": key}, hint="give main-drive turns per second, e.g. 1.0")
     return float(value)
 

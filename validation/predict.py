@@ -652,7 +652,14 @@ def sweep(mechanism: Mechanism | str | Path, parameters: Mapping[str, npt.ArrayL
         if array.ndim != 1 or array.size == 0 or not np.all(np.isfinite(array)):
             raise ConfigError(f"sweep values of {name!r} must be a non-empty list of numbers",
                               where={"parameter": name}, hint="e.g. 0.5:1.5:11")
-        params.append(_Parameter(name, _classify(name, mech, base), array))
+        kind = _classify(name, mech, base)
+        for value in array if kind == "frequency" else ():
+            base.with_frequency(float(value))   # ConfigError outside (0, 1e6] Hz
+        if kind == "inertia" and np.any(array < 0):
+            raise ConfigError(f"sweep values of {name!r} must not be negative",
+                              where={"parameter": name}, hint="give masses in kg, inertias in "
+                                                              "kg m2")
+        params.append(_Parameter(name, kind, array))
     needs = _Needs.of(summary)
     pins = ground_pins(mech)
     drivers = list(mech.driver_names)

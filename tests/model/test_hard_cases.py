@@ -34,8 +34,8 @@ def _rocker_driven(data: dict[str, Any], amplitude: float) -> dict[str, Any]:
                         "omega": 0.0, "harmonics": [{"amplitude": amplitude, "omega": 1.0,
                                                      "phase": 0.0}]}]
     data["bodies"][2]["guess"][2] = middle
-    data["bodies"][0]["guess"][2] = 1.2
-    data["bodies"][1]["guess"][2] = 0.45
+    data["bodies"][0]["guess"][2] = 2.2     # within the stated 0.5 rad of the assembly
+    data["bodies"][1]["guess"][2] = 0.5
     return data
 
 
@@ -132,7 +132,8 @@ def test_bad_guess_and_large_steps_stay_on_the_branch(fourbar: rm.Mechanism,
                          body["guess"][2] + offset]
     bad = rm.load_mechanism(fourbar_dict)
     coarse_t = t_dense[::50]  # 1/16 s: about 50 degrees of crank per step, 4 turns
-    coarse = rm.solve(bad, coarse_t, outputs=["position"])
+    # the undriven guesses are 0.7 rad off: stated as such, so no NumericsWarning
+    coarse = rm.solve(bad, coarse_t, outputs=["position"], guess_tol=0.75)
     np.testing.assert_allclose(coarse["position"].to_numpy(),
                                dense["position"].to_numpy()[::50], atol=1e-11)
 
