@@ -205,7 +205,8 @@ def classify_channel(name: str, values: np.ndarray, units: str, time: np.ndarray
     lower = name.lower()
     finite = values[np.isfinite(values)]
     integer = finite.size > 0 and bool(np.all(finite == np.round(finite)))
-    if units in ("1", "") and integer:
+    two_level = integer and np.unique(finite).size <= 2
+    if units in ("1", "") and integer and not two_level:
         span = float(finite[-1] - finite[0]) if finite.size else 0.0
         moved = "" if span else "; it never counts in this file"
         return ChannelGuess(scene, name, units, "encoder", "encoder",
@@ -216,6 +217,18 @@ def classify_channel(name: str, values: np.ndarray, units: str, time: np.ndarray
         return ChannelGuess(scene, name, units, "pulse", "reference_pulse",
                             f"two levels with short pulses, {edges.size} pulses",
                             rising_edges=int(edges.size)), edges
+    if two_level:
+        return ChannelGuess(scene, name, units, "line", "physical",
+                            "a digital line without short pulses; not compared"), np.empty(0)
+    scaled = re.fullmatch(r"\s*([0-9.]+(?:[eE][-+]?\d+)?)\s+(.+)", units)
+    if scaled:
+        try:
+            dimension(scaled.group(2))
+            return ChannelGuess(scene, name, units, "sensor", "linear",
+                                f"stored in {units!r}: a scaled unit",
+                                output_units=scaled.group(2)), np.empty(0)
+        except UnitError:
+            pass
     if units in _BRIDGE_UNITS:
         if "tor" in lower:
             kind, why = "torsion_bridge", "a bridge ratio named like a torque"
@@ -434,6 +447,13 @@ def _channel_table(w: _Writer, stream: StreamGuess, channel: ChannelGuess,
             return
         except UnitError:
             pass
+    scaled = re.fullmatch(r"\s*([0-9.]+(?:[eE][-+]?\d+)?)\s+(.+)", channel.units)
+    if channel.sensor == "linear" and scaled and scaled.group(2) == channel.output_units:
+        w.key("slope", float(scaled.group(1)), f"{channel.units!r} is {scaled.group(1)} "
+                                               f"{scaled.group(2)!r}")
+        w.key("units", channel.output_units)
+        w.key("input_units", channel.units, "as stored in the file")
+        return
     for name, comment in _SENSOR_TODO.get(channel.sensor, ()):
         if name == "units" and channel.output_units:
             w.key(name, channel.output_units, "guessed from the channel's name")

@@ -9,13 +9,14 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from rigval.acquisition.errors import ConfigError, SceneError
 from rigval.sample_data import runs_dir
 from rigval.validation.cli import EXIT_FAILED, EXIT_OK, EXIT_USAGE, main
 from rigval.validation.scene import load_scene, todo_keys
-from rigval.validation.scene_init import fill_todos
+from rigval.validation.scene_init import classify_channel, fill_todos
 
 SAMPLE = ("run_0p8_cdaq.tdms", "run_0p8_wls1.tdms", "run_0p8_wls2.csv")
 
@@ -151,3 +152,53 @@ def test_real_daqmx_skeleton_parses_once_filled(realdata_dir: Path, tmp_path: Pa
     assert parsed.alignment.reference == "ci1"
     assert parsed.alignment.pulses["ai"].method == "stamps"
     assert parsed.units(parsed.comparisons[0].measured) == "N m"
+
+
+def _classify(name: str, values: np.ndarray, units: str):
+    return classify_channel(name, values, units, np.arange(values.size) / 1000.0)[0]
+
+
+def test_channel_roles_from_values_units_and_names() -> None:
+    t = np.arange(5000) / 1000.0
+    counts = np.floor(8192 * 0.8 * t)
+    assert _classify("Rotations", counts, "1").role == "encoder"
+    pulse = np.where(np.mod(t, 1.25) < 0.03, 4.7, 0.3)  # 0.8 rev/s, 3 % duty, analog levels
+    guess, edges = classify_channel("opt1", pulse, "V", t)
+    assert (guess.role, guess.sensor) == ("pulse", "reference_pulse")
+    np.testing.assert_allclose(edges, np.arange(1, 4) * 1.25, atol=1.5e-3)
+    low_pulses = 1.0 - (np.mod(t, 0.5) < 0.02)  # a digital line with short low pulses
+    assert _classify("line", low_pulses.astype(np.uint8), "1").role == "pulse"
+    square = (np.mod(t, 0.002) < 0.001).astype(np.uint8)  # a digital line toggling: no pulses
+    assert _classify("line", square, "1").role == "line"
+    sine = np.sin(2 * np.pi * 0.8 * t)
+    assert _classify("acc1", sine, "V").sensor == "charge_accelerometer"
+    assert _classify("tor1", sine * 1e-4, "V/V").sensor == "torsion_bridge"
+    assert _classify("load", sine * 1e-4, "mV/V").sensor == "load_cell"
+    assert _classify("str1", sine * 1e-4, "V/V").sensor == "strain_bridge"
+    flange = _classify("Torque01", sine, "V")
+    assert (flange.sensor, flange.output_units) == ("linear", "N m")
+    assert _classify("p", sine, "Pa").sensor == "physical"
+    scaled = _classify("ax", sine, "9.80665 m s-2")
+    assert (scaled.sensor, scaled.output_units) == ("linear", "m s-2")
+
+
+def test_lvm_in_g_becomes_a_linear_scale_to_m_s2(realdata_dir: Path, tmp_path: Path) -> None:
+    path = realdata_dir / "lvm_read/no_decimal_separator.lvm"
+    scene = tmp_path / "scene.toml"
+    assert main(["init", str(path), "--out", str(scene), "--mechanism",
+                 "builtin:pendulum"]) == EXIT_OK
+    text = scene.read_text()
+    doc = tomllib.loads(text)
+    (stream,) = doc["streams"].values()
+    assert stream["channels"]["ax"]["slope"] == 9.80665
+    from rigval.acquisition.channel_map import load_stream, parse_stream
+    from rigval.validation.convert import convert_stream
+
+    assert stream["reader"]["timezone"] == "TODO"  # LVM header times carry no zone
+    table = {**stream, "reader": {"timezone": "UTC"}, "channels": {"ay": stream["channels"]["ay"]}}
+    spec = parse_stream(table, "streams.no_decimal_separator", base_dir=tmp_path)
+    raw = load_stream(spec)
+    out = convert_stream(raw, spec)
+    np.testing.assert_allclose(out["ay"].to_numpy(), raw["ay"].to_numpy() * 9.80665,
+                               rtol=1e-12)
+    assert out["ay"].attrs["units"] == "m s-2"
