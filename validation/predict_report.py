@@ -30,6 +30,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from rigval.acquisition.schema import append_history
+from rigval.model import Mechanism, load_mechanism
 from rigval.validation.html import Page
 from rigval.validation.outputs import StagedOutputs
 from rigval.validation.plots import (
@@ -38,6 +39,7 @@ from rigval.validation.plots import (
     plot_point_kinematics,
     plot_support_forces,
 )
+from rigval.validation.sketch import sketch_mechanism
 
 __all__ = ["PredictReportFiles", "cycle_table", "peak_table", "sweep_table",
            "write_predict_report"]
@@ -383,6 +385,18 @@ def _write_netcdf(prediction: xr.Dataset, sweep: xr.Dataset | None, path: Path,
     tree.to_netcdf(path, engine="netcdf4", encoding=encoding)  # core dependency, no extra
 
 
+def _mechanism_sketch(prediction: xr.Dataset, mechanism: Mechanism | None,
+                      tip: str) -> Figure | None:
+    """Return the sketch of the predicted mechanism, or None if it cannot be had."""
+    if mechanism is None:
+        try:
+            mechanism = load_mechanism(str(prediction.attrs.get("mechanism_source", "")))
+        except (OSError, ValueError) as error:  # a mechanism given as a dict, a moved file
+            logger.info("no mechanism sketch: %s", error)
+            return None
+    return sketch_mechanism(mechanism, highlight=[tip])
+
+
 def _version() -> str:
     try:
         return version("rigval")
@@ -391,8 +405,8 @@ def _version() -> str:
 
 
 def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
-                         sweep: xr.Dataset | None = None, command: str | None = None
-                         ) -> PredictReportFiles:
+                         sweep: xr.Dataset | None = None, command: str | None = None,
+                         mechanism: Mechanism | None = None) -> PredictReportFiles:
     """Write the report folder of a prediction (and optionally a sweep).
 
     Parameters
@@ -405,6 +419,9 @@ def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
         A result of :func:`rigval.validation.predict.sweep`.
     command : str, optional
         The command line that produced the report (shown on the page).
+    mechanism : Mechanism, optional
+        The mechanism, for the sketch on the page; default read from the prediction's
+        ``mechanism_source`` (no sketch if that file cannot be read).
 
     Returns
     -------
@@ -432,6 +449,11 @@ def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
         facts["command"] = command
     page.facts(facts)
     page.preformatted(str(prediction.attrs.get("drive_laws", "")))
+    sketch = _mechanism_sketch(prediction, mechanism, tip)
+    if sketch is not None:
+        page.figure(sketch, caption="the mechanism at t = 0: bodies (letters), joints (open "
+                                    "circles), ground pins (hatched: the supports), drives "
+                                    f"(red arrows); the tip {tip} in red")
     page.figure(_angle_panels(prediction, [("drive_speed", "speed [rad/s]", 1.0),
                                            ("drive_acceleration", "acceleration [rad/s2]", 1.0)],
                               "drive speeds and accelerations"),

@@ -295,6 +295,7 @@ def _predictions(page: Page, result: ValidationResult) -> None:
     page.section("Predictions")
     page.paragraph("What the model says about quantities that were not measured, for the drive "
                    "motion of this run (the paper's figs. 15 to 17).")
+    _mechanism_sketch(page, result)
     for point in result.predictions.coords.get("point", xr.DataArray([])).values:
         page.figure(plots.plot_point_kinematics(result.predictions, str(point)),
                     caption=f"{point}: vertical position, absolute speed and acceleration")
@@ -302,6 +303,23 @@ def _predictions(page: Page, result: ValidationResult) -> None:
         page.figure(plots.plot_support_forces(result.predictions),
                     caption="support forces on the frame (minus the ground pins' joint forces)")
         page.table(_peaks(result.predictions), caption="support force extremes")
+
+
+def _mechanism_sketch(page: Page, result: ValidationResult) -> None:
+    """Add the sketch of the run's mechanism, the points the report names in red."""
+    from rigval.model import load_mechanism
+    from rigval.validation.sketch import sketch_mechanism
+
+    try:
+        mechanism = load_mechanism(result.scene.mechanism)
+    except (OSError, ValueError) as error:  # the report goes on without the sketch
+        logger.warning("no mechanism sketch in the report: %s", error)
+        return
+    points = [str(p) for p in result.predictions.coords.get("point", xr.DataArray([])).values]
+    page.figure(sketch_mechanism(mechanism, highlight=points),
+                caption="the mechanism at t = 0 of its file's drive laws: bodies (letters), "
+                        "joints (open circles), ground pins (hatched: the supports), drives "
+                        f"(red arrows); red: {', '.join(points) or 'no point'}")
 
 
 def _numerics(page: Page, result: ValidationResult) -> None:

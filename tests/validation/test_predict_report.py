@@ -32,7 +32,8 @@ def test_report_page_shows_every_section(report_dir: Path) -> None:
         assert f">{heading}</h2>" in html
     assert "vertical range of the P1 path" in html
     assert "rigval predict builtin:pendulum --out" in html and "theta_H.phase=0:240:3deg" in html
-    assert len(re.findall(r"<img src=\"data:image/png;base64,", html)) == 7
+    assert len(re.findall(r"<img src=\"data:image/png;base64,", html)) == 8  # with the sketch
+    assert "the mechanism at t = 0" in html
     assert "src=\"http" not in html  # self-contained
 
 

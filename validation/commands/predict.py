@@ -132,7 +132,8 @@ def run(args: argparse.Namespace) -> int:
         available = ", ".join(map(str, error.extra.get("available", [])))
         raise ConfigError(f"{error.message} (available: {available or 'none'})",
                           where=error.where, hint=error.hint) from error
-    files = write_predict_report(prediction, args.out, sweep=swept, command=_command_line(args))
+    files = write_predict_report(prediction, args.out, sweep=swept, command=_command_line(args),
+                                 mechanism=mechanism)
     tip = prediction.attrs["tip_point"]
 
     def unit(name: str) -> str:  # the spelling of the files (CF units of prediction.nc)

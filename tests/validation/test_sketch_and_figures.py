@@ -1,0 +1,151 @@
+"""Figures read at a glance: the mechanism sketch (every point named, where the model puts it),
+labels that do not overlap, titles clear of legends, honest y ranges, labelled log axes."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.text import Annotation, Text
+
+from rigval.model import builtin_mechanism, load_mechanism, solve
+from rigval.validation.bench import BenchRow
+from rigval.validation.bench_report import plot_stage
+from rigval.validation.plots import honest_ylim, plot_support_forces
+from rigval.validation.predict import predict
+from rigval.validation.predict_report import _angle_panels, _tip_path_figure
+from rigval.validation.sketch import body_outlines, sketch_mechanism
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    return load_mechanism(builtin_mechanism("pendulum"))
+
+
+@pytest.fixture(scope="module")
+def prediction(pendulum):
+    return predict(pendulum, n_points=72)
+
+
+def _renderer(fig: Figure):
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    return canvas.get_renderer()
+
+
+def _boxes(fig: Figure, texts: list[Text]) -> list:
+    renderer = _renderer(fig)
+    return [t.get_window_extent(renderer) for t in texts if t.get_text() and t.get_visible()]
+
+
+def _overlapping(boxes: list) -> list[tuple[int, int]]:
+    return [(i, j) for (i, a), (j, b) in itertools.combinations(enumerate(boxes), 2)
+            if a.overlaps(b)]
+
+
+def test_sketch_names_every_point_at_the_models_position(pendulum) -> None:
+    fig = sketch_mechanism(pendulum, highlight=["P1"])
+    fig.draw_without_rendering()
+    ax = fig.axes[0]
+    labels = {a.get_text(): a.xy for a in ax.texts if isinstance(a, Annotation)}
+    truth = solve(pendulum, np.array([0.0]), outputs=["point_position"])["point_position"]
+    for point in pendulum.point_names:
+        assert point in labels, point
+        np.testing.assert_allclose(labels[point], truth.sel(point=point).isel(time=0).values,
+                                   atol=1e-12)
+    for body in pendulum.body_names:
+        assert body in labels
+    for driver in pendulum.driver_names:
+        assert f"drive {driver}" in labels
+    ground = [j for j in pendulum.joints if j.kind == "ground"]
+    for joint in ground:  # the solved position of a ground pin is where the file pins it
+        np.testing.assert_allclose(labels[joint.name], joint.at, atol=1e-9)
+
+
+def test_sketch_point_labels_do_not_overlap(pendulum) -> None:
+    fig = sketch_mechanism(pendulum, highlight=["P1"])
+    fig.draw_without_rendering()
+    names = set(pendulum.point_names)
+    labels = [t for t in fig.axes[0].texts if t.get_text() in names]
+    assert len(labels) == len(names)
+    assert _overlapping(_boxes(fig, labels)) == []
+
+
+def test_body_outline_is_ordered_along_the_body(pendulum) -> None:
+    positions = {"a": np.array([0.0, 0.0]), "b": np.array([2.0, 0.0]),
+                 "c": np.array([1.0, 0.0])}
+    mech = type("M", (), {"bodies": [type("B", (), {"name": "X", "points": {"a": 0, "b": 0,
+                                                                               "c": 0}})()]})()
+    line = body_outlines(mech, positions)["X"]
+    assert line[:, 0].tolist() in ([0.0, 1.0, 2.0], [2.0, 1.0, 0.0])
+
+
+def test_tip_path_labels_do_not_overlap_each_other(prediction) -> None:
+    fig = _tip_path_figure(prediction, "P1")
+    fig.draw_without_rendering()
+    labels = [t for t in fig.axes[0].texts if t.get_text().endswith("°")]
+    assert len(labels) == 8  # every 45 degrees
+    assert _overlapping(_boxes(fig, labels)) == []
+
+
+def _title_and_legend_clear(fig: Figure) -> None:
+    renderer = _renderer(fig)
+    ax = fig.axes[0]
+    legend = ax.get_legend()
+    assert legend is not None
+    legend_box = legend.get_window_extent(renderer)
+    titles = [t for t in (ax.title, ax._left_title, ax._right_title) if t.get_text()]
+    assert titles
+    for title in titles:
+        assert not title.get_window_extent(renderer).overlaps(legend_box), title.get_text()
+    # and no offset text (e.g. "+2.9") next to the title
+    assert not ax.yaxis.get_offset_text().get_text()
+
+
+def test_titles_do_not_overlap_legends(prediction) -> None:
+    _title_and_legend_clear(plot_support_forces(prediction))
+    _title_and_legend_clear(_angle_panels(prediction, [("drive_speed", "speed [rad/s]", 1.0)],
+                                          "a long title for the drive speeds of every drive"))
+
+
+def test_nearly_constant_curve_is_not_magnified_and_zero_is_marked() -> None:
+    fig = Figure()
+    flat, zero = fig.subplots(2, 1)
+    values = 6.2832 + 1e-4 * np.sin(np.linspace(0, 6, 50))
+    flat.plot(values)
+    honest_ylim(flat, values)
+    low, high = flat.get_ylim()
+    assert (high - low) >= 0.02 * 6.2832 and low < values.min() and high > values.max()
+    zero.plot(np.zeros(50))
+    honest_ylim(zero, np.zeros(50))
+    assert zero.get_ylim() == (-1.0, 1.0)
+    assert [t.get_text() for t in zero.texts] == ["exactly 0"]
+    varied = Figure().subplots()
+    honest_ylim(varied, np.array([1.0, 5.0]))  # a curve that varies keeps autoscaling
+    assert varied.get_autoscaley_on()
+
+
+def _bench_row(choice: str, cpu: float, error: float, bound: float) -> BenchRow:
+    return BenchRow(stage="model", case="k", choice=choice, metric="m", unit="1", error=error,
+                    bound=bound, time_s=cpu, cpu_s=cpu, n=1, baseline="exact")
+
+
+def test_bench_plot_labels_log_axes_draws_bounds_and_marks_exact_zeros() -> None:
+    rows = [_bench_row("exact", 3e-4, 0.0, 1e-10), _bench_row("fast", 1.2e-4, 3e-12, 1e-10),
+            _bench_row("faster", 1.5e-4, 2e-11, 1e-10)]
+    fig = plot_stage(rows, "model")
+    fig.draw_without_rendering()
+    ax = fig.axes[0]
+    # the x data span less than a decade: the axis still has labelled ticks
+    shown = [t.get_text() for t in ax.get_xticklabels() if t.get_text()
+             and ax.get_xlim()[0] <= t.get_position()[0] <= ax.get_xlim()[1]]
+    assert len(shown) >= 2, shown
+    assert "µs" in ax.get_xlabel() and "us" not in ax.get_xlabel().replace("µs", "")
+    bound_lines = [line for line in ax.get_lines() if "bound" in line.get_label()]
+    assert bound_lines and math.isclose(bound_lines[0].get_ydata()[0], 1e-10)
+    exact = [line for line in ax.get_lines() if "exact 0" in line.get_label()]
+    assert len(exact) == 1 and exact[0].get_xdata()[0] == pytest.approx(300.0)
