@@ -26,7 +26,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import xarray as xr
-from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from rigval.acquisition.schema import append_history
@@ -39,7 +38,7 @@ from rigval.validation.plots import (
     plot_point_kinematics,
     plot_support_forces,
 )
-from rigval.validation.sketch import sketch_mechanism
+from rigval.validation.sketch import place_labels, sketch_mechanism
 
 __all__ = ["PredictReportFiles", "cycle_table", "peak_table", "sweep_table",
            "write_predict_report"]
@@ -210,55 +209,9 @@ def _tip_path_figure(prediction: xr.Dataset, tip: str) -> Figure:
     span = float(prediction["tip_vertical_range"])
     ax.set_title(f"path of {tip} (vertical range {span * 1e3:.1f} mm; labels: main shaft angle "
                  r"$\varphi_F$; axes not to scale)", fontsize=10)
-    _place_labels(fig, ax, x[marks], y[marks], [f"{degrees[i]:.0f}°" for i in marks],
-                  avoid=(x, y))
+    place_labels(fig, ax, x[marks], y[marks], [f"{degrees[i]:.0f}°" for i in marks],
+                 avoid=np.column_stack([x, y]))
     return fig
-
-
-#: Label offsets tried around a mark, points (right, left, above, below, then farther out).
-_OFFSETS = [(6, 4), (6, -12), (-30, 4), (-30, -12), (-12, 10), (-12, -18), (6, 16), (6, -24),
-            (-30, 16), (-30, -24), (20, 4), (-44, 4)]
-
-
-def _place_labels(fig: Figure, ax: Axes, x: np.ndarray, y: np.ndarray, labels: list[str], *,
-                  avoid: tuple[np.ndarray, np.ndarray]) -> None:
-    """Annotate marks, each label at the first offset where it covers no label, mark or curve.
-
-    Positions are compared in points (the layout of the figure as drawn now); the labels are
-    anchored at their marks in data coordinates, so a later resolution does not move them.
-    """
-    fig.draw_without_rendering()  # final limits and layout, so data -> display is known
-    scale = 72.0 / fig.dpi  # points per pixel
-    marks = ax.transData.transform(np.column_stack([x, y])) * scale
-    curve = ax.transData.transform(np.column_stack(avoid)) * scale
-    taken: list[tuple[float, float, float, float]] = []
-
-    def covers(box: tuple[float, float, float, float], points: np.ndarray,
-               margin: float) -> bool:
-        return bool(np.any((points[:, 0] > box[0] - margin) & (points[:, 0] < box[2] + margin)
-                           & (points[:, 1] > box[1] - margin) & (points[:, 1] < box[3] + margin)))
-
-    for (px, py), (xd, yd), text in zip(marks, np.column_stack([x, y]), labels, strict=True):
-        width, height = 5.0 * len(text) + 2.0, 9.0
-        for strict in (True, False):  # first also away from the curve, then marks and labels only
-            for dx, dy in _OFFSETS:
-                box = (px + dx, py + dy, px + dx + width, py + dy + height)
-                if (not any(_overlap(box, other) for other in taken)
-                        and not covers(box, marks, 3.0)
-                        and not (strict and covers(box, curve, 1.0))):
-                    break
-            else:
-                continue
-            break
-        else:
-            dx, dy = _OFFSETS[0]
-            box = (px + dx, py + dy, px + dx + width, py + dy + height)
-        taken.append(box)
-        ax.annotate(text, (xd, yd), xytext=(dx, dy), textcoords="offset points", fontsize=8)
-
-
-def _overlap(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
-    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
 def _angle_panels(prediction: xr.Dataset, panels: list[tuple[str, str, float]],
