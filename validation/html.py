@@ -111,7 +111,8 @@ def figure_data_uri(fig: Figure, *, dpi: float = 96) -> str:
         Resolution in dots per inch.
     """
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=dpi)
+    # zlib level 1: a third less encoding time than the default 6 for about 15 % larger files
+    fig.savefig(buffer, format="png", dpi=dpi, pil_kwargs={"compress_level": 1})
     return "data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode("ascii")
 
 
