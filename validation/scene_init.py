@@ -205,7 +205,7 @@ def classify_channel(name: str, values: np.ndarray, units: str, time: np.ndarray
     lower = name.lower()
     finite = values[np.isfinite(values)]
     integer = finite.size > 0 and bool(np.all(finite == np.round(finite)))
-    two_level = integer and np.unique(finite).size <= 2
+    two_level = integer and np.unique(finite).size == 2
     if units in ("1", "") and integer and not two_level:
         span = float(finite[-1] - finite[0]) if finite.size else 0.0
         moved = "" if span else "; it never counts in this file"
