@@ -68,6 +68,8 @@ def detect_format(path: str | os.PathLike[str]) -> str:
     if head.startswith(b"TDSh"):
         raise DataFileError("this is a TDMS index file (metadata only)", where={"file": str(path)},
                             hint="read the .tdms file next to it")
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff"):  # UTF-16 text with its byte-order mark
+        head = head[:len(head) // 2 * 2].decode("utf-16", errors="replace").encode()
     text = head.lstrip(b"\xef\xbb\xbf")
     if b"\x00" in text:
         raise DataFileError(

@@ -6,9 +6,10 @@ tag/value rows up to ``***End_of_Header***`` (``Separator``, ``Decimal_Separator
 an optional header (``Channels``, ``Samples``, ``Date``, ``Time``, ``Y_Unit_Label``, ``X0``,
 ``Delta_X``, one value per data column), a ``X_Value ... Comment`` names row and data rows.
 
-What this reader handles (real files in the public lvm_read project's test files): several segments; decimal
-comma everywhere including ``X0``/``Delta_X``/``Time``; no ``Decimal_Separator`` tag (writer 0.92:
-the separator is taken from the data, never from the header times); ``X_Columns`` No/One/Multi;
+What this reader handles (real files in the public lvm_read project's test files): several
+segments; decimal comma everywhere including ``X0``/``Delta_X``/``Time``; no
+``Decimal_Separator`` tag (writer 0.92: the separator is taken from the data, never from the
+header times); ``X_Columns`` No/One/Multi;
 unequal ``Samples`` and empty cells (a channel's trailing empty cells are not samples, inner empty
 cells are NaN counted in ``empty_cells``); comment columns; ``***Start_Special***`` blocks; and
 files without any header (first line ``X_Value``).
@@ -244,6 +245,7 @@ class _Column:
     start: np.datetime64 | None
     segment: int
     expected: int | None
+    text_cells: int = 0
 
 
 def _columns(lvm: LvmFile, decimal: str, timezone: str | None, file: Path) -> list[_Column]:
@@ -275,7 +277,7 @@ def _columns(lvm: LvmFile, decimal: str, timezone: str | None, file: Path) -> li
                             s_index)
                 continue
             cells = column[:count]
-            values = _numbers(cells, decimal, file, names[j])
+            values, text_cells = _numbers(cells, decimal, file, names[j], seg.row_lines[:count])
             x = None
             if x_col is not None:
                 x = _x_values(grid[:count, x_col], decimal, file, names[j],
@@ -290,7 +292,8 @@ def _columns(lvm: LvmFile, decimal: str, timezone: str | None, file: Path) -> li
                 or "", values=values, x=x,
                 x0=_number(x0_text, decimal, file, "X0") if x0_text else 0.0,
                 dt=_number(dt_text, decimal, file, "Delta_X") if dt_text else None, start=start,
-                segment=s_index, expected=_header_int(seg.header, "Samples", j)))
+                segment=s_index, expected=_header_int(seg.header, "Samples", j),
+                text_cells=text_cells))
     return out
 
 
@@ -329,19 +332,32 @@ def _header_int(header: Mapping[str, list[str]], tag: str, column: int) -> int |
     return int(cell) if cell is not None and cell.isascii() and cell.isdigit() else None
 
 
-def _numbers(cells: np.ndarray, decimal: str, file: Path, name: str) -> np.ndarray:
-    """Convert cells to float64: empty -> NaN; anything else unparsable -> DataFileError."""
+def _numbers(cells: np.ndarray, decimal: str, file: Path, name: str,
+             lines: list[int]) -> tuple[np.ndarray, int]:
+    """Convert cells to float64 and count the text cells among them.
+
+    Empty and ``NaN`` cells are NaN. A few cells that are not numbers become NaN with a
+    DataWarning naming the first one's line; a column without any number is a DataFileError
+    (most likely a wrong decimal separator).
+    """
     text = pd.Series(cells, dtype=object).astype(str)
     if decimal != ".":
         text = text.str.replace(decimal, ".", regex=False)
     numbers = pd.to_numeric(text.replace("", np.nan), errors="coerce").to_numpy(float)
-    bad = np.isnan(numbers) & (text != "").to_numpy()
-    if bad.any():
-        first = int(np.flatnonzero(bad)[0])
-        raise DataFileError(f"cell {cells[first]!r} of column {name!r} is not a number",
-                            where={"file": str(file), "channel": name, "row": first},
+    bad = np.isnan(numbers) & (text != "").to_numpy() \
+        & ~text.str.fullmatch(r"\s*[-+]?nan\s*", case=False).to_numpy()
+    if not bad.any():
+        return numbers, 0
+    first = int(np.flatnonzero(bad)[0])
+    where = {"file": str(file), "channel": name, "line": lines[first]}
+    if 1 < bad.sum() == np.count_nonzero((text != "").to_numpy()):
+        raise DataFileError(f"no cell of column {name!r} is a number (first {cells[first]!r})",
+                            where=where,
                             hint="pass decimal=... if the decimal separator was guessed wrong")
-    return numbers
+    warn_data(f"column {name!r}: {int(bad.sum())} cell(s) are not numbers (first "
+              f"{cells[first]!r}); read as NaN", where=where,
+              hint="the file was edited or damaged there; check decimal=...", stacklevel=5)
+    return numbers, int(bad.sum())
 
 
 def _drop_incomplete_last_row(lvm: LvmFile, complete: bool, n_lines: int, file: Path) -> None:
@@ -563,7 +579,8 @@ def _stream(parts: list[list[_Column]], lvm: LvmFile, file: Path, fs: float | No
     for j, col in enumerate(parts[0]):
         data = np.concatenate([cols[j].values for cols in parts])[lo:hi]
         attrs: dict[str, Any] = {"units_in_file": col.unit,
-                                 "empty_cells": int(np.count_nonzero(np.isnan(data)))}
+                                 "empty_cells": int(np.count_nonzero(np.isnan(data))),
+                                 "text_cells": sum(cols[j].text_cells for cols in parts)}
         module = (modules or {}).get(col.name) or (profile.default_module if profile else None)
         if module is not None:
             attrs.update(module_attrs(module, fs_nominal,

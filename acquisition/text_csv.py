@@ -55,6 +55,7 @@ _NUMBER = re.compile(r"^\s*([-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?|[-+]?(na
 _COMMA_NUMBER = re.compile(r"^\s*[-+]?\d*,\d+([eE][-+]?\d+)?\s*$")
 _TIME_NAMES = re.compile(r"^(time|zeit|t|x_value|timestamp|zeitstempel|datetime|date|datum|"
                          r"relative time|elapsed time)\b", re.IGNORECASE)
+_DATE_TIME = re.compile(r"^\s*\d{1,4}[-./]\d{1,2}[-./]\d{1,4}[ T]\d{1,2}:\d{2}")
 _START_KEYS = re.compile(r"(start|t0|wf_start_time|beginn|trigger)", re.IGNORECASE)
 _LOCALE_FORMATS = ("%d.%m.%Y %H:%M:%S.%f", "%d.%m.%Y %H:%M:%S", "%m/%d/%Y %I:%M:%S.%f %p",
                    "%m/%d/%Y %I:%M:%S %p", "%m/%d/%Y %H:%M:%S.%f", "%m/%d/%Y %H:%M:%S",
@@ -135,6 +136,17 @@ def read_text(path: Path, encoding: str | None = None) -> tuple[list[str], bool]
         except LookupError:
             raise ConfigError(f"unknown text encoding {encoding!r}",
                               where={"file": str(path), "key": "encoding"}) from None
+    if not encoding:
+        try:
+            raw.decode("utf-8")
+        except UnicodeDecodeError as error:
+            first = error.start
+        text = raw.decode("utf-8", errors="replace")
+        if text.count("\ufffd") < max(16, len(raw) // 10):  # local damage, not an encoding
+            warn_data(f"{text.count(chr(0xFFFD))} character(s) are neither UTF-8 nor cp1252 "
+                      f"(first at byte {first}): replaced by U+FFFD", where={"file": str(path)},
+                      hint="the file is damaged there, or pass encoding=...", stacklevel=3)
+            return text.splitlines(), text.endswith(("\n", "\r"))
     raise DataFileError(f"text is not {encoding or 'UTF-8 or cp1252'}", where={"file": str(path)},
                         hint="pass encoding=... (e.g. 'latin-1')")
 
@@ -156,21 +168,27 @@ def _is_data(fields: list[str]) -> bool:
     return numeric >= max(1, len(cells) - 1) and (numeric >= len(cells) / 2)
 
 
-def _guess_delimiter(lines: list[str]) -> str:
-    """Return the delimiter giving the longest run of equal field counts (> 1) from the end.
+def _all_numbers(fields: list[str]) -> bool:
+    """Return True when every non-empty cell is a number (the first may be a date-time)."""
+    first, *rest = fields
+    return (bool(_NUMBER.match(first) or _DATE_TIME.match(first))
+            and all(_NUMBER.match(c) for c in rest if c.strip()))
 
-    A decimal comma splits data rows into a constant count too, but the header row breaks that
-    run; ties go to the first of ``;``, tab, ``,``, ``|``.
+
+def _guess_delimiter(lines: list[str]) -> str:
+    """Return the delimiter that splits the most of the last lines into data rows (> 1 field).
+
+    A decimal comma splits data rows too, but into cells that are not numbers (``"000000;1"``);
+    counting data rows, not equal field counts, keeps one ragged or cut row from tipping the
+    choice. Ties go to the first of ``;``, tab, ``,``, ``|``.
     """
     tail = [ln for ln in lines[-200:] if ln.strip()]
-    best, best_run = ",", 0
+    best, best_score = ",", 0
     for delimiter in _DELIMITERS:
-        counts = [len(_split(ln, delimiter)) for ln in reversed(tail)]
-        if not counts or counts[0] < 2:
-            continue
-        run = next((k for k, c in enumerate(counts) if c != counts[0]), len(counts))
-        if run > best_run:
-            best, best_run = delimiter, run
+        score = sum(1 for ln in tail
+                    if len(fields := _split(ln, delimiter)) > 1 and _all_numbers(fields))
+        if score > best_score:
+            best, best_score = delimiter, score
     return best
 
 
@@ -215,8 +233,9 @@ def sniff_csv(lines: list[str], *, delimiter: str | None = None, decimal: str | 
         if end == 0:
             raise DataFileError("text file holds no lines", where=where)
         data_start, skipped = _data_block(lines, rows, end)
-        width = max((len(r) for k, r in enumerate(rows[data_start:end], data_start)
-                     if k not in skipped), default=0)
+        counts = [len(r) for k, r in enumerate(rows[data_start:end], data_start)
+                  if k not in skipped and lines[k].strip()]
+        width = max(set(counts), key=counts.count) if counts else 0  # one ragged row aside
         if data_start >= end or not _is_data(rows[data_start]):
             raise DataFileError("no block of numeric rows found at the end of the text file",
                                 where=where, hint="pass header_row=... and delimiter=...")
@@ -496,6 +515,16 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     if len(table) != line_of.size:
         raise DataFileError(f"{len(table)} table rows from {line_of.size} data lines",
                             where=where, hint="pass delimiter=... and header_row=...")
+    extra = np.zeros(len(table), dtype=bool)
+    for k in range(width, table.shape[1]):
+        extra |= (table[k].fillna("").str.strip() != "").to_numpy()
+    if extra.sum() > max(1, 0.1 * len(table)):
+        raise DataFileError(f"{int(extra.sum())} data rows hold more than the {width} fields "
+                            "the header names", where=where,
+                            hint="check delimiter=... and header_row=...")
+    if extra.any():
+        lost["more fields than the names row"] = [int(n) for n in line_of[extra]]
+        table, line_of = table[~extra].reset_index(drop=True), line_of[~extra]
     if t_index is not None:
         table, line_of = _drop_bad_times(table, line_of, t_index, lost)
     for reason, numbers in lost.items():
@@ -504,12 +533,6 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
                       f"{numbers[:10]}{' ...' if len(numbers) > 10 else ''})", where=where,
                       hint="the file was edited, damaged or cut short; the other rows are read",
                       stacklevel=2)
-    surplus = [k for k in range(width, table.shape[1])
-               if (table[k].fillna("").str.strip() != "").any()]
-    if surplus:
-        raise DataFileError(f"data rows hold {table.shape[1]} fields but the header names "
-                            f"{width} columns", where=where,
-                            hint="check delimiter=... and header_row=...")
     values: dict[int, np.ndarray] = {}
     text_cells: dict[int, int] = {}
     for k in range(width):
