@@ -123,9 +123,11 @@ def parse_start_time(text: str | np.datetime64) -> np.datetime64:
 def file_sha256(path: str | Path, chunk_bytes: int = 1 << 22) -> str:
     """Return the SHA-256 hex digest of a file, read in chunks (bounded memory)."""
     digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        while block := handle.read(chunk_bytes):
-            digest.update(block)
+    buffer = bytearray(chunk_bytes)  # one buffer, refilled: no new memory per chunk
+    view = memoryview(buffer)
+    with open(path, "rb", buffering=0) as handle:
+        while size := handle.readinto(buffer):
+            digest.update(view[:size])
     return digest.hexdigest()
 
 

@@ -41,6 +41,7 @@ from nptdms import TdmsFile
 from rigval.acquisition.detect import checked_path, source_checksum
 from rigval.acquisition.devices import DeviceProfile, get_device, module_attrs
 from rigval.acquisition.errors import ChannelNotFoundError, DataFileError
+from rigval.acquisition.hugepages import plain_pages
 from rigval.acquisition.schema import Channel, stream_dataset
 from rigval.acquisition.tdms_layout import (
     ChannelLayout,
@@ -702,7 +703,7 @@ def read_tdms(path: str | os.PathLike[str], *, group: str | Sequence[str] | None
         warn_about_plans(layout, plans)
         tdms = _open_nptdms(handle, layout)
         # hashing (about 0.7 s per GiB) runs on the other core while nptdms reads
-        with ThreadPoolExecutor(max_workers=1) as pool:
+        with ThreadPoolExecutor(max_workers=1) as pool, plain_pages():
             sha_future = pool.submit(source_checksum, file, checksum)
             selections = []
             for plan in plans:
