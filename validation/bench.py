@@ -34,7 +34,8 @@ logger = logging.getLogger(__name__)
 T = TypeVar("T")
 
 #: Stage names in the order :func:`run_bench` runs them.
-STAGES: tuple[str, ...] = ("model", "alignment", "resampling", "derivatives", "reading")
+STAGES: tuple[str, ...] = ("model", "alignment", "resampling", "derivatives", "reading",
+                           "identification")
 
 
 @dataclass(frozen=True)
@@ -195,6 +196,7 @@ def machine_note() -> str:
 def _sweeps() -> dict[str, Callable[[bool], list[BenchRow]]]:
     from rigval.validation import (
         bench_align_cases,
+        bench_identify_cases,
         bench_model_cases,
         bench_read_cases,
         bench_signal_cases,
@@ -204,7 +206,8 @@ def _sweeps() -> dict[str, Callable[[bool], list[BenchRow]]]:
             "alignment": bench_align_cases.alignment_rows,
             "resampling": bench_signal_cases.resampling_rows,
             "derivatives": bench_signal_cases.derivative_rows,
-            "reading": bench_read_cases.reading_rows}
+            "reading": bench_read_cases.reading_rows,
+            "identification": bench_identify_cases.identification_rows}
 
 
 #: Environment of the worker process: one thread in every BLAS / OpenMP pool.
