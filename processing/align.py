@@ -72,6 +72,8 @@ _AMBIGUITY_FACTOR = 3.0
 #: scale is this many times smaller than the best inside it, says the stamps are worse than stated
 #: (a wrong whole period leaves the speed wander, milliseconds; the right one timing jitter).
 _OUTSIDE_FACTOR = 10.0
+#: ... judged only with this many matched events (a line through fewer says little).
+_OUTSIDE_MIN_EVENTS = 6
 #: Residual scales below this (s) count as equal: no clock is timed better than a nanosecond.
 _TIMING_FLOOR_S = 1e-9
 
@@ -295,11 +297,15 @@ def _describe(scored: Sequence[tuple[int, float, float]]) -> str:
 
 def _match(ref: _FloatArray, dev: _FloatArray, *, coarse_offset_s: float,
            max_offset_error_s: float, tolerance: float, place: Mapping[str, Any],
-           settle_keys: Sequence[str] | None) -> _Match:
-    """Pair one segment's device events with reference events (see :func:`match_events`)."""
-    if ref.size < 3 or dev.size < 3:
+           settle_keys: Sequence[str] | None, min_hits: int = 3) -> _Match:
+    """Pair one segment's device events with reference events (see :func:`match_events`).
+
+    ``min_hits`` is the fewest matched events a candidate needs (2 for a segment matched around
+    another segment's offset, whose drift the other segments give).
+    """
+    if ref.size < 3 or dev.size < min_hits:
         raise AlignmentError(f"too few events to align: {ref.size} reference and {dev.size} "
-                             "device events (need 3 each)", where=place,
+                             f"device events (need 3 and {min_hits})", where=place,
                              hint="check pulse thresholds and that the records overlap")
     period = float(np.median(np.diff(ref)))
     dev_period = float(np.median(np.diff(dev)))
@@ -330,7 +336,8 @@ def _match(ref: _FloatArray, dev: _FloatArray, *, coarse_offset_s: float,
     candidates = np.unique(np.round(np.asarray(candidates) / step)) * step
     scored = [_score(ref, scoring, offset, period, tolerance) for offset in candidates]
     most = max(s[0] for s in scored)
-    contenders = sorted((s for s in scored if s[0] >= max(3, 0.8 * most)), key=lambda s: s[1])
+    contenders = sorted((s for s in scored if s[0] >= max(min_hits, 0.8 * most)),
+                        key=lambda s: s[1])
     if not contenders:
         raise AlignmentError(f"too few matched events: at most {most} of {scoring.size} device "
                              "events found a reference partner", where=place,
@@ -345,14 +352,17 @@ def _match(ref: _FloatArray, dev: _FloatArray, *, coarse_offset_s: float,
                    for k in range(-reach, reach + 1) if k]
         better = sorted((s for s in outside if s[0] >= best[0]
                          and _OUTSIDE_FACTOR * s[1] + _TIMING_FLOOR_S < best[1]),
-                        key=lambda s: s[1])
+                        key=lambda s: s[1]) if best[0] >= _OUTSIDE_MIN_EVENTS else []
         if better:
+            keys = settle_keys or ("coarse_offset_s", "max_offset_error_s")
             raise AlignmentError(
                 f"the start stamps look off by more than their stated uncertainty "
                 f"({max_offset_error_s:.3g} s): inside the window the best offset is "
                 f"{_describe([best])}, but {_describe(better[:2])} fits far better",
-                where=place, hint=_settle_hint(settle_keys, period).replace(
-                    "below half a period", "large enough to hold the better candidate, not"))
+                where=place,
+                hint=f"set {keys[0]} to {better[0][2]:.6g} s if the stamps are known to be off, "
+                     f"or {keys[1]} to at least {abs(better[0][2] - coarse_offset_s):.3g} s so "
+                     "that the data decide")
     else:
         decided = "data"
         distinct: list[tuple[int, float, float]] = []
@@ -599,7 +609,7 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
                 again = _match(ref, dev[seg == s], coarse_offset_s=anchor_offset,
                                max_offset_error_s=min(max_offset_error_s, 0.4 * period),
                                tolerance=0.25, place={**place, "segment": int(s)},
-                               settle_keys=settle_keys)
+                               settle_keys=settle_keys, min_hits=2)
             except AlignmentError as error:
                 logger.info("segment %d stays unaligned: %s", s, error)
                 matches.pop((kind, int(s)), None)

@@ -436,17 +436,19 @@ def _sample_switched(x: _FloatArray, time: _FloatArray, edges: _FloatArray, pola
                      valid: NDArray[np.bool_]) -> bool:
     """Return True when most edges jump between the state levels in one sample.
 
-    An edge is sample-switched when the samples on either side of it lie within 10 % of the
+    An edge is sample-switched when the samples on either side of it lie within 3 % of the
     level span from the low and the high state level: no sample caught the transition, so the
-    interpolated crossing says nothing below half a sample.
+    interpolated crossing says nothing below half a sample. A band-limited edge (a delta-sigma
+    module's filter passes 0.45 fs) never does: its samples on either side of the mid crossing
+    cannot both be 0.67 sample from it. Most (80 %) of the edges must be so.
     """
     if edges.size == 0:
         return False
     low, high = state_levels(x[valid] if valid.any() else x)
-    band = 0.1 * (high - low)
+    band = 0.03 * (high - low)
     j = np.clip(np.searchsorted(time, edges) - 1, 0, x.size - 2)
     before, after = x[j], x[j + 1]
     if polarity == "falling":
         before, after = after, before
     jumps = (before <= low + band) & (after >= high - band)
-    return bool(np.mean(jumps) >= 0.5)
+    return bool(np.mean(jumps) >= 0.8)

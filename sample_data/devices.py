@@ -168,7 +168,9 @@ class DeviceClock:
 
 def dropout_segments(true_start: float, duration: float, fs_true: float, n_dropouts: int,
                      stamp_error_rms: float, rng: np.random.Generator,
-                     gap_range: tuple[float, float] = (0.05, 0.4)) -> tuple[ClockSegment, ...]:
+                     gap_range: tuple[float, float] = (0.05, 0.4), *,
+                     running_clock: bool = False,
+                     fs_nominal: float | None = None) -> tuple[ClockSegment, ...]:
     """Split a record into gap-free segments at random Wi-Fi dropouts.
 
     Parameters
@@ -187,6 +189,12 @@ def dropout_segments(true_start: float, duration: float, fs_true: float, n_dropo
         Random source.
     gap_range : tuple of float, default (0.05, 0.4)
         Range of the gap length in s (link loss plus task restart).
+    running_clock : bool, default False
+        True: the device's clock runs on through each dropout (no restart): a segment starts a
+        whole number k of sample periods after the first, and its recorded start time is the
+        first one plus ``k / fs_nominal`` (the counted samples), not a new software stamp.
+    fs_nominal : float, optional
+        Nominal rate in Hz (needed with ``running_clock``).
 
     Returns
     -------
@@ -201,5 +209,16 @@ def dropout_segments(true_start: float, duration: float, fs_true: float, n_dropo
         raise ConfigError(f"{n_dropouts} dropouts do not fit in a {duration} s record",
                           where={"key": "dropouts"}, hint="use fewer dropouts or a longer run")
     errors = rng.normal(0.0, stamp_error_rms, n_dropouts + 1)
+    if running_clock:
+        if fs_nominal is None:
+            raise ConfigError("a running clock needs the nominal rate", where={"key": "fs_nominal"})
+        segments = []
+        for a, b in zip(starts, stops, strict=True):
+            k = int(np.ceil(a * fs_true))
+            recorded = errors[0] + k / fs_nominal       # first recorded start + counted samples
+            segments.append(ClockSegment(float(true_start + k / fs_true),
+                                         int(np.floor((b - k / fs_true) * fs_true)),
+                                         float(recorded - k / fs_true)))
+        return tuple(segments)
     return tuple(ClockSegment(float(true_start + a), int(np.floor((b - a) * fs_true)), float(e))
                  for a, b, e in zip(starts, stops, errors, strict=True))

@@ -75,7 +75,14 @@ class Imperfections:
     bridge_drift : float, default 1
         Scale of the strain bridges' residual zero offsets and thermal drift (1 = typical).
     speed_wander : float, default 0.004
-        Relative amplitude of the slow speed wander that makes cycles uneven (1).
+        Relative amplitude of the slow speed wander that makes cycles uneven (1); 0 gives an
+        exactly periodic drive (a speed-controlled machine).
+    stamp_offset_s : float, default 0
+        Extra error (s) of every start stamp of WLS #1 that its scene does not declare (a
+        wrong host clock: the profile says 0.1 s).
+    running_clock : bool, default False
+        True: the wireless carriers' clocks run on through each dropout (no task restart; the
+        samples after it are stamped by counting).
     """
 
     start_offset_s: float = 1.5
@@ -89,6 +96,8 @@ class Imperfections:
     torque_split: float = 0.03
     bridge_drift: float = 1.0
     speed_wander: float = 0.004
+    stamp_offset_s: float = 0.0
+    running_clock: bool = False
 
     @classmethod
     def none(cls) -> Imperfections:
@@ -98,7 +107,7 @@ class Imperfections:
     def check(self) -> None:
         """Raise ConfigError for a negative level or a probability above 1."""
         for name, value in vars(self).items():
-            if value < 0:
+            if value < 0 and name != "stamp_offset_s":
                 raise ConfigError(f"imperfection {name} must be >= 0, got {value}",
                                   where={"key": name})
         if self.missing_pulse_probability >= 1:
@@ -246,7 +255,11 @@ def _clocks(settings: RigSettings, rng: np.random.Generator) -> dict[str, Device
         fs_true = FS_WLS * (1.0 + drift * 1e-6)
         start = rng.uniform(-1.0, 1.0) * imp.start_offset_s
         segments = dropout_segments(start, settings.duration, fs_true, imp.dropouts,
-                                    imp.stamp_error_s, rng)
+                                    imp.stamp_error_s, rng, running_clock=imp.running_clock,
+                                    fs_nominal=FS_WLS)
+        if name == "wls1" and imp.stamp_offset_s:
+            segments = tuple(replace(seg, stamp_error=seg.stamp_error + imp.stamp_offset_s)
+                             for seg in segments)
         clocks[name] = DeviceClock(FS_WLS, drift, segments)
     # WLS #2 is logged on a second laptop whose clock is off: every stamp it writes is shifted.
     host = float(rng.uniform(-1.0, 1.0) * imp.host_clock_s)

@@ -21,9 +21,10 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from scipy.stats import t as student_t
 
 from rigval.acquisition.channel_map import ChannelSpec
-from rigval.acquisition.devices import get_device
+from rigval.acquisition.devices import get_device, get_module
 from rigval.acquisition.errors import AlignmentError, ChannelNotFoundError, DataError
 from rigval.acquisition.schema import parse_start_time, stream_gaps
 from rigval.processing.align import (
@@ -73,10 +74,15 @@ class MainAngle:
         Reference-clock times in s where the encoder angle is defined.
     phi : numpy.ndarray
         phi_F in rad, increasing, multiples of 2 pi at the reference pulse.
+    zero_u95_s : float, default 0
+        Half-width in s of the 95 % interval of the time at which phi_F = 0 (the mean of the
+        reference pulses: Student t on their scatter, with the bound of sample-switched edges).
+        It shifts every reference event alike, so it adds to every stream's offset interval.
     """
 
     time: np.ndarray
     phi: np.ndarray
+    zero_u95_s: float = 0.0
 
     def times_at(self, angles: np.ndarray) -> np.ndarray:
         """Return the reference times (s) at which phi_F takes the given values (rad)."""
@@ -90,8 +96,19 @@ def _pulses(stream: xr.Dataset, channel: ChannelSpec) -> StreamPulses:
     if threshold is not None:
         band = PULSE_HYSTERESIS * max(abs(threshold), float(np.finfo(float).tiny))
         low, high = threshold - band, threshold + band
-    return stream_pulses(stream, channel.name, polarity=channel.params.get("edge", "rising"),
-                         low=low, high=high)
+    found = stream_pulses(stream, channel.name, polarity=channel.params.get("edge", "rising"),
+                          low=low, high=high)
+    if found.timing_bound_s == 0.0 and channel.module:
+        try:
+            kind = get_module(channel.module).kind
+        except ChannelNotFoundError:
+            kind = "delta-sigma"  # unknown module: trust the edge shape (sample_switched)
+        if kind != "delta-sigma":
+            # No anti-alias filter: an edge faster than the sample clock is interpolated from
+            # samples that do not describe it; half a sample bounds the error.
+            found = dataclasses.replace(found, timing_bound_s=0.5 / float(
+                stream.attrs["fs_nominal"]))
+    return found
 
 
 def _main_angle(scene: Scene, ref: xr.Dataset) -> tuple[MainAngle, StreamPulses]:
@@ -117,7 +134,12 @@ def _main_angle(scene: Scene, ref: xr.Dataset) -> tuple[MainAngle, StreamPulses]
                         "or the encoder counting down)", where={"channel": str(encoder)},
                         hint="validate runs at steady speed; set direction = -1 in the driver "
                              "table of an encoder that counts down")
-    return MainAngle(t, phi), pulses
+    used = pulses.good.size
+    period = float(np.median(np.diff(pulses.good)))
+    scatter_s = float(angle["phi_F"].attrs.get("reference_scatter_rad", 0.0)) / (2 * np.pi) * period
+    mean_u95 = float(student_t.ppf(0.975, used - 1)) * scatter_s / np.sqrt(used)
+    zero_u95 = float(np.hypot(mean_u95, pulses.timing_bound_s))
+    return MainAngle(t, phi, zero_u95), pulses
 
 
 def _residuals(mapped: np.ndarray, events: np.ndarray, period: float, per_revolution: int = 1
@@ -259,14 +281,14 @@ def _stamps_clock(stream: xr.Dataset, coarse: float, window: float) -> ClockMode
                       tolerance, "stamps", tuple(0 for _ in segments))
 
 
-def _fit_clock(events: np.ndarray, found: StreamPulses, ref_bound: float, coarse: float,
+def _fit_clock(events: np.ndarray, found: StreamPulses, coarse: float,
                window: float, groups: Mapping[int, int], pulse: PulseSpec, name: str,
                where: Mapping[str, Any]) -> ClockModel:
     """Fit the stream's clock on its pulses; segments grouped by a running clock first."""
     edges, segments = found.times[~found.spurious], found.segment[~found.spurious]
     key = f"alignment.pulses.{name}"
     kwargs = {"coarse_offset_s": coarse, "max_offset_error_s": window,
-              "timing_bound_s": found.timing_bound_s + ref_bound,
+              "timing_bound_s": found.timing_bound_s,
               "per_revolution": pulse.per_revolution, "where": where,
               "settle_keys": (f"{key}.coarse_offset_s", f"{key}.start_time_uncertainty_s")}
     if len(set(groups.values())) < len(groups):
@@ -278,12 +300,24 @@ def _fit_clock(events: np.ndarray, found: StreamPulses, ref_bound: float, coarse
     return estimate_clock(events, edges, segments, **kwargs)
 
 
-def _segment_table(stream: xr.Dataset, clock: ClockModel, groups: Mapping[int, int],
-                   edges: StreamPulses) -> tuple[dict[str, Any], ...]:
+def _dropped_because(n_edges: int, span: tuple[float, float], events: np.ndarray) -> str:
+    """Why a segment could not be aligned (span: its rough reference-clock times in s)."""
+    if events.size and (span[1] < events[0] or span[0] > events[-1]):
+        return ("not aligned: the segment lies outside the reference record (no reference "
+                "events to match)")
+    if n_edges < 2:
+        return f"not aligned: {n_edges} reference-pulse edges in the segment (need 2)"
+    return (f"not aligned: its {n_edges} reference-pulse edges could not be matched to the "
+            "reference events")
+
+
+def _segment_table(stream: xr.Dataset, clock: ClockModel, edges: StreamPulses,
+                   events: np.ndarray) -> tuple[dict[str, Any], ...]:
     """Per segment: offset, its 95 % interval, clock group, samples and samples dropped (why)."""
     segment = stream["segment"].to_numpy()
     device_time = stream["time"].to_numpy()
     offsets = dict(zip(clock.segments, clock.offsets_s, strict=True))
+    fitted_groups = dict(zip(clock.segments, clock.clock_groups or clock.segments, strict=True))
     u95 = dict(zip(clock.segments, clock.offsets_u95_s or (0.0,) * len(clock.segments),
                    strict=True))
     rows = []
@@ -292,14 +326,14 @@ def _segment_table(stream: xr.Dataset, clock: ClockModel, groups: Mapping[int, i
         aligned = int(s) in offsets
         n_edges = int(np.count_nonzero(edges.segment == s)) if edges.times.size else 0
         rows.append({
-            "segment": int(s), "clock_group": int(groups.get(int(s), int(s))),
+            "segment": int(s), "clock_group": fitted_groups.get(int(s)),
             "device_time_s": [float(device_time[mine][0]), float(device_time[mine][-1])],
             "samples": int(mine.sum()),
             "clock_offset_s": offsets.get(int(s)), "clock_offset_u95_s": u95.get(int(s)),
             "samples_dropped": 0 if aligned else int(mine.sum()),
-            "dropped_because": "" if aligned else (
-                f"not aligned: {n_edges} reference-pulse edges in this segment could not be "
-                "matched to the reference events")})
+            "dropped_because": "" if aligned else _dropped_because(
+                n_edges, (float(device_time[mine][0] + clock.offsets_s[0]),
+                          float(device_time[mine][-1] + clock.offsets_s[0])), events)})
     return tuple(rows)
 
 
@@ -346,7 +380,6 @@ def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
         spurious=int(ref_pulses.spurious.sum()))}
     shown = {reference: (scene.alignment.main_reference_pulse.channel, pulses)}
     ref_start = parse_start_time(ref.attrs["start_time"])
-    ref_bound = ref_pulses.timing_bound_s
     for name, pulse in scene.alignment.pulses.items():
         stream = converted[name]
         coarse, window, source = _coarse_offset(stream, ref, ref_start, pulse)
@@ -360,7 +393,7 @@ def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
             diagnostics[name] = dataclasses.replace(
                 diagnostics[name], method="stamps", start_time_uncertainty_s=window,
                 coarse_offset_s=coarse, coarse_offset_source=source,
-                segment_table=_segment_table(stream, clock, groups, _NO_EDGES))
+                segment_table=_segment_table(stream, clock, _NO_EDGES, np.zeros(0)))
             continue
         assert pulse.channel is not None  # the scene requires it with method = "pulses"
         channel = pulse.channel.channel
@@ -369,7 +402,9 @@ def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
         events = reference_event_times(main.time, main.phi, event_angle=pulse.angle,
                                        events_per_rev=pulse.per_revolution)
         where = {"stream": name, "channel": channel}
-        clock = _fit_clock(events, found, ref_bound, coarse, window, groups, pulse, name, where)
+        clock = _fit_clock(events, found, coarse, window, groups, pulse, name, where)
+        clock = dataclasses.replace(clock, offsets_u95_s=tuple(
+            float(np.hypot(u, main.zero_u95_s)) for u in clock.offsets_u95_s))
         aligned[name] = align_stream(stream, clock, name=name)
         mapped = clock.to_reference(edges, segments)
         ok = np.isfinite(mapped)
@@ -382,8 +417,7 @@ def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
             matched=int(matched.sum()), missing=max(int(inside.sum()) - int(matched.sum()), 0),
             spurious=int((~matched).sum() + found.spurious.sum())),
             start_time_uncertainty_s=window, coarse_offset_s=coarse,
-            coarse_offset_source=source, segment_table=_segment_table(stream, clock, groups,
-                                                                      found))
+            coarse_offset_source=source, segment_table=_segment_table(stream, clock, found, events))
         shown[name] = (channel, mapped[ok])
     half_width = PULSE_WINDOW * period
     centre = _common_pulse(pulses, [d.span_s for d in diagnostics.values()], half_width)
