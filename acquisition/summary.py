@@ -23,11 +23,13 @@ __all__ = ["describe"]
 
 def _describe_tdms(path: Path, **options: Any) -> dict[str, Any]:
     """Describe a TDMS file from its segment metadata."""
-    from rigval.acquisition.tdms import plan_tdms, warn_about_plans
+    from rigval.acquisition.tdms import _raise_empty, plan_tdms, warn_about_plans
     from rigval.acquisition.tdms_layout import object_path_parts, scan_tdms
 
     layout = scan_tdms(path)
     plans = plan_tdms(layout, **options)
+    if not plans:
+        _raise_empty(layout)  # as read() does: no samples is an error, never an empty listing
     warn_about_plans(layout, plans)
     skipped = sorted({object_path_parts(p)[0] for p in layout.channels}
                      - {p.group for p in plans})
