@@ -82,6 +82,9 @@ class ChannelGuess:
         Last minus first count (encoders only).
     output_units : str
         Output unit of a ``linear`` channel guessed from its name (``""``: unknown).
+    index_counts : int
+        Encoders whose counter falls back to 0 once per turn (the index pulse Z reloads it):
+        the counts per turn, 0 for none.
     """
 
     name: str
@@ -93,6 +96,7 @@ class ChannelGuess:
     rising_edges: int = 0
     counts_span: float = 0.0
     output_units: str = ""
+    index_counts: int = 0
 
 
 @dataclass(frozen=True)
@@ -207,11 +211,15 @@ def classify_channel(name: str, values: np.ndarray, units: str, time: np.ndarray
     integer = finite.size > 0 and bool(np.all(finite == np.round(finite)))
     two_level = integer and np.unique(finite).size == 2
     if units in ("1", "") and integer and not two_level:
-        span = float(finite[-1] - finite[0]) if finite.size else 0.0
+        steps = np.diff(finite)
+        resets = int(np.sum(steps < -0.5 * (finite.max() - finite.min())))
+        index = int(finite.max()) + 1 if resets and finite.min() >= 0 else 0
+        span = float(_unwrap(finite, index)[-1] - finite[0]) if finite.size else 0.0
         moved = "" if span else "; it never counts in this file"
+        reloads = f"; {resets} reloads to 0 (index pulse)" if index else ""
         return ChannelGuess(scene, name, units, "encoder", "encoder",
-                            f"integer counts without a unit (a counter){moved}",
-                            counts_span=span), np.empty(0)
+                            f"integer counts without a unit (a counter){moved}{reloads}",
+                            counts_span=span, index_counts=index), np.empty(0)
     edges, mid = _rising_edges(values.astype(np.float64), time)
     if edges.size >= 2 and mid <= PULSE_MID_FRACTION:
         return ChannelGuess(scene, name, units, "pulse", "reference_pulse",
@@ -432,6 +440,9 @@ def _channel_table(w: _Writer, stream: StreamGuess, channel: ChannelGuess,
         w.key("module", "NI 9237", "bridge ratios at a 50 kS/s / n rate: input delay removed")
     w.key("sensor", channel.sensor, f"guessed: {channel.reason}")
     if channel.sensor == "encoder":
+        if channel.index_counts:
+            w.key("index_reset", True, f"the counts fall back to 0 every {channel.index_counts} "
+                                       "counts: the index pulse reloads the counter")
         if main_cpr:
             w.todo("counts_per_rev", f"after x4 decoding; {main_cpr} counts per main-shaft "
                                      "revolution in this file")
@@ -468,12 +479,25 @@ def _channel_table(w: _Writer, stream: StreamGuess, channel: ChannelGuess,
         w.todo("excitation", "V, bridge excitation (the channel holds volts)")
 
 
+def _unwrap(counts: np.ndarray, index_counts: int) -> np.ndarray:
+    """Return the counts with the index reloads undone (``index_counts`` per turn; 0: none)."""
+    if not index_counts or counts.size < 2:
+        return counts
+    drops = np.diff(counts) < -0.5 * index_counts
+    return counts + index_counts * np.concatenate([[0], np.cumsum(drops)])
+
+
+def _encoder(stream: StreamGuess, name: str) -> ChannelGuess:
+    return next(c for c in stream.channels if c.name == name)
+
+
 def _counts_per_pulse(stream: StreamGuess, encoder: str, pulse: str) -> int | None:
     """Median count increment between consecutive pulses (same stream), or None."""
     edges = stream.pulse_times.get(pulse)
     counts = stream.encoder_counts.get(encoder)
     if edges is None or counts is None or edges.size < 2:
         return None
+    counts = _unwrap(counts, _encoder(stream, encoder).index_counts)
     time = np.arange(counts.size) / stream.fs
     steps = np.abs(np.diff(np.interp(edges, time, counts)))
     value = float(np.median(steps))
@@ -569,7 +593,7 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
     w.key("interpolation", "cubic")
     w.key("min_cycles", 3)
     w.line()
-    _model(w, reference, mech, notes)
+    _model(w, reference, mech, notes, main_pulse)
     units_of = {(s.name, c.name): _SENSOR_UNITS[c.sensor]({
         "units": c.output_units if c.sensor == "linear" else c.units, "youngs_modulus": TODO})
                 for s in streams for c in s.channels if c.role == "sensor"
@@ -645,8 +669,28 @@ def _alignment(w: _Writer, streams: Sequence[StreamGuess], reference: StreamGues
         w.line()
 
 
+def _past_index(stream: StreamGuess, encoder: ChannelGuess, pulse: ChannelGuess | None
+                ) -> float | None:
+    """Angle (rad) from an index-reset encoder's index to the reference pulse, or None.
+
+    The counts at the pulse edges after the first reload, as angles on the circle of
+    ``index_counts``, averaged on the circle.
+    """
+    if pulse is None or not encoder.index_counts:
+        return None
+    counts = stream.encoder_counts[encoder.name]
+    edges = stream.pulse_times.get(pulse.name, np.empty(0))
+    drops = np.flatnonzero(np.diff(counts) < -0.5 * encoder.index_counts)
+    edges = edges[edges * stream.fs > drops[0] + 1]
+    if not edges.size:
+        return None
+    at = counts[np.minimum(np.round(edges * stream.fs).astype(int), counts.size - 1)]
+    mean = np.mean(np.exp(2j * np.pi * at / encoder.index_counts))
+    return float(np.mod(np.angle(mean), 2.0 * np.pi))
+
+
 def _model(w: _Writer, reference: StreamGuess | None, mech: tuple[str, Any] | None,
-           notes: list[str]) -> None:
+           notes: list[str], main_pulse: ChannelGuess | None = None) -> None:
     w.line("[model]")
     encoders = reference.of_role("encoder") if reference else []
     if mech is None:
@@ -673,8 +717,16 @@ def _model(w: _Writer, reference: StreamGuess | None, mech: tuple[str, Any] | No
         notes.append(f"angle_at_reference of {driver.name}: {estimate:.6g} rad from the drive "
                      f"law of {Path(mechanism.source).name} (the angle when "
                      f"{drivers[0].name} passes theta0); check against the rig")
-        counts = reference.encoder_counts.get(encoder.name)  # type: ignore[union-attr]
-        trend = float(counts[-1] - counts[0]) if counts is not None and counts.size else 0.0
+        past_index = _past_index(reference, encoder, main_pulse)
+        if past_index is not None:
+            w.line(f"# {encoder.name} reloads at its index: the reference pulse fires "
+                   f"{past_index:.6g} rad (in counting direction) past the index, so "
+                   "angle_at_reference = the driver's angle at the index + direction x "
+                   f"{past_index:.6g}")
+            notes.append(f"angle_at_reference of {driver.name}: its angle at the index of "
+                         f"{encoder.name} + direction x {past_index:.6g} rad (from the counts at "
+                         "the reference pulses)")
+        trend = encoder.counts_span
         direction = -1 if trend * driver.omega < 0 else 1
         w.key("direction", direction, "from the counts' trend and the law's speed"
               if trend else "the counts do not move in this file: check")

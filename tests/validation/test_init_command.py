@@ -202,3 +202,28 @@ def test_lvm_in_g_becomes_a_linear_scale_to_m_s2(realdata_dir: Path, tmp_path: P
     np.testing.assert_allclose(out["ay"].to_numpy(), raw["ay"].to_numpy() * 9.80665,
                                rtol=1e-12)
     assert out["ay"].attrs["units"] == "m s-2"
+
+
+def test_index_reset_encoder_gives_the_pulse_angle_past_the_index(tmp_path: Path,
+                                                                  capsys) -> None:
+    from rigval.sample_data import RigSettings, simulate_rig
+
+    files = simulate_rig(tmp_path / "rig", RigSettings(speed=0.8, duration=8.0, seed=4,
+                                                       index_reset=True))
+    truth = json.loads(files.path("truth.json").read_text())
+    scene = tmp_path / "scene.toml"
+    assert main(["init", str(files.path("cdaq.tdms")), "--out", str(scene),
+                 "--mechanism", "builtin:pendulum"]) == EXIT_OK
+    out = capsys.readouterr().out
+    doc = tomllib.loads(scene.read_text())
+    (stream,) = doc["streams"].values()  # one file: named after it
+    assert stream["channels"]["enc1"]["index_reset"] is True
+    assert "index_reset" not in stream["channels"]["enc2"]
+    assert "8192 counts per main-shaft revolution" in scene.read_text()
+    match = re.search(r"its angle at the index of enc1 \+ direction x ([0-9.e-]+) rad", out)
+    assert match, out
+    index_angle = truth["streams"]["cdaq"]["channels"]["enc1"]["sensor"]["index_angle"]
+    expected = np.mod(truth["angle_at_reference"]["theta_F"] - index_angle, 2 * np.pi)
+    # the pulse edge is known to a sample: 8192 x 0.8 / 5000 = 1.3 counts, 1.0e-3 rad
+    error = np.angle(np.exp(1j * (float(match.group(1)) - expected)))
+    assert abs(error) < 2e-3
