@@ -198,7 +198,9 @@ class StreamSpec:
 def _check_value(value: Any, rule: _Param, key: str) -> Any:
     """Validate one parameter value; return it normalised (floats for numbers)."""
     def fail(expected: str) -> SceneError:
-        return SceneError(f"{key} must be {expected}, got {value!r}", where={"key": key})
+        return SceneError(f"{key} must be {expected}, got {value!r}", where={"key": key},
+                          hint="write the sensor's calibration value in SI units (docs/scene.md "
+                               "lists each sensor's keys)")
 
     if rule.kind == "bool":
         if not isinstance(value, bool):

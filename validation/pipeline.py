@@ -73,6 +73,7 @@ from rigval.validation.results import (
     ValidationResult,
 )
 from rigval.validation.scene import ComparisonSpec, Scene, load_scene
+from rigval.validation.scene_rates import check_sample_rates, encoder_scale_errors
 from rigval.validation.verdict import carried_uncertainty
 
 __all__ = ["read_streams", "run_scene", "validate_scene"]
@@ -355,9 +356,10 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
         raw = read_streams(scene)
+        check_sample_rates(scene, raw)
     with watch.stage("convert"):
         converted = {name: convert_stream(raw[name], spec) for name, spec in scene.streams.items()}
-    with watch.stage("align"):
+    with watch.stage("align"), encoder_scale_errors(scene):
         aligned, diagnostics, main = align_streams(scene, converted)
     with watch.stage("angle"):
         grid = _grid(scene, main)
@@ -365,7 +367,7 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         for comparison in scene.comparisons:
             measured[comparison.name], corners[comparison.name] = _resample_channel(
                 scene, comparison, aligned[comparison.measured.stream], main)
-    with watch.stage("model"):
+    with watch.stage("model"), encoder_scale_errors(scene):
         mechanism = load_mechanism(scene.mechanism)
         fine = run_model(scene, mechanism, aligned[scene.alignment.reference], grid.fine_times,
                           grid.fine_angle)

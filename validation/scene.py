@@ -35,6 +35,7 @@ from rigval.acquisition.channel_map import ChannelSpec, StreamSpec, parse_stream
 from rigval.acquisition.errors import ConfigError, MechanismError, SceneError, UnitError
 from rigval.model.mechanism import builtin_mechanism, load_mechanism
 from rigval.validation.metrics import DEFAULT_METRICS, METRICS, compare
+from rigval.validation.note import read_note
 from rigval.validation.thresholds import parse_threshold
 from rigval.validation.units import dimension, multiply
 
@@ -490,6 +491,9 @@ def _get(table: Mapping[str, Any], name: str, key: str, kind: type | tuple[type,
         raise _error(path, f"expected {_kind_name(kind)}, got {type(value).__name__} {value!r}")
     if choices is not None and value not in choices:
         raise _error(path, f"expected one of {', '.join(map(repr, choices))}, got {value!r}")
+    if isinstance(value, float) and not math.isfinite(value):  # TOML has nan and inf
+        raise _error(path, f"must be a finite number, got {value!r}",
+                     hint="write a finite number (TOML's nan and inf are not values here)")
     return value
 
 
@@ -504,6 +508,13 @@ def _file(scene_dir: Path, value: str, key: str) -> Path:
     if not path.is_file():
         raise _error(key, f"file not found: {path}",
                      hint="paths in a scene are relative to the scene file; check the name")
+    return path
+
+
+def _note(scene_dir: Path, value: str) -> Path:
+    """Return the note file after checking it is a note (regular UTF-8 text, at most 64 KiB)."""
+    path = _file(scene_dir, value, "note")
+    read_note(path)
     return path
 
 
@@ -533,6 +544,22 @@ def _ref(value: Any, key: str, streams: Mapping[str, StreamSpec],
     return ChannelRef(stream, channel)
 
 
+#: Fewest encoder counts per revolution (after x4 decoding): the drive speed and acceleration are
+#: filtered at 8 harmonics of the revolution (processing.excitation), which takes at least two
+#: counts per period of the 8th harmonic.
+MIN_COUNTS_PER_REV = 16
+
+
+def _check_channel_numbers(channel: ChannelSpec) -> None:
+    """Range checks of channel-map numbers that depend on the scene's use of them."""
+    counts = channel.params.get("counts_per_rev")
+    if channel.sensor == "encoder" and counts is not None and counts < MIN_COUNTS_PER_REV:
+        raise _error(f"{channel.key}.counts_per_rev",
+                     f"must be at least {MIN_COUNTS_PER_REV}, got {counts}",
+                     hint="give the encoder's counts per revolution after x4 decoding (lines "
+                          "per revolution times 4), e.g. 8192 for a 2048-line encoder")
+
+
 def _streams(doc: Mapping[str, Any], scene_dir: Path) -> dict[str, StreamSpec]:
     """Parse ``[streams]`` with the acquisition channel map; check files and units here."""
     streams = parse_streams(_get(doc, "streams", "", dict), base_dir=scene_dir)
@@ -546,6 +573,7 @@ def _streams(doc: Mapping[str, Any], scene_dir: Path) -> dict[str, StreamSpec]:
                 dimension(channel_units(channel))
             except UnitError as error:
                 raise _error(f"{channel.key}.units", error.message, hint=error.hint) from None
+            _check_channel_numbers(channel)
     return {name: dataclasses.replace(spec, file=spec.file.resolve())
             for name, spec in streams.items()}
 
@@ -580,7 +608,8 @@ def _alignment(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> Ali
                            streams, ("reference_pulse",))
         per_rev = _get(entry, "per_revolution", pkey, int, 1)
         if per_rev < 1:
-            raise _error(f"{pkey}.per_revolution", f"must be at least 1, got {per_rev}")
+            raise _error(f"{pkey}.per_revolution", f"must be at least 1, got {per_rev}",
+                         hint="count the pulses the sensor gives per main-shaft revolution")
         uncertainty = _get(entry, "start_time_uncertainty_s", pkey, float, None)
         if uncertainty is not None and not 0.0 < uncertainty < float("inf"):
             raise _error(f"{pkey}.start_time_uncertainty_s",
@@ -985,7 +1014,7 @@ def parse_scene(text: str, path: str | Path, *, names: MechanismNames | None = N
         path=path, text=text, sha256=hashlib.sha256(text.encode()).hexdigest(),
         title=_get(doc, "title", "", str, path.stem),
         mechanism=_mechanism_path(scene_dir, _get(doc, "mechanism", "", str), "mechanism"),
-        note=_file(scene_dir, note, "note") if note is not None else None,
+        note=_note(scene_dir, note) if note is not None else None,
         streams=MappingProxyType(streams), alignment=alignment,
         angle=_angle(doc), model=_model(doc, streams, alignment.reference),
         comparisons=comparisons,
