@@ -34,8 +34,10 @@ from rigval.validation import plots
 from rigval.validation.html import Page
 from rigval.validation.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
+from rigval.validation.note import read_note
 from rigval.validation.outputs import atomic_output, write_text_atomic
 from rigval.validation.results import ComparisonResult, ValidationResult
+from rigval.validation.scene import Scene
 from rigval.validation.verdict import run_verdict
 
 __all__ = ["rigval_version", "write_metrics", "write_netcdf", "write_report"]
@@ -247,9 +249,18 @@ def _summary(page: Page, result: ValidationResult, status: str) -> None:
         "revolutions compared": result.n_cycles,
         "mean main-shaft speed [rev/s]": result.speed_rev_s,
     })
-    if scene.note is not None:
-        page.preformatted(scene.note.read_text(encoding="utf-8", errors="replace"))
+    note = _note_block(scene)
+    if note is not None:
+        page.paragraph(note[0])
+        page.preformatted(note[1])
     page.table(_summary_rows(result), caption="comparisons")
+
+
+def _note_block(scene: Scene) -> tuple[str, str] | None:
+    """Return the note's source line and text, or None without a note."""
+    if scene.note is None:
+        return None
+    return f"Operator's note, from {scene.note}:", read_note(scene.note)
 
 
 def _comparisons(page: Page, result: ValidationResult) -> None:
