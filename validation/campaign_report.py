@@ -209,11 +209,51 @@ def write_campaign_report(outcomes: Sequence[RunOutcome], out_dir: str | Path, *
     return files
 
 
+def run_reason(outcome: RunOutcome, *, limit: int = 3) -> str:
+    """Return why a run did not pass, in one line ("" for a run that passed).
+
+    Parameters
+    ----------
+    outcome : RunOutcome
+        The run.
+    limit : int
+        Missed thresholds listed before "and N more".
+
+    Returns
+    -------
+    str
+        For an error its class, message and place; for a failed run the missed thresholds
+        (comparison, metric, value and what it needed).
+    """
+    if outcome.error is not None:
+        where = ", ".join(f"{k}: {v}" for k, v in outcome.error.where.items())
+        text = " ".join(f"{outcome.error.kind}: {outcome.error.message}".split())
+        return text + (f" ({where})" if where else "")
+    missed = [row for row in outcome.metrics
+              if row.get("row", "model") == "model" and row.get("passed") is False]
+    if outcome.status != "failed" and not missed:
+        return ""
+    parts = []
+    for row in missed[:limit]:
+        value = row.get("value")
+        shown = f"{value:.4g}" if isinstance(value, int | float) else str(value)
+        parts.append(f"{row.get('comparison')} {row.get('metric')} {shown} "
+                     f"(needs {row.get('threshold')})")
+    if len(missed) > limit:
+        parts.append(f"and {len(missed) - limit} more")
+    return "missed " + "; ".join(parts) if parts else "a threshold was missed"
+
+
 def _vv20_detected(outcome: RunOutcome) -> list[str]:
     """Comparisons of a run whose V&V 20 curve verdict is "model error detected"."""
     return [row["comparison"] for row in outcome.metrics
             if row.get("row") == "model" and row.get("metric") == "vv20.curve.detected"
             and row.get("value") is True]
+
+
+#: The scores shown first in the per-comparison tables; the others are folded.
+_KEY_METRICS = ("iso18571_periodic.rating", "iso18571_periodic.grade", "nrmse", "pearson_r",
+                "vv20.curve.error", "vv20.curve.u_val", "vv20.curve.detected")
 
 
 def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: Path,
@@ -238,7 +278,7 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
                      _vv20_detected(o)) if _vv20_detected(o) else "not detected"),
                  "speed [rev/s]": o.speed_rev_s,
                  "time [s]": o.elapsed_s, "CPU [s]": o.cpu_s, "reused": o.reused,
-                 "error": o.error.kind if o.error else None} for o in outcomes], digits=3)
+                 "reason": run_reason(o) or None} for o in outcomes], digits=3)
     links = []
     for outcome in outcomes:
         report = outcome.output(".html")
@@ -264,7 +304,8 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
                 cells = {m: (t if isinstance(t, str) else v) for m, v, t in
                          zip(metrics["metric"], metrics["value"], metrics["text"], strict=True)}
                 rows.append({"run": run, "speed [rev/s]": speed, **cells})
-            page.table(rows, caption=str(comparison), digits=3)
+            page.wide_table(rows, key=["run", "speed [rev/s]", *_KEY_METRICS],
+                            caption=str(comparison), digits=3)
 
     errors = [o for o in outcomes if o.error is not None]
     if errors:

@@ -221,6 +221,41 @@ class Page:
             markup = f"<details><summary>{escape(collapsed)}</summary>{markup}</details>"
         self._parts.append(markup)
 
+    def wide_table(self, rows: Sequence[Mapping[str, Any]], *, key: Sequence[str],
+                   caption: str | None = None, digits: int = 4, max_rows: int = 40) -> None:
+        """Add a table too wide (or long) to read: the key columns, the whole table folded.
+
+        Parameters
+        ----------
+        rows : sequence of mapping
+            Row values by column name.
+        key : sequence of str
+            The columns shown first (those present in the rows, in this order).
+        caption : str, optional
+            Table caption.
+        digits : int
+            Significant digits for real numbers.
+        max_rows : int
+            A table with more rows is folded entirely (its key columns too).
+        """
+        columns = list(dict.fromkeys(k for row in rows for k in row))
+        shown = [c for c in key if c in columns]
+        rest = len(columns) - len(shown)
+        long = len(rows) > max_rows
+        if rest == 0 and long:
+            self.table(rows, columns=columns, caption=caption, digits=digits,
+                       collapsed=f"{caption or 'table'}: all {len(rows)} rows")
+        elif rest > 0 or long:
+            if shown:
+                self.table(rows, columns=shown, caption=caption, digits=digits,
+                           collapsed=f"{caption or 'table'}: the key columns of {len(rows)} "
+                                     "rows" if long else None)
+            self.table(rows, columns=columns, digits=digits,
+                       collapsed=f"all {len(columns)} columns of {len(rows)} rows"
+                                 + (f" ({caption})" if caption else ""))
+        else:
+            self.table(rows, columns=columns, caption=caption, digits=digits)
+
     def figure(self, fig: Figure, *, caption: str | None = None, alt: str | None = None,
                fmt: Literal["png", "svg"] = "png", dpi: float = 96) -> None:
         """Embed a matplotlib figure (base64 PNG or inline SVG) with an optional caption.

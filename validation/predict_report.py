@@ -449,7 +449,8 @@ def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
                     "elapsed [s]": sweep.attrs.get("elapsed_s"),
                     "points per cycle": sweep.attrs.get("n_points")})
         page.figure(_sweep_figure(sweep), caption="sweep summaries")
-        page.table(table.to_dict("records"), caption="sweep summaries per point")
+        page.wide_table(table.to_dict("records"), key=list(table.columns),
+                        caption="sweep summaries per point (also in sweep.csv)")
     # every file under a temporary name first: a failure leaves no half-written folder
     with StagedOutputs(out) as stage:
         cycles.to_csv(stage.path(files.cycle_csv), index=False)

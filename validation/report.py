@@ -274,7 +274,10 @@ def _comparisons(page: Page, result: ValidationResult) -> None:
     for comparison, figure in zip(result.comparisons, figures, strict=True):
         page.section(f"{comparison.name}: {comparison.spec.measured_text} against "
                      f"{comparison.spec.model}", level=3)
-        page.facts({"scale": f"{comparison.spec.scale:g} {comparison.spec.scale_units}",
+        scale, scale_units = comparison.spec.scale, comparison.spec.scale_units
+        # a scale of 1 is the default: the summary table's column shows it once for all
+        page.facts({**({} if (scale, scale_units) == (1.0, "1") else {
+                        "scale": f"{scale:g}" + ("" if scale_units == "1" else f" {scale_units}")}),
                     "low-pass [Hz]": comparison.spec.lowpass_hz,
                     "model offset added": f"{comparison.offset:.4g} {comparison.units}"
                     if comparison.spec.remove_offset else "none"})

@@ -8,9 +8,12 @@ completed); 2 a usage error (e.g. ``--scheduler`` needs Dask and it is not insta
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
+import signal
 import sys
 import time
+from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any, TextIO
 
 if TYPE_CHECKING:
@@ -47,7 +50,8 @@ def add_parser(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the campaign and return the exit code (see the module docstring)."""
     from rigval.validation.campaign import dask_available, run_campaign
-    from rigval.validation.campaign_report import write_campaign_report
+    from rigval.validation.campaign_report import run_reason, write_campaign_report
+    from rigval.validation.console import progress_display
 
     # Dask logs its cluster's start and stop at INFO; show that only with -vv. Importing
     # distributed (dask_available does) sets its loggers' levels, so this comes after.
@@ -57,11 +61,14 @@ def run(args: argparse.Namespace) -> int:
     logging.getLogger("distributed").setLevel(logging.INFO if verbose else logging.WARNING)
 
     progress = _ProgressLine(len(args.scenes), sys.stderr,
-                             enabled=not args.no_progress and sys.stderr.isatty())
+                             enabled=not (args.no_progress or getattr(args, "quiet", False))
+                             and sys.stderr.isatty())
     start = time.perf_counter()
     try:
-        outcomes = run_campaign(args.scenes, args.out, scheduler=args.scheduler,
-                                workers=args.workers, force=args.force, on_result=progress.update)
+        with progress_display(progress), _quiet_interrupt():
+            outcomes = run_campaign(args.scenes, args.out, scheduler=args.scheduler,
+                                    workers=args.workers, force=args.force,
+                                    on_result=progress.update)
     finally:
         progress.close()
     workers = {"none": "1 (this process)", "local": args.workers or "one per CPU, at most one "
@@ -71,14 +78,61 @@ def run(args: argparse.Namespace) -> int:
     files = write_campaign_report(outcomes, args.out, title=args.title, details=details)
     _print_runs(outcomes)
     errors = [o for o in outcomes if o.status == "error"]
-    for outcome in errors:
-        print(f"rigval: run {outcome.name}: {outcome.error}", file=sys.stderr)
+    for outcome in outcomes:  # why each run that did not pass did not
+        reason = run_reason(outcome)
+        if reason:
+            word = "error" if outcome.status == "error" else "failed"
+            print(f"rigval: run {outcome.name} {word}: {reason}", file=sys.stderr)
     failed = sum(o.status == "failed" for o in outcomes)
     print(f"{len(outcomes) - failed - len(errors)} passed, {failed} failed, {len(errors)} errors; "
           f"summary: {files.html}")
     if errors:
         return 3
     return 1 if failed else 0
+
+
+@contextlib.contextmanager
+def _quiet_interrupt() -> Iterator[None]:
+    """Make Ctrl-C end the campaign with one line ("rigval: interrupted", printed by the CLI).
+
+    On the first SIGINT the shutdown's own messages (Dask's cancelled tasks and closing
+    comms, warnings of the runs that were cut off) are silenced before KeyboardInterrupt is
+    raised in the main thread.
+    """
+    from rigval.validation.console import silence
+
+    def interrupted(signum: int, frame: Any) -> None:
+        silence()
+        for name in ("distributed", "tornado", "asyncio", "rigval"):
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+        _stop_workers()
+        raise KeyboardInterrupt
+
+    try:
+        previous = signal.signal(signal.SIGINT, interrupted)
+    except ValueError:  # not the main thread (e.g. called from a worker): leave Ctrl-C alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _stop_workers() -> None:
+    """Kill this process's children (the embedded cluster's workers) before they log the end.
+
+    Their runs are lost either way; killed, they cannot print Dask's CancelledError and
+    heartbeat messages. Without psutil (no Dask installed) there are no such children.
+    """
+    try:
+        import psutil
+    except ImportError:
+        return
+    for child in psutil.Process().children(recursive=True):
+        with contextlib.suppress(psutil.Error):
+            if "resource_tracker" not in " ".join(child.cmdline()):  # it cleans up after them
+                child.kill()
 
 
 def _positive_int(text: str) -> int:
@@ -106,6 +160,16 @@ class _ProgressLine:
         self.total, self.stream, self.enabled = total, stream, enabled
         self.counts = {"passed": 0, "failed": 0, "error": 0}
         self.start = time.perf_counter()
+        self._show()
+
+    def clear(self) -> None:
+        """Erase the line (a warning is printed in its place, then :meth:`redraw`)."""
+        if self.enabled:
+            self.stream.write("\r\033[K")
+            self.stream.flush()
+
+    def redraw(self) -> None:
+        """Draw the line again."""
         self._show()
 
     def update(self, outcome: RunOutcome) -> None:
