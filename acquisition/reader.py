@@ -1,8 +1,9 @@
 """The public entry points: read any supported file into its streams.
 
 ``read`` picks the format from the file's content (:func:`~rigval.acquisition.detect.detect_format`)
-and returns **a dict stream name -> Dataset** (one stream per time base, docs/formats.md, *What a stream carries*),
-in file order. ``read_stream`` returns the one stream of a file and refuses files with several.
+and returns **a dict stream name -> Dataset** (one stream per time base, docs/formats.md,
+*What a stream carries*), in file order. ``read_stream`` returns the one stream of a file and
+refuses files with several.
 ``iter_stream`` processes a TDMS stream larger than memory window by window.
 """
 

@@ -63,6 +63,8 @@ _SUPPORTED_SCALES = {"Linear", "Polynomial", "RTD", "Strain", "Table", "Thermist
 _EPOCH_1904 = TdmsStamp(0, 0)
 #: A ``wf_start_offset`` beyond this (s, about 115 days) is taken as damage, not as an offset.
 _MAX_OFFSET_S = 1e7
+#: A ``wf_increment`` outside these bounds (s: 1 THz, about 115 days) is taken as damage.
+_MIN_DT_S, _MAX_DT_S = 1e-12, 1e7
 
 
 @dataclass
@@ -179,7 +181,7 @@ def _channel_time(layout: ChannelLayout, fs: float | None, group_props: Mapping[
         for key, value in marks.items():
             first_marks.setdefault(key, value)
     dt_raw = first_marks.get("wf_increment")
-    if _finite(dt_raw, None) is None or not dt_raw > 0:
+    if _finite(dt_raw, None) is None or not _MIN_DT_S <= dt_raw <= _MAX_DT_S:
         if fs is not None:
             dt = 1.0 / fs
             notes.append(f"no usable wf_increment ({dt_raw!r}): dt = 1/fs from the fs option")
@@ -678,7 +680,8 @@ def read_tdms(path: str | os.PathLike[str], *, group: str | Sequence[str] | None
     Returns
     -------
     dict of str to xarray.Dataset
-        Stream name (the group name) -> stream (docs/formats.md, *What a stream carries*), in file order.
+        Stream name (the group name) -> stream (docs/formats.md, *What a stream carries*), in
+        file order.
 
     Raises
     ------
@@ -729,9 +732,10 @@ def iter_tdms(path: str | os.PathLike[str], *, group: str | None = None,
               fs: float | None = None, checksum: bool = True) -> Iterator[xr.Dataset]:
     """Stream one TDMS stream in windows of ``chunk_samples`` samples, in bounded memory.
 
-    Each window is a stream Dataset (docs/formats.md, *What a stream carries*) whose ``time`` continues the previous
-    one; the attribute ``first_sample`` gives its first sample's index in the stream. Memory stays
-    about ``chunk_samples x channels x 8`` bytes plus one file segment, whatever the file size.
+    Each window is a stream Dataset (docs/formats.md, *What a stream carries*) whose ``time``
+    continues the previous one; the attribute ``first_sample`` gives its first sample's index in
+    the stream. Memory stays about ``chunk_samples x channels x 8`` bytes plus one file segment,
+    whatever the file size.
 
     Parameters
     ----------

@@ -81,8 +81,9 @@ class Result:
     """What one variant did."""
 
     variant: Variant
-    outcome: str  # "read", "rigval error", or the violation kind
+    outcome: str  # "read", "rigval error", or "violation"
     violations: list[str] = field(default_factory=list)
+    peak: int = 0  # tracemalloc peak of the read, bytes
 
 
 # --- sources ----------------------------------------------------------------------------------
@@ -142,7 +143,8 @@ def tdms_variants(path: Path, rng: random.Random, count: int) -> Iterator[Varian
     others = [p for p in sorted(path.parent.glob("*.tdms_index")) if p.stem != path.stem]
     while made < count:
         made += 1
-        kind = rng.choice(["flip", "flip", "zero", "tail", "count", "index"])
+        kind = rng.choice(["flip", "flip", "zero", "tail", "count", "index", "toc", "offset",
+                           "property", "type"])
         part, start, end = rng.choice([p for p in parts if p[2] > p[1]] or [("file", 0, 1)])
         buffer = bytearray(data)
         if kind == "flip":
@@ -166,6 +168,44 @@ def tdms_variants(path: Path, rng: random.Random, count: int) -> Iterator[Varian
             at = rng.randrange(start, end - 7)
             struct.pack_into("<Q", buffer, at, rng.choice([2**31, 2**50, 2**63 - 1]))
             yield Variant(path, f"huge number written in metadata at byte {at}", bytes(buffer))
+        elif kind == "toc":  # one ToC bit of one segment
+            leads = [p for p in parts if p[0] == "lead-in"]
+            at = rng.choice(leads)[1] + 4
+            bit = rng.choice([1, 2, 3, 5, 6, 7])
+            buffer[at] ^= 1 << bit
+            yield Variant(path, f"ToC bit {bit} flipped at byte {at}", bytes(buffer))
+        elif kind == "offset":  # next-segment or raw-data offset moved by a few bytes
+            leads = [p for p in parts if p[0] == "lead-in"]
+            at = rng.choice(leads)[1] + rng.choice([12, 20])
+            endian = "<"
+            value = struct.unpack_from(endian + "Q", buffer, at)[0]
+            struct.pack_into(endian + "Q", buffer, at, max(0, value + rng.choice(
+                [-16, -8, -2, -1, 1, 2, 8, 16, 1 << 20])) & (2**64 - 1))
+            yield Variant(path, f"segment offset changed at byte {at}", bytes(buffer))
+        elif kind == "property":  # a time property set to an odd value
+            name = rng.choice([b"wf_increment", b"wf_start_offset", b"wf_samples"])
+            hits = [m.end() for m in re.finditer(re.escape(name), data)]
+            if not hits:
+                made -= 1
+                continue
+            at = rng.choice(hits) + 4  # after the name: u32 type, then the value
+            if at + 8 > len(buffer):
+                made -= 1
+                continue
+            value = rng.choice([0.0, -1.0, float("nan"), float("inf"), 1e300, 5e-324])
+            big = data[at - 4:at] == b"\x00\x00\x00\x0a"
+            struct.pack_into(">d" if big else "<d", buffer, at, value)
+            yield Variant(path, f"{name.decode()} set to {value} at byte {at}", bytes(buffer))
+        elif kind == "type":  # a raw-data index's data type changed
+            metas = [p for p in parts if p[0] == "metadata" and p[2] - p[1] >= 16]
+            hits = [a + m.start() for _, a, b in metas
+                    for m in re.finditer(rb"\x14\x00\x00\x00", data[a:b])]
+            if not hits:
+                made -= 1
+                continue
+            at = min(rng.choice(hits) + 4, len(buffer) - 4)
+            struct.pack_into("<I", buffer, at, rng.choice([0, 1, 3, 10, 0x20, 0x44, 0x99]))
+            yield Variant(path, f"raw data type changed at byte {at}", bytes(buffer))
         else:
             if not others:
                 made -= 1
@@ -288,7 +328,7 @@ def run_variant(variant: Variant, reference: dict[str, int] | None = None) -> Re
             peak = tracemalloc.get_traced_memory()[1]
             tracemalloc.stop()
     texts = [str(w.message) for w in caught if issubclass(w.category, DataWarning)]
-    result = Result(variant, "read" if error is None else "rigval error")
+    result = Result(variant, "read" if error is None else "rigval error", peak=peak)
     bad = result.violations
     if isinstance(error, _Timeout):
         bad.append(f"hang: no answer within {TIME_LIMIT_S} s")
@@ -398,6 +438,9 @@ def main(argv: list[str] | None = None) -> int:
     print(f"files: {len(files)}, variants: {len(results)}, seed {args.seed}, "
           f"{time.perf_counter() - started:.1f} s")
     print(f"outcomes: {dict(outcomes)}")
+    worst = max(results, key=lambda r: r.peak / max(len(r.variant.data), 1))
+    print(f"largest allocation: {worst.peak} bytes for a {len(worst.variant.data)}-byte file "
+          f"({worst.variant.source.name}; limit {MEMORY_FACTOR} x size + {MEMORY_CONSTANT})")
     print(f"violations: {sum(len(r.violations) for r in results)} {dict(kinds)}")
     return 1 if kinds else 0
 

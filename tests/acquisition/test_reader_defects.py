@@ -290,3 +290,27 @@ def test_csv_all_nan_column_is_kept_and_counted(tmp_path: Path) -> None:
     ds = streams["wls2"]
     assert np.isnan(ds["spare"].values).all() and ds["spare"].attrs["empty_cells"] == 20
     assert any("'spare' holds no finite value" in t for t in texts)
+
+
+# --- found by the fuzz suite ------------------------------------------------------------------
+
+@pytest.mark.parametrize("increment", [5e-324, 1e300, -1.0])
+def test_implausible_wf_increment_falls_back_to_the_sample_index(
+        realdata_dir: Path, tmp_path: Path, increment: float) -> None:
+    source = realdata_dir / "npTDMS/big_endian.tdms"
+    data = source.read_bytes()
+    at = data.index(b"wf_increment") + len(b"wf_increment") + 4  # u32 type code, then the value
+
+    def edit(buffer: bytearray) -> None:
+        struct.pack_into(">d", buffer, at, increment)
+
+    path = _copy(source, tmp_path / "odd_increment.tdms", edit)
+    expected = _nptdms_values(path)
+    streams, texts = _read(path)
+    odd = [ds for ds in streams.values() if ds.attrs["fs_nominal"] == 1.0]
+    assert len(odd) == 1 and odd[0].sizes["time"] == 3500
+    np.testing.assert_array_equal(odd[0].time.values, np.arange(3500.0))
+    name = next(n for n in odd[0].data_vars if n not in ("valid", "segment"))
+    key = next(k for k in expected if k.endswith("/" + name))
+    np.testing.assert_array_equal(odd[0][name].values, expected[key])
+    assert any("time is the sample index" in t for t in texts)
