@@ -5,7 +5,8 @@ written with ``nptdms.TdmsWriter``), warms the page cache, then runs every metho
 :data:`rigval.validation.bench_read_cases.READERS` in its own fresh interpreter (imports done
 before the clock starts) and prints
 
-- the wall time of the read (best of ``--repeat``) and its ratio to nptdms streaming;
+- the wall time of the read (best of ``--repeat``), its ratio to nptdms streaming, and the CPU
+  time of the reading process (all its threads: the SHA-256 runs in a second thread);
 - the growth of the resident memory during the read (peak ``VmHWM`` minus ``VmRSS`` after the
   imports, from ``/proc/self/status``) in MiB and as a multiple of the channels' data
   (samples x channels x 8 bytes);
@@ -69,12 +70,13 @@ def main() -> None:
             results[label] = min((run_reader(label, path) for _ in range(args.repeat)),
                                  key=lambda r: r["time_s"])
         reference = results.get(BASELINE, {}).get("time_s")
-        print(f"{'method':<50}{'time s':>8}{'x nptdms':>9}{'growth MiB':>12}{'x data':>8}"
-              f"{'error':>9}")
+        print(f"{'method':<50}{'time s':>8}{'x nptdms':>9}{'CPU s':>7}{'growth MiB':>12}"
+              f"{'x data':>8}{'error':>9}")
         for label, r in results.items():
             ratio = r["time_s"] / reference if reference else float("nan")
             error = abs(r["total"] - total) / abs(total) if r["count"] == count else 1.0
-            print(f"{label:<50}{r['time_s']:>8.2f}{ratio:>9.2f}{r['peak_mib']:>12.0f}"
+            print(f"{label:<50}{r['time_s']:>8.2f}{ratio:>9.2f}{r['cpu_s']:>7.2f}"
+                  f"{r['peak_mib']:>12.0f}"
                   f"{r['peak_mib'] * 2**20 / data_bytes:>8.2f}{error:>9.1e}")
         for label, r in results.items():
             if label.startswith("rigval read_stream"):
