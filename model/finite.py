@@ -81,6 +81,10 @@ def check_finite(mechanism: Mechanism, motion: DriveMotion, solution: Solution) 
         values = getattr(solution, attribute)
         if values is None:
             continue
+        with np.errstate(over="ignore", invalid="ignore"):
+            total = np.sum(values)
+        if np.isfinite(total):  # one pass, no temporaries: NaN and inf reach the sum
+            continue
         finite = np.isfinite(values).reshape(values.shape[0], -1).all(axis=1)
         if finite.all():
             continue
