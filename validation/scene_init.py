@@ -767,6 +767,10 @@ def _comparisons(w: _Writer, streams: Sequence[StreamGuess],
                     w.key("scale_units", "m-2" if units == "Pa" else "N-1")
             if units == "m s-2":
                 w.key("remove_offset", True, "an accelerometer's zero is unknown")
+            w.key("uncertainty.u_measurement_rel", 0.02,
+                  "sensor calibration (fraction), part of V&V 20 u_val: state yours")
+            w.key('thresholds."vv20.curve.normalised_error"', "<= 2",
+                  "fails when a model error is detected (|E| > 2 u_val)")
             w.line()
     if not any(s.of_role("sensor") for s in streams):
         w.line("# No channel to compare was found; add [[comparisons]] tables.")
