@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import tomllib
@@ -65,3 +66,15 @@ def test_built_wheel_contains_every_package(tmp_path: Path) -> None:
         path = package.replace(".", "/") + "/__init__.py"
         assert path in names, f"{path} missing from {wheel.name}"
         assert package.replace(".", "/") + "/py.typed" in names
+    # the documentation pages travel with the package: `rigval docs TOPIC` works when installed
+    pages = sorted(p.name for p in (REPO / "docs").glob("*.md"))
+    assert pages and all(f"rigval/docs/{page}" in names for page in pages)
+    unpacked = tmp_path / "unpacked"
+    zipfile.ZipFile(wheel).extractall(unpacked)
+    code = ("import sys; from rigval.validation.commands.docs import pages; "
+            "page = pages()['scene']; print(page); sys.stdout.write(page.read_text())")
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                         text=True, check=True, env={**os.environ, "PYTHONPATH": str(unpacked)})
+    where, _, text = out.stdout.partition("\n")
+    assert Path(where).is_relative_to(unpacked)  # read from the wheel, not the source tree
+    assert text == (REPO / "docs" / "scene.md").read_text(encoding="utf-8")
