@@ -49,8 +49,8 @@ EXIT_BUG = 4
 EXIT_INTERRUPTED = 130
 
 #: Subcommand modules in :mod:`rigval.validation.commands`, in the order ``--help`` lists them.
-COMMANDS: tuple[str, ...] = ("validate", "init", "demo", "campaign", "predict", "info",
-                             "simulate_rig", "bench", "docs")
+COMMANDS: tuple[str, ...] = ("validate", "init", "demo", "campaign", "predict", "identify",
+                             "info", "simulate_rig", "bench", "docs")
 
 #: The exit codes every subcommand can return besides its own (appended to each ``--help``).
 COMMON_EXIT_CODES = (f"{EXIT_BUG} internal error (a bug: the traceback is written to a file "
