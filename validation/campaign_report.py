@@ -18,6 +18,7 @@ report folders:
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import logging
 import os
@@ -377,10 +378,14 @@ def open_campaign(directory: str | Path, group: str = "validation", *,
         raise DataFileError("no run of the campaign has a netCDF file", where={"file": index},
                             hint="check the errors in campaign.html; rerun the failed runs")
     has_dask = dask_available()
+    # h5netcdf (the parallel extra) reads from threads safely; the netCDF4 library of a plain
+    # install does not (xarray issues 7079, 8120, 11088), so it opens the files one by one.
+    engine = "h5netcdf" if importlib.util.find_spec("h5netcdf") is not None else "netcdf4"
+    threads = has_dask and engine == "h5netcdf"
     options: dict[str, Any] = {
-        "engine": "netcdf4", "combine": "nested", "concat_dim": "run", "data_vars": "all",
+        "engine": engine, "combine": "nested", "concat_dim": "run", "data_vars": "all",
         "coords": "minimal", "compat": "override", "join": "outer",
-        "parallel": has_dask if parallel is None else parallel,
+        "parallel": threads if parallel is None else parallel and threads,
         "chunks": {} if has_dask else None, "combine_attrs": "drop_conflicts",
     }
     options.update(kwargs)

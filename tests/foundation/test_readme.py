@@ -34,3 +34,32 @@ def test_readme_python_example_runs(capsys: pytest.CaptureFixture[str]) -> None:
     value, unit = capsys.readouterr().out.strip().split(" ", 1)
     # the pendulum's main-drive torque peaks at a few kN m (docs/predict.md: 3289 N m)
     assert unit == "N m" and 1000.0 < float(value) < 10000.0
+
+
+def _smoke_module():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("ci_smoke", REPO / ".ci" / "smoke.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_readme_command_has_a_smoke_run_on_the_plain_install() -> None:
+    smoke = _smoke_module()
+    commands = smoke.readme_commands()
+    table = re.findall(r"^\| `rigval ([a-z-]+)[ `]", (REPO / "README.md").read_text(), re.M)
+    assert commands == table and {"demo", "validate", "predict", "campaign"} <= set(commands)
+    assert set(commands) <= set(smoke.SMOKE) | set(smoke.MAIN_JOB)
+
+
+def test_ci_clears_each_venv_and_runs_main_job_smoke_tests_lint_in_order() -> None:
+    ci = (REPO / ".ci" / "run").read_text().splitlines()
+    demo, tests = _readme_commands()
+    main_job, test_job = ci.index(demo), ci.index(tests)
+    clear = "python3 -m venv --clear .venv"
+    assert ci[main_job - 1] == clear and ci[test_job - 1] == clear
+    smoke = next(i for i, line in enumerate(ci) if line.startswith(".venv/bin/python .ci/smoke.py"))
+    lint = next(i for i, line in enumerate(ci) if line.startswith(".venv/bin/ruff check"))
+    assert main_job < smoke < test_job < lint
