@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import xarray as xr
+from xarray.core.indexing import IndexSelResult  # what Index.sel returns (xarray's API)
 from xarray.indexes import CoordinateTransform, CoordinateTransformIndex, Index, PandasIndex
 
 from rigval.acquisition.timebase import TimeBase
@@ -174,8 +175,6 @@ class BlockTimeIndex(CoordinateTransformIndex):
                 float(label.start))
             stop = self.transform.size if label.stop is None else self.transform.first_after(
                 float(label.stop))
-            from xarray.core.indexing import IndexSelResult
-
             return IndexSelResult({self.dim: slice(start, max(start, stop))})
         return self._pandas().sel(labels, method=method, tolerance=tolerance)
 
