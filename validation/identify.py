@@ -287,8 +287,10 @@ def _project_out(design: _Design, matrix: np.ndarray) -> np.ndarray:
 def _identifiable(design: _Design, candidates: list[str]) -> tuple[list[str], dict[str, str]]:
     """Split candidates into identifiable ones (pivoted QR) and the rest with reasons."""
     index = [design.names.index(n) for n in candidates]
-    scaled = _project_out(design, design.columns[:, index] * design.size[index])
+    raw = design.columns[:, index] * design.size[index]
+    scaled = _project_out(design, raw)
     norms = np.linalg.norm(scaled, axis=0)
+    before = np.linalg.norm(raw, axis=0)
     strongest = float(norms.max()) if norms.size else 0.0
     _, r, pivots = scipy.linalg.qr(scaled, mode="economic", pivoting=True)
     diag = np.abs(np.diag(r))
@@ -298,6 +300,10 @@ def _identifiable(design: _Design, candidates: list[str]) -> tuple[list[str], di
     reasons = {}
     for i, name in enumerate(candidates):
         if i in keep:
+            continue
+        if norms[i] < AUTO_TOLERANCE * strongest <= before[i]:
+            reasons[name] = ("absorbed by the constant offsets the comparisons remove "
+                             "(remove_offset): its effect is nearly constant over a revolution")
             continue
         if strongest == 0 or norms[i] < AUTO_TOLERANCE * strongest:
             reasons[name] = ("no effect on these channels: a change of its typical size moves "
