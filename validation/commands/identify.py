@@ -61,6 +61,7 @@ def write_identification(identification: Any, out_dir: Path) -> list[Path]:
     """
     from rigval.model.mechanism import load_mechanism
     from rigval.validation.identify import apply_parameters, mechanism_toml
+    from rigval.validation.outputs import write_text_atomic
     from rigval.validation.pipeline import run_scene
     from rigval.validation.report import write_report
 
@@ -71,12 +72,12 @@ def write_identification(identification: Any, out_dir: Path) -> list[Path]:
                                 dict(zip(identification.names, identification.value,
                                          strict=True)))
     mechanism_path = out_dir / "mechanism.toml"
-    mechanism_path.write_text(mechanism_toml(document, header=(
+    write_text_atomic(mechanism_path, mechanism_toml(document, header=(
         f"{document.get('name', 'mechanism')}: inertial parameters identified by rigval "
         f"identify\nfrom {scene.path.name} ({', '.join(identification.comparisons)}); see "
-        "identified.json")), encoding="utf-8")
+        "identified.json")))
     json_path = out_dir / "identified.json"
-    json_path.write_text(json.dumps(identification.as_dict(), indent=2) + "\n", encoding="utf-8")
+    write_text_atomic(json_path, json.dumps(identification.as_dict(), indent=2) + "\n")
     identified = run_scene(dataclasses.replace(scene, mechanism=mechanism_path.resolve()))
     written = [json_path, mechanism_path]
     written += write_report(nominal, out_dir / "nominal")

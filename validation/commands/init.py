@@ -37,6 +37,7 @@ def add_parser(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Write the skeleton; return 0."""
     from rigval.acquisition.errors import ConfigError
+    from rigval.validation.outputs import write_text_atomic
     from rigval.validation.scene_init import guess_streams, skeleton_text
 
     if args.out.exists() and not args.force:
@@ -45,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     streams = guess_streams(args.files)
     text, notes = skeleton_text(streams, args.out, args.mechanism)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(text, encoding="utf-8")
+    write_text_atomic(args.out, text)
     for line in notes:
         print(line)
     todo = sum(1 for line in text.splitlines() if '= "TODO' in line)
