@@ -167,3 +167,12 @@ def test_docs_prints_the_shipped_page_and_error_hints_point_to_it(tmp_path: Path
     bad = rigval("validate", str(scene), "--out", str(tmp_path / "out"), cwd=tmp_path)
     assert bad.returncode == 2
     assert "docs/scene.md" in bad.stderr and "rigval docs scene" in bad.stderr
+
+
+@pytest.mark.slow
+def test_demo_quiet_prints_nothing_and_still_writes_the_reports(tmp_path: Path) -> None:
+    result = rigval("demo", "-q", "--out", str(tmp_path / "demo"), cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout == "" and result.stderr == ""
+    assert (tmp_path / "demo" / "index.html").is_file()
+    assert len(list((tmp_path / "demo").glob("*/report.html"))) >= 2
