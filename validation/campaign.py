@@ -48,6 +48,7 @@ import numpy as np
 
 from rigval.acquisition.errors import ConfigError, RigvalError
 from rigval.acquisition.schema import file_sha256
+from rigval.validation.console import run_context
 from rigval.validation.outputs import write_text_atomic
 
 if TYPE_CHECKING:
@@ -329,7 +330,7 @@ def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunctio
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
         (run_dir / MANIFEST_NAME).unlink(missing_ok=True)  # invalid until this run completes
-        with _local_dask():
+        with _local_dask(), run_context(name):  # warnings: one line naming the run
             report = validate(scene, run_dir)
         outcome = RunOutcome(
             name=name, scene=scene, run_dir=run_dir,
