@@ -306,6 +306,8 @@ def _compare_all(scene: Scene, aligned: Mapping[str, xr.Dataset], model: xr.Data
         channel = scene.channel(comparison.measured)
         long_name = str(aligned[comparison.measured.stream][channel.name].attrs.get(
             "long_name", channel.name))
+        if comparison.summed:
+            long_name = comparison.measured_text
         values = model_values(model, comparison.model)
         u_num = errors[comparison.name] * float(np.ptp(values)) * abs(comparison.scale)
         carried = carried_uncertainty(scene, alignment[comparison.measured.stream],

@@ -65,6 +65,7 @@ def test_sum_of_shaft_torques_matches_the_whole_drive_torque(rig_run) -> None:
     _, results = rig_run
     whole, half = results["tor12"].scores, results["tor1"].scores
     assert results["tor12"].spec.measured_text == "wls1.tor1 + wls1.tor2"
+    assert results["tor12"].long_name == "wls1.tor1 + wls1.tor2"
     # within a few % of range, where one shaft against half the torque is off by its share
     assert whole["nrmse"] < 0.03
     assert half["nrmse"] > 2 * whole["nrmse"]
