@@ -276,7 +276,7 @@ def plot_stage(rows: Sequence[BenchRow], stage: str) -> Figure:
             ax.set_ylabel("memory growth during the read, MiB")
             ax.set_title(chosen[0].case, fontsize=9)
         else:
-            unit = chosen[0].unit
+            unit = {"us": "µs"}.get(chosen[0].unit, chosen[0].unit)  # the CSV keeps ASCII
             ax.set_xlabel("CPU time per item, µs")
             ax.set_ylabel(f"error ({unit})" if unit != "1" else "error (relative)")
             limited = any(math.isfinite(r.limit) for r in chosen)

@@ -212,7 +212,7 @@ def _drives_text(result: ValidationResult) -> str:
 
 def _alignment_rows(result: ValidationResult) -> list[dict[str, Any]]:
     return [{"stream": name, "device": a.device, "offset [s]": f"{a.offset_s:.6f}",
-             "drift [ppm]": a.drift_ppm, "residual rms [us]": a.residual_rms_s * 1e6,
+             "drift [ppm]": a.drift_ppm, "residual rms [µs]": a.residual_rms_s * 1e6,
              "pulses matched": a.events_matched, "missing": a.events_missing,
              "spurious": a.events_spurious, "input delay [ms]": a.input_delay_s * 1e3,
              "segments": a.segments, "gaps": len(a.gaps)}
