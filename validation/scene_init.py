@@ -21,6 +21,7 @@ skeleton's comments and printed by ``rigval init``.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import math
@@ -328,6 +329,12 @@ def _guess_stream(name: str, path: Path, ds: xr.Dataset, index: int) -> StreamGu
         values = ds[var].to_numpy().astype(np.float64)
         guess, edges = classify_channel(str(var), values, str(ds[var].attrs.get("units", "")),
                                         time)
+        taken = {c.name for c in channels} | {"reference_pulse"}
+        if guess.name in taken:  # two file names that read the same as scene names
+            suffix = 2
+            while f"{guess.name}_{suffix}" in taken:
+                suffix += 1
+            guess = dataclasses.replace(guess, name=f"{guess.name}_{suffix}")
         channels.append(guess)
         if guess.role == "pulse":
             pulses[guess.name] = edges

@@ -227,3 +227,18 @@ def test_index_reset_encoder_gives_the_pulse_angle_past_the_index(tmp_path: Path
     # the pulse edge is known to a sample: 8192 x 0.8 / 5000 = 1.3 counts, 1.0e-3 rad
     error = np.angle(np.exp(1j * (float(match.group(1)) - expected)))
     assert abs(error) < 2e-3
+
+
+def test_channel_names_that_read_alike_stay_distinct(tmp_path: Path) -> None:
+    from rigval.validation.scene_init import guess_streams, skeleton_text
+
+    csv = tmp_path / "run.csv"
+    rows = ["Time;Dev1/ai0 [V];Dev1 ai0 [V]"]
+    rows += [f"{k / 1000:.3f};{np.sin(k / 50):.6f};{np.cos(k / 50):.6f}" for k in range(2000)]
+    csv.write_text("\n".join(rows) + "\n")
+    (stream,) = guess_streams([csv])
+    assert [c.name for c in stream.channels] == ["Dev1_ai0", "Dev1_ai0_2"]
+    text, _ = skeleton_text([stream], tmp_path / "scene.toml")
+    doc = tomllib.loads(text)  # valid TOML: no table declared twice
+    assert [c["source"] for c in doc["streams"]["run"]["channels"].values()][:2] == [
+        "Dev1/ai0", "Dev1 ai0"]
