@@ -68,11 +68,12 @@ _SCORING_SPAN_S = 60.0
 #: A runner-up candidate whose residual scale is within this factor of the best makes the match
 #: ambiguous.
 _AMBIGUITY_FACTOR = 3.0
-#: A candidate whole periods outside the stamps' window, matching as many events, whose residual
-#: scale is this many times smaller than the best inside it, says the stamps are worse than stated
-#: (a wrong whole period leaves the speed wander, milliseconds; the right one timing jitter).
+#: A candidate whole periods outside the stamps' window whose residual rms, on the device events
+#: both match, is this many times smaller than the best inside it, says the stamps are worse
+#: than stated (a wrong whole period leaves the speed wander, milliseconds; the right one
+#: timing jitter).
 _OUTSIDE_FACTOR = 10.0
-#: ... judged only with this many matched events (a line through fewer says little).
+#: ... judged only on this many common events (a line through fewer says little).
 _OUTSIDE_MIN_EVENTS = 6
 #: Residual scales below this (s) count as equal: no clock is timed better than a nanosecond.
 _TIMING_FLOOR_S = 1e-9
@@ -240,22 +241,25 @@ def _nearest(sorted_ref: _FloatArray, targets: _FloatArray) -> _IntArray:
 def _line_residual(x: _FloatArray, y: _FloatArray) -> tuple[_FloatArray, float]:
     """Fit ``y = p0 + p1 x`` robustly; return ``(p0, p1)`` and the robust residual scale.
 
-    The scale is 1.4826 times the median absolute deviation; points beyond 5 of it are dropped
-    before a second fit, so a stray partner does not decide between candidate offsets.
+    A first line from the median of the pairwise slopes (Theil-Sen: a stray partner 0.1 period
+    off cannot drag it, as it drags a least-squares line), the scale 1.4826 times the median
+    absolute deviation about it; points beyond 5 of it are dropped before a least-squares fit of
+    the rest, so a stray partner does not decide between candidate offsets.
     """
     if x.size < 3:
         return np.array([float(np.mean(y - x)) if x.size else 0.0, 1.0]), np.inf
     centre = x.mean()
-    use = np.ones(x.size, dtype=bool)
-    scale = np.inf
-    coeffs = np.zeros(2)
-    for _ in range(2):
+    i, j = np.triu_indices(x.size, k=1)
+    slope = float(np.median((y[j] - y[i]) / (x[j] - x[i])))
+    res = y - slope * (x - centre)
+    res -= np.median(res)
+    scale = 1.4826 * float(np.median(np.abs(res)))
+    use = np.abs(res) <= 5.0 * scale + 1e-12
+    coeffs = np.array([slope, float(np.median(y - slope * (x - centre)))])
+    if use.sum() >= 3:
         coeffs = np.polyfit(x[use] - centre, y[use], 1)
         res = y - np.polyval(coeffs, x - centre)
         scale = 1.4826 * float(np.median(np.abs(res[use] - np.median(res[use]))))
-        use = np.abs(res) <= 5.0 * scale + 1e-12
-        if use.sum() < 3:
-            break
     return np.array([coeffs[1] - coeffs[0] * centre, coeffs[0]]), scale
 
 
@@ -281,18 +285,57 @@ def _settle_hint(keys: Sequence[str] | None, period: float) -> str:
 
 
 def _score(ref: _FloatArray, scoring: _FloatArray, offset: float, period: float,
-           tolerance: float) -> tuple[int, float, float]:
-    """Return (events matched, robust residual scale in s, offset in s) of one candidate."""
+           tolerance: float) -> tuple[int, float, float, float]:
+    """Return one candidate's events matched, residual scale (s), offset (s), matched share.
+
+    The share is of the events the candidate places inside the reference record: an offset
+    that moves events off the record's ends is not penalised for them.
+    """
     predicted = scoring + offset
     nearest = _nearest(ref, predicted)
     hit = np.abs(ref[nearest] - predicted) < tolerance * period
     _, scale = _line_residual(scoring[hit], ref[nearest[hit]])
-    return int(hit.sum()), scale, float(offset)
+    inside = np.count_nonzero((predicted > ref[0] - tolerance * period)
+                              & (predicted < ref[-1] + tolerance * period))
+    return int(hit.sum()), scale, float(offset), hit.sum() / max(inside, 1)
 
 
-def _describe(scored: Sequence[tuple[int, float, float]]) -> str:
+def _hits(ref: _FloatArray, scoring: _FloatArray, offset: float, period: float,
+          tolerance: float) -> tuple[NDArray[np.bool_], _IntArray]:
+    """Return which scoring events a candidate matches and their reference partners."""
+    predicted = scoring + offset
+    nearest = _nearest(ref, predicted)
+    return np.abs(ref[nearest] - predicted) < tolerance * period, nearest
+
+
+def _rms_on(ref: _FloatArray, scoring: _FloatArray, nearest: _IntArray,
+            use: NDArray[np.bool_]) -> float:
+    """Rms (s) about a least-squares line of the chosen pairs, none left out.
+
+    Unlike the robust scale it cannot follow part of a sawtooth (sample-switched edges) and
+    drop the rest; on the same device events, every whole-period shift of a periodic train
+    gives the same value.
+    """
+    x = scoring[use] - scoring[use].mean()
+    y = ref[nearest[use]] - scoring[use]
+    return float(np.sqrt(np.mean((y - np.polyval(np.polyfit(x, y, 1), x)) ** 2)))
+
+
+def _far_better(ref: _FloatArray, scoring: _FloatArray, best: float, other: float,
+                period: float, tolerance: float) -> bool:
+    """Whether ``other`` fits the device events both candidates match far better than ``best``."""
+    hit_best, near_best = _hits(ref, scoring, best, period, tolerance)
+    hit_other, near_other = _hits(ref, scoring, other, period, tolerance)
+    common = hit_best & hit_other
+    if common.sum() < _OUTSIDE_MIN_EVENTS:
+        return False
+    return (_OUTSIDE_FACTOR * _rms_on(ref, scoring, near_other, common) + _TIMING_FLOOR_S
+            < _rms_on(ref, scoring, near_best, common))
+
+
+def _describe(scored: Sequence[tuple[int, float, float, float]]) -> str:
     return "; ".join(f"{offset:.6g} s ({hits} events, residual scale {scale:.3g} s)"
-                     for hits, scale, offset in scored)
+                     for hits, scale, offset, _ in scored)
 
 
 def _match(ref: _FloatArray, dev: _FloatArray, *, coarse_offset_s: float,
@@ -336,8 +379,9 @@ def _match(ref: _FloatArray, dev: _FloatArray, *, coarse_offset_s: float,
     candidates = np.unique(np.round(np.asarray(candidates) / step)) * step
     scored = [_score(ref, scoring, offset, period, tolerance) for offset in candidates]
     most = max(s[0] for s in scored)
-    contenders = sorted((s for s in scored if s[0] >= max(min_hits, 0.8 * most)),
-                        key=lambda s: s[1])
+    share = max((s[3] for s in scored if s[0] >= max(min_hits, 0.5 * most)), default=0.0)
+    contenders = sorted((s for s in scored if s[0] >= max(min_hits, 0.5 * most)
+                         and s[3] >= 0.8 * share), key=lambda s: s[1])
     if not contenders:
         raise AlignmentError(f"too few matched events: at most {most} of {scoring.size} device "
                              "events found a reference partner", where=place,
@@ -350,9 +394,9 @@ def _match(ref: _FloatArray, dev: _FloatArray, *, coarse_offset_s: float,
         reach = int(np.ceil(min(_SCORING_SPAN_S, 5.0 * period) / period))
         outside = [_score(ref, scoring, best[2] + k * period, period, tolerance)
                    for k in range(-reach, reach + 1) if k]
-        better = sorted((s for s in outside if s[0] >= best[0]
-                         and _OUTSIDE_FACTOR * s[1] + _TIMING_FLOOR_S < best[1]),
-                        key=lambda s: s[1]) if best[0] >= _OUTSIDE_MIN_EVENTS else []
+        better = sorted((s for s in outside
+                         if _far_better(ref, scoring, best[2], s[2], period, tolerance)),
+                        key=lambda s: s[1])
         if better:
             keys = settle_keys or ("coarse_offset_s", "max_offset_error_s")
             raise AlignmentError(
@@ -365,7 +409,7 @@ def _match(ref: _FloatArray, dev: _FloatArray, *, coarse_offset_s: float,
                      "that the data decide")
     else:
         decided = "data"
-        distinct: list[tuple[int, float, float]] = []
+        distinct: list[tuple[int, float, float, float]] = []
         for s in contenders[1:]:
             if all(abs(s[2] - d[2]) > 0.5 * period for d in (best, *distinct)):
                 distinct.append(s)
@@ -580,6 +624,7 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
     all_segments = np.unique(np.concatenate([seg for _, _, seg in kinds]))
     groups = {int(s): int((clock_groups or {}).get(int(s), s)) for s in all_segments}
     matches: dict[tuple[int, int], _Match] = {}
+    failures: list[tuple[int, AlignmentError]] = []
     for kind, (ref, dev, seg) in enumerate(kinds):
         for s in np.unique(seg):
             try:
@@ -592,9 +637,10 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
                 if all_segments.size == 1 and len(kinds) == 1:
                     raise
                 logger.info("segment %d, event kind %d not matched: %s", s, kind, error)
+                failures.append((int(np.count_nonzero(seg == s)), error))
     if not matches:
-        raise AlignmentError("no segment of the device could be matched to reference events",
-                             where=place, hint="check the pulse channel and the coarse offset")
+        # the segment with the most events says best why
+        raise max(failures, key=lambda f: f[0])[1]
     anchor = max(matches, key=lambda k: (matches[k].ref_index.size, -k[1]))
     anchor_offset = matches[anchor].offset_s
     for kind, (ref, dev, seg) in enumerate(kinds):
@@ -642,7 +688,7 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
                                                    - np.nanmedian(residual[keep]))))
         limit = max(5.0 * sigma, 2.0 * float(h.max()) + 1e-6)
         trial = np.abs(residual) <= limit
-        if trial.sum() < 0.8 * r.size:
+        if trial.sum() < max(0.8 * r.size, min_events):
             logger.info("rejection would leave %d of %d pairs: all kept", trial.sum(), r.size)
             break
         keep = trial
@@ -653,12 +699,12 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
                                                     h[keep])
     rms = float(np.sqrt(np.mean(residual**2)))
     if rms > max_residual_s:
+        keys = settle_keys or ("coarse_offset_s", "max_offset_error_s")
         raise AlignmentError(
             f"clock fit residual rms {rms:.3g} s exceeds {max_residual_s:.3g} s", where=place,
-            hint="events may be matched to the wrong partner (start stamps worse than stated: "
-                 + (_settle_hint(settle_keys, np.inf).split(", or")[0] if settle_keys else
-                    "check coarse_offset_s and max_offset_error_s")
-                 + "), or the clock wanders; check the event angle and the pulse channel")
+            hint="the events may be paired whole periods off (start stamps worse than stated): "
+                 f"set {keys[1]} to the stamps' real bound so that the data decide, or "
+                 f"{keys[0]}; otherwise check the event angle and the pulse channel")
     segments = tuple(sorted({int(s) for s in segment_of[keep]}))
     unaligned.extend(s for s in count if s not in segments and s not in unaligned)
     ordered = sorted(offsets)
