@@ -12,11 +12,13 @@ is an :class:`xarray.Dataset` (``Conventions = "CF-1.13"``) with
 - one variable per channel with ``units`` (UDUNITS), ``long_name``, ``source_channel`` and
   ``scaling`` (what was applied to reach these values), plus any sensor metadata;
 - ``valid`` (bool, time): False for samples that exist in the file but cannot be used; the reasons
-  and counts are the coordinates ``invalid_reason`` and ``invalid_count`` (dim
-  ``invalid_reason``, see :func:`invalid_counts`);
+  and counts are the attributes ``invalid_reason`` (list of str) and ``invalid_count`` (int64
+  array; see :func:`invalid_counts`);
 - ``segment`` (int32, time): index of the gap-free segment each sample belongs to;
-- the gap table: coordinates ``gap_start_s`` (last sample before the gap), ``gap_end_s`` (first
-  sample after it) and ``gap_missing_samples`` on dim ``gap`` (see :func:`stream_gaps`);
+- the gap table as array attributes, one entry per gap: ``gap_start_s`` (time of the last
+  sample before the gap), ``gap_end_s`` (of the first sample after it), ``gap_missing_samples``
+  (see :func:`stream_gaps`). Attributes, not variables on a ``gap`` dimension, so that
+  ``ds.to_dataframe()`` stays one row per sample;
 - attributes ``device``, ``start_time`` (ISO 8601 UTC), ``source_file``, ``source_sha256``,
   ``fs_nominal`` (Hz), ``gap_count`` and ``missing_samples``.
 
@@ -57,10 +59,8 @@ __all__ = [
 ]
 
 REQUIRED_STREAM_ATTRS = ("device", "start_time", "source_file", "source_sha256", "fs_nominal",
-                         "gap_count", "missing_samples")
-#: Coordinates every stream has besides ``time``: the gap and invalid-sample tables.
-REQUIRED_STREAM_COORDS = ("gap_start_s", "gap_end_s", "gap_missing_samples", "invalid_reason",
-                          "invalid_count")
+                         "gap_count", "missing_samples", "gap_start_s", "gap_end_s",
+                         "gap_missing_samples", "invalid_reason", "invalid_count")
 REQUIRED_CHANNEL_ATTRS = ("units", "long_name", "source_channel", "scaling")
 
 #: A step between samples larger than this many nominal sample intervals is a gap.
@@ -142,17 +142,12 @@ def _segments(time: np.ndarray, fs_nominal: float) -> np.ndarray:
 
 
 def _gap_table(before: np.ndarray, after: np.ndarray, fs_nominal: float) -> dict[str, Any]:
-    """Return the gap coordinates for gaps between times ``before[k]`` and ``after[k]`` (s)."""
+    """Return the gap attributes for gaps between times ``before[k]`` and ``after[k]`` (s)."""
     dt = 1.0 / fs_nominal
+    before = np.asarray(before, dtype=np.float64).reshape(-1)
+    after = np.asarray(after, dtype=np.float64).reshape(-1)
     missing = np.maximum(np.round((after - before) / dt) - 1, 0).astype(np.int64)
-    return {
-        "gap_start_s": ("gap", before.astype(np.float64),
-                        {"units": "s", "long_name": "time of the last sample before the gap"}),
-        "gap_end_s": ("gap", after.astype(np.float64),
-                      {"units": "s", "long_name": "time of the first sample after the gap"}),
-        "gap_missing_samples": ("gap", missing, {
-            "units": "1", "long_name": "samples missing in the gap at the nominal rate"}),
-    }
+    return {"gap_start_s": before, "gap_end_s": after, "gap_missing_samples": missing}
 
 
 def _blocks_in(timebase: TimeBase, start: int, stop: int) -> list[tuple[int, int, int, Any]]:
@@ -198,43 +193,48 @@ def cf_time_attrs(start_time: str, long_name: str) -> dict[str, str]:
             "standard_name": "time", "axis": "T", "long_name": long_name}
 
 
+def _attr_array(ds: xr.Dataset, name: str, dtype: Any) -> np.ndarray:
+    """Return an array attribute as a 1-D array (netCDF returns one-element arrays as scalars)."""
+    value = ds.attrs.get(name, ())
+    if isinstance(value, str):
+        value = [value]
+    return np.atleast_1d(np.asarray(value, dtype=dtype)).reshape(-1)
+
+
 def stream_gaps(ds: xr.Dataset) -> list[dict[str, float | int]]:
     """Return a stream's gaps as ``{"after_s", "duration_s", "missing_samples"}`` dicts.
 
-    ``after_s`` is the time of the last sample before the gap, ``duration_s`` the time missing
-    beyond one nominal sample interval (``gap_end_s - gap_start_s - 1 / fs_nominal``).
+    ``after_s`` is the time of the last sample before the gap (``gap_start_s``), ``duration_s``
+    the time missing beyond one nominal sample interval
+    (``gap_end_s - gap_start_s - 1 / fs_nominal``).
     """
-    if "gap_start_s" not in ds.coords:
-        return []
     dt = 1.0 / float(ds.attrs["fs_nominal"])
+    starts = _attr_array(ds, "gap_start_s", np.float64)
+    ends = _attr_array(ds, "gap_end_s", np.float64)
+    missing = _attr_array(ds, "gap_missing_samples", np.int64)
     return [{"after_s": float(a), "duration_s": float(b - a - dt), "missing_samples": int(m)}
-            for a, b, m in zip(ds["gap_start_s"].values, ds["gap_end_s"].values,
-                               ds["gap_missing_samples"].values, strict=True)]
+            for a, b, m in zip(starts, ends, missing, strict=True)]
 
 
 def invalid_counts(ds: xr.Dataset) -> dict[str, int]:
     """Return a stream's invalid-sample counts by reason (empty when every sample is valid)."""
-    if "invalid_reason" not in ds.coords:
-        return {}
-    return {str(r): int(c) for r, c in zip(ds["invalid_reason"].values,
-                                            ds["invalid_count"].values, strict=True)}
+    reasons = _attr_array(ds, "invalid_reason", object)
+    counts = _attr_array(ds, "invalid_count", np.int64)
+    return {str(r): int(c) for r, c in zip(reasons, counts, strict=True)}
 
 
 def with_invalid_counts(ds: xr.Dataset, counts: Mapping[str, int]) -> xr.Dataset:
-    """Return ``ds`` with its invalid-sample table replaced by ``counts`` (reason -> samples)."""
-    counts = {str(k): int(v) for k, v in counts.items() if int(v)}
-    ds = ds.drop_vars(["invalid_reason", "invalid_count"], errors="ignore")
-    return ds.assign_coords(_invalid_table(counts))
+    """Return ``ds`` (a shallow copy) with its invalid-sample counts set to ``counts``."""
+    out = ds.copy()
+    out.attrs.update(_invalid_table(counts))
+    return out
 
 
 def _invalid_table(counts: Mapping[str, int]) -> dict[str, Any]:
-    """Return the coordinates of the invalid-sample table."""
-    return {
-        "invalid_reason": ("invalid_reason", np.array(list(counts), dtype=object),
-                           {"long_name": "why samples are marked invalid"}),
-        "invalid_count": ("invalid_reason", np.array(list(counts.values()), dtype=np.int64),
-                          {"units": "1", "long_name": "invalid samples for the reason"}),
-    }
+    """Return the invalid-sample attributes: reasons (list of str) and counts (int64)."""
+    kept = {str(k): int(v) for k, v in counts.items() if int(v)}
+    return {"invalid_reason": list(kept),
+            "invalid_count": np.array(list(kept.values()), dtype=np.int64)}
 
 
 def stream_dataset(
@@ -350,10 +350,8 @@ def stream_dataset(
     data_vars["valid"] = ("time", valid, {"long_name": "sample is usable", "units": "1"})
     data_vars["segment"] = ("time", segment, {"long_name": "gap-free segment index",
                                               "units": "1"})
-    gap_coords = _gap_table(jumps["before"], jumps["after"], fs_nominal)
-    ds = xr.Dataset(data_vars, coords=coords).assign_coords(
-        {**gap_coords, **_invalid_table(counts)})
-    missing = int(ds["gap_missing_samples"].sum())
+    gaps = _gap_table(jumps["before"], jumps["after"], fs_nominal)
+    ds = xr.Dataset(data_vars, coords=coords)
     ds.attrs = {
         "Conventions": "CF-1.13",
         **dict(attrs or {}),
@@ -362,8 +360,10 @@ def stream_dataset(
         "source_file": str(source_file),
         "source_sha256": source_sha256,
         "fs_nominal": float(fs_nominal),
-        "gap_count": int(ds.sizes["gap"]),
-        "missing_samples": missing,
+        "gap_count": int(gaps["gap_start_s"].size),
+        "missing_samples": int(gaps["gap_missing_samples"].sum()),
+        **gaps,
+        **_invalid_table(counts),
     }
     return ds
 
@@ -398,10 +398,6 @@ def check_stream(ds: xr.Dataset) -> None:
     for name in ("valid", "segment"):
         if name not in ds or ds[name].dims != ("time",):
             raise DataError(f"stream lacks the variable {name!r} on dim 'time'", where=where)
-    lacking = [c for c in REQUIRED_STREAM_COORDS if c not in ds.coords]
-    if lacking:
-        raise DataError(f"stream lacks the coordinates {lacking}", where=where,
-                        hint="build streams with rigval.acquisition.schema.stream_dataset")
     for name, var in ds.data_vars.items():
         if name in ("valid", "segment"):
             continue

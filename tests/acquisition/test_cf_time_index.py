@@ -130,9 +130,11 @@ def test_gap_table_is_typed_data(tmp_path: Path) -> None:
     blocks = [(3000, 0.0), (2000, 3000 / FS + 1.25)]
     ds = read_stream(_write(tmp_path / "gap.tdms", blocks)[0])
     assert ds.attrs["gap_count"] == 1 and "gaps" not in ds.attrs
-    assert float(ds["gap_start_s"][0]) == pytest.approx(2999 / FS, abs=1e-12)
-    assert float(ds["gap_end_s"][0]) == pytest.approx(3000 / FS + 1.25, abs=1e-12)
-    assert int(ds["gap_missing_samples"][0]) == round(1.25 * FS) == ds.attrs["missing_samples"]
+    assert float(ds.attrs["gap_start_s"][0]) == pytest.approx(2999 / FS, abs=1e-12)
+    assert float(ds.attrs["gap_end_s"][0]) == pytest.approx(3000 / FS + 1.25, abs=1e-12)
+    missing = int(ds.attrs["gap_missing_samples"][0])
+    assert missing == round(1.25 * FS) == ds.attrs["missing_samples"]
+    assert len(ds.to_dataframe()) == 5000  # one row per sample: the tables are not dimensions
     assert stream_gaps(ds)[0]["duration_s"] == pytest.approx(1.25, abs=1e-9)
     ds.to_netcdf(tmp_path / "gap.nc", engine="netcdf4")
     with xr.open_dataset(tmp_path / "gap.nc", decode_times=False) as back:
@@ -184,7 +186,24 @@ def test_invalid_counts_are_a_table() -> None:
                         fs_nominal=100.0, valid=valid,
                         invalid_counts={"overrange": 2, "unaligned segment": 1})
     assert invalid_counts(ds) == {"overrange": 2, "unaligned segment": 1}
-    assert int(ds["invalid_count"].sum()) == int((~ds["valid"]).sum())
+    assert int(ds.attrs["invalid_count"].sum()) == int((~ds["valid"]).sum())
+
+
+@pytest.mark.parametrize("engine", ["netcdf4", "h5netcdf"])
+def test_one_gap_and_one_reason_survive_netcdf(tmp_path: Path, engine: str) -> None:
+    time = np.r_[np.arange(50), np.arange(80, 100)] / 100.0
+    valid = np.ones(time.size, dtype=bool)
+    valid[3] = False
+    ds = stream_dataset(time, {"c": Channel(np.zeros(time.size), "V", "c", "c")}, device="x",
+                        start_time="2026-01-01T00:00:00.5Z", source_file="f",
+                        source_sha256="0", fs_nominal=100.0, valid=valid,
+                        invalid_counts={"overrange": 1})
+    ds.to_netcdf(tmp_path / "one.nc", engine=engine)
+    with xr.open_dataset(tmp_path / "one.nc", engine=engine) as back:
+        assert stream_gaps(back) == stream_gaps(ds)
+        assert stream_gaps(back)[0]["missing_samples"] == 30
+        assert invalid_counts(back) == {"overrange": 1}
+        assert back["time"].values[0] == np.datetime64("2026-01-01T00:00:00.5")
 
 
 def test_dir_lists_the_lazily_imported_readers() -> None:

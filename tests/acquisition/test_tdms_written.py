@@ -71,7 +71,7 @@ def test_restart_with_new_start_time_becomes_a_gap(tmp_path: Path) -> None:
     np.testing.assert_array_equal(ds["tor1"].values[3000:], 1e-7 * b + 0.5)
     assert ds.attrs["gap_count"] == 1
     gap = stream_gaps(ds)[0]
-    assert int(ds["gap_missing_samples"][0]) == gap["missing_samples"]
+    assert int(ds.attrs["gap_missing_samples"][0]) == gap["missing_samples"]
     assert gap["duration_s"] == pytest.approx(1.25, abs=1e-6)
     assert ds.attrs["missing_samples"] == round(1.25 / dt)
     assert ds.time.values[3000] == pytest.approx(3000 * dt + 1.25, abs=1e-9)

@@ -57,7 +57,7 @@ def test_jump_in_the_time_column_is_a_gap_never_filled(tmp_path: Path) -> None:
     assert ds.sizes["time"] == 2000
     assert ds.attrs["gap_count"] == 1
     assert ds.attrs["missing_samples"] == 3000
-    assert float(ds["gap_start_s"][0]) == pytest.approx(999 / FS, abs=1e-6)
+    assert float(ds.attrs["gap_start_s"][0]) == pytest.approx(999 / FS, abs=1e-6)
 
 
 def test_header_block_start_time_and_relative_seconds(tmp_path: Path) -> None:
