@@ -19,6 +19,7 @@ import scipy.interpolate
 import xarray as xr
 
 from rigval.acquisition.errors import ConfigError, DataError, NumericsWarning, SingularityError
+from rigval.acquisition.hugepages import plain_pages
 from rigval.model.assembly import (
     COND_MAX,
     GUESS_TOL,
@@ -129,9 +130,11 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
             f"{mech.name}: {mech.redundant_constraints} redundant constraint equations; joint "
             "forces and drive torques are not unique, the minimum-norm multipliers are returned",
             NumericsWarning, stacklevel=2)
-    solution = _empty_solution(mech, times, motion, selection)
     exact = "condition_number" in selection.outputs
-    with single_blas_thread():  # many tiny systems: BLAS threads only wait for each other
+    # Many tiny systems: BLAS threads only wait for each other. Arrays filled once: huge pages
+    # only add synchronous compaction (28 % of the CPU time of a 100,000-step solve under load).
+    with single_blas_thread(), plain_pages():
+        solution = _empty_solution(mech, times, motion, selection)
         continuation = track(mech, system, times, motion.theta, tolerances)
         with np.errstate(over="ignore", invalid="ignore"):  # overflow: check_finite names it
             for start in range(0, times.size, _CHUNK):
@@ -146,7 +149,8 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
              "max_condition_number": float(np.max(solution.condition, initial=1.0)),
              "sign_convention": "M e'' = Q_e - C_e^T lambda; joint_force = -lambda on the "
                                 "first body; driver_torque = -lambda_driver"}
-    return build_dataset(mech, solution, selection, attrs)
+    with plain_pages():
+        return build_dataset(mech, solution, selection, attrs)
 
 
 def _empty_solution(mechanism: Mechanism, times: np.ndarray, motion: DriveMotion,

@@ -1,5 +1,7 @@
 """The batched solver runs with one BLAS thread and leaves the caller's thread counts alone."""
 
+import os
+
 import numpy as np
 import pytest
 from threadpoolctl import threadpool_info, threadpool_limits
@@ -54,3 +56,31 @@ def test_solve_runs_with_one_thread_and_restores(two_threads, monkeypatch):
     reference = rm.solve_stepwise(mech, t[[0, -1]])
     np.testing.assert_allclose(limited["driver_torque"].to_numpy()[[0, -1]],
                                reference["driver_torque"].to_numpy(), rtol=1e-10, atol=1e-9)
+
+
+def test_solve_fills_its_arrays_without_huge_page_requests(monkeypatch):
+    import rigval.model.solver as solver
+    from rigval.acquisition.hugepages import _switch
+
+    switch = _switch()
+    if switch is None or "NUMPY_MADVISE_HUGEPAGE" in os.environ:
+        pytest.skip("this numpy has no huge-page switch, or the user set it")
+    seen = []
+    original = solver._solve_chunk
+
+    def spy(*args, **kwargs):
+        state = switch(False)  # returns the state it replaces
+        switch(state)
+        seen.append(state)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(solver, "_solve_chunk", spy)
+    before = switch(True)
+    try:
+        mech = rm.load_mechanism(rm.builtin_mechanism("pendulum"))
+        rm.solve(mech, np.linspace(0.0, 0.1, 50), outputs=["driver_torque"])
+        after = switch(True)
+    finally:
+        switch(before)
+    assert seen and not any(seen)
+    assert after is True  # restored
