@@ -68,8 +68,8 @@ _SCORING_SPAN_S = 60.0
 #: A runner-up candidate whose residual scale is within this factor of the best makes the match
 #: ambiguous.
 _AMBIGUITY_FACTOR = 3.0
-#: A candidate whole periods outside the stamps' window whose residual rms, on the device events
-#: both match, is this many times smaller than the best inside it, says the stamps are worse
+#: A candidate whole periods outside the stamps' window whose residual scale, on the device
+#: events both match, is this many times smaller than the best inside it, says the stamps are worse
 #: than stated (a wrong whole period leaves the speed wander, milliseconds; the right one
 #: timing jitter).
 _OUTSIDE_FACTOR = 10.0
@@ -308,29 +308,43 @@ def _hits(ref: _FloatArray, scoring: _FloatArray, offset: float, period: float,
     return np.abs(ref[nearest] - predicted) < tolerance * period, nearest
 
 
-def _rms_on(ref: _FloatArray, scoring: _FloatArray, nearest: _IntArray,
-            use: NDArray[np.bool_]) -> float:
-    """Rms (s) about a least-squares line of the chosen pairs, none left out.
+def _line_fit(x: _FloatArray, y: _FloatArray) -> _FloatArray:
+    """Residuals of y about the Theil-Sen line through (x, y) (median of pairwise slopes)."""
+    i, j = np.triu_indices(x.size, k=1)
+    slope = float(np.median((y[j] - y[i]) / (x[j] - x[i])))
+    res = y - slope * x
+    return res - np.median(res)
 
-    Unlike the robust scale it cannot follow part of a sawtooth (sample-switched edges) and
-    drop the rest; on the same device events, every whole-period shift of a periodic train
-    gives the same value.
-    """
-    x = scoring[use] - scoring[use].mean()
-    y = ref[nearest[use]] - scoring[use]
-    return float(np.sqrt(np.mean((y - np.polyval(np.polyfit(x, y, 1), x)) ** 2)))
+
+def _rms_about_line(x: _FloatArray, y: _FloatArray) -> float:
+    centred = x - x.mean()
+    return float(np.sqrt(np.mean((y - np.polyval(np.polyfit(centred, y, 1), centred)) ** 2)))
 
 
 def _far_better(ref: _FloatArray, scoring: _FloatArray, best: float, other: float,
-                period: float, tolerance: float) -> bool:
-    """Whether ``other`` fits the device events both candidates match far better than ``best``."""
+                period: float, tolerance: float, *, factor: float = _OUTSIDE_FACTOR,
+                min_common: int = _OUTSIDE_MIN_EVENTS) -> bool:
+    """Whether ``other`` fits the events both candidates match ``factor`` times better.
+
+    Compared on the same device events: on those, every whole-period shift of an exactly
+    periodic train leaves the same residuals, so fitting fewer events (or another part of a
+    sawtooth) cannot make a candidate look better. Pairs off either candidate's line by more
+    than 5 % of a period (a stray partner) are left out; the rest are compared by their rms
+    about a least-squares line. False with fewer than ``min_common`` such events.
+    """
     hit_best, near_best = _hits(ref, scoring, best, period, tolerance)
     hit_other, near_other = _hits(ref, scoring, other, period, tolerance)
-    common = hit_best & hit_other
-    if common.sum() < _OUTSIDE_MIN_EVENTS:
+    common = np.flatnonzero(hit_best & hit_other)
+    if common.size < max(min_common, 3):
         return False
-    return (_OUTSIDE_FACTOR * _rms_on(ref, scoring, near_other, common) + _TIMING_FLOOR_S
-            < _rms_on(ref, scoring, near_best, common))
+    x = scoring[common]
+    y_best, y_other = ref[near_best[common]] - x, ref[near_other[common]] - x
+    keep = ((np.abs(_line_fit(x, y_best)) <= 0.05 * period)
+            & (np.abs(_line_fit(x, y_other)) <= 0.05 * period))
+    if keep.sum() < max(min_common, 3):
+        return False
+    return (factor * _rms_about_line(x[keep], y_other[keep]) + _TIMING_FLOOR_S
+            < _rms_about_line(x[keep], y_best[keep]))
 
 
 def _describe(scored: Sequence[tuple[int, float, float, float]]) -> str:
@@ -408,20 +422,26 @@ def _match(ref: _FloatArray, dev: _FloatArray, *, coarse_offset_s: float,
                      f"or {keys[1]} to at least {abs(better[0][2] - coarse_offset_s):.3g} s so "
                      "that the data decide")
     else:
+        # The data decide: one whole-period class must fit the events it shares with every
+        # other class 3 times better (compared on common events: a candidate that leaves
+        # events off the record's ends must not win by fitting fewer of them).
         decided = "data"
-        distinct: list[tuple[int, float, float, float]] = []
-        for s in contenders[1:]:
-            if all(abs(s[2] - d[2]) > 0.5 * period for d in (best, *distinct)):
-                distinct.append(s)
-        if distinct and distinct[0][1] <= _AMBIGUITY_FACTOR * best[1] + _TIMING_FLOOR_S:
-            tied = [best] + [s for s in distinct
-                             if s[1] <= _AMBIGUITY_FACTOR * best[1] + _TIMING_FLOOR_S]
+        classes: list[tuple[int, float, float, float]] = []
+        for s in contenders:
+            if all(abs(s[2] - c[2]) > 0.5 * period for c in classes):
+                classes.append(s)
+        winners = [c for c in classes
+                   if all(_far_better(ref, scoring, d[2], c[2], period, tolerance,
+                                      factor=_AMBIGUITY_FACTOR, min_common=4)
+                          for d in classes if d is not c)]
+        if len(classes) > 1 and not winners:
             raise AlignmentError(
-                f"whole-period ambiguity: {len(tied)} offsets fit equally well within the "
+                f"whole-period ambiguity: {len(classes)} offsets fit equally well within the "
                 f"start stamps' window of +-{max_offset_error_s:.3g} s around "
-                f"{coarse_offset_s:.6g} s: {_describe(sorted(tied, key=lambda s: s[2]))}; the "
-                "pulse intervals are too regular to tell whole periods apart", where=place,
+                f"{coarse_offset_s:.6g} s: {_describe(sorted(classes, key=lambda s: s[2]))}; "
+                "the pulse intervals are too regular to tell whole periods apart", where=place,
                 hint=_settle_hint(settle_keys, period))
+        best = winners[0] if winners else classes[0]
     predicted = scoring + best[2]
     nearest = _nearest(ref, predicted)
     hit = np.abs(ref[nearest] - predicted) < tolerance * period
