@@ -22,6 +22,7 @@ import math
 from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -67,6 +68,11 @@ class PredictReportFiles:
     sweep_csv: Path | None
 
 
+def _degrees(radians: Any) -> Any:
+    """Return degrees rounded to 1e-9 deg: a grid angle reads 268, not 267.99999999999994."""
+    return np.round(np.degrees(radians), 9)
+
+
 def cycle_table(prediction: xr.Dataset) -> pd.DataFrame:
     """Return one row per main-drive angle with every predicted curve (SI units in the names).
 
@@ -76,7 +82,7 @@ def cycle_table(prediction: xr.Dataset) -> pd.DataFrame:
         A result of :func:`rigval.validation.predict.predict`.
     """
     columns: dict[str, np.ndarray] = {
-        "angle_deg": np.degrees(prediction["angle"].values),
+        "angle_deg": _degrees(prediction["angle"].values),
         "time_s": prediction["time"].values,
     }
     for point in prediction["point"].values:
@@ -121,21 +127,21 @@ def peak_table(prediction: xr.Dataset) -> pd.DataFrame:
                 "peak": float(prediction["support_force_peak"].sel(support=support,
                                                                     component=component)),
                 "unit": "N",
-                "angle_deg": math.degrees(float(prediction["support_force_peak_angle"].sel(
+                "angle_deg": _degrees(float(prediction["support_force_peak_angle"].sel(
                     support=support, component=component))),
             })
     for driver in prediction["driver"].values:
         rows.append({
             "quantity": "drive torque", "where": str(driver), "component": "abs",
             "peak": float(prediction["torque_peak"].sel(driver=driver)), "unit": "N m",
-            "angle_deg": math.degrees(float(prediction["torque_peak_angle"].sel(driver=driver))),
+            "angle_deg": _degrees(float(prediction["torque_peak_angle"].sel(driver=driver))),
             "rms": float(prediction["torque_rms"].sel(driver=driver)),
         })
     tip = prediction.attrs.get("tip_point", "tip")
     rows.append({
         "quantity": "tip acceleration", "where": tip, "component": "magnitude",
         "peak": float(prediction["tip_acceleration_peak"]), "unit": "m s-2",
-        "angle_deg": math.degrees(float(prediction["tip_acceleration_peak_angle"])),
+        "angle_deg": _degrees(float(prediction["tip_acceleration_peak_angle"])),
     })
     return pd.DataFrame(rows)
 
@@ -415,7 +421,7 @@ def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
     page.facts({
         f"vertical range of the {tip} path [m]": float(prediction["tip_vertical_range"]),
         f"peak |a_{tip}| [m/s2]": float(prediction["tip_acceleration_peak"]),
-        "at phi_F [deg]": math.degrees(float(prediction["tip_acceleration_peak_angle"])),
+        "at phi_F [deg]": _degrees(float(prediction["tip_acceleration_peak_angle"])),
     })
     page.figure(plot_point_kinematics(prediction, tip),
                 caption=f"{tip}: vertical position, absolute speed and acceleration over a cycle")

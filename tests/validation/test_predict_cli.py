@@ -78,6 +78,8 @@ def test_stdout_units_are_the_units_of_the_files(tmp_path: Path) -> None:
     assert f"{float(data['torque_peak'].sel(driver='theta_F')):.5g} N m" in torque
     peaks = _peaks(tmp_path / "p")
     assert {row["unit"] for row in peaks} <= {"N", "N m", "m s-2"}
+    # on a 72-point grid every peak is at a multiple of 5 degrees, written as such
+    assert all(float(row["angle_deg"]) % 5.0 == 0.0 for row in peaks), peaks
 
 
 def test_sweep_table_keeps_degrees_as_given_and_states_units(tmp_path: Path) -> None:
