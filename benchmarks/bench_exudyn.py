@@ -7,9 +7,11 @@ Run (Exudyn is not a rigval dependency; install it next to rigval in a throwaway
         [--threads default|1]
 
 Both solvers compute the same thing for the same 100,000 steps (20 s at 5 kHz): positions,
-velocities, accelerations, all 11 joint forces and both drive torques of the builtin pendulum.
+velocities, accelerations, all 11 joint forces and both drive torques of the builtin pendulum,
+and return the forces and torques of every step.
 
-- rigval: ``rigval.model.solve(mech, t)``, every output, in this process as a user would call it
+- rigval: ``rigval.model.solve(mech, t, outputs=["joint_force", "driver_torque"])`` (``--outputs
+  all``: every output, also body and point kinematics), in this process as a user would call it
   (``--threads default``: no BLAS settings; ``--threads 1``: OPENBLAS_NUM_THREADS=1 set before
   numpy is imported).
 - Exudyn: 8 ``ObjectRigidBody2D``, 7 ``RevoluteJoint2D`` and 4 ground pins (``RevoluteJoint2D``
@@ -50,6 +52,9 @@ import numpy as np
 import rigval.model as rm
 
 FS = 5000.0
+#: What the Exudyn run records at every step (rigval computes positions, velocities and
+#: accelerations on the way, as Exudyn does).
+FORCES = ["joint_force", "driver_torque"]
 STRIDE = 50
 
 
@@ -200,6 +205,10 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=100_000)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--threads", choices=["default", "1"], default="default")
+    parser.add_argument("--outputs", choices=["forces", "all"], default="forces",
+                        help="what rigval returns: the joint forces and drive torques (what the "
+                             "Exudyn run records) or every output (also positions, velocities, "
+                             "accelerations of bodies and points)")
     args = parser.parse_args()
     sys.exudynFast = True  # the exudynCPPfast module: no range checks
     import exudyn
@@ -212,13 +221,14 @@ def main() -> None:
     print(f"pendulum.toml, {args.steps} steps at {FS:g} Hz; rigval with {blas}; Exudyn "
           f"{exudyn.__version__}; load average {load0:.2f} on {os.cpu_count()} cores")
 
+    outputs = FORCES if args.outputs == "forces" else None
     first_start = time.perf_counter()
-    rm.solve(mech, t)  # the first call of a fresh process, included in nothing below
+    rm.solve(mech, t, outputs=outputs)  # a fresh process's first call, in nothing below
     first = time.perf_counter() - first_start
     start = rm.solve(mech, t[:1])
     ours_walls, exu_walls, ours_cpus, exu_cpus = [], [], [], []
     for _ in range(args.repeats):  # interleaved, so that both see the same machine load
-        ours, wall, cpu = timed(lambda: rm.solve(mech, t))
+        ours, wall, cpu = timed(lambda: rm.solve(mech, t, outputs=outputs))
         ours_walls.append(wall)
         ours_cpus.append(cpu)
         (exu_time, exu_forces), wall, cpu = timed(lambda: run_exudyn(mech, start, args.steps))
@@ -243,7 +253,8 @@ def main() -> None:
           f"{'force error / peak':>19s}")
     print(f"{'rigval.model.solve (first call)':36s} {first:8.3f} {'':8s} "
           f"{args.steps / first:10,.0f}")
-    print(f"{'rigval.model.solve':36s} {ours_wall:8.3f} {ours_cpu:8.3f} "
+    name = f"rigval.model.solve, {args.outputs} outputs"
+    print(f"{name:36s} {ours_wall:8.3f} {ours_cpu:8.3f} "
           f"{args.steps / ours_wall:10,.0f} {ours_err:19.1e}")
     print(f"{'Exudyn SolveDynamic':36s} {exu_wall:8.3f} {exu_cpu:8.3f} "
           f"{args.steps / exu_wall:10,.0f} {exu_err:19.1e}")
