@@ -17,12 +17,14 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import shutil
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
 from types import TracebackType
 
-__all__ = ["StagedOutputs", "atomic_output", "partial_name", "write_text_atomic"]
+__all__ = ["StagedOutputs", "atomic_output", "partial_name", "staged_folder",
+           "write_text_atomic"]
 
 logger = logging.getLogger(__name__)
 
@@ -62,6 +64,37 @@ def write_text_atomic(path: str | Path, text: str) -> Path:
     with atomic_output(final) as temporary:
         temporary.write_text(text, encoding="utf-8")
     return final
+
+
+@contextlib.contextmanager
+def staged_folder(out_dir: str | Path) -> Iterator[Path]:
+    """Yield a hidden folder beside ``out_dir``; move its files into ``out_dir`` at the end.
+
+    For writers that take a folder: they write into the temporary folder, and only when the
+    block succeeds are its files (top level) renamed into ``out_dir`` (created if missing). On an
+    exception the temporary folder is removed and ``out_dir`` is untouched.
+
+    Parameters
+    ----------
+    out_dir : str or pathlib.Path
+        The report folder.
+
+    Yields
+    ------
+    pathlib.Path
+        The temporary folder (same file system as ``out_dir``, so the renames are atomic).
+    """
+    final = Path(out_dir)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    temporary = final.with_name(f".{final.name}.partial-{uuid.uuid4().hex[:8]}")
+    temporary.mkdir()
+    try:
+        yield temporary
+        final.mkdir(exist_ok=True)
+        for path in sorted(temporary.iterdir()):
+            os.replace(path, final / path.name)
+    finally:
+        shutil.rmtree(temporary, ignore_errors=True)
 
 
 class StagedOutputs:

@@ -35,7 +35,7 @@ from rigval.validation.html import Page
 from rigval.validation.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
 from rigval.validation.note import read_note
-from rigval.validation.outputs import atomic_output, write_text_atomic
+from rigval.validation.outputs import atomic_output, staged_folder, write_text_atomic
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.scene import Scene
 from rigval.validation.verdict import run_verdict
@@ -394,11 +394,13 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
     """
     out = Path(out_dir)
     page = _build_page(result)  # everything that can fail before the first file is written
-    out.mkdir(parents=True, exist_ok=True)
-    written = write_metrics(result, out)
-    written.append(write_alignment(result, out))
-    written.append(write_netcdf(result, out / f"{result.scene.path.stem}.nc"))
-    written.insert(0, page.write(out / "report.html"))
+    # all files in a hidden folder first, moved in at the end: no half-written report folder
+    with staged_folder(out) as stage:
+        staged = write_metrics(result, stage)
+        staged.append(write_alignment(result, stage))
+        staged.append(write_netcdf(result, stage / f"{result.scene.path.stem}.nc"))
+        staged.insert(0, page.write(stage / "report.html"))
+    written = [out / path.name for path in staged]
     result.outputs[:] = written
     logger.info("report written to %s", out)
     return written

@@ -129,3 +129,21 @@ def test_open_campaign_without_h5netcdf(tmp_path: Path, plain_install: None) -> 
     with open_campaign(out, parallel=False) as data:
         np.testing.assert_allclose(data["metrics"].sel(metric="mean").values, [[0.3]])
     assert _leftovers(out) == []
+
+
+def test_staged_folder_moves_files_in_only_on_success(tmp_path: Path) -> None:
+    from rigval.validation.outputs import staged_folder
+
+    out = tmp_path / "report"
+    with pytest.raises(OSError), staged_folder(out) as stage:
+        (stage / "metrics.csv").write_text("a,b\n")
+        raise OSError("netCDF write failed")
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+    out.mkdir()
+    (out / "metrics.csv").write_text("old\n")
+    with staged_folder(out) as stage:
+        (stage / "metrics.csv").write_text("new\n")
+        (stage / "run.nc").write_bytes(b"CDF")
+        assert (out / "metrics.csv").read_text() == "old\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report"]
+    assert (out / "metrics.csv").read_text() == "new\n" and (out / "run.nc").is_file()
