@@ -575,6 +575,25 @@ def _clock_fit(ref: _FloatArray, dev: _FloatArray, group: _IntArray, kind: _IntA
     return offsets, drift, residual, se, half
 
 
+def _without_strays(match: _Match, ref: _FloatArray, dev: _FloatArray, bound: float) -> _Match:
+    """Drop pairs beyond 5 robust sigma of the segment's Theil-Sen line (a stray partner).
+
+    A least-squares fit with a partner 0.1 period off is dragged so far that a sigma-based
+    rejection after it can miss the stray; the median of pairwise slopes is not. At most a fifth
+    of the pairs go.
+    """
+    if match.ref_index.size < 4:
+        return match
+    x = dev[match.dev_index]
+    res = _line_fit(x - x.mean(), ref[match.ref_index] - x)
+    scale = 1.4826 * float(np.median(np.abs(res)))
+    keep = np.abs(res) <= max(5.0 * scale, 2.0 * bound + 1e-6)
+    if keep.sum() < 0.8 * keep.size:
+        return match
+    return dataclasses.replace(match, ref_index=match.ref_index[keep],
+                               dev_index=match.dev_index[keep])
+
+
 def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
                    dev_times: ArrayLike | Sequence[ArrayLike],
                    dev_segment: ArrayLike | Sequence[ArrayLike] | None = None, *,
@@ -683,6 +702,9 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
             logger.info("segment %d matched around segment %d's offset %.6f s", s, anchor[1],
                         anchor_offset)
             matches[(kind, int(s))] = dataclasses.replace(again, decided_by="neighbour")
+    for key, m in list(matches.items()):
+        matches[key] = _without_strays(m, kinds[key[0]][0], kinds[key[0]][1][
+            kinds[key[0]][2] == key[1]], bounds[key[0]])
     count = {int(s): 0 for s in all_segments}
     for (_, s), m in matches.items():
         count[s] += m.ref_index.size

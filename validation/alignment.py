@@ -262,11 +262,9 @@ def _clock_groups(stream: xr.Dataset) -> dict[int, int]:
     keep one clock (one offset across the segments).
     """
     fs = float(stream.attrs["fs_nominal"])
-    starts = np.atleast_1d(stream["gap_start_s"].values) if "gap_start_s" in stream else []
-    ends = np.atleast_1d(stream["gap_end_s"].values) if "gap_end_s" in stream else []
     groups = {0: 0}
-    for k, (before, after) in enumerate(zip(starts, ends, strict=True)):
-        steps = (float(after) - float(before)) * fs
+    for k, gap in enumerate(stream_gaps(stream)):
+        steps = float(gap["duration_s"]) * fs + 1.0  # sample periods from before to after
         running = abs(steps - round(steps)) <= RUNNING_CLOCK_SAMPLES
         groups[k + 1] = groups[k] if running else k + 1
     return groups
@@ -287,7 +285,9 @@ def _fit_clock(events: np.ndarray, found: StreamPulses, coarse: float,
     """Fit the stream's clock on its pulses; segments grouped by a running clock first."""
     edges, segments = found.times[~found.spurious], found.segment[~found.spurious]
     key = f"alignment.pulses.{name}"
-    kwargs = {"coarse_offset_s": coarse, "max_offset_error_s": window,
+    # 4 events fit two offsets and a drift with a degree of freedom left; the Student-t
+    # interval then says how little they tell
+    kwargs = {"coarse_offset_s": coarse, "max_offset_error_s": window, "min_events": 4,
               "timing_bound_s": found.timing_bound_s,
               "per_revolution": pulse.per_revolution, "where": where,
               "settle_keys": (f"{key}.coarse_offset_s", f"{key}.start_time_uncertainty_s")}
