@@ -6,13 +6,16 @@ squares on matched reference events (docs/processing.md, *Accuracy measured*):
 
 1. events on both clocks, with module input delays removed (:func:`input_delay`);
 2. for each device segment, candidate offsets from pairing its first events with every reference
-   event within ``coarse_offset_s +- max_offset_error_s``; each candidate is scored by how many
-   events it matches within a quarter period and by the robust scale of the residuals about a
-   fitted line. The true offset leaves only timing jitter, an offset wrong by whole periods
-   leaves the period-to-period speed variation, so whole-period ambiguity is resolved from the
-   data (and reported as an :class:`AlignmentError` when the pulse train is too regular);
-3. all events matched with the candidate's line, then one joint least-squares fit of a shared
-   drift and one offset per segment, with 2-pass rejection of residuals above 5 robust sigma.
+   event within ``coarse_offset_s +- max_offset_error_s`` (the start stamps' stated bound; nothing
+   outside it is considered). A window narrower than a period holds one whole-period class: the
+   stamps decide. Otherwise one class must fit the events it shares with every other 3 times
+   better (the true offset leaves timing jitter, one whole periods off the period-to-period speed
+   variation), or an :class:`AlignmentError` lists the candidates and names the settings that
+   decide;
+3. all events matched with the candidate's line, stray partners dropped against a Theil-Sen
+   line, then one joint least-squares fit of a shared drift and one offset per clock group
+   (segments a dropout did not restart share one), with 95 % intervals that hold for the
+   sawtooth error of sample-switched edges (docs/processing.md, "Clock alignment").
 
 Pulses at a multiple of the reference rate (the lifting shaft's opt3, twice per main revolution)
 are matched to reference events built at that multiple from the reference angle

@@ -4,10 +4,12 @@
 from the main-shaft encoder (smoothed, never differenced raw, :func:`rigval.processing.angle.phi_f`)
 is zero at the main reference pulse; each other stream's clock (offset and drift per gap-free
 segment) is fitted on its reference pulses against the events the encoder angle predicts
-(:func:`rigval.processing.align.estimate_clock`), with module input delays removed. Segments that
-follow a Wi-Fi restart are matched from their neighbour's offset and all segments refitted with
-one drift. The diagnostics (:class:`~rigval.validation.results.StreamAlignment`) feed the
-report's alignment section and ``alignment.json``.
+(:func:`rigval.processing.align.estimate_clock`), with module input delays removed, within the
+window its start stamps allow (device profiles, or the scene's ``start_time_uncertainty_s`` and
+``coarse_offset_s``); segments a dropout did not restart keep one offset, and every offset's
+95 % interval includes the uncertainty of phi_F = 0. The diagnostics
+(:class:`~rigval.validation.results.StreamAlignment`) feed the report's alignment section and
+``alignment.json`` (per segment: offset, clock group, samples dropped and why).
 """
 
 from __future__ import annotations
