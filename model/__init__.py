@@ -12,11 +12,11 @@ Public API (see ``docs/model.md``)::
     solve_stepwise(mechanism, t, *, drives=None, tol=1e-12, max_iter=20)
           -> xarray.Dataset                                        # plain reference solver
 
-Result variables (docs/model.md, *Result contract*): ``position``, ``velocity``, ``acceleration`` (time, body,
-coord = x, y, theta); ``point_position``, ``point_velocity``, ``point_acceleration`` (time, point,
-axis = x, y); ``joint_force`` (time, joint, axis): force ON the joint's first body (ground pin: ON
-the body), N; ``driver_torque`` (time, driver): torque ON the driven body, N m, counter-clockwise
-positive. On request also ``support_force`` (force ON the ground at ground pins),
+Result variables (docs/model.md, *Result contract*): ``position``, ``velocity``, ``acceleration``
+(time, body, coord = x, y, theta); ``point_position``, ``point_velocity``, ``point_acceleration``
+(time, point, axis = x, y); ``joint_force`` (time, joint, axis): force ON the joint's first body
+(ground pin: ON the body), N; ``driver_torque`` (time, driver): torque ON the driven body, N m,
+counter-clockwise positive. On request also ``support_force`` (force ON the ground at ground pins),
 ``kinetic_energy``, ``potential_energy``, ``drive_power`` and ``condition_number``.
 """
 

@@ -1,4 +1,4 @@
-"""The model result Dataset (docs/model.md, *Result contract*): names, dims, units, sign conventions.
+"""The model result Dataset (docs/model.md, *Result contract*): names, dims, units, signs.
 
 =========================  ======================  =========  =====================================
 variable                   dims                    units      meaning

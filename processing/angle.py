@@ -5,12 +5,12 @@ revolution), smoothed (:mod:`rigval.processing.excitation`) and zeroed so that t
 reference pulses fall on multiples of 2 pi (:func:`zero_at_reference`). A cycle is one revolution
 ``[2 pi k, 2 pi (k + 1))``.
 
-Resampling (computed order tracking, [Fyfe-Munck] and [Blough] in docs/references.md): the times of the grid angles follow
-from a cubic spline through the inverse of the increasing phi_F(t) (``np.interp`` alone limits
-the accuracy to 4e-6 at 0.05 fs); each channel is evaluated at those times (minus its module
-input delay) with an interpolating spline of the chosen order (quintic by default), per gap-free
-run and in overlapping chunks (bounded memory); grid points that fall in a gap
-or an invalid stretch are NaN, never filled. When the angle grid is coarser in time than the
+Resampling (computed order tracking, [Fyfe-Munck] and [Blough] in docs/references.md): the times of
+the grid angles follow from a cubic spline through the inverse of the increasing phi_F(t)
+(``np.interp`` alone limits the accuracy to 4e-6 at 0.05 fs); each channel is evaluated at those
+times (minus its module input delay) with an interpolating spline of the chosen order (quintic by
+default), per gap-free run and in overlapping chunks (bounded memory); grid points that fall in a
+gap or an invalid stretch are NaN, never filled. When the angle grid is coarser in time than the
 samples (``points_per_rev * f_rot < fs``) the channel is first low-passed (zero phase, per run) at
 0.4 times the grid rate at the lowest speed, so nothing aliases.
 """

@@ -1,4 +1,4 @@
-"""Predictions of the model for drive settings nobody measured ([paper] section 5, docs/references.md).
+"""Predictions of the model for drive settings nobody measured ([paper] section 5).
 
 :func:`predict` runs the model over one cycle for an excitation (the mechanism file's drive laws,
 laws changed on the command line or in TOML, a tabulated profile, or a measured run) and returns

@@ -398,7 +398,8 @@ def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
                 subtitle=f"{prediction.attrs.get('frequency_hz', float('nan')):.4g} Hz, "
                          f"{prediction.attrs.get('n_points')} points per cycle")
     page.section("Excitation")
-    page.paragraph("The model's answer to drive settings, without measurement ([paper] section 5, docs/references.md). "
+    page.paragraph("The model's answer to drive settings, without measurement (section 5 of "
+                   "the paper). "
                    "Angles are the main-drive angle phi_F from its position at t = 0.")
     facts = {"mechanism": prediction.attrs.get("mechanism"),
              "mechanism file": prediction.attrs.get("mechanism_source"),

@@ -91,7 +91,8 @@ def channel_units(channel: ChannelSpec) -> str:
     return _SENSOR_UNITS[channel.sensor](channel.params)
 
 
-#: Model quantities a comparison may name (docs/model.md, *Result contract*): item kind, axes, unit per axis.
+#: Model quantities a comparison may name (docs/model.md, *Result contract*): item kind, axes,
+#: unit per axis.
 MODEL_QUANTITIES: Mapping[str, tuple[str, tuple[str, ...] | None, Mapping[str, str]]] = (
     MappingProxyType({
         "position": ("body", ("x", "y", "theta"), {"x": "m", "y": "m", "theta": "rad"}),
