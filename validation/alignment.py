@@ -272,10 +272,26 @@ def _clock_groups(stream: xr.Dataset) -> dict[int, int]:
     return groups
 
 
-def _stamps_clock(stream: xr.Dataset, coarse: float, window: float) -> ClockModel:
-    """Clock of a stream synchronised with the reference (``method = "stamps"``)."""
+def _clock_tolerance(stream: xr.Dataset) -> float:
+    """Return a stream's oscillator tolerance (1) from its attributes or device profile."""
+    if "clock_tolerance_ppm" in stream.attrs:
+        return float(stream.attrs["clock_tolerance_ppm"]) * 1e-6
+    try:
+        return get_device(str(stream.attrs.get("device", ""))).clock_tolerance_ppm * 1e-6
+    except ChannelNotFoundError:
+        return 100e-6
+
+
+def _stamps_clock(stream: xr.Dataset, ref: xr.Dataset, coarse: float, window: float
+                  ) -> ClockModel:
+    """Clock of a stream aligned by its start stamps alone (``method = "stamps"``).
+
+    Offset: the stamps' difference (or the scene's ``coarse_offset_s``), good to the window;
+    drift 0, good to both devices' oscillator tolerances (sample clocks are not disciplined by
+    NTP/PTP of their hosts).
+    """
     segments = tuple(int(s) for s in np.unique(stream["segment"].to_numpy()))
-    tolerance = float(stream.attrs.get("clock_tolerance_ppm", 0.0)) * 1e-6
+    tolerance = _clock_tolerance(stream) + _clock_tolerance(ref)
     return ClockModel(segments, tuple(coarse for _ in segments), 0.0, 0.0, 0, 0,
                       window / 1.96, tolerance / 1.96, (), tuple(window for _ in segments),
                       tolerance, "stamps", tuple(0 for _ in segments))
@@ -387,7 +403,7 @@ def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
         coarse, window, source = _coarse_offset(stream, ref, ref_start, pulse)
         groups = _clock_groups(stream)
         if pulse.method == "stamps":
-            clock = _stamps_clock(stream, coarse, window)
+            clock = _stamps_clock(stream, ref, coarse, window)
             aligned[name] = align_stream(stream, clock, name=name)
             diagnostics[name] = _stream_summary(
                 name, aligned[name], clock, is_reference=False, residual_time=np.zeros(0),

@@ -163,3 +163,18 @@ def test_six_pulse_records(tmp_path: Path) -> None:
     assert 4 <= result.alignment["wls1"].events_matched <= 7
     assert np.isfinite(result.alignment["wls1"].offset_u95_s)
     _assert_within_u95(result, scene)
+
+
+def test_a_stream_aligned_by_its_stamps_carries_their_uncertainty(tmp_path: Path) -> None:
+    scene = _run(tmp_path, speed=1.0, duration=10.0, seed=1)
+    text = scene.read_text()
+    edited = scene.with_name("stamps_" + scene.name)
+    edited.write_text(text.replace('wls1 = { channel = "opt2", per_revolution = 1 }',
+                                   'wls1 = { method = "stamps" }'))
+    result = _validate(edited)
+    summary = result.alignment["wls1"]
+    assert summary.method == "stamps" and summary.events_matched == 0
+    # the WLS-9163 and cDAQ-9172 profiles: 0.1 + 0.016 s and 50 + 50 ppm
+    assert summary.offset_u95_s == pytest.approx(0.116)
+    assert summary.drift_u95_ppm == pytest.approx(100.0)
+    _assert_within_u95(result, scene)
