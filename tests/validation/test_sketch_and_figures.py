@@ -149,3 +149,29 @@ def test_bench_plot_labels_log_axes_draws_bounds_and_marks_exact_zeros() -> None
     assert bound_lines and math.isclose(bound_lines[0].get_ydata()[0], 1e-10)
     exact = [line for line in ax.get_lines() if "exact 0" in line.get_label()]
     assert len(exact) == 1 and exact[0].get_xdata()[0] == pytest.approx(300.0)
+
+
+def test_comparison_title_sits_above_its_legend_row() -> None:
+    from types import SimpleNamespace
+
+    from rigval.validation.plots import plot_comparison
+    from rigval.validation.results import ComparisonResult
+
+    angle = np.arange(120) * 2 * np.pi / 120
+    shape = 2.9 + 1e-4 * np.sin(angle)  # a signal that would get an offset text
+    comparison = ComparisonResult(
+        spec=SimpleNamespace(name="acc1", model="point_acceleration[P1].x"), units="m s-2",
+        long_name="acc1", angle=angle, cycles=np.vstack([shape, shape * 1.00001]),
+        model=shape, offset=3.21, scores={}, baseline={}, checks=())
+    fig = plot_comparison(comparison)
+    renderer = _renderer(fig)
+    top = fig.axes[0]
+    title = top._left_title.get_window_extent(renderer)
+    legend = top.get_legend().get_window_extent(renderer)
+    assert not title.overlaps(legend) and title.y0 >= legend.y0
+    assert title.y1 <= fig.bbox.y1  # inside the figure
+    # no offset ("+2.9"); a power-of-ten multiplier may stay but never under the title
+    multiplier = top.yaxis.get_offset_text()
+    assert "+" not in multiplier.get_text()
+    if multiplier.get_text():
+        assert not multiplier.get_window_extent(renderer).overlaps(title)
