@@ -41,7 +41,8 @@ def root_summary(result: ValidationResult, tree: xr.DataTree,
     Returns
     -------
     xarray.Dataset
-        Data variables and attributes only (no coordinates).
+        The root's own data and attributes (``history``, ...) with the summary added: data
+        variables and attributes only (no coordinates).
     """
     names = [c.name for c in result.comparisons]
     passed = [c.passed for c in result.comparisons]
@@ -52,7 +53,8 @@ def root_summary(result: ValidationResult, tree: xr.DataTree,
     text = (f"{verdict}. Data groups: {', '.join(groups)}. This root holds only this summary: "
             "open the whole file with xarray.open_datatree(path), or one group with "
             "xarray.open_dataset(path, group='/angle').")
-    return xr.Dataset(
+    root = tree.to_dataset(inherit=False)  # keep what the root holds (history, ...)
+    return root.assign(
         {
             "comparison": ("verdict", np.array(names, dtype=object),
                            {"long_name": "comparison name (scene [[comparison]])"}),
@@ -68,5 +70,4 @@ def root_summary(result: ValidationResult, tree: xr.DataTree,
             "input_sha256": ("input", np.array([s for _, s in inputs], dtype=object),
                              {"long_name": "SHA-256 of the input data file"}),
         },
-        attrs={"summary": text, "groups": " ".join(groups)},
-    )
+    ).assign_attrs(summary=text, groups=" ".join(groups))
