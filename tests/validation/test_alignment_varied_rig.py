@@ -178,3 +178,14 @@ def test_a_stream_aligned_by_its_stamps_carries_their_uncertainty(tmp_path: Path
     assert summary.offset_u95_s == pytest.approx(0.116)
     assert summary.drift_u95_ppm == pytest.approx(100.0)
     _assert_within_u95(result, scene)
+
+
+def test_sample_switched_reference_pulses(tmp_path: Path) -> None:
+    # 1 us optical edges: opt1 on the NI 9215 (no anti-alias filter) jumps between its levels
+    # from one sample to the next, so phi_F = 0 is known to +-0.5 sample (100 us) only
+    scene = _run(tmp_path, speed=1.0, duration=10.0, seed=1,
+                 imperfections=Imperfections(fast_pulses=True))
+    result = _validate(scene)
+    for name in ("wls1", "wls2"):
+        assert result.alignment[name].offset_u95_s >= 0.5 / 5000.0
+    _assert_within_u95(result, scene)
