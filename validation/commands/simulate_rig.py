@@ -47,7 +47,15 @@ def add_parser(subparsers: Any) -> None:
     group.add_argument("--bridge-drift", type=float,
                        help="scale of bridge zero offsets and thermal drift (1 = typical)")
     group.add_argument("--speed-wander", type=float,
-                       help="relative speed wander that makes cycles uneven")
+                       help="relative speed wander that makes cycles uneven (0: an exactly "
+                            "periodic drive)")
+    group.add_argument("--stamp-offset", type=float,
+                       help="extra error of WLS #1's start stamps that its scene does not "
+                            "declare, s")
+    group.add_argument("--running-clock", action="store_const", const=True,
+                       help="the wireless clocks run on through each dropout (no restart)")
+    group.add_argument("--fast-pulses", action="store_const", const=True,
+                       help="1 us optical edges (opt1 on the NI 9215 sample-switched)")
     parser.set_defaults(func=run)
 
 
@@ -57,7 +65,8 @@ _OPTIONS = {"start_offset": "start_offset_s", "drift_ppm": "drift_ppm",
             "missing_pulses": "missing_pulse_probability",
             "spurious_pulses": "spurious_pulses_per_minute", "noise": "noise",
             "torque_split": "torque_split", "bridge_drift": "bridge_drift",
-            "speed_wander": "speed_wander"}
+            "speed_wander": "speed_wander", "stamp_offset": "stamp_offset_s",
+            "running_clock": "running_clock", "fast_pulses": "fast_pulses"}
 
 
 def run(args: argparse.Namespace) -> int:
