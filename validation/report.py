@@ -215,8 +215,20 @@ def _alignment_rows(result: ValidationResult) -> list[dict[str, Any]]:
              "drift [ppm]": a.drift_ppm, "residual rms [µs]": a.residual_rms_s * 1e6,
              "pulses matched": a.events_matched, "missing": a.events_missing,
              "spurious": a.events_spurious, "input delay [ms]": a.input_delay_s * 1e3,
-             "segments": a.segments, "gaps": len(a.gaps)}
+             "segments": a.segments, "gaps": len(a.gaps),
+             "offset ±95 % [µs]": a.offset_u95_s * 1e6, "drift ±95 % [ppm]": a.drift_u95_ppm,
+             "periods decided by": a.periods_decided_by or "reference",
+             "samples dropped": sum(int(r["samples_dropped"]) for r in a.segment_table)}
             for name, a in result.alignment.items()]
+
+
+def _dropped_rows(result: ValidationResult) -> list[dict[str, Any]]:
+    """One row per segment whose samples could not be aligned, with the reason."""
+    return [{"stream": name, "segment": r["segment"], "device time [s]":
+             f"{r['device_time_s'][0]:.3f} - {r['device_time_s'][1]:.3f}",
+             "samples dropped": r["samples_dropped"], "why": r["dropped_because"]}
+            for name, a in result.alignment.items() for r in a.segment_table
+            if r["samples_dropped"]]
 
 
 def _peaks(predictions: xr.Dataset) -> list[dict[str, Any]]:
@@ -293,6 +305,10 @@ def _alignment(page: Page, result: ValidationResult) -> None:
     page.table(_alignment_rows(result),
                caption="clock model per stream: t_ref = offset + (1 + drift) t_device per "
                        "gap-free segment, fitted on the reference pulses")
+    dropped = _dropped_rows(result)
+    if dropped:
+        page.table(dropped, caption="samples that could not be aligned (marked invalid, left "
+                                    "out of every comparison)")
     page.figure(plots.plot_pulse_edges(result.alignment),
                 caption="one reference pulse as each stream recorded it (raw signal, reference "
                         "timeline after alignment) with the detected edges dashed")

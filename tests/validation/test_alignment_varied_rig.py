@@ -9,6 +9,7 @@ Truth: the exact clock of each stream on the cDAQ's clock (``RigTruth.clock_on_r
 
 from __future__ import annotations
 
+import json
 import re
 import warnings
 from pathlib import Path
@@ -18,7 +19,7 @@ import pytest
 
 from rigval.acquisition.errors import AlignmentError, DataWarning
 from rigval.sample_data import Imperfections, RigSettings, load_truth, simulate_rig
-from rigval.validation.pipeline import run_scene
+from rigval.validation.pipeline import run_scene, validate_scene
 from rigval.validation.results import ValidationResult
 
 
@@ -85,6 +86,19 @@ def test_ten_second_runs_validate_with_their_own_scene(tmp_path: Path, seed: int
     result = _validate(scene)
     assert result.alignment["cdaq"].events_matched >= 8
     _assert_within_u95(result, scene)
+    if seed == 3:
+        # WLS #2 started 1.36 s before the cDAQ: its first segment has no reference events.
+        # alignment.json and the report say so, per segment, with the reason.
+        out = tmp_path / "report"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DataWarning)
+            validate_scene(scene, out)
+        table = json.loads((out / "alignment.json").read_text())["wls2"]["segment_table"]
+        dropped = [row for row in table if row["samples_dropped"]]
+        assert len(dropped) == 1 and "outside the reference record" in dropped[0]["dropped_because"]
+        page = (out / "report.html").read_text()
+        assert "samples that could not be aligned" in page
+        assert f"{dropped[0]['samples_dropped']}" in page
 
 
 def test_exactly_periodic_drive_aligns_when_the_stamps_decide(tmp_path: Path) -> None:
