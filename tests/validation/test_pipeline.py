@@ -81,7 +81,8 @@ def test_model_and_measurement_agree(report_dir: Path) -> None:
     rows = json.loads((report_dir / "metrics.json").read_text())["rows"]
     ratings = {r["comparison"]: r["value"] for r in rows
                if r["row"] == "model" and r["metric"] == "iso18571_periodic.rating"}
-    assert set(ratings) == {"acc1", "acc2", "str1", "tor1", "tor2", "tor3", "tor4"}
+    assert set(ratings) == {"acc1", "acc2", "str1", "tor1", "tor2", "tor3", "tor4", "torque_F",
+                            "torque_H"}
     assert all(value > 0.8 for value in ratings.values()), ratings  # ISO "good" or better
     lags = {r["comparison"]: r["value"] for r in rows
             if r["row"] == "model" and r["metric"] == "circular_lag.lag_deg"}
