@@ -34,7 +34,8 @@ def carried_uncertainty(scene: Scene, alignment: StreamAlignment, speed_rev_s: f
         The scene (its drive encoders).
     alignment : StreamAlignment
         The compared channel's stream: its clock-fit residual RMS is taken as the standard
-        uncertainty of the channel's time on the reference clock (the reference stream: 0).
+        uncertainty of the channel's time on the reference clock (the reference stream: 0; a
+        stream aligned by its start stamps: their 95 % bound / 1.96).
     speed_rev_s : float
         Mean main-shaft speed, rev/s.
 
@@ -54,6 +55,10 @@ def carried_uncertainty(scene: Scene, alignment: StreamAlignment, speed_rev_s: f
     u_time = 0.0 if alignment.is_reference else float(alignment.residual_rms_s)
     if not math.isfinite(u_time):
         u_time = 0.0
+    if alignment.method == "stamps":
+        # aligned by its start stamps alone: their stated bound (a 95 % half-width) is the
+        # time uncertainty of every sample (docs/scene.md, alignment.pulses.<stream>.method)
+        u_time = max(u_time, float(alignment.offset_u95_s) / 1.96)
     u_drive = 0.0
     if scene.model.drives == "measured":
         for driver in scene.model.drivers.values():

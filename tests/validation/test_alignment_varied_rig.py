@@ -21,6 +21,7 @@ from rigval.acquisition.errors import AlignmentError, DataWarning
 from rigval.sample_data import Imperfections, RigSettings, load_truth, simulate_rig
 from rigval.validation.pipeline import run_scene, validate_scene
 from rigval.validation.results import ValidationResult
+from rigval.validation.verdict import carried_uncertainty
 
 
 def _run(folder: Path, **settings: object) -> Path:
@@ -192,6 +193,9 @@ def test_a_stream_aligned_by_its_stamps_carries_their_uncertainty(tmp_path: Path
     assert summary.offset_u95_s == pytest.approx(0.116)
     assert summary.drift_u95_ppm == pytest.approx(100.0)
     _assert_within_u95(result, scene)
+    # the stamps' uncertainty is carried into the V&V 20 verdict of wls1's channels
+    carried = carried_uncertainty(result.scene, summary, 1.0)
+    assert carried["u_time"] == pytest.approx(0.116 / 1.96)
 
 
 def test_sample_switched_reference_pulses(tmp_path: Path) -> None:
