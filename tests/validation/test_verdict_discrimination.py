@@ -32,9 +32,10 @@ def _scaled(folder: Path, body: str, key: str, factor: float) -> Path:
     return path
 
 
-def _validate_against_nominal(folder: Path, mechanism: Path, speed: float, seed: int):
+def _validate_against_nominal(folder: Path, mechanism: Path, speed: float, seed: int,
+                              duration: float = 8.0):
     files = simulate_rig(folder / f"run{seed}", RigSettings(
-        speed=speed, duration=8.0, seed=seed, mechanism=mechanism))
+        speed=speed, duration=duration, seed=seed, mechanism=mechanism))
     scene = files.path("scene.toml")
     scene.write_text(re.sub(r"^mechanism = .*$", 'mechanism = "builtin:pendulum"',
                             scene.read_text(encoding="utf-8"), flags=re.M), encoding="utf-8")
@@ -66,8 +67,8 @@ def test_heavier_arm_is_detected_where_it_shows(tmp_path, speed, seed):
 @pytest.mark.parametrize("seed", [11, 12, 13])
 def test_right_and_wrong_mechanism_over_seeds(tmp_path, speed, seed):
     nominal = Path(builtin_mechanism("pendulum"))
-    right = _validate_against_nominal(tmp_path, nominal, speed, seed)
+    right = _validate_against_nominal(tmp_path, nominal, speed, seed, 12.0)
     assert right.passed and not run_verdict(right)["detected"], run_verdict(right)["statement"]
     wrong = _validate_against_nominal(tmp_path, _scaled(tmp_path, "A", "mass", 1.05), speed,
-                                      seed + 100)
+                                      seed + 100, 12.0)
     assert {"torque_F", "torque_H"} <= set(run_verdict(wrong)["detected_on"])
