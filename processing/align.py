@@ -737,8 +737,10 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
             logger.info("rejection would leave %d of %d pairs: all kept", trial.sum(), r.size)
             break
         keep = trial
-    if keep.sum() < min_events:
-        raise AlignmentError(f"too few matched events: {int(keep.sum())} (need {min_events})",
+    # one degree of freedom at least: offsets per clock group, constants per pulse, the drift
+    needed = max(min_events, np.unique(g[keep]).size + np.unique(kind_of[keep]).size + 1)
+    if keep.sum() < needed:
+        raise AlignmentError(f"too few matched events: {int(keep.sum())} (need {needed})",
                              where=place, hint="record longer or check the pulse channels")
     offsets, drift, residual, se, half = _clock_fit(r[keep], d[keep], g[keep], kind_of[keep],
                                                     h[keep])

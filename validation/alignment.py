@@ -303,9 +303,9 @@ def _fit_clock(events: np.ndarray, found: StreamPulses, coarse: float,
     """Fit the stream's clock on its pulses; segments grouped by a running clock first."""
     edges, segments = found.times[~found.spurious], found.segment[~found.spurious]
     key = f"alignment.pulses.{name}"
-    # 4 events fit two offsets and a drift with a degree of freedom left; the Student-t
-    # interval then says how little they tell
-    kwargs = {"coarse_offset_s": coarse, "max_offset_error_s": window, "min_events": 4,
+    # as few events as leave one degree of freedom (3 for one offset and a drift): the
+    # Student-t interval then says how little they tell
+    kwargs = {"coarse_offset_s": coarse, "max_offset_error_s": window, "min_events": 3,
               "timing_bound_s": found.timing_bound_s,
               "per_revolution": pulse.per_revolution, "where": where,
               "settle_keys": (f"{key}.coarse_offset_s", f"{key}.start_time_uncertainty_s")}
