@@ -8,7 +8,12 @@ files equal the project's reference copies (``mechanisms/``) need the project's 
 
 from __future__ import annotations
 
+import json
 import os
+import re
+import shutil
+import subprocess
+from collections.abc import Callable
 from pathlib import Path
 
 import matplotlib
@@ -50,3 +55,30 @@ def mechanisms_dir(shared_dir: Path) -> Path:
         pytest.skip(f"needs the reference mechanism files, not found at {path}: set "
                     "RIGVAL_SHARED to a folder holding mechanisms/ (README, section Tests)")
     return path
+
+
+def _chromium_probe(page: Path, script: str, tmp_path: Path, *extra_args: str) -> object:
+    """Load ``page`` in headless Chromium with ``script`` (which writes JSON into a
+    ``<pre id="probe">`` element on load) and return the parsed JSON."""
+    chromium = shutil.which("chromium")
+    if chromium is None:
+        pytest.skip("chromium not installed (apt-get install chromium); .ci/run installs it")
+    probe = tmp_path / "probe.html"
+    probe.write_text(page.read_text().replace("</body>", script + "</body>", 1))
+    command = [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+               "--no-first-run", "--disable-background-networking",
+               "--disable-component-update", "--disable-sync", *extra_args,
+               f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=10000",
+               "--dump-dom", probe.as_uri()]
+    dom = subprocess.run(command, capture_output=True, text=True, timeout=180,
+                         check=True).stdout
+    match = re.search(r'<pre id="probe">(.*?)</pre>', dom, re.S)
+    assert match, f"the probe script did not run; chromium printed {dom[:300]!r}"
+    return json.loads(match.group(1).replace("&quot;", '"').replace("&amp;", "&"))
+
+
+@pytest.fixture
+def chromium_probe() -> Callable[..., object]:
+    """``probe(page, script, tmp_path, *chromium_args)``: run a probe script in headless Chromium
+    on a copy of ``page`` and return the JSON it wrote (skips when Chromium is absent)."""
+    return _chromium_probe

@@ -5,9 +5,6 @@ until opened."""
 from __future__ import annotations
 
 import itertools
-import json
-import re
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -24,34 +21,17 @@ const details=[...document.querySelectorAll('details')].map(d=>({open:d.open,
   rows:d.querySelectorAll('tbody tr').length}));
 const p=document.createElement('pre');p.id='probe';
 p.textContent=JSON.stringify({imgs,details,width:document.documentElement.scrollWidth,
-  viewport:window.innerWidth});document.body.appendChild(p);});</script></body>"""
-
-
-def _probe(page: Path, tmp_path: Path) -> dict:
-    probe = tmp_path / "probe.html"
-    probe.write_text(page.read_text().replace("</body>", PROBE, 1))
-    command = [shutil.which("chromium"), "--headless", "--no-sandbox", "--disable-gpu",
-               "--disable-quic", "--no-first-run", "--disable-background-networking",
-               "--disable-component-update", "--disable-sync", "--window-size=1280,900",
-               f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=10000",
-               "--dump-dom", probe.as_uri()]
-    dom = subprocess.run(command, capture_output=True, text=True, timeout=180,
-                         check=True).stdout
-    match = re.search(r'<pre id="probe">(.*?)</pre>', dom, re.S)
-    assert match, f"the probe script did not run; chromium printed {dom[:300]!r}"
-    return json.loads(match.group(1).replace("&quot;", '"').replace("&amp;", "&"))
+  viewport:window.innerWidth});document.body.appendChild(p);});</script>"""
 
 
 @pytest.mark.browser
-def test_predict_page_in_chromium(tmp_path: Path) -> None:
-    if shutil.which("chromium") is None:
-        pytest.skip("chromium not installed (apt-get install chromium); .ci/run installs it")
+def test_predict_page_in_chromium(tmp_path: Path, chromium_probe) -> None:
     out = tmp_path / "report"
     subprocess.run([sys.executable, "-m", "rigval.validation.cli", "predict", "builtin:pendulum",
                     "--out", str(out), "--points", "72", "--sweep-points", "24",
                     "--sweep", "theta_H.phase=0:324:10deg", "--sweep", "frequency=0.5:1.5:11",
                     "--summary", "torque_peak", "-q"], check=True, timeout=600)
-    seen = _probe(out / "report.html", tmp_path)
+    seen = chromium_probe(out / "report.html", PROBE, tmp_path, "--window-size=1280,900")
     images = seen["imgs"]
     assert images and all(isinstance(i["w"], int) and i["w"] > 0 for i in images), images
     assert any(i["alt"].startswith("the mechanism at t = 0") for i in images)

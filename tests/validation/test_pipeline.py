@@ -6,7 +6,6 @@ import json
 import re
 import runpy
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -178,32 +177,15 @@ def test_validate_scene_returns_what_a_campaign_needs(scene_path: Path, tmp_path
 
 
 @pytest.mark.browser
-def test_report_renders_in_chromium(report_dir: Path, tmp_path: Path) -> None:
-    if shutil.which("chromium") is None:
-        pytest.skip("chromium not installed (apt-get install chromium); .ci/run installs it")
+def test_report_renders_in_chromium(report_dir: Path, tmp_path: Path, chromium_probe) -> None:
     html = report_dir / "report.html"
     assert html.read_text().count("<img ") >= 7 + 3 + 2
-    assert_images_decode(html, tmp_path)
-
-
-def assert_images_decode(report: Path, tmp_path: Path) -> None:
-    """Load a page in headless Chromium; a script writes each image's naturalWidth to the DOM."""
-    probe = tmp_path / "probe.html"
+    # A script writes each image's naturalWidth into the page: 0 means it did not decode.
     script = ("<script>window.addEventListener('load',()=>{const r=[...document.images]"
               ".map(i=>i.complete&&i.naturalWidth);const p=document.createElement('pre');"
               "p.id='probe';p.textContent=JSON.stringify(r);document.body.appendChild(p);});"
-              "</script></body>")
-    probe.write_text(report.read_text().replace("</body>", script, 1))
-    command = [shutil.which("chromium"), "--headless", "--no-sandbox", "--disable-gpu",
-               "--disable-quic", "--no-first-run", "--disable-background-networking",
-               "--disable-component-update", "--disable-sync",
-               f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=10000",
-               "--dump-dom", probe.as_uri()]
-    dom = subprocess.run(command, capture_output=True, text=True, timeout=180,
-                         check=True).stdout
-    match = re.search(r'<pre id="probe">(.*?)</pre>', dom, re.S)
-    assert match, f"the probe script did not run; chromium printed {dom[:300]!r}"
-    widths = json.loads(match.group(1))
+              "</script>")
+    widths = chromium_probe(html, script, tmp_path)
     assert widths and all(isinstance(w, int) and w > 0 for w in widths), widths
 
 
