@@ -17,7 +17,7 @@ from typing import Any
 
 from rigval.validation.results import ComparisonResult, StreamAlignment, ValidationResult
 from rigval.validation.scene import Scene
-from rigval.validation.vv20 import CURVE_PARTS
+from rigval.validation.vv20 import CURVE_PARTS, error_ratio
 
 __all__ = ["carried_uncertainty", "comparison_verdict", "run_verdict"]
 
@@ -86,8 +86,7 @@ def comparison_verdict(comparison: ComparisonResult) -> dict[str, Any]:
     scores = comparison.scores
     error, u_val, k = (float(scores["vv20.curve.error"]), float(scores["vv20.curve.u_val"]),
                        float(scores["vv20.curve.k"]))
-    limit = k * u_val
-    ratio = error / limit if limit > 0 else (0.0 if error == 0 else math.inf)
+    ratio = error_ratio(error, k * u_val)
     return {"comparison": comparison.name, "detected": bool(scores["vv20.curve.detected"]),
             "E": error, "u_val": u_val, "k": k, "ratio": ratio, "units": comparison.units,
             "dominant": str(scores["vv20.curve.dominant"]),

@@ -143,8 +143,9 @@ class VV20Curve(Scores):
         unit = f" {units}" if units and units != "1" else ""
         head = ("Model error detected (|E| > k u_val)" if self.detected
                 else "Model error not detected (|E| <= k u_val)")
+        ratio = error_ratio(self.error, self.k * self.u_val)
         return (f"{head}: E = {self.error:.4g}{unit}, u_val = {self.u_val:.4g}{unit}, "
-                f"k = {self.k:g}, |E|/(k u_val) = {_ratio(self.error, self.k * self.u_val):.2f}")
+                f"k = {self.k:g}, |E|/(k u_val) = {ratio:.2f}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -339,8 +340,8 @@ def _slope(values: np.ndarray, step: float) -> np.ndarray:
     return (np.roll(values, -1) - np.roll(values, 1)) / (2.0 * step)
 
 
-def _ratio(error: float, limit: float) -> float:
-    """``error / limit`` with the limits for ``limit == 0``."""
+def error_ratio(error: float, limit: float) -> float:
+    """``error / limit`` (for example ``|E| / (k u_val)``), 0 or inf when ``limit == 0``."""
     if limit > 0.0:
         return error / limit
     return 0.0 if error == 0.0 else math.inf

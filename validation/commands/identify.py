@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -115,22 +116,18 @@ def _page(identification: Any, identified: Any) -> Any:
         page.table([{"parameter": k, "why": v}
                     for k, v in identification.not_identifiable.items()])
     page.section("Re-validation")
+    ratios = {which: {row["comparison"]: row["ratio"] for row in verdict["comparisons"]}
+              for which, verdict in verdicts.items()}
     rows = []
     for a, b in zip(nominal.comparisons, identified.comparisons, strict=True):
         rows.append({"comparison": a.name,
-                     "|E|/(k u_val) nominal": _ratio(a.scores), "|E|/(k u_val) identified":
-                     _ratio(b.scores), "ISO rating nominal": a.scores.get(
-                         "iso18571_periodic.rating"),
+                     "|E|/(k u_val) nominal": ratios["nominal"].get(a.name, math.nan),
+                     "|E|/(k u_val) identified": ratios["identified"].get(b.name, math.nan),
+                     "ISO rating nominal": a.scores.get("iso18571_periodic.rating"),
                      "ISO rating identified": b.scores.get("iso18571_periodic.rating")})
     page.table(rows, digits=3)
     page.paragraph("Full reports: nominal/report.html and identified/report.html.")
     return page
-
-
-def _ratio(scores: Any) -> float:
-    """``E / (k u_val)`` of a comparison's curve scores."""
-    return float(scores.get("vv20.curve.normalised_error", float("nan"))) / float(
-        scores.get("vv20.curve.k", 2.0))
 
 
 def run(args: argparse.Namespace) -> int:
