@@ -252,10 +252,7 @@ def _line_residual(x: _FloatArray, y: _FloatArray) -> tuple[_FloatArray, float]:
     if x.size < 3:
         return np.array([float(np.mean(y - x)) if x.size else 0.0, 1.0]), np.inf
     centre = x.mean()
-    i, j = np.triu_indices(x.size, k=1)
-    slope = float(np.median((y[j] - y[i]) / (x[j] - x[i])))
-    res = y - slope * (x - centre)
-    res -= np.median(res)
+    slope, res = _theil_sen(x - centre, y)
     scale = 1.4826 * float(np.median(np.abs(res)))
     use = np.abs(res) <= 5.0 * scale + 1e-12
     coeffs = np.array([slope, float(np.median(y - slope * (x - centre)))])
@@ -294,10 +291,9 @@ def _score(ref: _FloatArray, scoring: _FloatArray, offset: float, period: float,
     The share is of the events the candidate places inside the reference record: an offset
     that moves events off the record's ends is not penalised for them.
     """
-    predicted = scoring + offset
-    nearest = _nearest(ref, predicted)
-    hit = np.abs(ref[nearest] - predicted) < tolerance * period
+    hit, nearest = _hits(ref, scoring, offset, period, tolerance)
     _, scale = _line_residual(scoring[hit], ref[nearest[hit]])
+    predicted = scoring + offset
     inside = np.count_nonzero((predicted > ref[0] - tolerance * period)
                               & (predicted < ref[-1] + tolerance * period))
     return int(hit.sum()), scale, float(offset), hit.sum() / max(inside, 1)
@@ -311,12 +307,20 @@ def _hits(ref: _FloatArray, scoring: _FloatArray, offset: float, period: float,
     return np.abs(ref[nearest] - predicted) < tolerance * period, nearest
 
 
-def _line_fit(x: _FloatArray, y: _FloatArray) -> _FloatArray:
-    """Residuals of y about the Theil-Sen line through (x, y) (median of pairwise slopes)."""
+def _theil_sen(x: _FloatArray, y: _FloatArray) -> tuple[float, _FloatArray]:
+    """Return the Theil-Sen slope through (x, y) and the residuals about that line.
+
+    The slope is the median of the pairwise slopes; the residuals are centred on their median.
+    """
     i, j = np.triu_indices(x.size, k=1)
     slope = float(np.median((y[j] - y[i]) / (x[j] - x[i])))
     res = y - slope * x
-    return res - np.median(res)
+    return slope, res - np.median(res)
+
+
+def _line_fit(x: _FloatArray, y: _FloatArray) -> _FloatArray:
+    """Residuals of y about the Theil-Sen line through (x, y)."""
+    return _theil_sen(x, y)[1]
 
 
 def _rms_about_line(x: _FloatArray, y: _FloatArray) -> float:
