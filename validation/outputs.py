@@ -86,7 +86,7 @@ def staged_folder(out_dir: str | Path) -> Iterator[Path]:
     """
     final = Path(out_dir)
     final.parent.mkdir(parents=True, exist_ok=True)
-    temporary = final.with_name(f".{final.name}.partial-{uuid.uuid4().hex[:8]}")
+    temporary = partial_name(final)
     temporary.mkdir()
     try:
         yield temporary
