@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 
-from rigval.validation.metrics import baseline, iso18571_periodic
+from rigval.validation.metrics.compare import baseline, iso18571_periodic
 
 rng = np.random.default_rng(0)
 for n in (360, 720):

@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 
 from rigval.sample_data import Imperfections, RigSettings, simulate_rig
-from rigval.validation.campaign import run_campaign
+from rigval.validation.campaign.engine import run_campaign
 
 MODES = (("none", 1), ("local", 1), ("local", 2))  # (scheduler, worker processes)
 

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rigval.validation.metrics import baseline, compare, iso18571, iso18571_periodic
+from rigval.validation.metrics.compare import baseline, compare, iso18571, iso18571_periodic
 
 REFERENCE_SCRIPT = """
 import json, sys

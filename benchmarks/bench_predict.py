@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from rigval.model import solve
-from rigval.validation.predict import make_excitation, predict, resolve_mechanism, sweep
+from rigval.model.predict import make_excitation, predict, resolve_mechanism, sweep
 
 
 def best_of(repeat: int, func) -> tuple[float, object]:

@@ -2,7 +2,7 @@
 
 Writes a TDMS file (default 1 GiB: 4 float64 channels, segments of ``2**18`` samples per channel,
 written with ``nptdms.TdmsWriter``), warms the page cache, then runs every method of
-:data:`rigval.validation.bench_read_cases.READERS` in its own fresh interpreter (imports done
+:data:`rigval.validation.bench.read_cases.READERS` in its own fresh interpreter (imports done
 before the clock starts) and prints
 
 - the wall time of the read (best of ``--repeat``), its ratio to nptdms streaming, and the CPU
@@ -26,7 +26,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from rigval.validation.bench_read_cases import BASELINE, READERS, run_reader, write_test_file
+from rigval.validation.bench.read_cases import BASELINE, READERS, run_reader, write_test_file
 
 MEMORY_GOAL = 1.15
 TIME_GOAL = 1.5

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from rigval.sample_data import shipped_runs
 from rigval.validation.pipeline import run_scene
-from rigval.validation.report import write_report
+from rigval.validation.report.run_report import write_report
 
 
 def main(repeat: int) -> None:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from rigval.sample_data import shipped_runs
 from rigval.validation.pipeline import run_scene
-from rigval.validation.plots import plot_comparison
+from rigval.validation.report.plots import plot_comparison
 
 
 def main(scene_path: Path, name: str, out: Path) -> None:

@@ -57,7 +57,7 @@ from rigval.processing.angle import cycle_grid, resample_to_angle
 from rigval.processing.filters import zero_phase
 from rigval.validation.alignment import MainAngle, align_streams
 from rigval.validation.convert import convert_stream
-from rigval.validation.metrics import baseline, check_thresholds, compare
+from rigval.validation.metrics.compare import baseline, check_thresholds, compare
 from rigval.validation.model_run import (
     FINE_FACTOR,
     energy_residual,
@@ -163,7 +163,7 @@ def _compare(comparison: ComparisonSpec, units: str, long_name: str, angle: np.n
 
     ``u_num`` is the numerical uncertainty of the model (signal units) for V&V 20; ``carried``
     the uncertainties carried from alignment and drives (``u_time`` s, ``speed`` rad/s,
-    ``u_drive_angle`` rad, see :func:`rigval.validation.vv20.vv20_curve`).
+    ``u_drive_angle`` rad, see :func:`rigval.validation.metrics.vv20.vv20_curve`).
     """
     whole = cycles[np.all(np.isfinite(cycles), axis=1)]
     if whole.shape[0] < 2:
@@ -431,7 +431,7 @@ def validate_scene(scene_path: str | Path, out_dir: str | Path) -> ValidationRes
         With ``passed``, ``metric_rows()``, ``outputs`` (files written), ``inputs`` (files read)
         and ``speed_rev_s``.
     """
-    from rigval.validation.report import write_report
+    from rigval.validation.report.run_report import write_report
 
     result = run_scene(scene_path)
     write_report(result, out_dir)

@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from rigval.validation.metrics.thresholds import ThresholdCheck
 from rigval.validation.scene import ComparisonSpec, Scene
-from rigval.validation.thresholds import ThresholdCheck
 
 __all__ = [
     "ComparisonResult",
@@ -47,11 +47,11 @@ class ComparisonResult:
     offset : float
         Constant added to the model (``remove_offset``: measured mean minus model mean), else 0.
     scores : mapping
-        The model-against-mean metrics by name (see :func:`rigval.validation.metrics.compare`).
+        The model-against-mean metrics by name (:func:`rigval.validation.metrics.compare.compare`).
     baseline : mapping of str to mapping
         The same metrics for each cycle against the measured mean: ``{"median": {...},
         "worst": {...}}`` (the noise floor no model can beat).
-    checks : tuple of rigval.validation.thresholds.ThresholdCheck
+    checks : tuple of rigval.validation.metrics.thresholds.ThresholdCheck
         The scene's thresholds applied to ``scores``.
     """
 
@@ -245,7 +245,7 @@ class ValidationResult:
     tree : xarray.DataTree
         The run's data: ``/raw/<stream>``, ``/aligned``, ``/angle``, ``/model``, ``/validation``.
     outputs : list of pathlib.Path
-        Files written (filled by :func:`rigval.validation.report.write_report`).
+        Files written (filled by :func:`rigval.validation.report.run_report.write_report`).
     """
 
     scene: Scene

@@ -34,9 +34,9 @@ import numpy as np
 from rigval.acquisition.channel_map import ChannelSpec, StreamSpec, parse_streams
 from rigval.acquisition.errors import ConfigError, MechanismError, SceneError, UnitError
 from rigval.model.mechanism import builtin_mechanism, load_mechanism
-from rigval.validation.metrics import DEFAULT_METRICS, METRICS, compare
+from rigval.validation.metrics.compare import DEFAULT_METRICS, METRICS, compare
+from rigval.validation.metrics.thresholds import parse_threshold
 from rigval.validation.note import read_note
-from rigval.validation.thresholds import parse_threshold
 from rigval.validation.units import dimension, multiply
 
 __all__ = [
@@ -300,7 +300,7 @@ class ComparisonSpec:
         Add the difference of the measured mean's and the model's averages over a revolution to
         the model (sensors with an unknown zero, such as AC-coupled accelerometers); reported.
     metrics : tuple of str
-        Metrics to compute (names of :data:`rigval.validation.metrics.METRICS`); ASME V&V 20
+        Metrics to compute (names of :data:`rigval.validation.metrics.compare.METRICS`); ASME V&V 20
         on the peak and RMS features always runs in addition.
     uncertainty : mapping of str to float
         Systematic uncertainties for V&V 20 (``u_input``, ``u_measurement`` in the signal's

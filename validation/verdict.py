@@ -1,6 +1,6 @@
 """The ASME V&V 20 verdict of a validation: one statement per comparison and one per run.
 
-Every comparison carries :class:`~rigval.validation.vv20.VV20Curve` scores (``vv20.curve.*``):
+Every comparison carries :class:`~rigval.validation.metrics.vv20.VV20Curve` scores (``vv20.curve``):
 the model error ``E`` of the whole curve over phi_F against its validation uncertainty ``u_val``.
 This module supplies the parts of ``u_val`` that the pipeline carries from earlier stages
 (:func:`carried_uncertainty`) and turns the scores into the headline every report, console
@@ -15,9 +15,9 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from rigval.validation.metrics.vv20 import CURVE_PARTS, error_ratio
 from rigval.validation.results import ComparisonResult, StreamAlignment, ValidationResult
 from rigval.validation.scene import Scene
-from rigval.validation.vv20 import CURVE_PARTS, error_ratio
 
 __all__ = ["carried_uncertainty", "comparison_verdict", "run_verdict"]
 

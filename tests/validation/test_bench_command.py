@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from rigval.acquisition.errors import ConfigError, DataFileError
-from rigval.validation.bench import STAGES, BenchRow, run_bench, with_baseline
-from rigval.validation.bench_report import compare_text, read_csv
+from rigval.validation.bench.core import STAGES, BenchRow, run_bench, with_baseline
+from rigval.validation.bench.report import compare_text, read_csv
 from rigval.validation.cli import main
 
 

@@ -18,8 +18,8 @@ import pytest
 
 from rigval.acquisition.errors import DataFileError
 from rigval.sample_data import Imperfections, RigSettings, simulate_rig
-from rigval.validation.campaign import MANIFEST_NAME, run_campaign
-from rigval.validation.campaign_report import open_campaign, write_campaign_report
+from rigval.validation.campaign.engine import MANIFEST_NAME, run_campaign
+from rigval.validation.campaign.report import open_campaign, write_campaign_report
 
 distributed = pytest.importorskip("distributed", reason="the parallel extra is not installed")
 

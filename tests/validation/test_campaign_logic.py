@@ -19,10 +19,10 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-import rigval.validation.campaign as campaign
+import rigval.validation.campaign.engine as campaign
 from rigval.acquisition.errors import ConfigError, DataFileError
-from rigval.validation.campaign import RunError, RunReport, plan_runs, run_campaign, run_one
-from rigval.validation.campaign_report import (
+from rigval.validation.campaign.engine import RunError, RunReport, plan_runs, run_campaign, run_one
+from rigval.validation.campaign.report import (
     metrics_table,
     open_campaign,
     plot_metrics_against_speed,

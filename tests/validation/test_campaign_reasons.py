@@ -8,9 +8,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-from rigval.validation.campaign import RunError, RunOutcome
-from rigval.validation.campaign_report import run_reason
-from rigval.validation.html import Page
+from rigval.validation.campaign.engine import RunError, RunOutcome
+from rigval.validation.campaign.report import run_reason
+from rigval.validation.report.page import Page
 
 STANDIN = '''
 import json, sys, tomllib
@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 from rigval.acquisition.errors import DataFileError
-from rigval.validation import campaign
+from rigval.validation.campaign import engine as campaign
 from rigval.validation.cli import main
 
 def standin(scene, run_dir):

@@ -11,7 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError, DataFileError
-from rigval.validation.drive_laws import (
+from rigval.model.drive_laws import (
     DriveLaw,
     Excitation,
     Harmonic,

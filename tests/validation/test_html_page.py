@@ -7,7 +7,7 @@ import re
 
 from matplotlib.figure import Figure
 
-from rigval.validation.html import Page, figure_data_uri, format_value
+from rigval.validation.report.page import Page, figure_data_uri, format_value
 
 
 def _figure() -> Figure:

@@ -12,7 +12,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from rigval.acquisition.errors import ConfigError, DataError
-from rigval.validation.iso18571 import (
+from rigval.validation.metrics.iso18571 import (
     IsoParameters,
     _circular_correlation,
     _overlap_correlation,

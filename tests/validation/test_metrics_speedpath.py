@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from rigval.acquisition.errors import DataError
-from rigval.validation.iso18571 import (
+from rigval.validation.metrics.compare import DEFAULT_METRICS, baseline, compare
+from rigval.validation.metrics.iso18571 import (
     IsoParameters,
     dtw_path,
     iso18571_periodic,
     iso18571_periodic_many,
 )
-from rigval.validation.metrics import DEFAULT_METRICS, baseline, compare
 
 _TOLERANCE = 1e-12
 
@@ -162,8 +162,8 @@ def _comparison(name: str, amplitude: float, n_cycles: int, offset: float, seed:
 
 def test_reused_comparison_figure_renders_like_a_new_one():
     """Large, then small, then offset signals: no limit, label or artist of one is left over."""
-    from rigval.validation.html import figure_data_uri
-    from rigval.validation.plots import plot_comparison, plot_comparisons
+    from rigval.validation.report.page import figure_data_uri
+    from rigval.validation.report.plots import plot_comparison, plot_comparisons
 
     results = [_comparison("torque", 300.0, 12, 0.0, 1), _comparison("acc", 0.02, 5, 0.0, 2),
                _comparison("force", 40.0, 8, -2.5, 3)]

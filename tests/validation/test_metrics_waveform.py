@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from rigval.acquisition.errors import ConfigError, DataError
-from rigval.validation.metrics import (
+from rigval.validation.metrics.compare import (
     circular_lag,
     nrmse,
     peak_error,

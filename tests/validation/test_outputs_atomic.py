@@ -17,8 +17,8 @@ import pytest
 import xarray as xr
 
 from rigval.acquisition.errors import DataFileError
-from rigval.validation.campaign import run_campaign
-from rigval.validation.campaign_report import open_campaign, write_campaign_report
+from rigval.validation.campaign.engine import run_campaign
+from rigval.validation.campaign.report import open_campaign, write_campaign_report
 from rigval.validation.cli import main
 from rigval.validation.outputs import StagedOutputs, atomic_output, write_text_atomic
 
@@ -98,8 +98,8 @@ def test_rerun_killed_while_rewriting_keeps_the_previous_netcdf(
 
     monkeypatch.setattr(xr.DataTree, "to_netcdf", killed)
     with pytest.raises(KeyboardInterrupt):
-        from rigval.validation.predict import predict
-        from rigval.validation.predict_report import write_predict_report
+        from rigval.model.predict import predict
+        from rigval.validation.report.predict_report import write_predict_report
         write_predict_report(predict("builtin:single_pendulum", n_points=36), out)
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 

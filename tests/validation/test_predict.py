@@ -11,8 +11,8 @@ import xarray as xr
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError
 from rigval.model import builtin_mechanism, load_mechanism, solve, solve_cycle
-from rigval.validation.drive_laws import Harmonic
-from rigval.validation.predict import (
+from rigval.model.drive_laws import Harmonic
+from rigval.model.predict import (
     file_excitation,
     ground_pins,
     parse_sweep_option,

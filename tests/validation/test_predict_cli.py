@@ -15,8 +15,8 @@ import pytest
 import xarray as xr
 
 from rigval.model import builtin_mechanism, load_mechanism
-from rigval.validation.bench import BenchRow
-from rigval.validation.bench_report import closing_line
+from rigval.validation.bench.core import BenchRow
+from rigval.validation.bench.report import closing_line
 
 
 def rigval(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:

@@ -9,8 +9,8 @@ import pandas as pd
 import pytest
 import xarray as xr
 
+from rigval.model.predict import default_tip, predict, resolve_mechanism
 from rigval.validation.cli import main
-from rigval.validation.predict import default_tip, predict, resolve_mechanism
 
 
 def test_default_tip_is_the_point_farthest_from_the_ground_pins() -> None:

@@ -11,8 +11,8 @@ import pandas as pd
 import pytest
 import xarray as xr
 
+from rigval.model.predict import file_excitation, predict, resolve_mechanism
 from rigval.validation.cli import EXIT_OK, EXIT_USAGE, main
-from rigval.validation.predict import file_excitation, predict, resolve_mechanism
 
 
 @pytest.fixture(scope="module")

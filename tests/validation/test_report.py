@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from rigval.validation.report import write_report
+from rigval.validation.metrics.thresholds import check_thresholds
+from rigval.validation.report.run_report import write_report
 from rigval.validation.results import (
     ComparisonResult,
     NumericsSummary,
@@ -19,7 +20,6 @@ from rigval.validation.results import (
     ValidationResult,
 )
 from rigval.validation.scene import load_scene
-from rigval.validation.thresholds import check_thresholds
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "scene.md"
 
@@ -136,7 +136,7 @@ def test_netcdf_has_provenance_and_compression(result: ValidationResult, tmp_pat
 def test_comparison_figure_draws_the_data(result: ValidationResult) -> None:
     from matplotlib.figure import Figure
 
-    from rigval.validation.plots import plot_comparison
+    from rigval.validation.report.plots import plot_comparison
 
     comparison = result.comparisons[0]
     fig = plot_comparison(comparison)

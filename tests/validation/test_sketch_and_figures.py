@@ -13,12 +13,12 @@ from matplotlib.figure import Figure
 from matplotlib.text import Annotation, Text
 
 from rigval.model import builtin_mechanism, load_mechanism, solve
-from rigval.validation.bench import BenchRow
-from rigval.validation.bench_report import plot_stage
-from rigval.validation.plots import honest_ylim, plot_support_forces
-from rigval.validation.predict import predict
-from rigval.validation.predict_report import _angle_panels, _tip_path_figure
-from rigval.validation.sketch import body_outlines, sketch_mechanism
+from rigval.model.predict import predict
+from rigval.validation.bench.core import BenchRow
+from rigval.validation.bench.report import plot_stage
+from rigval.validation.report.plots import honest_ylim, plot_support_forces
+from rigval.validation.report.predict_report import _angle_panels, _tip_path_figure
+from rigval.validation.report.sketch import body_outlines, sketch_mechanism
 
 
 @pytest.fixture(scope="module")
@@ -154,7 +154,7 @@ def test_bench_plot_labels_log_axes_draws_bounds_and_marks_exact_zeros() -> None
 def test_comparison_title_sits_above_its_legend_row() -> None:
     from types import SimpleNamespace
 
-    from rigval.validation.plots import plot_comparison
+    from rigval.validation.report.plots import plot_comparison
     from rigval.validation.results import ComparisonResult
 
     angle = np.arange(120) * 2 * np.pi / 120

@@ -7,11 +7,11 @@ import re
 import pytest
 
 from rigval.sample_data import runs_dir
-from rigval.validation import campaign
-from rigval.validation.campaign_report import write_campaign_report
+from rigval.validation.campaign import engine as campaign
+from rigval.validation.campaign.report import write_campaign_report
 from rigval.validation.commands.validate import print_summary
 from rigval.validation.pipeline import run_scene
-from rigval.validation.report import write_report
+from rigval.validation.report.run_report import write_report
 from rigval.validation.verdict import run_verdict
 
 

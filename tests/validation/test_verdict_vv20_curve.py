@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from rigval.acquisition.errors import ConfigError
-from rigval.validation.metrics import compare
-from rigval.validation.vv20 import CURVE_PARTS, vv20_curve
+from rigval.validation.metrics.compare import compare
+from rigval.validation.metrics.vv20 import CURVE_PARTS, vv20_curve
 
 N = 360
 PHI = np.arange(N) * 2 * np.pi / N

@@ -1,6 +1,6 @@
 """``rigval bench [--quick] --out DIR``: what each processing and model choice costs and gains.
 
-Runs the sweeps of :mod:`rigval.validation.bench` on synthetic cases with known truth and writes
+Runs the sweeps of :mod:`rigval.validation.bench.core` on synthetic cases with known truth, writes
 ``bench.csv``, ``bench.md`` and one ``bench_<stage>.png`` per stage (time against error) into
 ``DIR``; prints the Markdown table (and, with ``--compare CSV``, each row's error and CPU time
 against an earlier run's ``bench.csv``). Exit code 0 when every error is within its stated bound,
@@ -21,7 +21,7 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``bench`` subcommand."""
-    from rigval.validation.bench import STAGES
+    from rigval.validation.bench.core import STAGES
 
     parser = subparsers.add_parser(
         "bench", help="measure speed against error of the main choices (tables and plots)",
@@ -44,8 +44,8 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweeps, write the files and print the table; return the exit code."""
-    from rigval.validation.bench import STAGES, machine_note, run_bench
-    from rigval.validation.bench_report import (
+    from rigval.validation.bench.core import STAGES, machine_note, run_bench
+    from rigval.validation.bench.report import (
         closing_line,
         compare_text,
         markdown_table,

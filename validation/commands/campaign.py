@@ -17,7 +17,7 @@ from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any, TextIO
 
 if TYPE_CHECKING:
-    from rigval.validation.campaign import RunOutcome
+    from rigval.validation.campaign.engine import RunOutcome
 
 __all__ = ["add_parser", "run"]
 
@@ -49,8 +49,8 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the campaign and return the exit code (see the module docstring)."""
-    from rigval.validation.campaign import dask_available, run_campaign
-    from rigval.validation.campaign_report import run_reason, write_campaign_report
+    from rigval.validation.campaign.engine import dask_available, run_campaign
+    from rigval.validation.campaign.report import run_reason, write_campaign_report
     from rigval.validation.console import progress_display
 
     # Dask logs its cluster's start and stop at INFO; show that only with -vv. Importing

@@ -62,7 +62,7 @@ def validate_one(scene: Path, out_dir: Path) -> dict[str, Any]:
 
 def _index(out_dir: Path, rows: list[dict[str, Any]]) -> Path:
     """Write ``index.html`` linking every run's report."""
-    from rigval.validation.html import Page, escape, format_value
+    from rigval.validation.report.page import Page, escape, format_value
 
     page = Page("rigval demo: the shipped sample runs",
                 subtitle="PASSED" if all(r["passed"] for r in rows) else "FAILED",
@@ -103,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     # imported once here: forked workers inherit the modules instead of importing them again
     importlib.import_module("rigval.validation.pipeline")
-    importlib.import_module("rigval.validation.report")
+    importlib.import_module("rigval.validation.report.run_report")
     if workers > 1:
         with ProcessPoolExecutor(max_workers=workers) as pool:
             rows = list(pool.map(validate_one, scenes, targets))

@@ -64,7 +64,7 @@ def write_identification(identification: Any, out_dir: Path) -> list[Path]:
     from rigval.validation.identify import apply_parameters, mechanism_toml
     from rigval.validation.outputs import write_text_atomic
     from rigval.validation.pipeline import run_scene
-    from rigval.validation.report import write_report
+    from rigval.validation.report.run_report import write_report
 
     out_dir.mkdir(parents=True, exist_ok=True)
     nominal = identification.nominal_result
@@ -89,7 +89,7 @@ def write_identification(identification: Any, out_dir: Path) -> list[Path]:
 
 def _page(identification: Any, identified: Any) -> Any:
     """Build the side-by-side page: verdicts, parameters, ratings per comparison."""
-    from rigval.validation.html import Page
+    from rigval.validation.report.page import Page
     from rigval.validation.verdict import run_verdict
 
     nominal = identification.nominal_result

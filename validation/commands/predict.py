@@ -75,8 +75,8 @@ def run(args: argparse.Namespace) -> int:
     import xarray as xr
 
     from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
-    from rigval.validation.drive_laws import excitation_from_measured
-    from rigval.validation.predict import (
+    from rigval.model.drive_laws import excitation_from_measured
+    from rigval.model.predict import (
         SUMMARIES,
         make_excitation,
         parse_sweep_option,
@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
         resolve_mechanism,
         sweep,
     )
-    from rigval.validation.predict_report import write_predict_report
+    from rigval.validation.report.predict_report import write_predict_report
 
     if len(args.sweep) > 2:
         raise ConfigError(f"at most two --sweep options, got {len(args.sweep)}",
@@ -189,7 +189,7 @@ def _shorthand(text: str, main: str | None) -> str:
 
 def _print_drivers(mechanism: Any, main: str | None) -> None:
     """Print each driver with its law from the mechanism file (``--list-drivers``)."""
-    from rigval.validation.predict import file_excitation
+    from rigval.model.predict import file_excitation
 
     excitation = file_excitation(mechanism, main=main)
     print(f"{len(excitation.names)} drivers; main drive {excitation.main} at "

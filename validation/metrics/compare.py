@@ -30,7 +30,8 @@ from typing import Any
 import numpy as np
 
 from rigval.acquisition.errors import ConfigError
-from rigval.validation.iso18571 import (
+from rigval.validation.metrics.core import Scores, as_cycles, as_signal, paired, revolution_angle
+from rigval.validation.metrics.iso18571 import (
     IsoParameters,
     IsoScores,
     grade,
@@ -38,10 +39,9 @@ from rigval.validation.iso18571 import (
     iso18571_periodic,
     iso18571_periodic_many,
 )
-from rigval.validation.metric_core import Scores, as_cycles, as_signal, paired, revolution_angle
-from rigval.validation.thresholds import ThresholdCheck, check_thresholds, parse_threshold
-from rigval.validation.vv20 import VV20Curve, VV20Feature, VV20Scores, vv20, vv20_curve
-from rigval.validation.waveform_metrics import (
+from rigval.validation.metrics.thresholds import ThresholdCheck, check_thresholds, parse_threshold
+from rigval.validation.metrics.vv20 import VV20Curve, VV20Feature, VV20Scores, vv20, vv20_curve
+from rigval.validation.metrics.waveform import (
     LagScores,
     NrmseScores,
     PeakScores,

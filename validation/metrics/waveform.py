@@ -1,7 +1,7 @@
 """Waveform comparison metrics beside ISO/TS 18571: Sprague-Geers, Russell and plain measures.
 
 Every function takes the measured (reference) signal first and the model signal second, sampled on
-the same grid, and returns a frozen :class:`~rigval.validation.metric_core.Scores` record. Sources
+the same grid, and returns a frozen :class:`~rigval.validation.metrics.core.Scores` record. Sources
 of the formulas are cited per function; docs/metrics.md and docs/references.md collects them.
 """
 
@@ -17,7 +17,7 @@ import scipy.optimize
 import xarray as xr
 
 from rigval.acquisition.errors import ConfigError, DataError
-from rigval.validation.metric_core import Scores, as_signal, paired, revolution_angle
+from rigval.validation.metrics.core import Scores, as_signal, paired, revolution_angle
 
 __all__ = [
     "LagScores",

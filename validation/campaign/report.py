@@ -10,7 +10,7 @@ report folders:
 ``campaign_metrics.csv``
     The metrics of every run in long form (one row per run, comparison and metric).
 ``campaign.json``
-    Every :class:`~rigval.validation.campaign.RunOutcome` as data (what :func:`open_campaign`
+    Every :class:`~rigval.validation.campaign.engine.RunOutcome` as data (what :func:`open_campaign`
     and scripts read back).
 
 :func:`open_campaign` reads the runs' netCDF files back as one dataset with a ``run`` dimension.
@@ -35,9 +35,9 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from rigval.acquisition.errors import DataFileError
-from rigval.validation.campaign import RunOutcome, dask_available
-from rigval.validation.html import Page, escape
+from rigval.validation.campaign.engine import RunOutcome, dask_available
 from rigval.validation.outputs import atomic_output, write_text_atomic
+from rigval.validation.report.page import Page, escape
 
 __all__ = [
     "CampaignFiles",

@@ -18,7 +18,7 @@ import xarray as xr
 
 import rigval.model as rm
 from rigval.model.drives import law_motion
-from rigval.validation.bench import BenchRow, Measured, measure, with_baseline
+from rigval.validation.bench.core import BenchRow, Measured, measure, with_baseline
 
 __all__ = ["blas_label", "blas_thread_row", "model_rows"]
 

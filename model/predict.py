@@ -35,7 +35,7 @@ import xarray as xr
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError
 from rigval.model import Mechanism, builtin_mechanism, load_mechanism, solve
-from rigval.validation.drive_laws import (
+from rigval.model.drive_laws import (
     Excitation,
     apply_drive_options,
     excitation_from_drivers,
@@ -124,8 +124,8 @@ def make_excitation(mechanism: Mechanism, drives: DriveSpec = None, *, main: str
     drives : Excitation, sequence of str, xarray.Dataset or None
         None for the file's laws; an Excitation (its drive names must be the mechanism's);
         ``NAME=LAW`` options applied to the file's laws (see
-        :func:`rigval.validation.drive_laws.parse_drive_option`); or a measured run's drive angles
-        (see :func:`rigval.validation.drive_laws.excitation_from_measured`).
+        :func:`rigval.model.drive_laws.parse_drive_option`); or a measured run's drive angles
+        (see :func:`rigval.model.drive_laws.excitation_from_measured`).
     main : str, optional
         Main drive; default the first driver.
     base_dir : pathlib.Path, optional

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from rigval.acquisition.errors import ConfigError
-from rigval.validation.metric_core import Scores, as_cycles, paired
+from rigval.validation.metrics.core import Scores, as_cycles, paired
 
 __all__ = ["CURVE_PARTS", "FEATURES", "VV20Curve", "VV20Feature", "VV20Scores", "vv20",
            "vv20_curve"]

@@ -42,7 +42,7 @@ import numpy as np
 import scipy.signal
 
 from rigval.acquisition.errors import ConfigError, DataError
-from rigval.validation.metric_core import Scores, paired, revolution_angle
+from rigval.validation.metrics.core import Scores, paired, revolution_angle
 
 __all__ = [
     "DEFAULT_MAX_SAMPLES",
@@ -316,7 +316,7 @@ def iso18571_periodic_many(measured: Any, models: Any, angle: Any = None, *,
     The result equals ``[iso18571_periodic(measured, model, angle, ...) for model in models]``
     (the same operations on every sample, so the same scores to the last bit) but takes one DTW
     sweep for all of them: the sweep is a Python loop over anti-diagonals, so its cost hardly
-    grows with the number of signals. :func:`rigval.validation.metrics.baseline` rates every
+    grows with the number of signals. :func:`rigval.validation.metrics.compare.baseline` rates every
     measured cycle against the cycle mean with it.
 
     Parameters

@@ -8,7 +8,7 @@ A threshold is a short string: an optional ``abs``, a comparison operator and a 
     "< 5"  "> 0"      strict comparisons
 
 Operators: ``<``, ``<=``, ``>``, ``>=``. The number is a plain decimal or exponent literal
-(``1e-3``). Thresholds are keyed by score name as :func:`rigval.validation.metrics.compare`
+(``1e-3``). Thresholds are keyed by score name as :func:`rigval.validation.metrics.compare.compare`
 names them (``"iso18571_periodic.rating"``, ``"nrmse"``, ``"sprague_geers.magnitude"``). A NaN
 score fails every threshold.
 """
@@ -101,7 +101,7 @@ def check_thresholds(scores: Mapping[str, Any], thresholds: Mapping[str, str], *
     Parameters
     ----------
     scores : mapping
-        Score name to value, as returned by :func:`rigval.validation.metrics.compare`.
+        Score name to value, as returned by :func:`rigval.validation.metrics.compare.compare`.
     thresholds : mapping
         Score name to threshold string, for example ``{"iso18571_periodic.rating": ">= 0.8",
         "nrmse": "<= 0.1"}``.

@@ -30,12 +30,12 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.detect import source_checksum
-from rigval.validation import plots
-from rigval.validation.html import Page
-from rigval.validation.iso18571 import IsoParameters
+from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
 from rigval.validation.note import read_note
 from rigval.validation.outputs import atomic_output, staged_folder, write_text_atomic
+from rigval.validation.report import plots
+from rigval.validation.report.page import Page
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.scene import Scene
 from rigval.validation.verdict import run_verdict
@@ -338,7 +338,7 @@ def _predictions(page: Page, result: ValidationResult) -> None:
 def _mechanism_sketch(page: Page, result: ValidationResult) -> None:
     """Add the sketch of the run's mechanism, the points the report names in red."""
     from rigval.model import load_mechanism
-    from rigval.validation.sketch import sketch_mechanism
+    from rigval.validation.report.sketch import sketch_mechanism
 
     try:
         mechanism = load_mechanism(result.scene.mechanism)

@@ -31,15 +31,15 @@ from matplotlib.figure import Figure
 
 from rigval.acquisition.schema import append_history
 from rigval.model import Mechanism, load_mechanism
-from rigval.validation.html import Page
 from rigval.validation.outputs import StagedOutputs
-from rigval.validation.plots import (
+from rigval.validation.report.page import Page
+from rigval.validation.report.plots import (
     TITLE_PAD,
     honest_ylim,
     plot_point_kinematics,
     plot_support_forces,
 )
-from rigval.validation.sketch import place_labels, sketch_mechanism
+from rigval.validation.report.sketch import place_labels, sketch_mechanism
 
 __all__ = ["PredictReportFiles", "cycle_table", "peak_table", "sweep_table",
            "write_predict_report"]
@@ -79,7 +79,7 @@ def cycle_table(prediction: xr.Dataset) -> pd.DataFrame:
     Parameters
     ----------
     prediction : xarray.Dataset
-        A result of :func:`rigval.validation.predict.predict`.
+        A result of :func:`rigval.model.predict.predict`.
     """
     columns: dict[str, np.ndarray] = {
         "angle_deg": _degrees(prediction["angle"].values),
@@ -116,7 +116,7 @@ def peak_table(prediction: xr.Dataset) -> pd.DataFrame:
     Parameters
     ----------
     prediction : xarray.Dataset
-        A result of :func:`rigval.validation.predict.predict`.
+        A result of :func:`rigval.model.predict.predict`.
     """
     rows = []
     for support in prediction["support"].values:
@@ -152,7 +152,7 @@ def sweep_table(result: xr.Dataset) -> pd.DataFrame:
     Parameters
     ----------
     result : xarray.Dataset
-        A result of :func:`rigval.validation.predict.sweep`.
+        A result of :func:`rigval.model.predict.sweep`.
     """
     dims = _sweep_dims(result)
     frame = pd.DataFrame(index=pd.MultiIndex.from_product(
@@ -371,11 +371,11 @@ def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,
     Parameters
     ----------
     prediction : xarray.Dataset
-        A result of :func:`rigval.validation.predict.predict`.
+        A result of :func:`rigval.model.predict.predict`.
     out_dir : str or pathlib.Path
         Folder to write into (created if missing).
     sweep : xarray.Dataset, optional
-        A result of :func:`rigval.validation.predict.sweep`.
+        A result of :func:`rigval.model.predict.sweep`.
     command : str, optional
         The command line that produced the report (shown on the page).
     mechanism : Mechanism, optional

@@ -5,7 +5,7 @@ choices on a synthetic case whose truth is known and returns :class:`BenchRow` o
 choice, its time, its error against the truth, the stated bound that error must stay below, the
 physical limit where one is known, and the baseline the row is compared to (another row of the
 same stage, case and metric). :func:`run_bench` runs the sweeps;
-:mod:`rigval.validation.bench_report` writes the CSV, Markdown and PNG files.
+:mod:`rigval.validation.bench.report` writes the CSV, Markdown and PNG files.
 
 Times are the best of a few repeats, wall clock (``time.perf_counter``) and CPU of this process
 (``time.process_time``, less disturbed by other work on a shared machine).
@@ -194,20 +194,20 @@ def machine_note() -> str:
 
 
 def _sweeps() -> dict[str, Callable[[bool], list[BenchRow]]]:
-    from rigval.validation import (
-        bench_align_cases,
-        bench_identify_cases,
-        bench_model_cases,
-        bench_read_cases,
-        bench_signal_cases,
+    from rigval.validation.bench import (
+        align_cases,
+        identify_cases,
+        model_cases,
+        read_cases,
+        signal_cases,
     )
 
-    return {"model": bench_model_cases.model_rows,
-            "alignment": bench_align_cases.alignment_rows,
-            "resampling": bench_signal_cases.resampling_rows,
-            "derivatives": bench_signal_cases.derivative_rows,
-            "reading": bench_read_cases.reading_rows,
-            "identification": bench_identify_cases.identification_rows}
+    return {"model": model_cases.model_rows,
+            "alignment": align_cases.alignment_rows,
+            "resampling": signal_cases.resampling_rows,
+            "derivatives": signal_cases.derivative_rows,
+            "reading": read_cases.reading_rows,
+            "identification": identify_cases.identification_rows}
 
 
 #: Environment of the worker process: one thread in every BLAS / OpenMP pool.
@@ -271,7 +271,7 @@ def _with_blas_rows(rows: list[BenchRow], quick: bool) -> list[BenchRow]:
     count unless the user set one), one with :data:`SINGLE_THREAD_ENV`; the one-thread row is
     the baseline. The rows go right after the other model rows.
     """
-    from rigval.validation.bench_model_cases import blas_thread_row
+    from rigval.validation.bench.model_cases import blas_thread_row
 
     one = _spawned(SINGLE_THREAD_ENV, blas_thread_row, quick)
     default = _spawned({}, blas_thread_row, quick)

@@ -1,0 +1,1 @@
+"""Benchmarks: speed against error for each choice (`rigval bench`) and their page."""

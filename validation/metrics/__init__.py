@@ -1,0 +1,1 @@
+"""Metrics: ISO/TS 18571 ratings, waveform metrics, the ASME V&V 20 comparison and thresholds."""
