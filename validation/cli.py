@@ -33,10 +33,10 @@ import sys
 import tempfile
 import traceback
 from collections.abc import Sequence
-from importlib.metadata import PackageNotFoundError, version
 from typing import Any
 
 from rigval.acquisition.errors import ConfigError, RigvalError
+from rigval.validation.version import rigval_version
 
 __all__ = ["EXIT_BUG", "EXIT_DATA", "EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "EXIT_USAGE",
            "build_parser", "main"]
@@ -57,13 +57,6 @@ COMMON_EXIT_CODES = (f"{EXIT_BUG} internal error (a bug: the traceback is writte
                      f"named on the console; -v prints it), {EXIT_INTERRUPTED} interrupted.")
 
 logger = logging.getLogger(__name__)
-
-
-def _version() -> str:
-    try:
-        return version("rigval")
-    except PackageNotFoundError:  # running from a source tree that was never installed
-        return "unknown"
 
 
 class HelpFormatter(argparse.HelpFormatter):
@@ -121,7 +114,7 @@ def build_parser() -> argparse.ArgumentParser:
                f"{COMMON_EXIT_CODES} 'rigval COMMAND --help' describes each command.",
         formatter_class=HelpFormatter,
     )
-    parser.add_argument("--version", action="version", version=f"rigval {_version()}")
+    parser.add_argument("--version", action="version", version=f"rigval {rigval_version()}")
     _verbosity_options(parser, sub=False)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     wrapped = _Subcommands(subparsers)
@@ -168,7 +161,7 @@ def _report_bug(error: BaseException, verbose: int) -> None:
     stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
     fd, name = tempfile.mkstemp(prefix=f"rigval-traceback-{stamp}-", suffix=".txt")
     with os.fdopen(fd, "w", encoding="utf-8") as file:
-        file.write(f"rigval {_version()}, Python {sys.version.split()[0]}\n")
+        file.write(f"rigval {rigval_version()}, Python {sys.version.split()[0]}\n")
         file.write("command: rigval " + " ".join(sys.argv[1:]) + "\n\n" + text)
     if verbose:
         print(text, end="", file=sys.stderr)

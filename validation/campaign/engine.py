@@ -40,7 +40,6 @@ from collections import Counter
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -50,6 +49,7 @@ from rigval.acquisition.errors import ConfigError, RigvalError
 from rigval.acquisition.schema import file_sha256
 from rigval.validation.console import run_context
 from rigval.validation.outputs import write_text_atomic
+from rigval.validation.version import rigval_version as _rigval_version
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -564,14 +564,6 @@ def _write_manifest(outcome: RunOutcome, inputs: Sequence[Path]) -> None:
     }
     target = outcome.run_dir / MANIFEST_NAME
     write_text_atomic(target, json.dumps(manifest, indent=1, allow_nan=False))
-
-
-def _rigval_version() -> str:
-    """Return the installed rigval version (``"unknown"`` from a never-installed tree)."""
-    try:
-        return version("rigval")
-    except PackageNotFoundError:
-        return "unknown"
 
 
 def _picklable(error: BaseException) -> bool:

@@ -20,7 +20,6 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +39,7 @@ from rigval.validation.report.plots import (
     plot_support_forces,
 )
 from rigval.validation.report.sketch import place_labels, sketch_mechanism
+from rigval.validation.version import rigval_version
 
 __all__ = ["PredictReportFiles", "cycle_table", "peak_table", "sweep_table",
            "write_predict_report"]
@@ -336,7 +336,7 @@ def _write_netcdf(prediction: xr.Dataset, sweep: xr.Dataset | None, path: Path,
         children["sweep"] = sweep.rename({d: d.replace(".", "_") for d in _sweep_dims(sweep)})
     root = xr.Dataset(attrs={
         "Conventions": "CF-1.10", "title": prediction.attrs.get("title", "rigval prediction"),
-        "rigval_version": _version()})
+        "rigval_version": rigval_version()})
     append_history(root, (command or "validation.predict").removeprefix("rigval "))
     tree = xr.DataTree.from_dict({"/": root, **{f"/{k}": v for k, v in children.items()}})
     encoding = {f"/{k}": {name: {"zlib": True, "complevel": 4} for name in v.data_vars}
@@ -354,13 +354,6 @@ def _mechanism_sketch(prediction: xr.Dataset, mechanism: Mechanism | None,
             logger.info("no mechanism sketch: %s", error)
             return None
     return sketch_mechanism(mechanism, highlight=[tip])
-
-
-def _version() -> str:
-    try:
-        return version("rigval")
-    except PackageNotFoundError:  # a source tree that was never installed
-        return "unknown"
 
 
 def write_predict_report(prediction: xr.Dataset, out_dir: str | Path, *,

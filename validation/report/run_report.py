@@ -22,7 +22,6 @@ import dataclasses
 import json
 import logging
 import math
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
@@ -39,8 +38,9 @@ from rigval.validation.report.page import Page
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.scene import Scene
 from rigval.validation.verdict import run_verdict
+from rigval.validation.version import rigval_version
 
-__all__ = ["rigval_version", "write_metrics", "write_netcdf", "write_report"]
+__all__ = ["write_metrics", "write_netcdf", "write_report"]
 
 logger = logging.getLogger(__name__)
 
@@ -52,14 +52,6 @@ _PREFERRED = ("iso18571_periodic.rating", "iso18571_periodic.grade",
               "nrmse", "pearson_r", "peak_error.relative_error", "peak_error.shift",
               "circular_lag.lag_deg", "vv20.peak.error", "vv20.peak.u_val",
               "vv20.peak.resolved", "vv20.rms.error", "vv20.rms.u_val", "vv20.rms.resolved")
-
-
-def rigval_version() -> str:
-    """Return the installed rigval version (``"unknown"`` in an uninstalled source tree)."""
-    try:
-        return version("rigval")
-    except PackageNotFoundError:
-        return "unknown"
 
 
 def _finite(value: Any) -> Any:
