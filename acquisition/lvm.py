@@ -23,7 +23,6 @@ with different ``Delta_X`` or sample counts form separate streams.
 
 from __future__ import annotations
 
-import json
 import logging
 import os
 import re
@@ -39,10 +38,10 @@ import xarray as xr
 from rigval.acquisition.detect import checked_path, source_checksum
 from rigval.acquisition.devices import get_device, module_attrs
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
-from rigval.acquisition.schema import Channel, stream_dataset
+from rigval.acquisition.schema import Channel, stream_dataset, string_table_attrs
 from rigval.acquisition.text_csv import read_text
 from rigval.acquisition.timebase import exact_increment
-from rigval.acquisition.unitnames import udunits
+from rigval.acquisition.units import udunits
 from rigval.acquisition.warn import warn_data
 
 __all__ = ["LvmFile", "LvmSegment", "parse_lvm", "read_lvm"]
@@ -589,7 +588,7 @@ def _stream(parts: list[list[_Column]], lvm: LvmFile, file: Path, fs: float | No
         channels[name] = Channel(data, udunits(col.unit), col.name, col.name, "none", attrs)
     for note in notes:
         logger.info("%s: %s", file, note)
-    attrs = {"source_format": "lvm", "lvm_header": json.dumps(lvm.tags),
+    attrs = {"source_format": "lvm", **string_table_attrs("lvm_header", lvm.tags),
              "time_fallbacks": "\n".join(sorted(set(notes))), "first_sample": lo,
              "samples_in_file": int(time.size), "lvm_segments": len(parts)}
     if profile is not None:

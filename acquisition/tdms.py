@@ -50,6 +50,7 @@ from rigval.acquisition.tdms_layout import (
     object_path_parts,
     scan_tdms,
 )
+from rigval.acquisition.tdms_log import captured_nptdms_messages
 from rigval.acquisition.timebase import Block, TimeBase, exact_increment
 from rigval.acquisition.warn import warn_data
 
@@ -481,7 +482,7 @@ def _channel_attrs(layout: TdmsLayout, plan: TdmsStreamPlan, name: str,
                    profile: DeviceProfile | None,
                    modules: Mapping[str, str] | None) -> tuple[str, dict[str, Any]]:
     """Return (units, attrs) of one channel variable."""
-    from rigval.acquisition.unitnames import udunits
+    from rigval.acquisition.units import udunits
 
     path = plan.channels[name]
     props = layout.channels[path].properties
@@ -514,24 +515,21 @@ def _open_nptdms(handle: BinaryIO, layout: TdmsLayout) -> TdmsFile:
     source: Any = handle
     if layout.good_end < layout.file_size:
         source = io.BufferedReader(_Prefix(handle, layout.good_end))
-    nptdms_logger = logging.getLogger("nptdms")
-    level = nptdms_logger.level
-    nptdms_logger.setLevel(logging.ERROR)  # rigval reports truncation itself, with counts
     try:
-        return TdmsFile.open(source)
+        with captured_nptdms_messages():  # rigval reports truncation itself, with counts
+            return TdmsFile.open(source)
     except Exception as error:  # nptdms raises ValueError, KeyError, struct.error, ...
         raise DataFileError(f"nptdms cannot read the file: {type(error).__name__}: {error}",
                             where={"file": str(layout.path)},
                             hint="the file may be damaged; see 'rigval info'") from error
-    finally:
-        nptdms_logger.setLevel(level)
 
 
 def _read_values(tdms: TdmsFile, path: str, start: int, count: int, file: Path) -> np.ndarray:
     """Read ``count`` scaled values of a channel from ``start``; damage becomes DataFileError."""
     group, name = object_path_parts(path)[:2]
     try:
-        data = tdms[group][name].read_data(offset=start, length=count)
+        with captured_nptdms_messages():
+            data = tdms[group][name].read_data(offset=start, length=count)
     except Exception as error:
         raise DataFileError(f"cannot read channel data: {type(error).__name__}: {error}",
                             where={"file": str(file), "channel": path},
@@ -787,8 +785,13 @@ def _windows(tdms: TdmsFile, layout: TdmsLayout, plan: TdmsStreamPlan, chunk_sam
     pending: dict[str, list[np.ndarray]] = {n: [] for n in plan.channels}
     held = dict.fromkeys(plan.channels, 0)
     start = 0
+    chunks = tdms.data_chunks()
     try:
-        for chunk in tdms.data_chunks():
+        while True:
+            with captured_nptdms_messages():
+                chunk = next(chunks, None)
+            if chunk is None:
+                break
             group_chunk = chunk[plan.group]
             for channel_chunk in group_chunk.channels():
                 name = names.get((plan.group, channel_chunk.name))

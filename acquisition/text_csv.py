@@ -8,7 +8,8 @@ Every guess can be overridden by an option:
 - header: the data block is the longest run of numeric lines at the end of the file; the line
   above it holds the column names (``acc1 [m/s^2]``, ``tor3 (V/V)``), optionally a units row in
   brackets between names and data; lines above are ``key<delimiter>value`` pairs kept in the
-  stream attribute ``text_header`` (a start time among them is used, see below);
+  string-array attributes ``text_header_keys``/``text_header_values`` (read them back with
+  :func:`rigval.acquisition.schema.string_table`; a start time among them is used, see below);
 - ``time_column``: the first column named like ``Time``, ``Zeit``, ``t``, ``X_Value``,
   ``Timestamp`` or ``Date``, else none (then ``fs`` is needed); its cells are relative seconds
   (``ms`` in the header scales), ISO 8601 timestamps, or local date-times (``9/5/2014 11:53:14 AM``,
@@ -24,7 +25,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import logging
 import os
 import re
@@ -41,8 +41,8 @@ import xarray as xr
 from rigval.acquisition.detect import checked_path, source_checksum
 from rigval.acquisition.devices import get_device, module_attrs
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
-from rigval.acquisition.schema import Channel, stream_dataset
-from rigval.acquisition.unitnames import split_name_and_unit, udunits
+from rigval.acquisition.schema import Channel, stream_dataset, string_table_attrs
+from rigval.acquisition.units import split_name_and_unit, udunits
 from rigval.acquisition.warn import warn_data
 
 __all__ = ["CsvLayout", "read_csv", "read_text", "read_text_lines", "sniff_csv"]
@@ -629,7 +629,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     for note in notes:
         logger.info("%s: %s", file, note)
     attrs = {"source_format": "csv", "delimiter": layout.delimiter, "decimal": layout.decimal,
-             "text_header": json.dumps(layout.header), "time_fallbacks": "\n".join(notes),
+             **string_table_attrs("text_header", layout.header), "time_fallbacks": "\n".join(notes),
              "first_sample": lo, "samples_in_file": int(time.size)}
     if profile is not None:
         attrs.update(profile.stream_attrs())

@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, UnitError
 from rigval.acquisition.schema import append_history
+from rigval.acquisition.units import factor_or_none
 from rigval.processing import accelerometer, bridge, encoder, stress, torsion, transducers
 from rigval.processing.bridge import BridgeType
 from rigval.processing.filters import contiguous_runs
@@ -43,8 +44,6 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-_RATIO_UNITS = {"V/V": 1.0, "mV/V": 1e-3, "1": 1.0}
-_VOLT_UNITS = {"V": 1.0, "mV": 1e-3}
 
 Null = float | tuple[float, float] | None
 
@@ -82,16 +81,18 @@ def bridge_ratio_values(ds: xr.Dataset, channel: str, *, excitation_voltage: flo
     var = _channel(ds, channel)
     units = str(var.attrs.get("units", ""))
     values = var.to_numpy().astype(np.float64)
-    if units in _RATIO_UNITS:
-        ratio = values * _RATIO_UNITS[units]
-    elif units in _VOLT_UNITS:
+    per_ratio = factor_or_none(units, "V/V")  # V/V, mV/V, 1 (docs/formats.md units)
+    per_volt = factor_or_none(units, "V")
+    if per_ratio is not None:
+        ratio = values * per_ratio
+    elif per_volt is not None:
         if excitation_voltage is None:
             raise ConfigError(f"channel {channel!r} holds {units}; the excitation voltage is "
                               "needed", where={"channel": channel, "key": "excitation_voltage"})
-        ratio = values * _VOLT_UNITS[units] / excitation_voltage
+        ratio = values * per_volt / excitation_voltage
     else:
-        raise UnitError(f"bridge channel {channel!r} has units {units!r}; expected one of "
-                        f"{sorted(_RATIO_UNITS | _VOLT_UNITS)}", where={"channel": channel},
+        raise UnitError(f"bridge channel {channel!r} has units {units!r}; expected a bridge "
+                        "ratio (V/V, mV/V) or a voltage (V, mV)", where={"channel": channel},
                         hint="check the reader's scaling: DAQmx strain channels are already "
                              "strain (units '1'); convert raw bridge channels only")
     if unstrained is None:
@@ -318,10 +319,11 @@ def acceleration_channel(ds: xr.Dataset, channel: str, *, charge_sensitivity: fl
     """
     var = _channel(ds, channel)
     units = str(var.attrs.get("units", ""))
-    if units not in _VOLT_UNITS:
+    per_volt = factor_or_none(units, "V")
+    if per_volt is None:
         raise UnitError(f"accelerometer channel {channel!r} has units {units!r}, expected V or "
                         "mV", where={"channel": channel})
-    volts = var.to_numpy().astype(np.float64) * _VOLT_UNITS[units]
+    volts = var.to_numpy().astype(np.float64) * per_volt
     fs = float(ds.attrs["fs_nominal"])
     out = np.full(volts.shape, np.nan)
     for start, stop in contiguous_runs(volts.size, ds["segment"].to_numpy(),
@@ -433,10 +435,11 @@ def iepe_acceleration_channel(ds: xr.Dataset, channel: str, *, sensitivity: floa
     """
     var = _channel(ds, channel)
     units = str(var.attrs.get("units", ""))
-    if units not in _VOLT_UNITS:
+    per_volt = factor_or_none(units, "V")
+    if per_volt is None:
         raise UnitError(f"IEPE channel {channel!r} has units {units!r}, expected V or mV",
                         where={"channel": channel})
-    volts = var.to_numpy().astype(np.float64) * _VOLT_UNITS[units]
+    volts = var.to_numpy().astype(np.float64) * per_volt
     accel = transducers.iepe_acceleration(volts, sensitivity=sensitivity)
     return _with_variable(ds, name or f"{channel}_acceleration", accel, var, channel,
                           units="m s-2", long_name=f"acceleration from {channel}",

@@ -15,9 +15,9 @@ import xarray as xr
 
 from rigval.acquisition.channel_map import ChannelSpec, StreamSpec
 from rigval.acquisition.errors import ConfigError, SceneError, UnitError
+from rigval.acquisition.units import same_unit
 from rigval.processing import convert
 from rigval.validation.scene import channel_units
-from rigval.validation.units import same_unit
 
 __all__ = ["NULL_WINDOW_S", "convert_stream"]
 

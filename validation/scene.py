@@ -33,11 +33,11 @@ import numpy as np
 
 from rigval.acquisition.channel_map import ChannelSpec, StreamSpec, parse_streams
 from rigval.acquisition.errors import ConfigError, MechanismError, SceneError, UnitError
+from rigval.acquisition.units import dimension, multiply, parse_unit
 from rigval.model.mechanism import builtin_mechanism, load_mechanism
 from rigval.validation.metrics.compare import DEFAULT_METRICS, METRICS, compare
 from rigval.validation.metrics.thresholds import parse_threshold
 from rigval.validation.note import read_note
-from rigval.validation.units import dimension, multiply
 
 __all__ = [
     "MODEL_QUANTITIES",
@@ -767,7 +767,7 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
             model_dim = multiply(output.units, scale_units)
         except UnitError as error:
             raise _error(f"{key}.scale_units", error.message, hint=error.hint) from None
-        if model_dim != dimension(measured_units):
+        if model_dim != parse_unit(measured_units):
             raise _error(
                 f"{key}.model", f"unit mismatch: {measured} is in {measured_units!r} but "
                 f"{output} is in {output.units!r} (times scale_units {scale_units!r})",

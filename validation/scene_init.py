@@ -38,8 +38,8 @@ import xarray as xr
 from rigval.acquisition.devices import MODULES, rate_divider
 from rigval.acquisition.errors import ConfigError, UnitError
 from rigval.acquisition.reader import read
+from rigval.acquisition.units import dimension, factor_or_none
 from rigval.validation.scene import SCHEMA, TODO
-from rigval.validation.units import dimension
 
 __all__ = ["ChannelGuess", "StreamGuess", "classify_channel", "fill_todos", "guess_streams",
            "law_angles_at_reference", "skeleton_text"]
@@ -55,7 +55,6 @@ _BRIDGE_UNITS = ("V/V", "mV/V")
 #: Name fragments of transducers in volts and the unit they suggest.
 _NAME_UNITS = (("torque", "N m"), ("tor", "N m"), ("force", "N"), ("load", "N"),
                ("press", "Pa"), ("acc", "m s-2"), ("disp", "m"), ("pos", "m"))
-_VOLT_UNITS = ("V", "mV")
 
 
 @dataclass(frozen=True)
@@ -246,7 +245,7 @@ def classify_channel(name: str, values: np.ndarray, units: str, time: np.ndarray
         else:
             kind, why = "strain_bridge", "a bridge ratio"
         return ChannelGuess(scene, name, units, "sensor", kind, why), np.empty(0)
-    if units in _VOLT_UNITS:
+    if factor_or_none(units, "V") is not None:
         if "acc" in lower:
             return ChannelGuess(scene, name, units, "sensor", "charge_accelerometer",
                                 "volts named like an accelerometer"), np.empty(0)

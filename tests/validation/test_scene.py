@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from rigval.acquisition.errors import ConfigError, SceneError
+from rigval.acquisition.units import dimension, same_unit
 from rigval.validation.scene import load_scene, parse_scene
-from rigval.validation.units import dimension, same_unit
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "scene.md"
 
