@@ -482,7 +482,7 @@ def _channel_attrs(layout: TdmsLayout, plan: TdmsStreamPlan, name: str,
                    profile: DeviceProfile | None,
                    modules: Mapping[str, str] | None) -> tuple[str, dict[str, Any]]:
     """Return (units, attrs) of one channel variable."""
-    from rigval.acquisition.unitnames import udunits
+    from rigval.acquisition.units import udunits
 
     path = plan.channels[name]
     props = layout.channels[path].properties
