@@ -54,6 +54,8 @@ __all__ = [
     "parse_start_time",
     "stream_dataset",
     "stream_gaps",
+    "string_table",
+    "string_table_attrs",
     "utc_iso",
     "with_invalid_counts",
 ]
@@ -228,6 +230,42 @@ def with_invalid_counts(ds: xr.Dataset, counts: Mapping[str, int]) -> xr.Dataset
     out = ds.copy()
     out.attrs.update(_invalid_table(counts))
     return out
+
+
+def string_table_attrs(prefix: str, table: Mapping[str, str]) -> dict[str, list[str]]:
+    """Return a text-to-text mapping (a file header) as two netCDF-storable attributes.
+
+    ``<prefix>_keys`` and ``<prefix>_values`` are string arrays in the mapping's order, so a
+    header survives ``to_netcdf``/``open_datatree`` as data (read it back with
+    :func:`string_table`), whatever characters its keys hold.
+    """
+    return {f"{prefix}_keys": [str(k) for k in table],
+            f"{prefix}_values": [str(v) for v in table.values()]}
+
+
+def string_table(attrs: Mapping[str, Any], prefix: str) -> dict[str, str]:
+    """Return the mapping stored by :func:`string_table_attrs` (empty when absent).
+
+    Parameters
+    ----------
+    attrs : mapping
+        Attributes of a stream (``ds.attrs``), in memory or read back from netCDF (which
+        returns a one-entry array as a plain string).
+    prefix : str
+        The prefix given to :func:`string_table_attrs` (``"text_header"``, ``"lvm_header"``).
+
+    Raises
+    ------
+    DataError
+        When the keys and values differ in number (a file edited by hand).
+    """
+    keys, values = (np.atleast_1d(np.asarray(attrs.get(f"{prefix}_{part}", ()), dtype=object))
+                    .reshape(-1) for part in ("keys", "values"))
+    if keys.size != values.size:
+        raise DataError(f"{prefix}_keys has {keys.size} entries, {prefix}_values {values.size}",
+                        where={"attribute": f"{prefix}_keys"},
+                        hint="both attributes must list one entry per header line")
+    return {str(k): str(v) for k, v in zip(keys, values, strict=True)}
 
 
 def _invalid_table(counts: Mapping[str, int]) -> dict[str, Any]:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +17,7 @@ from rigval.acquisition.errors import (
     DataFileError,
     DataWarning,
 )
-from rigval.acquisition.schema import parse_start_time
+from rigval.acquisition.schema import parse_start_time, string_table
 
 FS = 50_000 / 31
 
@@ -66,7 +65,7 @@ def test_header_block_start_time_and_relative_seconds(tmp_path: Path) -> None:
                      head=head)
     ds = read_stream(path)
     assert parse_start_time(ds.attrs["start_time"]) == np.datetime64("2026-11-21T05:00:00.250")
-    assert json.loads(ds.attrs["text_header"])["Operator"] == "jk"
+    assert string_table(ds.attrs, "text_header")["Operator"] == "jk"
 
 
 def test_local_date_and_time_header_in_a_time_zone(tmp_path: Path) -> None:
