@@ -8,7 +8,8 @@ names the key path (``streams.cdaq.channels.acc1.charge_sensitivity``).
 
 :func:`load_stream` then reads the stream with :func:`~rigval.acquisition.reader.read_stream`,
 keeps the mapped channels under their scene names and records the sensor and its parameters in
-each channel's attributes (``sensor``, ``sensor_params`` as JSON, ``scene_key``).
+each channel's attributes (``sensor``, ``scene_key``, ``sensor_params`` naming the parameters and
+one ``sensor_<param>`` attribute per parameter, see :func:`sensor_attrs`).
 
 Sensor kinds and parameters (required ones marked ``*``; units in brackets):
 
@@ -43,7 +44,6 @@ Every channel also accepts ``source`` (the channel name in the file; default the
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from collections.abc import Mapping
@@ -52,13 +52,14 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+import numpy as np
 import xarray as xr
 
 from rigval.acquisition.devices import DEVICES, MODULES, get_device, get_module
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, SceneError
 
 __all__ = ["SENSORS", "ChannelSpec", "StreamSpec", "load_stream", "parse_stream",
-           "parse_streams"]
+           "parse_streams", "sensor_attrs"]
 
 _COMMON = {"source", "sensor", "module", "description"}
 _STREAM_KEYS = {"file", "device", "reader", "channels", "description"}
@@ -376,6 +377,19 @@ def parse_streams(table: Mapping[str, Any], key: str = "streams",
     return {name: parse_stream(sub, f"{key}.{name}", base_dir) for name, sub in table.items()}
 
 
+def sensor_attrs(params: Mapping[str, Any]) -> dict[str, Any]:
+    """Return a sensor's validated parameters as netCDF-storable channel attributes.
+
+    ``sensor_params`` lists the parameter names (strings); each value is the attribute
+    ``sensor_<name>``: numbers as they are (SI units, docs/scene.md), text and choices as strings,
+    booleans as ``int8`` 0/1 (netCDF has no boolean attribute type).
+    """
+    attrs: dict[str, Any] = {"sensor_params": list(params)}
+    for name, value in params.items():
+        attrs[f"sensor_{name}"] = np.int8(value) if isinstance(value, bool) else value
+    return attrs
+
+
 def load_stream(spec: StreamSpec, *, time_range: tuple[float | None, float | None] | None = None,
                 checksum: bool = True) -> xr.Dataset:
     """Read a scene stream: the mapped channels under their scene names, with sensor metadata.
@@ -392,9 +406,9 @@ def load_stream(spec: StreamSpec, *, time_range: tuple[float | None, float | Non
     Returns
     -------
     xarray.Dataset
-        The stream; channel ``attrs`` gain ``sensor``, ``sensor_params`` (JSON), ``scene_key``
-        and, with a module override, ``module``/``input_delay_s``; ``attrs["stream"]`` is the
-        scene name.
+        The stream; channel ``attrs`` gain ``sensor``, the parameters (:func:`sensor_attrs`),
+        ``scene_key`` and, with a module override, ``module``/``input_delay_s``;
+        ``attrs["stream"]`` is the scene name.
 
     Raises
     ------
@@ -431,8 +445,8 @@ def load_stream(spec: StreamSpec, *, time_range: tuple[float | None, float | Non
     for channel in spec.channels.values():
         ds[channel.name].attrs.update({
             "sensor": channel.sensor,
-            "sensor_params": json.dumps(dict(channel.params)),
             "scene_key": channel.key,
+            **sensor_attrs(channel.params),
         })
         if channel.description:
             ds[channel.name].attrs["description"] = channel.description

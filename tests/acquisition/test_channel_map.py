@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import re
 import tomllib
 from pathlib import Path
@@ -103,7 +102,10 @@ def test_load_stream_renames_sources_and_attaches_sensors(tmp_path: Path) -> Non
     np.testing.assert_array_equal(ds["tor1"].values, -np.arange(10.0))
     attrs = ds["tor1"].attrs
     assert attrs["sensor"] == "torsion_bridge"
-    assert json.loads(attrs["sensor_params"])["shear_modulus"] == 80e9
+    assert attrs["sensor_shear_modulus"] == 80e9 and attrs["sensor_bridge"] == "full"
+    assert attrs["sensor_inner_diameter"] == 0.06 and "sensor_excitation" not in attrs
+    assert set(attrs["sensor_params"]) == {"bridge", "gauge_factor", "outer_diameter",
+                                           "inner_diameter", "shear_modulus", "null_offset"}
     assert attrs["source_channel"] == "/'WLS task'/'ai1'"
     assert attrs["input_delay_s"] == pytest.approx((40 + 5 / 512) * 0.00062 + 4.5e-6)
     assert ds.attrs["stream"] == "wls1"
