@@ -3,7 +3,7 @@
 A scene's ``[streams.X]`` table (``docs/scene.md``) names a data file, its device and reader
 options, and in ``[streams.X.channels.NAME]`` the sensors with their calibration. This module
 parses such a table (a plain ``dict`` from :mod:`tomllib`) into frozen dataclasses, checking every
-key and value; each error is a :class:`~rigval.acquisition.errors.SceneError` whose ``where``
+key and value; each error is a :class:`~rigval.acquisition.errors.ChannelMapError` whose ``where``
 names the key path (``streams.cdaq.channels.acc1.charge_sensitivity``).
 
 :func:`load_stream` then reads the stream with :func:`~rigval.acquisition.reader.read_stream`,
@@ -56,7 +56,7 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.devices import DEVICES, MODULES, get_device, get_module
-from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, SceneError
+from rigval.acquisition.errors import ChannelMapError, ChannelNotFoundError, ConfigError
 
 __all__ = ["SENSORS", "ChannelSpec", "StreamSpec", "load_stream", "parse_stream",
            "parse_streams", "sensor_attrs"]
@@ -198,8 +198,8 @@ class StreamSpec:
 
 def _check_value(value: Any, rule: _Param, key: str) -> Any:
     """Validate one parameter value; return it normalised (floats for numbers)."""
-    def fail(expected: str) -> SceneError:
-        return SceneError(f"{key} must be {expected}, got {value!r}", where={"key": key},
+    def fail(expected: str) -> ChannelMapError:
+        return ChannelMapError(f"{key} must be {expected}, got {value!r}", where={"key": key},
                           hint="write the sensor's calibration value in SI units (docs/scene.md "
                                "lists each sensor's keys)")
 
@@ -231,15 +231,15 @@ def _check_value(value: Any, rule: _Param, key: str) -> Any:
 def _parse_channel(name: str, table: Any, key: str) -> ChannelSpec:
     """Parse one ``[streams.X.channels.NAME]`` table."""
     if not isinstance(table, Mapping):
-        raise SceneError(f"{key} must be a table", where={"key": key})
+        raise ChannelMapError(f"{key} must be a table", where={"key": key})
     sensor = table.get("sensor")
     if sensor not in SENSORS:
-        raise SceneError(f"{key}.sensor must be one of {', '.join(SENSORS)}, got {sensor!r}",
+        raise ChannelMapError(f"{key}.sensor must be one of {', '.join(SENSORS)}, got {sensor!r}",
                          where={"key": f"{key}.sensor"})
     rules = SENSORS[sensor]
     unknown = sorted(set(table) - _COMMON - set(rules))
     if unknown:
-        raise SceneError(f"{key}.{unknown[0]}: unknown key for a {sensor} channel",
+        raise ChannelMapError(f"{key}.{unknown[0]}: unknown key for a {sensor} channel",
                          where={"key": f"{key}.{unknown[0]}"},
                          hint="known keys: " + ", ".join(sorted(_COMMON | set(rules))))
     params: dict[str, Any] = {}
@@ -247,27 +247,27 @@ def _parse_channel(name: str, table: Any, key: str) -> ChannelSpec:
         if param in table:
             params[param] = _check_value(table[param], rule, f"{key}.{param}")
         elif rule.required:
-            raise SceneError(f"{key}.{param} is required for a {sensor} channel",
+            raise ChannelMapError(f"{key}.{param} is required for a {sensor} channel",
                              where={"key": f"{key}.{param}"})
         elif rule.default is not None:
             params[param] = rule.default
     if sensor == "torsion_bridge" and params["inner_diameter"] >= params["outer_diameter"]:
-        raise SceneError(f"{key}.inner_diameter must be smaller than outer_diameter "
+        raise ChannelMapError(f"{key}.inner_diameter must be smaller than outer_diameter "
                          f"({params['inner_diameter']} >= {params['outer_diameter']} m)",
                          where={"key": f"{key}.inner_diameter"})
     if sensor == "linear" and params["slope"] == 0:
-        raise SceneError(f"{key}.slope must be non-zero (output units per input unit)",
+        raise ChannelMapError(f"{key}.slope must be non-zero (output units per input unit)",
                          where={"key": f"{key}.slope"})
     source = table.get("source", name)
     if not isinstance(source, str) or not source:
-        raise SceneError(f"{key}.source must be a channel name, got {source!r}",
+        raise ChannelMapError(f"{key}.source must be a channel name, got {source!r}",
                          where={"key": f"{key}.source"})
     module = table.get("module")
     if module is not None:
         try:
             module = get_module(str(module)).name
         except ChannelNotFoundError:
-            raise SceneError(f"{key}.module: unknown module {module!r}",
+            raise ChannelMapError(f"{key}.module: unknown module {module!r}",
                              where={"key": f"{key}.module"},
                              hint="known: " + ", ".join(MODULES)) from None
     description = table.get("description", "")
@@ -291,7 +291,7 @@ def _check_reader_options(reader: Mapping[str, Any], path: Path, key: str) -> No
     unknown = sorted(set(reader) - known)
     if unknown:
         what = f"the {kind} reader" if kind else "no reader"
-        raise SceneError(f"{key}.{unknown[0]}: {what} has this option",
+        raise ChannelMapError(f"{key}.{unknown[0]}: {what} has this option",
                          where={"key": f"{key}.{unknown[0]}"},
                          hint="options: " + ", ".join(sorted(known)))
 
@@ -316,18 +316,18 @@ def parse_stream(table: Mapping[str, Any], key: str,
 
     Raises
     ------
-    SceneError
+    ChannelMapError
         Naming the key path of the first bad key or value.
     """
     if not isinstance(table, Mapping):
-        raise SceneError(f"{key} must be a table", where={"key": key})
+        raise ChannelMapError(f"{key} must be a table", where={"key": key})
     unknown = sorted(set(table) - _STREAM_KEYS)
     if unknown:
-        raise SceneError(f"{key}.{unknown[0]}: unknown key", where={"key": f"{key}.{unknown[0]}"},
+        raise ChannelMapError(f"{key}.{unknown[0]}: unknown key", where={"key": f"{key}.{unknown[0]}"},
                          hint="known keys: " + ", ".join(sorted(_STREAM_KEYS)))
     file = table.get("file")
     if not isinstance(file, str) or not file:
-        raise SceneError(f"{key}.file is required: the stream's data file",
+        raise ChannelMapError(f"{key}.file is required: the stream's data file",
                          where={"key": f"{key}.file"})
     path = Path(file)
     if base_dir is not None and not path.is_absolute():
@@ -337,27 +337,27 @@ def parse_stream(table: Mapping[str, Any], key: str,
         try:
             device = get_device(str(device)).name
         except ChannelNotFoundError:
-            raise SceneError(f"{key}.device: unknown device {device!r}",
+            raise ChannelMapError(f"{key}.device: unknown device {device!r}",
                              where={"key": f"{key}.device"},
                              hint="known: " + ", ".join(DEVICES)) from None
     reader = table.get("reader", {})
     if not isinstance(reader, Mapping):
-        raise SceneError(f"{key}.reader must be a table of reader options",
+        raise ChannelMapError(f"{key}.reader must be a table of reader options",
                          where={"key": f"{key}.reader"})
     for reserved in ("channels", "device", "time_range"):
         if reserved in reader:
-            raise SceneError(f"{key}.reader.{reserved} is set by the scene, not the reader table",
+            raise ChannelMapError(f"{key}.reader.{reserved} is set by the scene, not the reader table",
                              where={"key": f"{key}.reader.{reserved}"})
     _check_reader_options(reader, path, f"{key}.reader")
     channels_table = table.get("channels", {})
     if not isinstance(channels_table, Mapping):
-        raise SceneError(f"{key}.channels must be a table", where={"key": f"{key}.channels"})
+        raise ChannelMapError(f"{key}.channels must be a table", where={"key": f"{key}.channels"})
     channels = {name: _parse_channel(name, sub, f"{key}.channels.{name}")
                 for name, sub in channels_table.items()}
     sources = [c.source for c in channels.values()]
     doubled = sorted({s for s in sources if sources.count(s) > 1})
     if doubled:
-        raise SceneError(f"{key}.channels: file channel {doubled[0]!r} is mapped twice",
+        raise ChannelMapError(f"{key}.channels: file channel {doubled[0]!r} is mapped twice",
                          where={"key": f"{key}.channels"})
     return StreamSpec(key.rsplit(".", 1)[-1], path, device, MappingProxyType(dict(reader)),
                       MappingProxyType(channels), key)
@@ -369,11 +369,11 @@ def parse_streams(table: Mapping[str, Any], key: str = "streams",
 
     Raises
     ------
-    SceneError
+    ChannelMapError
         If the table is empty or any stream is invalid (naming the key path).
     """
     if not isinstance(table, Mapping) or not table:
-        raise SceneError(f"{key} must be a table with at least one stream", where={"key": key})
+        raise ChannelMapError(f"{key} must be a table with at least one stream", where={"key": key})
     return {name: parse_stream(sub, f"{key}.{name}", base_dir) for name, sub in table.items()}
 
 
@@ -412,7 +412,7 @@ def load_stream(spec: StreamSpec, *, time_range: tuple[float | None, float | Non
 
     Raises
     ------
-    SceneError
+    ChannelMapError
         A reader option the reader does not know, or a mapped channel missing from the file
         (listing the file's channels).
     DataFileError
@@ -432,12 +432,12 @@ def load_stream(spec: StreamSpec, *, time_range: tuple[float | None, float | Non
         available = [str(a) for a in error.extra.get("available", [])]
         missing = [c for c in spec.channels.values() if c.source not in available]
         key = f"{missing[0].key}.source" if missing else spec.key
-        raise SceneError(f"{key}: {error.message}", where={**error.where, "key": key},
+        raise ChannelMapError(f"{key}: {error.message}", where={**error.where, "key": key},
                          hint="channels in the file: " + ", ".join(available)) from None
-    except SceneError:
+    except ChannelMapError:
         raise
     except ConfigError as error:
-        raise SceneError(f"{spec.key}.reader: {error.message}",
+        raise ChannelMapError(f"{spec.key}.reader: {error.message}",
                          where={**error.where, "key": f"{spec.key}.reader"},
                          hint=error.hint) from None
     rename = {c.source: c.name for c in spec.channels.values() if c.source != c.name}

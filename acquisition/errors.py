@@ -1,19 +1,23 @@
-"""Errors and warnings raised by rigval.
+"""rigval's error root, its warnings, and the errors of the acquisition layer.
 
 Every error is a :class:`RigvalError` and also the built-in exception a caller would expect, so that
-``except KeyError`` or ``except OSError`` keeps working:
+``except KeyError`` or ``except OSError`` keeps working. Each layer defines its own errors next to
+its code, all rooted here (docs/errors.md lists them all):
 
 =============================  =================  ==========================================
 class                          also a             raised for
 =============================  =================  ==========================================
 :class:`DataFileError`         ``OSError``        unreadable, truncated, wrong-format files
 :class:`ChannelNotFoundError`  ``KeyError``       an absent channel, group, body or output
-:class:`ConfigError`           ``ValueError``     a bad scene, mechanism or option (key path)
-:class:`UnitError`             ``ValueError``     missing or incompatible units
+:class:`ConfigError`           ``ValueError``     a bad option or configuration (key path)
+:class:`ChannelMapError`       ``ValueError``     a bad ``[streams]`` channel map (key path)
+:class:`UnitError`             ``ValueError``     missing, unknown or incompatible units
 :class:`DataError`             ``ValueError``     data values that cannot be processed
-:class:`AlignmentError`        ``ValueError``     clocks that cannot be aligned with confidence
-:class:`ModelError`            ``RuntimeError``   a mechanism that cannot be assembled or solved
 =============================  =================  ==========================================
+
+:mod:`rigval.processing.errors` adds ``AlignmentError``; :mod:`rigval.model.errors` adds
+``MechanismError``, ``ModelError``, ``AssemblyError`` and ``SingularityError``;
+:mod:`rigval.validation.errors` adds ``SceneError``.
 
 Each error carries three parts, kept as attributes so that programs can use them and so that they
 survive pickling (errors travel back from dask workers intact):
@@ -33,20 +37,15 @@ from collections.abc import Mapping
 from typing import Any
 
 __all__ = [
-    "AlignmentError",
-    "AssemblyError",
+    "ChannelMapError",
     "ChannelNotFoundError",
     "ConfigError",
     "DataError",
     "DataFileError",
     "DataWarning",
-    "MechanismError",
-    "ModelError",
     "NumericsWarning",
     "RigvalError",
     "RigvalWarning",
-    "SceneError",
-    "SingularityError",
     "UnitError",
 ]
 
@@ -121,12 +120,8 @@ class ConfigError(RigvalError, ValueError):
     """A configuration (scene, mechanism file, option) is invalid; ``where`` names the key path."""
 
 
-class MechanismError(ConfigError):
-    """A mechanism file is invalid: unknown bodies or points, wrong constraint count, bad values."""
-
-
-class SceneError(ConfigError):
-    """A scene file is invalid: missing files, unknown channels, wrong units, unknown outputs."""
+class ChannelMapError(ConfigError):
+    """A channel map (a scene's ``[streams]`` tables) is invalid; ``where`` names the key path."""
 
 
 class UnitError(RigvalError, ValueError):
@@ -135,22 +130,6 @@ class UnitError(RigvalError, ValueError):
 
 class DataError(RigvalError, ValueError):
     """Data values cannot be processed (too short, all invalid, non-monotonic time, ...)."""
-
-
-class AlignmentError(RigvalError, ValueError):
-    """Clocks cannot be aligned with confidence (too few events, no overlap, bad periods)."""
-
-
-class ModelError(RigvalError, RuntimeError):
-    """A mechanism cannot be solved at some time or angle."""
-
-
-class AssemblyError(ModelError):
-    """Newton-Raphson did not assemble the mechanism; ``where`` names the open joints."""
-
-
-class SingularityError(ModelError):
-    """The constraint Jacobian lost rank (a toggle or lock-up position); names time and joints."""
 
 
 class RigvalWarning(UserWarning):

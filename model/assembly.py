@@ -33,13 +33,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rigval.acquisition.errors import (
-    AssemblyError,
-    MechanismError,
-    NumericsWarning,
-    SingularityError,
-)
+from rigval.acquisition.errors import NumericsWarning
 from rigval.model.drives import law_motion
+from rigval.model.errors import AssemblyError, MechanismError, SingularityError
 from rigval.model.linalg import BatchLU, row_max_abs, static_row_order
 from rigval.model.loops import LoopSystem, loop_system
 

@@ -2,7 +2,7 @@
 
 Double precision ends near 1.8e308. Masses, inertias, gravity and drive speeds whose products
 (``m g``, ``m omega**2 L``, ``I alpha``) pass that limit give infinite or NaN accelerations and
-forces; :func:`check_finite` turns them into a :class:`~rigval.acquisition.errors.ModelError` that
+forces; :func:`check_finite` turns them into a :class:`~rigval.model.errors.ModelError` that
 names the variable, the first time step and the inputs large enough to cause it, instead of
 numpy's RuntimeWarning and a result full of NaN.
 """
@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rigval.acquisition.errors import ModelError
+from rigval.model.errors import ModelError
 
 if TYPE_CHECKING:
     from rigval.model.drives import DriveMotion

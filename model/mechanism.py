@@ -4,7 +4,7 @@ A mechanism is a set of rigid bodies in the plane, joined by revolute joints and
 ground, whose remaining degrees of freedom are taken by drivers that prescribe a body's absolute
 angle as a law of time. The file format, key by key, is described in ``docs/mechanism.md``.
 
-Every error is a :class:`~rigval.acquisition.errors.MechanismError` whose ``where`` names the file
+Every error is a :class:`~rigval.model.errors.MechanismError` whose ``where`` names the file
 and the key path (``joints[3].bodies[1]``) and whose hint says what to change.
 """
 
@@ -19,8 +19,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from rigval.acquisition.errors import MechanismError
 from rigval.model.assembly import check_constraint_count
+from rigval.model.errors import MechanismError
 
 __all__ = [
     "BUILTIN_MECHANISMS",

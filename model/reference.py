@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from rigval.acquisition.errors import AssemblyError
 from rigval.model.drives import SampledDrive, drive_motion
 from rigval.model.dynamics import applied_forces
+from rigval.model.errors import AssemblyError
 from rigval.model.loops import LoopSystem, loop_system
 from rigval.model.mechanism import Mechanism, load_mechanism
 from rigval.model.results import OUTPUTS, Solution, build_dataset, select

@@ -18,7 +18,7 @@ import numpy as np
 import scipy.interpolate
 import xarray as xr
 
-from rigval.acquisition.errors import ConfigError, DataError, NumericsWarning, SingularityError
+from rigval.acquisition.errors import ConfigError, DataError, NumericsWarning
 from rigval.acquisition.hugepages import plain_pages
 from rigval.model.assembly import (
     COND_MAX,
@@ -39,6 +39,7 @@ from rigval.model.drives import (
     times_at_angles,
 )
 from rigval.model.dynamics import applied_forces, minimum_norm_multipliers, multipliers
+from rigval.model.errors import SingularityError
 from rigval.model.finite import check_finite
 from rigval.model.kinematics import angular_accelerations, angular_velocities
 from rigval.model.linalg import BatchLU

@@ -40,13 +40,14 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.stats import t as student_t
 
 from rigval.acquisition.devices import ni9237_input_delay
-from rigval.acquisition.errors import AlignmentError, DataError, DataWarning
+from rigval.acquisition.errors import DataError, DataWarning
 from rigval.acquisition.schema import (
     append_history,
     invalid_counts,
     parse_start_time,
     with_invalid_counts,
 )
+from rigval.processing.errors import AlignmentError
 
 __all__ = [
     "ClockModel",

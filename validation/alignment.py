@@ -27,7 +27,7 @@ from scipy.stats import t as student_t
 
 from rigval.acquisition.channel_map import ChannelSpec
 from rigval.acquisition.devices import get_device, get_module
-from rigval.acquisition.errors import AlignmentError, ChannelNotFoundError, DataError
+from rigval.acquisition.errors import ChannelNotFoundError, DataError
 from rigval.acquisition.schema import parse_start_time, stream_gaps
 from rigval.processing.align import (
     ClockModel,
@@ -38,6 +38,7 @@ from rigval.processing.align import (
     reference_event_times,
 )
 from rigval.processing.angle import phi_f
+from rigval.processing.errors import AlignmentError
 from rigval.processing.pulses import StreamPulses, stream_pulses
 from rigval.validation.results import StreamAlignment
 from rigval.validation.scene import PulseSpec, Scene

@@ -4,7 +4,7 @@ Each channel's ``sensor`` (``docs/scene.md``) picks a dataset-level conversion o
 :mod:`rigval.processing.convert`: charge amplifier volts to m s-2, bridge ratios to strain or
 stress, rosette ratios to shaft torque. Encoders (counts) and reference pulses stay as read; the
 pipeline turns them into angles and events. A channel whose unit in the file does not fit its
-declared sensor is a :class:`~rigval.acquisition.errors.SceneError` naming the channel's key.
+declared sensor is a :class:`~rigval.validation.errors.SceneError` naming the channel's key.
 """
 
 from __future__ import annotations
@@ -14,9 +14,10 @@ import logging
 import xarray as xr
 
 from rigval.acquisition.channel_map import ChannelSpec, StreamSpec
-from rigval.acquisition.errors import ConfigError, SceneError, UnitError
+from rigval.acquisition.errors import ConfigError, UnitError
 from rigval.acquisition.units import same_unit
 from rigval.processing import convert
+from rigval.validation.errors import SceneError
 from rigval.validation.scene import channel_units
 
 __all__ = ["NULL_WINDOW_S", "convert_stream"]

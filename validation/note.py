@@ -11,7 +11,7 @@ would block, a binary or a huge file), :func:`read_note` accepts only
 * that decodes as UTF-8 and holds no control characters other than tab, line feed, carriage
   return and form feed.
 
-Anything else is a :class:`~rigval.acquisition.errors.SceneError` with key ``note`` and the file.
+Anything else is a :class:`~rigval.validation.errors.SceneError` with key ``note`` and the file.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import re
 import stat
 from pathlib import Path
 
-from rigval.acquisition.errors import SceneError
+from rigval.validation.errors import SceneError
 
 __all__ = ["MAX_NOTE_BYTES", "read_note"]
 

@@ -3,7 +3,7 @@
 A scene names the run's data files and their channel maps, how the clocks are aligned, how the
 model's drives are excited and what is compared with what (format ``rigval-scene/1``, every key in
 ``docs/scene.md``). :func:`load_scene` reads and checks a scene; every problem is a
-:class:`~rigval.acquisition.errors.SceneError` whose ``where["key"]`` is the key path, e.g.
+:class:`~rigval.validation.errors.SceneError` whose ``where["key"]`` is the key path, e.g.
 ``comparisons[2].model.item``. Paths in a scene are relative to the scene file.
 
 The ``[streams.X]`` tables are parsed by :mod:`rigval.acquisition.channel_map` (the channel maps).
@@ -32,9 +32,11 @@ from typing import Any, Literal
 import numpy as np
 
 from rigval.acquisition.channel_map import ChannelSpec, StreamSpec, parse_streams
-from rigval.acquisition.errors import ConfigError, MechanismError, SceneError, UnitError
+from rigval.acquisition.errors import ChannelMapError, ConfigError, UnitError
 from rigval.acquisition.units import dimension, multiply, parse_unit
+from rigval.model.errors import MechanismError
 from rigval.model.mechanism import builtin_mechanism, load_mechanism
+from rigval.validation.errors import SceneError
 from rigval.validation.metrics.compare import DEFAULT_METRICS, METRICS, compare
 from rigval.validation.metrics.thresholds import parse_threshold
 from rigval.validation.note import read_note
@@ -563,7 +565,11 @@ def _check_channel_numbers(channel: ChannelSpec) -> None:
 
 def _streams(doc: Mapping[str, Any], scene_dir: Path) -> dict[str, StreamSpec]:
     """Parse ``[streams]`` with the acquisition channel map; check files and units here."""
-    streams = parse_streams(_get(doc, "streams", "", dict), base_dir=scene_dir)
+    try:
+        streams = parse_streams(_get(doc, "streams", "", dict), base_dir=scene_dir)
+    except ChannelMapError as error:  # the channel map is the scene's [streams] part
+        raise SceneError(error.message, where=error.where, hint=error.hint,
+                         **error.extra) from None
     for spec in streams.values():
         _file(scene_dir, str(spec.file), f"{spec.key}.file")
         if not spec.channels:

@@ -21,7 +21,8 @@ from collections.abc import Iterator, Mapping
 
 import xarray as xr
 
-from rigval.acquisition.errors import ConfigError, SceneError
+from rigval.acquisition.errors import ConfigError
+from rigval.validation.errors import SceneError
 from rigval.validation.scene import Scene
 
 __all__ = ["LOWPASS_FRACTION", "check_sample_rates", "encoder_scale_errors"]

@@ -12,7 +12,7 @@ import pytest
 from nptdms import ChannelObject, GroupObject, TdmsWriter
 
 from rigval.acquisition.channel_map import load_stream, parse_stream, parse_streams
-from rigval.acquisition.errors import ChannelNotFoundError, SceneError
+from rigval.acquisition.errors import ChannelMapError, ChannelNotFoundError
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -71,7 +71,7 @@ def test_documented_scene_example_parses(tmp_path: Path) -> None:
 def test_bad_channel_maps_name_the_key_path(change: dict[str, Any], key: str) -> None:
     table = {"file": "run.tdms", **change}
     table = {k: v for k, v in table.items() if v is not None}
-    with pytest.raises(SceneError) as error:
+    with pytest.raises(ChannelMapError) as error:
         parse_stream(table, "streams.s")
     assert error.value.where["key"] == key
 
@@ -111,10 +111,10 @@ def test_load_stream_renames_sources_and_attaches_sensors(tmp_path: Path) -> Non
     assert ds.attrs["stream"] == "wls1"
     missing = parse_stream({"file": "wls1.tdms", "channels": {"x": {"sensor": "voltage"}}},
                            "streams.wls1", base_dir=tmp_path)
-    with pytest.raises(SceneError, match="channels in the file: ai0, ai1") as error:
+    with pytest.raises(ChannelMapError, match="channels in the file: ai0, ai1") as error:
         load_stream(missing)
     assert error.value.where["key"] == "streams.wls1.channels.x.source"
-    with pytest.raises(SceneError, match="the tdms reader has this option") as error:
+    with pytest.raises(ChannelMapError, match="the tdms reader has this option") as error:
         parse_stream({"file": "wls1.tdms", "reader": {"decimal": ","}}, "streams.wls1",
                      base_dir=tmp_path)  # a CSV option for a file that is TDMS
     assert error.value.where["key"] == "streams.wls1.reader.decimal"

@@ -1,4 +1,8 @@
-"""Every rigval error is also the matching built-in and survives pickling with its fields."""
+"""Every rigval error is also the matching built-in and survives pickling with its fields.
+
+The errors live next to their layer (acquisition, processing, model, validation), all rooted at
+RigvalError.
+"""
 
 from __future__ import annotations
 
@@ -8,29 +12,41 @@ import pickle
 import pytest
 
 from rigval.acquisition import errors
+from rigval.model import errors as model_errors
+from rigval.processing import errors as processing_errors
+from rigval.validation import errors as validation_errors
 
+LAYER_MODULES = (errors, processing_errors, model_errors, validation_errors)
 ERROR_CLASSES = [
-    cls for _, cls in inspect.getmembers(errors, inspect.isclass)
-    if issubclass(cls, errors.RigvalError)
+    cls for module in LAYER_MODULES for _, cls in inspect.getmembers(module, inspect.isclass)
+    if issubclass(cls, errors.RigvalError) and cls.__module__ == module.__name__
 ]
 
 BUILTIN = {
     errors.DataFileError: OSError,
     errors.ChannelNotFoundError: KeyError,
     errors.ConfigError: ValueError,
-    errors.MechanismError: ValueError,
-    errors.SceneError: ValueError,
+    errors.ChannelMapError: ValueError,
+    model_errors.MechanismError: ValueError,
+    validation_errors.SceneError: ValueError,
     errors.UnitError: ValueError,
     errors.DataError: ValueError,
-    errors.AlignmentError: ValueError,
-    errors.ModelError: RuntimeError,
-    errors.AssemblyError: RuntimeError,
-    errors.SingularityError: RuntimeError,
+    processing_errors.AlignmentError: ValueError,
+    model_errors.ModelError: RuntimeError,
+    model_errors.AssemblyError: RuntimeError,
+    model_errors.SingularityError: RuntimeError,
 }
 
 
 def test_every_error_class_is_listed() -> None:
     assert set(ERROR_CLASSES) == {errors.RigvalError, *BUILTIN}
+
+
+@pytest.mark.parametrize("module", LAYER_MODULES, ids=lambda m: m.__name__)
+def test_each_layer_exports_exactly_its_own_errors(module: object) -> None:
+    own = {name for name, cls in inspect.getmembers(module, inspect.isclass)
+           if cls.__module__ == module.__name__}
+    assert set(module.__all__) == own
 
 
 @pytest.mark.parametrize("cls", list(BUILTIN), ids=lambda c: c.__name__)

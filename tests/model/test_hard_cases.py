@@ -12,7 +12,8 @@ import pytest
 import scipy.linalg
 
 import rigval.model as rm
-from rigval.acquisition.errors import AssemblyError, NumericsWarning, SingularityError
+from rigval.acquisition.errors import NumericsWarning
+from rigval.model.errors import AssemblyError, SingularityError
 from rigval.model.loops import loop_system
 from rigval.model.reference import constraint_jacobian
 

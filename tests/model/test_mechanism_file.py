@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 
 import rigval.model as rm
-from rigval.acquisition.errors import MechanismError
+from rigval.model.errors import MechanismError
 
 
 @pytest.mark.parametrize("name", rm.BUILTIN_MECHANISMS)

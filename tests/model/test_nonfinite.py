@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 import rigval.model as rm
-from rigval.acquisition.errors import DataError, ModelError
+from rigval.acquisition.errors import DataError
+from rigval.model.errors import ModelError
 
 T = np.linspace(0.0, 0.5, 11)
 

@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 
 import rigval.model as rm
-from rigval.acquisition.errors import NumericsWarning, SingularityError
+from rigval.acquisition.errors import NumericsWarning
 from rigval.model.assembly import COND_MAX
+from rigval.model.errors import SingularityError
 
 # fourbar.toml: crank a = 0.1 (O2 at 0, 0), coupler b = 0.35, rocker c = 0.3, O4 at (0.4, 0)
 A, B, C, D = 0.1, 0.35, 0.3, 0.4

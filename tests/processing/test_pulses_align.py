@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rigval.acquisition.errors import AlignmentError
 from rigval.acquisition.schema import invalid_counts
 from rigval.processing import align, angle, encoder, excitation, pulses
+from rigval.processing.errors import AlignmentError
 
 
 def _edges(rig, polarity: str) -> tuple[np.ndarray, np.ndarray]:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from rigval.acquisition.errors import SceneError
 from rigval.sample_data import runs_dir
+from rigval.validation.errors import SceneError
 from rigval.validation.scene import parse_scene
 
 SHIPPED = runs_dir() / "run_0p8_scene.toml"

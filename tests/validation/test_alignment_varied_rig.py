@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rigval.acquisition.errors import AlignmentError, DataWarning
+from rigval.acquisition.errors import DataWarning
+from rigval.processing.errors import AlignmentError
 from rigval.sample_data import Imperfections, RigSettings, load_truth, simulate_rig
 from rigval.validation.pipeline import run_scene, validate_scene
 from rigval.validation.results import ValidationResult

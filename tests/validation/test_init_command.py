@@ -12,9 +12,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from rigval.acquisition.errors import ConfigError, SceneError
+from rigval.acquisition.errors import ConfigError
 from rigval.sample_data import runs_dir
 from rigval.validation.cli import EXIT_FAILED, EXIT_OK, EXIT_USAGE, main
+from rigval.validation.errors import SceneError
 from rigval.validation.scene import load_scene, todo_keys
 from rigval.validation.scene_init import classify_channel, fill_todos
 

@@ -8,8 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from rigval.acquisition.errors import ConfigError, SceneError
+from rigval.acquisition.errors import ConfigError
 from rigval.acquisition.units import dimension, same_unit
+from rigval.validation.errors import SceneError
 from rigval.validation.scene import load_scene, parse_scene
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "scene.md"

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from rigval.acquisition.errors import SceneError
 from rigval.sample_data import runs_dir
+from rigval.validation.errors import SceneError
 from rigval.validation.scene import load_scene
 
 

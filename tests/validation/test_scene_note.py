@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from rigval.acquisition.errors import SceneError
 from rigval.sample_data import runs_dir
+from rigval.validation.errors import SceneError
 from rigval.validation.note import MAX_NOTE_BYTES, read_note
 from rigval.validation.scene import load_scene
 

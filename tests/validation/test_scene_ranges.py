@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from rigval.acquisition.errors import SceneError
 from rigval.sample_data import runs_dir
 from rigval.validation.cli import main
+from rigval.validation.errors import SceneError
 from rigval.validation.pipeline import read_streams
 from rigval.validation.scene import load_scene
 from rigval.validation.scene_rates import check_sample_rates

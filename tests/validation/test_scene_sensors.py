@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from rigval.acquisition.channel_map import load_stream
-from rigval.acquisition.errors import ConfigError, SceneError
+from rigval.acquisition.errors import ConfigError
 from rigval.sample_data import runs_dir
 from rigval.validation.convert import convert_stream
+from rigval.validation.errors import SceneError
 from rigval.validation.scene import load_scene
 
 G0 = 9.80665  # m s-2
@@ -58,7 +59,7 @@ def test_scene_sensor_converts_by_its_closed_form(tmp_path: Path, table: str, ex
 @pytest.mark.parametrize(("table", "key"), [
     ('sensor = "linear"\nslope = 0.0\nunits = "N"', "streams.cdaq.channels.acc3.slope"),
     ('sensor = "linear"\nslope = 1.0', "streams.cdaq.channels.acc3.units"),
-    ('sensor = "linear"\nslope = 1.0\nunits = "kN"', "streams.cdaq.channels.acc3.units"),
+    ('sensor = "linear"\nslope = 1.0\nunits = "lbf"', "streams.cdaq.channels.acc3.units"),
     ('sensor = "iepe_accelerometer"\nsensitivity = -5.0',
      "streams.cdaq.channels.acc3.sensitivity"),
     ('sensor = "iepe_accelerometer"', "streams.cdaq.channels.acc3.sensitivity"),

@@ -7,9 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from rigval.acquisition.errors import ConfigError, SceneError
+from rigval.acquisition.errors import ConfigError
 from rigval.sample_data import runs_dir
 from rigval.validation.cli import EXIT_USAGE, main
+from rigval.validation.errors import SceneError
 from rigval.validation.scene import load_scene, todo_keys
 
 
