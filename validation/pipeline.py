@@ -202,9 +202,13 @@ def _measured_float32(ds: xr.Dataset) -> xr.Dataset:
 
 def _tree(scene: Scene, raw: Mapping[str, xr.Dataset], aligned: Mapping[str, xr.Dataset],
           angle: np.ndarray, grid_times: np.ndarray, measured: Mapping[str, np.ndarray],
-          results: tuple[ComparisonResult, ...], model: xr.Dataset, steps: list[str]
-          ) -> xr.DataTree:
-    """Build the run's DataTree; history: the streams' processing lines, then ``steps``."""
+          results: tuple[ComparisonResult, ...], model: xr.Dataset, steps: list[str],
+          history: list[str]) -> xr.DataTree:
+    """Build the run's DataTree; history: the streams' processing lines, then ``steps``.
+
+    ``/raw`` and ``/aligned`` hold the streams given in ``raw`` and ``aligned`` (empty mappings
+    when the scene's ``[output]`` does not ask for them).
+    """
     cycle = np.arange(grid_times.shape[0])
     angle_ds = xr.Dataset(coords={
         "angle": ("angle", angle, {"units": "rad", "long_name": "main shaft angle phi_F"}),
@@ -253,8 +257,7 @@ def _tree(scene: Scene, raw: Mapping[str, xr.Dataset], aligned: Mapping[str, xr.
     nodes["/validation"] = validation
     tree = xr.DataTree.from_dict(nodes)
     tree.attrs["title"] = scene.title
-    lines = [line for ds in aligned.values()
-             for line in str(ds.attrs.get("history", "")).splitlines()]
+    lines = list(history)
     lines += [f"{datetime.datetime.now(datetime.UTC):%Y-%m-%dT%H:%M:%SZ} rigval {step}"
               for step in steps]
     tree.attrs["history"] = "\n".join(lines)
@@ -361,6 +364,8 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         check_sample_rates(scene, raw)
     with watch.stage("convert"):
         converted = {name: convert_stream(raw[name], spec) for name, spec in scene.streams.items()}
+        if not scene.output.raw:
+            raw = {}  # not written: free the streams as read before the next stage
     with watch.stage("align"), encoder_scale_errors(scene):
         aligned, diagnostics, main = align_streams(scene, converted)
     with watch.stage("angle"):
@@ -390,7 +395,10 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
             model.attrs.get("max_condition_number", math.nan))
     passed = all(r.passed for r in results)
     steps = _history(scene, grid, corners, model_request(scene, mechanism), passed)
-    tree = _tree(scene, raw, aligned, grid.angle, grid.times, measured, results, model, steps)
+    history = [line for ds in aligned.values()
+               for line in str(ds.attrs.get("history", "")).splitlines()]
+    tree = _tree(scene, raw, aligned if scene.output.aligned else {}, grid.angle, grid.times,
+                 measured, results, model, steps, history)
     tree["/angle"].attrs["lowpass_hz"] = json.dumps(corners)
     numerics = NumericsSummary(dict(watch.seconds), residuals, errors, grid.fine_angle.size)
     logger.info("validated %s in %.2f s: %s", scene.path.name, sum(watch.seconds.values()),

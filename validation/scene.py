@@ -52,6 +52,7 @@ __all__ = [
     "MechanismNames",
     "ModelOutput",
     "ModelSpec",
+    "OutputSpec",
     "PredictionSpec",
     "PulseSpec",
     "Scene",
@@ -367,6 +368,22 @@ class PredictionSpec:
 
 
 @dataclass(frozen=True)
+class OutputSpec:
+    """What the run's netCDF file keeps besides the angle domain, the model and the verdicts.
+
+    Parameters
+    ----------
+    raw : bool, default False
+        Keep every stream as read (``/raw/<stream>``, float32): about 4 bytes per sample.
+    aligned : bool, default False
+        Keep every stream converted and on the reference timeline (``/aligned/<stream>``).
+    """
+
+    raw: bool = False
+    aligned: bool = False
+
+
+@dataclass(frozen=True)
 class MechanismNames:
     """The names in a mechanism that scene keys may refer to.
 
@@ -426,6 +443,8 @@ class Scene:
         What is compared.
     predictions : PredictionSpec
         What is predicted beyond the comparisons.
+    output : OutputSpec
+        What the netCDF file keeps besides the angle domain (``[output]``).
     """
 
     path: Path
@@ -440,6 +459,7 @@ class Scene:
     model: ModelSpec
     comparisons: tuple[ComparisonSpec, ...]
     predictions: PredictionSpec
+    output: OutputSpec = OutputSpec()
 
     @property
     def input_files(self) -> tuple[Path, ...]:
@@ -858,6 +878,14 @@ def _predictions(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...]
     return PredictionSpec(tuple(points), None if supports is None else tuple(supports))
 
 
+def _output(doc: Mapping[str, Any]) -> OutputSpec:
+    key = "output"
+    table = _table(_get(doc, key, "", dict, {}), key)
+    _check_keys(table, key, {"raw", "aligned"})
+    return OutputSpec(raw=_get(table, "raw", key, bool, False),
+                      aligned=_get(table, "aligned", key, bool, False))
+
+
 #: The marker ``rigval init`` writes for a value the files cannot tell.
 TODO = "TODO"
 
@@ -1008,7 +1036,7 @@ def parse_scene(text: str, path: str | Path, *, names: MechanismNames | None = N
             hint="fill each value (the comment next to it in the skeleton written by rigval "
                  "init says what it is); docs/scene.md describes every key")
     _check_keys(doc, "", {"schema", "title", "mechanism", "note", "streams", "alignment", "angle",
-                          "model", "comparisons", "predictions"})
+                          "model", "comparisons", "predictions", "output"})
     schema = _get(doc, "schema", "", str)
     if schema != SCHEMA:
         raise _error("schema", f"expected {SCHEMA!r}, got {schema!r}")
@@ -1025,7 +1053,7 @@ def parse_scene(text: str, path: str | Path, *, names: MechanismNames | None = N
         streams=MappingProxyType(streams), alignment=alignment,
         angle=_angle(doc), model=_model(doc, streams, alignment.reference),
         comparisons=comparisons,
-        predictions=_predictions(doc, comparisons))
+        predictions=_predictions(doc, comparisons), output=_output(doc))
     if names is not None:
         check_mechanism_names(scene, names)
     return scene

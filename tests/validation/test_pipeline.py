@@ -15,7 +15,8 @@ import xarray as xr
 
 from rigval.sample_data import RigSettings, load_truth, simulate_rig
 from rigval.validation.cli import main
-from rigval.validation.pipeline import run_scene, validate_scene
+from rigval.validation.pipeline import read_streams, run_scene, validate_scene
+from rigval.validation.scene import load_scene
 
 DURATION_S = 12.0
 
@@ -90,9 +91,9 @@ def test_model_and_measurement_agree(report_dir: Path) -> None:
 
 def test_netcdf_layout(report_dir: Path, scene_path: Path) -> None:
     tree = xr.open_datatree(next(report_dir.glob("*.nc")))
-    assert {"raw", "aligned", "angle", "model", "validation"} <= set(tree.children)
-    assert set(tree["raw"].children) == {"cdaq", "wls1", "wls2"}
-    assert tree["raw/cdaq"]["acc1"].dtype == np.float32
+    # the scene has no [output] table: the angle domain only, no raw or aligned streams
+    assert {"angle", "model", "validation"} <= set(tree.children)
+    assert not {"raw", "aligned"} & set(tree.children)
     assert tree["model"]["support_force"].dtype == np.float64
     assert tree["model"]["support_force"].encoding["complevel"] == 4
     assert tree.attrs["scene_toml"] == scene_path.read_text()
@@ -166,6 +167,24 @@ def test_corrupt_data_file_exits_3(scene_path: Path, tmp_path: Path,
     tdms.write_bytes(b"version https://git-lfs.github.com/spec/v1\noid sha256:0\nsize 1\n")
     assert main(["validate", str(scene), "--out", str(tmp_path / "out")]) == 3
     assert "wls1.tdms" in capsys.readouterr().err
+
+
+def test_output_keys_keep_raw_and_aligned_streams(scene_path: Path, tmp_path: Path) -> None:
+    """``[output] raw = true, aligned = true``: both groups, raw equal to the file as read."""
+    text = scene_path.read_text()
+    scene = _edited(scene_path, tmp_path, text, text + "\n[output]\nraw = true\naligned = true\n")
+    tree = run_scene(scene).tree
+    assert set(tree["raw"].children) == set(tree["aligned"].children) == {"cdaq", "wls1", "wls2"}
+    read = read_streams(load_scene(scene))
+    for stream, ds in read.items():
+        for name, var in ds.data_vars.items():
+            kept = tree[f"raw/{stream}"][name]
+            assert kept.shape == var.shape, (stream, name)
+            if var.dtype.kind == "f":  # kept as float32: equal to float32 rounding
+                assert kept.dtype == np.float32
+                np.testing.assert_array_equal(kept.values, var.values.astype(np.float32))
+    acc1 = tree["aligned/cdaq"]["acc1"]
+    assert acc1.dtype == np.float32 and acc1.attrs["units"] == "m s-2"
 
 
 def test_validate_scene_returns_what_a_campaign_needs(scene_path: Path, tmp_path: Path) -> None:
