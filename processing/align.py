@@ -27,7 +27,6 @@ reference timeline without touching its samples.
 from __future__ import annotations
 
 import dataclasses
-import json
 import logging
 import warnings
 from collections.abc import Mapping, Sequence
@@ -43,6 +42,7 @@ from rigval.acquisition.devices import ni9237_input_delay
 from rigval.acquisition.errors import DataError, DataWarning
 from rigval.acquisition.schema import (
     append_history,
+    cf_time_attrs,
     invalid_counts,
     parse_start_time,
     with_invalid_counts,
@@ -207,7 +207,14 @@ class ClockModel:
         return offset + (1.0 + self.drift) * t
 
     def attrs(self) -> dict[str, Any]:
-        """Return the design 3.2 attributes (``clock_offset_s``, ``clock_drift_ppm``, ...)."""
+        """Return the clock model as netCDF-storable attributes (docs/processing.md).
+
+        Scalars ``clock_offset_s`` (first segment), ``clock_drift_ppm``, their standard errors and
+        95 % half-widths, ``residual_rms_s``, ``pulses_matched``/``pulses_total``; one entry per
+        aligned segment in the arrays ``segments`` (device segment index),
+        ``segment_clock_offset_s``, ``segment_clock_offset_u95_s`` and ``segment_clock_group``;
+        ``unaligned_segments`` (int64 array, empty when every segment was aligned).
+        """
         return {
             "clock_offset_s": float(self.offsets_s[0]),
             "clock_drift_ppm": self.drift * 1e6,
@@ -219,12 +226,12 @@ class ClockModel:
             "residual_rms_s": self.residual_rms_s,
             "pulses_matched": self.pulses_matched,
             "pulses_total": self.pulses_total,
-            "segments": json.dumps([
-                {"segment": s, "clock_offset_s": o, "clock_offset_u95_s": u, "clock_group": g}
-                for s, o, u, g in zip(self.segments, self.offsets_s,
-                                      self.offsets_u95_s or (0.0,) * len(self.segments),
-                                      self.clock_groups or self.segments, strict=True)]),
-            "unaligned_segments": json.dumps(list(self.unaligned_segments)),
+            "segments": np.array(self.segments, dtype=np.int64),
+            "segment_clock_offset_s": np.array(self.offsets_s, dtype=np.float64),
+            "segment_clock_offset_u95_s": np.array(
+                self.offsets_u95_s or (0.0,) * len(self.segments), dtype=np.float64),
+            "segment_clock_group": np.array(self.clock_groups or self.segments, dtype=np.int64),
+            "unaligned_segments": np.array(self.unaligned_segments, dtype=np.int64),
         }
 
 
@@ -795,7 +802,8 @@ def channel_time(aligned: xr.Dataset, name: str) -> _FloatArray:
     return aligned["time"].to_numpy() - delay
 
 
-def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = None) -> xr.Dataset:
+def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = None,
+                 reference_start: str | None = None) -> xr.Dataset:
     """Put a stream on the reference timeline with its clock model.
 
     Parameters
@@ -807,6 +815,10 @@ def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = No
         reference stream).
     name : str, optional
         Stream name for the history line.
+    reference_start : str, optional
+        ``start_time`` (ISO 8601) of the reference stream: the origin of the reference clock, so
+        the aligned ``time`` carries CF units ``"seconds since <reference_start>"``. Default: the
+        stream's own ``start_time`` (right for the reference stream itself).
 
     Returns
     -------
@@ -846,10 +858,11 @@ def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = No
         counts["unaligned segment"] = counts.get("unaligned segment", 0) + newly
         out["valid"] = stream["valid"] & ~xr.DataArray(lost, dims="time")
         out = with_invalid_counts(out, counts)
-    out = out.assign_coords(time=("time", ref_time, {
-        "units": "s", "long_name": "time on the reference device clock"}),
-        device_time=("time", device_time, {"units": "s",
-                                           "long_name": "time on the device clock"}))
+    origin = reference_start if reference_start is not None else str(stream.attrs["start_time"])
+    own = cf_time_attrs(str(stream.attrs["start_time"]), "time on the device clock")
+    out = out.assign_coords(
+        time=("time", ref_time, cf_time_attrs(origin, "time on the reference device clock")),
+        device_time=("time", device_time, {k: own[k] for k in ("units", "calendar", "long_name")}))
     for var in out.data_vars:
         if var in ("valid", "segment"):
             continue

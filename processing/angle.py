@@ -17,7 +17,6 @@ samples (``points_per_rev * f_rot < fs``) the channel is first low-passed (zero 
 
 from __future__ import annotations
 
-import json
 import logging
 from collections.abc import Mapping, Sequence
 from typing import Literal
@@ -381,7 +380,7 @@ def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
         On the stream's ``time``: ``phi_F`` (rad, unwrapped, 2 pi k at the reference),
         ``phi_F_dot`` (rad s-1), ``phi_F_ddot`` (rad s-2); attributes ``zero_offset_rad``,
         ``reference_scatter_rad`` (rms scatter of the pulses about phi_F = 0) and
-        ``suspect_cycles`` (JSON list of cycle numbers whose count between reference pulses is
+        ``suspect_cycles`` (int64 array of cycle numbers whose count between reference pulses is
         off a whole number of revolutions by more than one count: glitches or missed counts;
         missing pulses alone do not make a cycle suspect) and a history line.
     """
@@ -412,7 +411,7 @@ def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
                for k in range(first[i], first[i] + int(whole[i]) + 1)}
     exc.attrs.update({"zero_offset_rad": offset, "reference_scatter_rad": scatter,
                       "reference_channel": reference.channel,
-                      "suspect_cycles": json.dumps(sorted(suspect))})
+                      "suspect_cycles": np.array(sorted(suspect), dtype=np.int64)})
     append_history(exc, f"processing.phi_f zero at {reference.channel} ({offset:.6f} rad, "
                         f"scatter {scatter:.2e} rad), {len(suspect)} suspect cycles")
     return exc

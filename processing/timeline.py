@@ -9,7 +9,6 @@ grid rate when a stream is sampled faster than the grid.
 
 from __future__ import annotations
 
-import json
 import logging
 from collections.abc import Mapping, Sequence
 
@@ -28,7 +27,8 @@ logger = logging.getLogger(__name__)
 
 #: Clock-model attributes copied from each aligned stream onto its channels.
 CLOCK_ATTRS = ("clock_offset_s", "clock_drift_ppm", "residual_rms_s", "pulses_matched",
-               "segments")
+               "segments", "segment_clock_offset_s", "segment_clock_offset_u95_s",
+               "segment_clock_group", "unaligned_segments")
 
 
 def common_timeline(aligned: Mapping[str, xr.Dataset], reference: str, *,
@@ -53,10 +53,10 @@ def common_timeline(aligned: Mapping[str, xr.Dataset], reference: str, *,
     Returns
     -------
     xarray.Dataset
-        Dim ``time`` (s, reference clock); one variable per channel with its attributes, its
-        ``stream`` and the stream's clock model (``clock_offset_s``, ``clock_drift_ppm``,
-        ``residual_rms_s``, ``pulses_matched``, ``segments``); attribute ``streams`` (JSON: the
-        clock model of every stream) and a history line.
+        Dim ``time`` (s on the reference clock, with the reference stream's CF ``units``
+        ``"seconds since <start>"``); one variable per channel with its attributes, its
+        ``stream`` and the stream's clock model (:data:`CLOCK_ATTRS`); attribute ``streams`` (the
+        stream names, in order) and a history line.
     """
     if reference not in aligned:
         raise ChannelNotFoundError(f"no aligned stream {reference!r}", where={"key": "reference"},
@@ -101,9 +101,9 @@ def common_timeline(aligned: Mapping[str, xr.Dataset], reference: str, *,
                      "resampling": f"spline order {order} onto {rate:g} Hz, delay removed"}
             attrs.pop("input_delay_s", None)
             data_vars[out_name] = ("time", resampled, attrs)
-    out = xr.Dataset(data_vars, coords={"time": ("time", grid, {
-        "units": "s", "long_name": "time on the reference device clock"})},
-        attrs={"reference_stream": reference, "fs_nominal": rate, "streams": json.dumps(models),
+    time_attrs = {**ref["time"].attrs, "long_name": "time on the reference device clock"}
+    out = xr.Dataset(data_vars, coords={"time": ("time", grid, time_attrs)},
+        attrs={"reference_stream": reference, "fs_nominal": rate, "streams": list(models),
                "history": "\n".join(history)})
     append_history(out, f"processing.common_timeline {len(data_vars)} channels onto "
                         f"{rate:g} Hz ({reference} clock)")

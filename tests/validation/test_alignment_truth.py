@@ -33,7 +33,6 @@ them:
 
 from __future__ import annotations
 
-import json
 import math
 import warnings
 from pathlib import Path
@@ -98,8 +97,9 @@ def restart_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
 
 def _fitted_clock(aligned: xr.Dataset) -> tuple[dict[int, float], float]:
     """Return the fitted offset (s) per segment and drift (1) from a stream's attributes."""
-    segments = json.loads(aligned.attrs["segments"])
-    return ({s["segment"]: s["clock_offset_s"] for s in segments},
+    segments = np.atleast_1d(aligned.attrs["segments"])
+    offsets = np.atleast_1d(aligned.attrs["segment_clock_offset_s"])
+    return ({int(s): float(o) for s, o in zip(segments, offsets, strict=True)},
             aligned.attrs["clock_drift_ppm"] * 1e-6)
 
 
