@@ -94,8 +94,8 @@ def _offset_law(driver, reference, esym):
     """
     def offset(mbs, t, itemNumber, lOffset):
         value = (driver.theta0 - reference) + driver.omega * t
-        for h in driver.harmonics:
-            value = value + h.amplitude * esym.sin(h.omega * t + h.phase)
+        for h in driver.law.harmonics:
+            value = value + h.amplitude * esym.sin(h.order * driver.cycle_omega * t + h.phase)
         return value
     return offset
 

@@ -26,7 +26,6 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 import rigval.model as rm  # noqa: E402
-from rigval.model.drives import law_motion  # noqa: E402
 
 FULL = ["position", "velocity", "acceleration", "joint_force", "driver_torque"]
 FS = 5000.0
@@ -91,7 +90,7 @@ def main() -> None:
               f"{rel_error(part['driver_torque'], base['driver_torque']):12.2e}")
 
     print("\n4. evaluation points per cycle, interpolated to every sample's phi_F")
-    theta_f = law_motion(mech.drivers[0], t)[0]
+    theta_f = mech.drivers[0].motion(t)[0]
     phi = np.mod(theta_f - theta_f[0], 2 * np.pi)
     torque = fast["driver_torque"].to_numpy()
     print(f"{'points':>8s} {'cpu s':>8s} {'steps/s':>12s} {'torque error':>13s}")

@@ -20,11 +20,11 @@ counter-clockwise positive. On request also ``support_force`` (force ON the grou
 ``kinetic_energy``, ``potential_energy``, ``drive_power`` and ``condition_number``.
 """
 
+from rigval.model.laws import DriveLaw, Excitation, Harmonic
 from rigval.model.mechanism import (
     BUILTIN_MECHANISMS,
     Body,
     Driver,
-    Harmonic,
     Joint,
     Mechanism,
     builtin_mechanism,
@@ -39,7 +39,9 @@ __all__ = [
     "EXTRA_OUTPUTS",
     "OUTPUTS",
     "Body",
+    "DriveLaw",
     "Driver",
+    "Excitation",
     "Harmonic",
     "Joint",
     "Mechanism",

@@ -34,7 +34,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rigval.acquisition.errors import NumericsWarning
-from rigval.model.drives import law_motion
 from rigval.model.errors import AssemblyError, MechanismError, SingularityError
 from rigval.model.linalg import BatchLU, row_max_abs, static_row_order
 from rigval.model.loops import LoopSystem, loop_system
@@ -672,7 +671,7 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
                             np.ones(n, dtype=bool), None)
     # The guesses describe the mechanism at t = 0 of the drive laws: assemble there, then follow
     # the shortest change of the driven angles (modulo whole turns) to the first step.
-    start_d = np.array([law_motion(d, np.zeros(1))[0][0] for d in mechanism.drivers])
+    start_d = np.array([d.motion(np.zeros(1))[0][0] for d in mechanism.drivers])
     start_u = assemble(mechanism, system, start_d, guess_u, tolerances.tol, 0.0)
     _check_guesses(mechanism, system, guess_u, start_u, tolerances.guess_tol)
     turn = theta_d[0] - start_d
@@ -857,7 +856,7 @@ def assembly_rank(mechanism: Mechanism) -> tuple[int, int]:
         When the mechanism cannot be assembled at t = 0.
     """
     system = loop_system(mechanism)
-    theta_d = np.array([law_motion(d, np.zeros(1))[0][0] for d in mechanism.drivers])
+    theta_d = np.array([d.motion(np.zeros(1))[0][0] for d in mechanism.drivers])
     guess = np.array([mechanism.bodies[i].guess[2] for i in system.undriven])
     try:
         theta_u = assemble(mechanism, system, theta_d, guess, 1e-12, 0.0)

@@ -1,19 +1,11 @@
-"""Drive laws: how each drive's angle moves over one cycle of the machine.
+"""Where drive laws come from (the laws themselves, their evaluation and inversion: ``laws.py``).
 
-Every drive angle is written against the cycle phase ``tau = Omega t`` of the main drive, where
-``Omega = 2 pi f`` and ``f`` is the cycle frequency (Hz, main-drive revolutions per second):
+A :class:`~rigval.model.laws.DriveLaw` is written against the main drive's cycle phase, so
+changing the frequency keeps the shape of every profile over a cycle (a speed sweep moves along one
+path at different speeds). Laws come from
 
-    theta(t) = theta0 + phase + ratio * Omega t + sum_k amplitude_k sin(order_k Omega t + phase_k)
-
-``ratio`` is the drive's speed ratio to the main drive (1 for the main drive itself, 2 for the
-pendulum's lifting drive), ``phase`` (rad) shifts the drive's angle against the main drive, and the
-harmonic orders count multiples of the cycle frequency. Because the law is written against the
-phase, changing the frequency keeps the shape of every profile over a cycle (a speed sweep moves
-along one path at different speeds).
-
-Laws come from
-
-* the mechanism file (:func:`excitation_from_drivers`, the ``harmonic`` law of design 4.1),
+* the mechanism file (:func:`~rigval.model.laws.excitation_from_drivers`, the ``harmonic``
+  law of docs/mechanism.md),
 * a small TOML table, on the command line (``--drive theta_H={phase = 0.5}``) or in a file
   (:func:`parse_drive_option`, :func:`law_from_table`),
 * a tabulated profile, a CSV of angle against time, smoothed and differentiated by a least-squares
@@ -29,7 +21,7 @@ import dataclasses
 import logging
 import math
 import tomllib
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -46,16 +38,13 @@ from rigval.acquisition.errors import (
     DataError,
     DataFileError,
 )
+from rigval.model.laws import DriveLaw, Excitation, Harmonic, check_frequency
 
 __all__ = [
     "NOISE_COVERAGE",
-    "DriveLaw",
-    "Excitation",
     "FitError",
-    "Harmonic",
     "ProfileFit",
     "apply_drive_options",
-    "excitation_from_drivers",
     "excitation_from_measured",
     "fit_periodic_profile",
     "law_from_table",
@@ -75,25 +64,6 @@ _ERROR_GRID = 720
 _TRUNCATION_ORDERS = 3
 _PERIOD_STEPS = 4
 _ROUNDOFF = 64 * np.finfo(float).eps
-
-
-@dataclass(frozen=True)
-class Harmonic:
-    """One harmonic term ``amplitude sin(order Omega t + phase)`` of a drive law.
-
-    Parameters
-    ----------
-    amplitude : float
-        Amplitude, rad.
-    order : float
-        Frequency as a multiple of the cycle frequency (1 = once per main-drive revolution).
-    phase : float
-        Phase at t = 0, rad.
-    """
-
-    amplitude: float
-    order: float
-    phase: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -140,196 +110,6 @@ class FitError:
         return self.angle, self.speed * abs(omega), self.acceleration * omega**2
 
 
-@dataclass(frozen=True)
-class DriveLaw:
-    """The angle of one drive over the cycle (see the module docstring for the formula).
-
-    Parameters
-    ----------
-    theta0 : float
-        Angle offset of the law, rad.
-    ratio : float
-        Constant speed as a multiple of the cycle angular frequency (1 for the main drive).
-    phase : float
-        Angle added to the whole law, rad: shifts this drive against the main drive.
-    harmonics : tuple of Harmonic
-        Harmonic terms.
-    source : str
-        Where the law came from (``"mechanism file"``, a CSV path, ``"command line"``, ...).
-    error : FitError, optional
-        Stated error when the law was fitted to samples; None for an exact law.
-    """
-
-    theta0: float
-    ratio: float = 1.0
-    phase: float = 0.0
-    harmonics: tuple[Harmonic, ...] = ()
-    source: str = "mechanism file"
-    error: FitError | None = None
-
-    def evaluate(self, t: npt.ArrayLike, omega: float
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Return angle (rad), speed (rad/s) and acceleration (rad/s**2) at times ``t``.
-
-        Parameters
-        ----------
-        t : array_like
-            Times, s.
-        omega : float
-            Cycle angular frequency, rad/s.
-        """
-        tau = omega * np.asarray(t, dtype=float)
-        theta = self.theta0 + self.phase + self.ratio * tau
-        speed = np.full_like(tau, self.ratio * omega)
-        acceleration = np.zeros_like(tau)
-        for term in self.harmonics:
-            arg = term.order * tau + term.phase
-            rate = term.order * omega
-            sin, cos = np.sin(arg), np.cos(arg)
-            theta = theta + term.amplitude * sin
-            speed = speed + term.amplitude * rate * cos
-            acceleration = acceleration - term.amplitude * rate**2 * sin
-        return theta, speed, acceleration
-
-
-@dataclass(frozen=True)
-class Excitation:
-    """The laws of every drive of a mechanism, sharing one cycle frequency.
-
-    Parameters
-    ----------
-    frequency : float
-        Cycle frequency, Hz (main-drive revolutions per second for a main drive of ratio 1).
-    laws : tuple of (str, DriveLaw)
-        Drive name and its law, in the mechanism's driver order.
-    main : str
-        Name of the main drive, whose angle is the cycle's reference (phi_F).
-    """
-
-    frequency: float
-    laws: tuple[tuple[str, DriveLaw], ...]
-    main: str
-
-    @property
-    def omega(self) -> float:
-        """Cycle angular frequency, rad/s."""
-        return 2.0 * math.pi * self.frequency
-
-    @property
-    def period(self) -> float:
-        """Cycle period, s."""
-        return 1.0 / self.frequency
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """Drive names in order."""
-        return tuple(name for name, _ in self.laws)
-
-    def law(self, name: str) -> DriveLaw:
-        """Return the law of drive ``name`` (ChannelNotFoundError when there is none)."""
-        for law_name, law in self.laws:
-            if law_name == name:
-                return law
-        raise ChannelNotFoundError(f"no drive named {name!r}", where={"drive": name},
-                                   hint="use one of the mechanism's driver names",
-                                   available=list(self.names))
-
-    def with_law(self, name: str, law: DriveLaw) -> Excitation:
-        """Return a copy with drive ``name``'s law replaced."""
-        self.law(name)
-        laws = tuple((n, law if n == name else old) for n, old in self.laws)
-        return dataclasses.replace(self, laws=laws)
-
-    def with_frequency(self, frequency: float) -> Excitation:
-        """Return a copy running at cycle frequency ``frequency`` (Hz), profiles unchanged."""
-        _check_frequency(frequency, "frequency")
-        return dataclasses.replace(self, frequency=float(frequency))
-
-    def evaluate(self, t: npt.ArrayLike) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """Return, per drive, angle (rad), speed (rad/s), acceleration (rad/s**2) at ``t`` (s)."""
-        return {name: law.evaluate(t, self.omega) for name, law in self.laws}
-
-    def to_dataset(self, t: npt.ArrayLike) -> xr.Dataset:
-        """Return the drive angles and derivatives at times ``t`` (s) as a Dataset.
-
-        Variables ``<drive>`` (rad), ``<drive>_dot`` (rad s-1) and ``<drive>_ddot``
-        (rad s-2) along dim ``time``: the form processing identifies from encoders, and the form
-        :func:`excitation_from_measured` reads.
-        """
-        t = np.asarray(t, dtype=float)
-        data: dict[str, Any] = {}
-        for name, (theta, speed, accel) in self.evaluate(t).items():
-            data[name] = ("time", theta, {"units": "rad", "long_name": f"{name} drive angle"})
-            data[f"{name}_dot"] = ("time", speed, {"units": "rad s-1",
-                                                     "long_name": f"{name} angular speed"})
-            data[f"{name}_ddot"] = ("time", accel, {
-                "units": "rad s-2", "long_name": f"{name} angular acceleration"})
-        coords = {"time": ("time", t, {"units": "s", "long_name": "time from cycle start"})}
-        return xr.Dataset(data, coords=coords)
-
-    def cycle_times(self, n_points: int) -> tuple[np.ndarray, np.ndarray]:
-        """Return the times (s) at which the main drive has turned ``2 pi j / n_points``.
-
-        Parameters
-        ----------
-        n_points : int
-            Number of grid points over one cycle (the end point 2 pi is left out).
-
-        Returns
-        -------
-        angle : ndarray
-            Main-drive angle from its position at t = 0, rad, in [0, 2 pi).
-        time : ndarray
-            Times at which the main drive reaches ``angle``, s.
-
-        Raises
-        ------
-        ConfigError
-            If the main drive stops or reverses within the cycle, so that its angle cannot serve as
-            the cycle coordinate.
-        """
-        if n_points < 4:
-            raise ConfigError(f"a cycle needs at least 4 points, got {n_points}",
-                              where={"option": "n_points"}, hint="use 360 or more points")
-        law = self.law(self.main)
-        omega = self.omega
-        slowest = self._slowest_speed(n_points)
-        if slowest <= 0.0:
-            raise ConfigError(
-                f"the main drive {self.main!r} must turn once per cycle without stopping "
-                f"(ratio {law.ratio:g}, slowest speed {slowest:.4g} rad/s)",
-                where={"drive": self.main},
-                hint="choose as main drive one that turns continuously, with harmonic "
-                     "amplitudes small enough that its speed stays positive")
-        direction = math.copysign(1.0, law.ratio)
-        angle = 2.0 * math.pi * np.arange(n_points) / n_points
-        start = law.evaluate(np.zeros(1), omega)[0][0]
-        t = angle / omega
-        for _ in range(50):
-            theta, speed, _ = law.evaluate(t, omega)
-            step = (direction * (theta - start) - angle) / (direction * speed)
-            t = t - step
-            if np.max(np.abs(step)) <= 1e-14 * self.period:
-                break
-        return angle, t
-
-    def turns_steadily(self, n_points: int = 360) -> bool:
-        """Return whether the main drive turns once per cycle without stopping or reversing.
-
-        Only then can its angle serve as the cycle coordinate (:meth:`cycle_times`). The speed is
-        checked at ``4 n_points + 1`` times over the cycle.
-        """
-        return self._slowest_speed(n_points) > 0.0
-
-    def _slowest_speed(self, n_points: int) -> float:
-        """Return the main drive's slowest speed in its turning direction, rad/s (<= 0: fails)."""
-        law = self.law(self.main)
-        if abs(law.ratio) != 1.0:
-            return 0.0
-        _, speed, _ = law.evaluate(np.linspace(0.0, self.period, 4 * n_points + 1), self.omega)
-        return float(np.min(math.copysign(1.0, law.ratio) * speed))
-
-
 class ProfileFit(NamedTuple):
     """A law fitted to a tabulated or measured profile and the cycle frequency it implies.
 
@@ -343,66 +123,6 @@ class ProfileFit(NamedTuple):
 
     law: DriveLaw
     frequency: float
-
-
-#: Largest cycle frequency accepted, Hz: far beyond any machine a rigid-body model describes, and
-#: small enough that speeds and accelerations (2 pi f)**2 stay far from overflow.
-MAX_FREQUENCY_HZ = 1e6
-
-
-def _check_frequency(value: Any, key: str) -> float:
-    if not isinstance(value, int | float) or isinstance(value, bool) or not value > 0 \
-            or not math.isfinite(value) or value > MAX_FREQUENCY_HZ:
-        raise ConfigError(f"the cycle frequency must be a positive number of Hz up to "
-                          f"{MAX_FREQUENCY_HZ:g}, got {value!r}",
-                          where={"key": key}, hint="give main-drive turns per second, e.g. 1.0")
-    return float(value)
-
-
-def excitation_from_drivers(drivers: Iterable[tuple[str, float, float,
-                                                    Sequence[tuple[float, float, float]]]],
-                            *, main: str | None = None) -> Excitation:
-    """Return the excitation of a mechanism file's ``harmonic`` drivers.
-
-    Parameters
-    ----------
-    drivers : iterable of (name, theta0, omega, harmonics)
-        Per driver: name, ``theta0`` (rad), constant speed ``omega`` (rad/s) and harmonics as
-        ``(amplitude rad, omega rad/s, phase rad)``, i.e.
-        ``theta(t) = theta0 + omega t + sum amplitude sin(omega_k t + phase)``.
-    main : str, optional
-        Name of the main drive; default the first driver.
-
-    Returns
-    -------
-    Excitation
-        The same laws written against the main drive's cycle (exact, no refit).
-
-    Raises
-    ------
-    ConfigError
-        If the main drive has neither a constant speed nor a harmonic (no cycle to speak of).
-    """
-    drivers = list(drivers)
-    if not drivers:
-        raise ConfigError("the mechanism has no drivers", hint="add a [[drivers]] table")
-    main = drivers[0][0] if main is None else main
-    rows = {name: (theta0, omega, harmonics) for name, theta0, omega, harmonics in drivers}
-    if main not in rows:
-        raise ChannelNotFoundError(f"no driver named {main!r}", where={"drive": main},
-                                   hint="name one of the mechanism's drivers as main",
-                                   available=list(rows))
-    _, main_omega, main_harmonics = rows[main]
-    cycle_omega = abs(main_omega) or next((abs(h[1]) for h in main_harmonics if h[1]), 0.0)
-    if cycle_omega == 0.0:
-        raise ConfigError(f"the main drive {main!r} does not move (omega 0, no harmonics)",
-                          where={"drive": main}, hint="give the main drive a constant speed")
-    laws = []
-    for name, theta0, omega, harmonics in drivers:
-        terms = tuple(Harmonic(float(a), float(w) / cycle_omega, float(p)) for a, w, p in harmonics)
-        laws.append((name, DriveLaw(theta0=float(theta0), ratio=float(omega) / cycle_omega,
-                                    harmonics=terms)))
-    return Excitation(frequency=cycle_omega / (2.0 * math.pi), laws=tuple(laws), main=main)
 
 
 def _number(table: Mapping[str, Any], key: str, where: str) -> float:
@@ -466,7 +186,7 @@ def law_from_table(table: Mapping[str, Any], base: DriveLaw, *, where: str,
     if unknown:
         raise ConfigError(f"unknown drive-law keys {unknown}", where={"key": where},
                           hint=f"use only {', '.join(_LAW_KEYS)}")
-    frequency = _check_frequency(table["frequency"], f"{where}.frequency") \
+    frequency = check_frequency(table["frequency"], f"{where}.frequency") \
         if "frequency" in table else None
     if "profile" in table:
         others = sorted(set(table) - {"profile", "period", "phase", "frequency"})

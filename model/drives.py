@@ -1,8 +1,8 @@
-"""Drive angles and their first and second time derivatives: analytic laws or sampled signals.
+"""Drive angles and their first and second time derivatives on the solve times.
 
-A driver prescribes its body's absolute angle. The file's law is
-``theta(t) = theta0 + omega t + sum(a_k sin(omega_k t + phase_k))``; a caller may instead pass
-sampled angles with their derivatives (what processing identifies from the encoders).
+A driver prescribes its body's absolute angle: by the file's law (evaluated by
+:class:`~rigval.model.laws.DriveLaw`), or by sampled angles with their derivatives that a caller
+passes (what processing identifies from the encoders).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataErr
 if TYPE_CHECKING:
     from rigval.model.mechanism import Driver, Mechanism
 
-__all__ = ["DriveMotion", "cycle_period", "drive_motion", "law_motion", "times_at_angles"]
+__all__ = ["DriveSamples", "cycle_period", "drive_motion"]
 
 logger = logging.getLogger(__name__)
 
@@ -29,7 +29,7 @@ SampledDrive = Sequence[np.ndarray] | np.ndarray
 
 
 @dataclass(frozen=True)
-class DriveMotion:
+class DriveSamples:
     """Driven angles and their derivatives at every time step, one column per driver.
 
     Attributes
@@ -47,35 +47,8 @@ class DriveMotion:
     alpha: np.ndarray
 
 
-def law_motion(driver: Driver, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Evaluate a driver's analytic law and its derivatives.
-
-    Parameters
-    ----------
-    driver : Driver
-        The driver.
-    t : numpy.ndarray
-        Times, s.
-
-    Returns
-    -------
-    theta, omega, alpha : numpy.ndarray
-        Angle (rad), angular speed (rad/s) and angular acceleration (rad/s2) at ``t``.
-    """
-    theta = driver.theta0 + driver.omega * t
-    omega = np.full_like(t, driver.omega)
-    alpha = np.zeros_like(t)
-    for term in driver.harmonics:
-        arg = term.omega * t + term.phase
-        sin, cos = np.sin(arg), np.cos(arg)
-        theta = theta + term.amplitude * sin
-        omega = omega + term.amplitude * term.omega * cos
-        alpha = alpha - term.amplitude * term.omega**2 * sin
-    return theta, omega, alpha
-
-
 def drive_motion(mechanism: Mechanism, t: np.ndarray,
-                 drives: Mapping[str, SampledDrive] | None = None) -> DriveMotion:
+                 drives: Mapping[str, SampledDrive] | None = None) -> DriveSamples:
     """Driven angles and derivatives at ``t``: sampled where given, the file's law otherwise.
 
     Parameters
@@ -90,7 +63,7 @@ def drive_motion(mechanism: Mechanism, t: np.ndarray,
 
     Returns
     -------
-    DriveMotion
+    DriveSamples
     """
     drives = dict(drives or {})
     unknown = sorted(set(drives) - set(mechanism.driver_names))
@@ -103,12 +76,12 @@ def drive_motion(mechanism: Mechanism, t: np.ndarray,
         if driver.name in drives:
             columns.append(_sampled(driver.name, drives[driver.name], t.shape[0]))
         else:
-            columns.append(law_motion(driver, t))
+            columns.append(driver.motion(t))
     if not columns:
         empty = np.zeros((t.shape[0], 0))
-        return DriveMotion(empty, empty, empty)
+        return DriveSamples(empty, empty, empty)
     theta, omega, alpha = (np.stack([c[i] for c in columns], axis=-1) for i in range(3))
-    return DriveMotion(theta, omega, alpha)
+    return DriveSamples(theta, omega, alpha)
 
 
 def _sampled(name: str, value: SampledDrive, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -152,60 +125,28 @@ def cycle_period(mechanism: Mechanism, driver: str | None = None) -> tuple[Drive
         Unknown driver, a main drive that does not turn steadily in one direction, or drive laws
         that do not repeat with the main drive's revolution.
     """
-    if not mechanism.drivers:
-        raise ConfigError("the mechanism has no driver", where={"file": mechanism.source},
-                          hint="a cycle is one revolution of a driver; add [[drivers]]")
-    if driver is None:
-        main = mechanism.drivers[0]
-    else:
-        matches = [d for d in mechanism.drivers if d.name == driver]
-        if not matches:
-            raise ChannelNotFoundError(f"no driver named {driver!r}", where={"key": "driver"},
-                                       available=list(mechanism.driver_names))
-        main = matches[0]
-    swing = sum(abs(h.amplitude * h.omega) for h in main.harmonics)
-    if main.omega <= swing:
+    name = mechanism.drivers[0].name if mechanism.drivers and driver is None else driver
+    if name is not None and name not in mechanism.driver_names:
+        raise ChannelNotFoundError(f"no driver named {name!r}", where={"key": "driver"},
+                                   available=list(mechanism.driver_names))
+    excitation = mechanism.excitation(name)
+    main = mechanism.drivers[mechanism.driver_names.index(excitation.main)]
+    law = excitation.law(main.name)
+    slowest = law.slowest_rate() * excitation.omega
+    if law.ratio != 1.0 or slowest <= 0.0:
         raise ConfigError(
             f"driver {main.name!r} does not turn steadily forward (omega {main.omega} rad/s, "
-            f"harmonics can slow it by up to {swing} rad/s)", where={"key": "driver"},
+            f"slowest speed {slowest:.4g} rad/s)", where={"key": "driver"},
             hint="choose a driver with positive mean speed larger than its harmonics' swing")
-    period = 2.0 * math.pi / main.omega
-    for other in mechanism.drivers:
-        for label, freq in [("omega", other.omega)] + [
-                (f"harmonics[{i}].omega", h.omega) for i, h in enumerate(other.harmonics)]:
-            turns = freq * period / (2.0 * math.pi)
+    period = 2.0 * math.pi / excitation.omega
+    for other, other_law in excitation.laws:
+        for label, turns in [("omega", other_law.ratio)] + [
+                (f"harmonics[{i}].omega", h.order) for i, h in enumerate(other_law.harmonics)]:
             if abs(turns - round(turns)) > 1e-9 * max(1.0, abs(turns)):
                 raise ConfigError(
-                    f"driver {other.name!r} {label} = {freq} rad/s does not repeat with one "
-                    f"revolution of {main.name!r} ({period} s): {turns} turns per revolution",
-                    where={"file": mechanism.source, "key": f"drivers.{other.name}.{label}"},
+                    f"driver {other!r} {label} = {turns * excitation.omega} rad/s does not repeat "
+                    f"with one revolution of {main.name!r} ({period} s): {turns} turns per "
+                    "revolution",
+                    where={"file": mechanism.source, "key": f"drivers.{other}.{label}"},
                     hint="evaluate at the sample times with solve() instead of solve_cycle()")
     return main, period
-
-
-def times_at_angles(main: Driver, angles: np.ndarray, origin: float) -> np.ndarray:
-    """Invert the main drive law: times t at which ``theta(t) = origin + angle``.
-
-    Parameters
-    ----------
-    main : Driver
-        A driver that turns steadily forward (see :func:`cycle_period`).
-    angles : numpy.ndarray
-        Angles past ``origin``, rad.
-    origin : float
-        Angle of the main driver's body at angle 0, rad.
-
-    Returns
-    -------
-    numpy.ndarray
-        Times, s, accurate to a few ulp.
-    """
-    target = origin + np.asarray(angles, dtype=float)
-    t = (target - main.theta0) / main.omega
-    for _ in range(50):
-        theta, omega, _alpha = law_motion(main, t)
-        step = (theta - target) / omega
-        t = t - step
-        if np.all(np.abs(step) <= 4e-16 * np.maximum(1.0, np.abs(t))):
-            break
-    return t

@@ -17,7 +17,7 @@ import numpy as np
 from rigval.model.errors import ModelError
 
 if TYPE_CHECKING:
-    from rigval.model.drives import DriveMotion
+    from rigval.model.drives import DriveSamples
     from rigval.model.mechanism import Mechanism
     from rigval.model.results import Solution
 
@@ -34,14 +34,14 @@ _STAGES = (("theta", "body angle"), ("position", "body position"),
            ("joint", "joint force"), ("driver", "driver torque"))
 
 
-def overflow_causes(mechanism: Mechanism, motion: DriveMotion) -> list[str]:
+def overflow_causes(mechanism: Mechanism, motion: DriveSamples) -> list[str]:
     """Return the inputs of a solve large enough to overflow its products (may be empty).
 
     Parameters
     ----------
     mechanism : Mechanism
         The mechanism (masses in kg, inertias in kg m2, gravity in m/s2).
-    motion : DriveMotion
+    motion : DriveSamples
         The driven angles, speeds (rad/s) and accelerations (rad/s2).
     """
     causes = [f"mass {body.mass:.3g} kg of body {body.name!r}"
@@ -60,14 +60,14 @@ def overflow_causes(mechanism: Mechanism, motion: DriveMotion) -> list[str]:
     return causes
 
 
-def check_finite(mechanism: Mechanism, motion: DriveMotion, solution: Solution) -> None:
+def check_finite(mechanism: Mechanism, motion: DriveSamples, solution: Solution) -> None:
     """Raise a ModelError at the first non-finite value of the computed stages.
 
     Parameters
     ----------
     mechanism : Mechanism
         The mechanism solved.
-    motion : DriveMotion
+    motion : DriveSamples
         Its drive motion.
     solution : Solution
         The arrays computed (stages not computed are None and skipped).

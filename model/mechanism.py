@@ -19,15 +19,19 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numpy.typing import ArrayLike
+
+from rigval.acquisition.errors import ConfigError
 from rigval.model.assembly import check_constraint_count
 from rigval.model.errors import MechanismError
+from rigval.model.laws import DriveLaw, Excitation, cycle_rate, law_from_rates
 
 __all__ = [
     "BUILTIN_MECHANISMS",
     "SCHEMA",
     "Body",
     "Driver",
-    "Harmonic",
     "Joint",
     "Mechanism",
     "PointTable",
@@ -134,19 +138,12 @@ class Joint:
 
 
 @dataclass(frozen=True)
-class Harmonic:
-    """One harmonic term ``amplitude * sin(omega * t + phase)`` of a drive law (rad, rad/s, rad)."""
-
-    amplitude: float
-    omega: float
-    phase: float
-
-
-@dataclass(frozen=True)
 class Driver:
     """A drive prescribing a body's absolute angle.
 
-    ``theta(t) = theta0 + omega t + sum(amplitude sin(omega_k t + phase))``, rad.
+    The file's law ``theta(t) = theta0 + omega t + sum(amplitude sin(omega_k t + phase))`` (rad)
+    is held as a :class:`~rigval.model.laws.DriveLaw` against the phase ``cycle_omega t``; every
+    evaluation and inversion is the law's.
 
     Attributes
     ----------
@@ -154,22 +151,38 @@ class Driver:
         Unique driver name (``driver_torque`` is labelled with it).
     body : str
         The driven body.
-    theta0 : float
-        Angle at t = 0 without the harmonics, rad.
-    omega : float
-        Mean angular speed, rad/s.
-    harmonics : tuple of Harmonic
-        Harmonic terms.
-    law : str
-        ``"harmonic"`` (the only law of schema version 1).
+    law : DriveLaw
+        The drive law against the mechanism's cycle phase.
+    cycle_omega : float
+        Angular frequency of that phase, rad/s (the first driver's speed, shared by all drivers
+        of a mechanism).
     """
 
     name: str
     body: str
-    theta0: float
-    omega: float
-    harmonics: tuple[Harmonic, ...] = ()
-    law: str = "harmonic"
+    law: DriveLaw
+    cycle_omega: float
+
+    @property
+    def theta0(self) -> float:
+        """Angle at t = 0 without the harmonics, rad."""
+        return self.law.theta0 + self.law.phase
+
+    @property
+    def omega(self) -> float:
+        """Mean angular speed, rad/s."""
+        return self.law.ratio * self.cycle_omega
+
+    def motion(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Return angle (rad), speed (rad/s) and acceleration (rad/s2) at times ``t`` (s)."""
+        return self.law.evaluate(t, self.cycle_omega)
+
+    def times_at(self, angles: ArrayLike) -> np.ndarray:
+        """Return the times (s) at which the driven angle equals ``angles`` (rad).
+
+        The drive must turn steadily (see :meth:`~rigval.model.laws.DriveLaw.phase_at`).
+        """
+        return self.law.phase_at(angles) / self.cycle_omega
 
 
 @dataclass(frozen=True)
@@ -213,6 +226,30 @@ class Mechanism:
     def driver_names(self) -> tuple[str, ...]:
         """Driver names in file order."""
         return tuple(d.name for d in self.drivers)
+
+    def excitation(self, main: str | None = None) -> Excitation:
+        """Return the drivers' laws as one :class:`~rigval.model.laws.Excitation`.
+
+        Parameters
+        ----------
+        main : str, optional
+            The main drive, whose revolution is the cycle; default the first driver.
+
+        Raises
+        ------
+        ConfigError
+            No drivers, or a main drive that does not move.
+        ChannelNotFoundError
+            No driver named ``main``.
+        """
+        if not self.drivers:
+            raise ConfigError("the mechanism has no driver", where={"file": self.source},
+                              hint="a cycle is one revolution of a driver; add [[drivers]]")
+        first = self.drivers[0]
+        excitation = Excitation(frequency=first.cycle_omega / (2.0 * math.pi),
+                                laws=tuple((d.name, d.law) for d in self.drivers),
+                                main=first.name)
+        return excitation.with_main(first.name if main is None else main)
 
     @property
     def point_names(self) -> tuple[str, ...]:
@@ -445,41 +482,39 @@ class _Parser:
         return tuple(joints)
 
     def drivers(self, tables: list[Any], bodies: tuple[Body, ...]) -> tuple[Driver, ...]:
-        drivers: list[Driver] = []
+        rows: list[tuple[str, str, float, float, list[tuple[float, float, float]]]] = []
         for index, table in enumerate(tables):
             key = f"drivers[{index}]"
             self.check_keys(table, key, _DRIVER_KEYS, ("name", "body", "law", "theta0", "omega"))
             name = self.text(table["name"], f"{key}.name")
-            if name in (d.name for d in drivers):
+            if name in (row[0] for row in rows):
                 raise self.fail(f"{key}.name", f"duplicate driver name {name!r}",
                                 hint="give every driver a unique name")
             body = self.body_ref(table["body"], f"{key}.body", bodies)
-            if body.name in (d.body for d in drivers):
+            if body.name in (row[1] for row in rows):
                 raise self.fail(f"{key}.body", f"body {body.name!r} already has a driver",
                                 hint="a body's angle can be prescribed once; remove one driver")
             if table["law"] != "harmonic":
                 raise self.fail(f"{key}.law", f"unknown drive law {table['law']!r}",
                                 hint='use law = "harmonic"; pass measured drive angles to '
                                      'rigval.model.solve(..., drives=...)')
-            harmonics = []
             terms = table.get("harmonics", [])
             if not isinstance(terms, list):
                 raise self.fail(f"{key}.harmonics", f"expected a list of tables, got {terms!r}")
+            rates = []
             for h_index, term in enumerate(terms):
                 h_key = f"{key}.harmonics[{h_index}]"
                 self.check_keys(term, h_key, _HARMONIC_KEYS, ("amplitude", "omega"))
-                harmonics.append(Harmonic(
-                    amplitude=self.number(term["amplitude"], f"{h_key}.amplitude"),
-                    omega=self.number(term["omega"], f"{h_key}.omega"),
-                    phase=self.number(term.get("phase", 0.0), f"{h_key}.phase"),
-                ))
-            drivers.append(Driver(
-                name=name, body=body.name,
-                theta0=self.number(table["theta0"], f"{key}.theta0"),
-                omega=self.number(table["omega"], f"{key}.omega"),
-                harmonics=tuple(harmonics),
-            ))
-        return tuple(drivers)
+                rates.append((self.number(term["amplitude"], f"{h_key}.amplitude"),
+                              self.number(term["omega"], f"{h_key}.omega"),
+                              self.number(term.get("phase", 0.0), f"{h_key}.phase")))
+            rows.append((name, body.name, self.number(table["theta0"], f"{key}.theta0"),
+                         self.number(table["omega"], f"{key}.omega"), rates))
+        # Every law is written against the first driver's cycle (1 rad/s where it stands still:
+        # Mechanism.excitation then refuses it as a main drive).
+        cycle_omega = (cycle_rate(rows[0][3], rows[0][4]) if rows else 0.0) or 1.0
+        return tuple(Driver(name, body, law_from_rates(theta0, omega, rates, cycle_omega),
+                            cycle_omega) for name, body, theta0, omega, rates in rows)
 
     def check_shared_points(self, bodies: tuple[Body, ...], joints: tuple[Joint, ...]) -> None:
         """Check that a point named on several bodies is the revolute joint between them."""

@@ -35,12 +35,8 @@ import xarray as xr
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError
 from rigval.model import Mechanism, builtin_mechanism, load_mechanism, solve
-from rigval.model.drive_laws import (
-    Excitation,
-    apply_drive_options,
-    excitation_from_drivers,
-    excitation_from_measured,
-)
+from rigval.model.drive_laws import apply_drive_options, excitation_from_measured
+from rigval.model.laws import Excitation
 
 __all__ = [
     "BUILTIN_PREFIX",
@@ -108,9 +104,7 @@ def file_excitation(mechanism: Mechanism, *, main: str | None = None) -> Excitat
     main : str, optional
         Main drive (the cycle's reference); default the first driver.
     """
-    return excitation_from_drivers(
-        ((d.name, d.theta0, d.omega, [(h.amplitude, h.omega, h.phase) for h in d.harmonics])
-         for d in mechanism.drivers), main=main)
+    return mechanism.excitation(main)
 
 
 def make_excitation(mechanism: Mechanism, drives: DriveSpec = None, *, main: str | None = None,
@@ -229,7 +223,7 @@ def _cycle_grid(excitation: Excitation, n_points: int
     The coordinate is the main-drive angle phi_F when the main drive turns steadily, otherwise
     (a swinging main drive) the cycle phase ``2 pi t / period`` on a uniform time grid.
     """
-    if excitation.turns_steadily(n_points):
+    if excitation.turns_steadily():
         angle, t = excitation.cycle_times(n_points)
         law = excitation.law(excitation.main)
         rate = math.copysign(1.0, law.ratio) * law.evaluate(t, excitation.omega)[1]

@@ -31,12 +31,10 @@ from rigval.model.assembly import (
     track,
 )
 from rigval.model.drives import (
-    DriveMotion,
+    DriveSamples,
     SampledDrive,
     cycle_period,
     drive_motion,
-    law_motion,
-    times_at_angles,
 )
 from rigval.model.dynamics import applied_forces, minimum_norm_multipliers, multipliers
 from rigval.model.errors import SingularityError
@@ -154,7 +152,7 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
         return build_dataset(mech, solution, selection, attrs)
 
 
-def _empty_solution(mechanism: Mechanism, times: np.ndarray, motion: DriveMotion,
+def _empty_solution(mechanism: Mechanism, times: np.ndarray, motion: DriveSamples,
                     selection: Selection) -> Solution:
     """Output arrays for every stage the selection needs."""
     n, n_bodies = times.size, len(mechanism.bodies)
@@ -175,7 +173,7 @@ def _empty_solution(mechanism: Mechanism, times: np.ndarray, motion: DriveMotion
 
 
 def _solve_chunk(mechanism: Mechanism, system: LoopSystem, continuation: Continuation,
-                 motion: DriveMotion, selection: Selection, solution: Solution, part: slice,
+                 motion: DriveSamples, selection: Selection, solution: Solution, part: slice,
                  exact: bool) -> None:
     """Finish the positions of one chunk of steps and compute what the selection needs."""
     theta_d = motion.theta[part]
@@ -291,9 +289,9 @@ def solve_cycle(mechanism: Mechanism | str | Path, angles: int | np.ndarray, *,
         if phi.ndim != 1 or np.any(phi < 0) or np.any(phi >= 2 * math.pi + 1e-12):
             raise ConfigError("angles must be a 1-D array within one revolution [0, 2 pi)",
                               where={"key": "angles"}, hint="wrap the angles with np.mod")
-    origin = float(law_motion(main, np.zeros(1))[0][0]) if angle_origin is None \
+    origin = float(main.motion(np.zeros(1))[0][0]) if angle_origin is None \
         else float(angle_origin)
-    times = times_at_angles(main, phi, origin)
+    times = main.times_at(origin + phi)
     ds = solve(mech, times, **options)  # type: ignore[arg-type]
     ds = ds.assign_coords(angle=("time", phi, {
         "units": "rad", "long_name": f"angle of driver {main.name} past {origin:.6g} rad"}))

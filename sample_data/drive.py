@@ -23,31 +23,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rigval.model.laws import DriveLaw, Harmonic
+
 __all__ = ["DriveMotion", "Harmonic", "SpeedWander"]
 
 logger = logging.getLogger(__name__)
 
 _FloatArray = NDArray[np.float64]
 _TWO_PI = 2.0 * np.pi
-
-
-@dataclass(frozen=True)
-class Harmonic:
-    """One ripple harmonic ``amplitude sin(order psi + phase)`` of a drive angle.
-
-    Parameters
-    ----------
-    order : int
-        Harmonic order k of the base phase psi (1 = once per main revolution).
-    amplitude : float
-        Amplitude in rad.
-    phase : float
-        Phase in rad.
-    """
-
-    order: int
-    amplitude: float
-    phase: float
 
 
 @dataclass(frozen=True)
@@ -69,19 +52,6 @@ class SpeedWander:
     phase: float
 
 
-def _ripple(psi: _FloatArray, harmonics: tuple[Harmonic, ...]) -> tuple[_FloatArray, ...]:
-    """Return the ripple and its first and second derivatives with respect to psi (rad)."""
-    r = np.zeros_like(psi)
-    dr = np.zeros_like(psi)
-    ddr = np.zeros_like(psi)
-    for h in harmonics:
-        arg = h.order * psi + h.phase
-        r += h.amplitude * np.sin(arg)
-        dr += h.order * h.amplitude * np.cos(arg)
-        ddr -= h.order**2 * h.amplitude * np.sin(arg)
-    return r, dr, ddr
-
-
 @dataclass(frozen=True)
 class DriveMotion:
     """True motion of the main (theta_F) and lifting (theta_H) drives.
@@ -93,7 +63,8 @@ class DriveMotion:
     theta_f0, theta_h0 : float
         Drive angles at ``psi = 0`` in rad (the reference position of each shaft).
     ripple_f, ripple_h : tuple of Harmonic
-        Angle ripple of each drive, periodic in psi.
+        Angle ripple of each drive, periodic in psi (:class:`rigval.model.laws.Harmonic`, orders
+        of the base phase psi).
     wander : tuple of SpeedWander
         Slow relative speed wander (makes cycles slightly uneven).
     """
@@ -109,6 +80,19 @@ class DriveMotion:
     def omega(self) -> float:
         """Mean main-shaft angular speed Omega in rad/s."""
         return _TWO_PI * self.speed
+
+    def law(self, drive: str) -> DriveLaw:
+        """Return a drive's angle as a law of the base phase psi (rad).
+
+        Parameters
+        ----------
+        drive : {"theta_F", "theta_H"}
+            Which drive: the main shaft turns once per unit of psi / (2 pi), the lifting shaft
+            twice.
+        """
+        if drive == "theta_F":
+            return DriveLaw(self.theta_f0, ratio=1.0, harmonics=self.ripple_f, source="rig")
+        return DriveLaw(self.theta_h0, ratio=2.0, harmonics=self.ripple_h, source="rig")
 
     def base_phase(self, t: ArrayLike) -> tuple[_FloatArray, _FloatArray, _FloatArray]:
         """Return psi (rad), its rate (rad/s) and its acceleration (rad/s^2) at true times t (s)."""
@@ -138,24 +122,18 @@ class DriveMotion:
         """
         psi, rate, acc = self.base_phase(t)
         out = {}
-        for name, theta0, gear, ripple in (("theta_F", self.theta_f0, 1.0, self.ripple_f),
-                                           ("theta_H", self.theta_h0, 2.0, self.ripple_h)):
-            r, dr, ddr = _ripple(psi, ripple)
-            slope = gear + dr
-            out[name] = (theta0 + gear * psi + r, rate * slope, acc * slope + rate**2 * ddr)
+        for name in ("theta_F", "theta_H"):
+            theta, slope, curvature = self.law(name).at_phase(psi)
+            out[name] = (theta, rate * slope, acc * slope + rate**2 * curvature)
         return out
-
-    def _angle_of_psi(self, drive: str, psi: _FloatArray) -> tuple[_FloatArray, _FloatArray]:
-        theta0, gear, ripple = ((self.theta_f0, 1.0, self.ripple_f) if drive == "theta_F"
-                                else (self.theta_h0, 2.0, self.ripple_h))
-        r, dr, _ = _ripple(psi, ripple)
-        return theta0 + gear * psi + r, gear + dr
 
     def crossing_times(self, drive: str, angles: ArrayLike) -> _FloatArray:
         """Return the true times (s) at which a drive angle passes the given values.
 
         Both laws are strictly increasing (ripple slopes are far below the gear ratio), so each
-        value is passed once; Newton's method on psi, then on t, converges to 1e-13 s.
+        value is passed once: the law is inverted for psi
+        (:meth:`~rigval.model.laws.DriveLaw.phase_at`), then psi(t) by Newton's method on t, to
+        1e-13 s.
 
         Parameters
         ----------
@@ -169,16 +147,7 @@ class DriveMotion:
         numpy.ndarray
             Times in s, same shape as ``angles``.
         """
-        target = np.asarray(angles, dtype=np.float64)
-        gear = 1.0 if drive == "theta_F" else 2.0
-        theta0 = self.theta_f0 if drive == "theta_F" else self.theta_h0
-        psi = (target - theta0) / gear
-        for _ in range(60):
-            value, slope = self._angle_of_psi(drive, psi)
-            step = (value - target) / slope
-            psi -= step
-            if np.all(np.abs(step) < 1e-14 * np.maximum(1.0, np.abs(psi))):
-                break
+        psi = self.law(drive).phase_at(angles)
         t = psi / self.omega
         for _ in range(60):
             value, rate, _ = self.base_phase(t)

@@ -238,9 +238,11 @@ def _drive(settings: RigSettings, drivers: dict[str, tuple[float, tuple[Harmonic
                                rng.uniform(0.0, 2.0 * np.pi))
                    for ratio, share in ((0.13, 0.5), (0.29, 0.3), (0.47, 0.2)))
     # Belt and gear ripple on top of the mechanism file's harmonics.
-    extra_f = (Harmonic(2, rng.uniform(0.003, 0.008), rng.uniform(0.0, 2.0 * np.pi)),)
+    extra_f = (Harmonic(order=2, amplitude=rng.uniform(0.003, 0.008),
+                         phase=rng.uniform(0.0, 2.0 * np.pi)),)
     # An even order on the lifting shaft: its two pulses per main revolution stay half a turn apart.
-    extra_h = (Harmonic(2, rng.uniform(0.003, 0.008), rng.uniform(0.0, 2.0 * np.pi)),)
+    extra_h = (Harmonic(order=2, amplitude=rng.uniform(0.003, 0.008),
+                         phase=rng.uniform(0.0, 2.0 * np.pi)),)
     theta_f0, ripple_f = drivers["theta_F"]
     theta_h0, ripple_h = drivers["theta_H"]
     return DriveMotion(settings.speed, theta_f0, theta_h0, ripple_f + extra_f, ripple_h + extra_h,

@@ -129,8 +129,8 @@ def mechanism_drivers(path: str | Path) -> dict[str, tuple[float, tuple[Harmonic
                                   f"the main speed {main_speed}",
                                   where={"file": str(path),
                                          "key": f"drivers.{name}.harmonics[{k}]"})
-            harmonics.append(Harmonic(round(order), float(term["amplitude"]),
-                                      float(term["phase"])))
+            harmonics.append(Harmonic(order=round(order), amplitude=float(term["amplitude"]),
+                                      phase=float(term["phase"])))
         out[name] = (float(drivers[name]["theta0"]), tuple(harmonics))
     return out
 

@@ -366,13 +366,11 @@ def law_angles_at_reference(mechanism: Any) -> dict[str, float]:
     mechanism : rigval.model.Mechanism
         The mechanism (its first driver is the main one).
     """
-    from rigval.model.drives import law_motion, times_at_angles
-
     if not mechanism.drivers:
         return {}
     main = mechanism.drivers[0]
-    t_ref = times_at_angles(main, np.array([0.0]), main.theta0)
-    return {d.name: float(np.mod(law_motion(d, t_ref)[0][0], 2.0 * math.pi))
+    t_ref = main.times_at(np.array([main.theta0]))
+    return {d.name: float(np.mod(d.motion(t_ref)[0][0], 2.0 * math.pi))
             for d in mechanism.drivers}
 
 

@@ -11,7 +11,6 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import rigval.model as rm
-from rigval.model.drives import law_motion
 
 T_PEND = np.linspace(0.0, 1.0, 401)
 
@@ -26,7 +25,7 @@ def test_single_pendulum_torque_matches_closed_form(single: rm.Mechanism) -> Non
     ds = rm.solve(single, t, outputs=["driver_torque", "position"])
     body = single.bodies[0]
     length = body.points["O"][1]  # pivot above the centre of gravity
-    theta, _omega, alpha = law_motion(single.drivers[0], t)
+    theta, _omega, alpha = single.drivers[0].motion(t)
     expected = body.mass * 9.81 * length * np.sin(theta) \
         + (body.inertia + body.mass * length**2) * alpha
     torque = ds["driver_torque"].sel(driver="theta_P").to_numpy()

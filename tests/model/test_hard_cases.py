@@ -172,10 +172,8 @@ def test_very_long_run_angles_of_a_million_radians(pendulum: rm.Mechanism) -> No
 
 
 def test_jump_of_whole_turns_keeps_the_branch(fourbar: rm.Mechanism) -> None:
-    from rigval.model.drives import law_motion
-
     t = np.linspace(0.0, 1.0, 201)
-    theta, omega, alpha = law_motion(fourbar.drivers[0], t)
+    theta, omega, alpha = fourbar.drivers[0].motion(t)
     jumped = theta + 2 * math.pi * 3 * (t > 0.3) - 2 * math.pi * 7 * (t > 0.6)
     ds = rm.solve(fourbar, t, drives={"theta_crank": (jumped, omega, alpha)},
                   outputs=["position", "driver_torque"])

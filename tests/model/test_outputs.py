@@ -11,7 +11,6 @@ import pytest
 import rigval.model as rm
 import rigval.model.solver as solver_module
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError
-from rigval.model.drives import law_motion
 
 T = np.linspace(0.0, 0.2, 21)
 
@@ -98,7 +97,7 @@ def test_accelerations_without_forces_skip_multipliers(pendulum: rm.Mechanism,
 
 
 def test_sampled_drives_replace_the_law(pendulum: rm.Mechanism) -> None:
-    samples = {d.name: law_motion(d, T) for d in pendulum.drivers}
+    samples = {d.name: d.motion(T) for d in pendulum.drivers}
     plain = rm.solve(pendulum, T, outputs=["driver_torque", "position"])
     sampled = rm.solve(pendulum, T, drives=samples, outputs=["driver_torque", "position"])
     np.testing.assert_array_equal(sampled["driver_torque"].to_numpy(),

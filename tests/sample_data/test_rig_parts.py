@@ -22,8 +22,8 @@ from rigval.sample_data.tdms_writer import Acquisition, RawChannel, write_daqmx_
 from rigval.sample_data.writers import write_european_csv, write_npz
 from rigval.validation.cli import main
 
-DRIVE = DriveMotion(1.1, 1.46, 4.59, (Harmonic(1, 0.05, 0.0), Harmonic(2, 0.007, 1.0)),
-                    (Harmonic(1, 0.1, 0.0), Harmonic(2, 0.005, 2.0)),
+DRIVE = DriveMotion(1.1, 1.46, 4.59, (Harmonic(0.05, 1, 0.0), Harmonic(0.007, 2, 1.0)),
+                    (Harmonic(0.1, 1, 0.0), Harmonic(0.005, 2, 2.0)),
                     (SpeedWander(0.9, 0.003, 0.4), SpeedWander(2.1, 0.002, 1.3)))
 
 
@@ -40,7 +40,7 @@ def test_drive_derivatives_equal_finite_differences():
 
 def test_drive_without_wander_is_the_mechanism_law():
     omega = 2 * np.pi
-    drive = DriveMotion(1.0, 1.4613, 4.5895, (Harmonic(1, 0.05, 0.0),), (Harmonic(1, 0.1, 0.0),))
+    drive = DriveMotion(1.0, 1.4613, 4.5895, (Harmonic(0.05, 1, 0.0),), (Harmonic(0.1, 1, 0.0),))
     t = np.linspace(0.0, 3.0, 50)
     np.testing.assert_allclose(drive.angles(t)["theta_F"][0],
                                1.4613 + omega * t + 0.05 * np.sin(omega * t), atol=1e-12)
@@ -208,8 +208,8 @@ def test_npz_is_deterministic_and_loads(tmp_path):
 
 
 def test_draws_depend_only_on_the_seed():
-    drivers = {"theta_F": (1.46, (Harmonic(1, 0.05, 0.0),)),
-               "theta_H": (4.59, (Harmonic(1, 0.1, 0.0),))}
+    drivers = {"theta_F": (1.46, (Harmonic(0.05, 1, 0.0),)),
+               "theta_H": (4.59, (Harmonic(0.1, 1, 0.0),))}
     one = draw_rig(RigSettings(seed=4), drivers)
     two = draw_rig(RigSettings(seed=4), drivers)
     other = draw_rig(RigSettings(seed=5), drivers)

@@ -12,15 +12,12 @@ from hypothesis import strategies as st
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError, DataFileError
 from rigval.model.drive_laws import (
-    DriveLaw,
-    Excitation,
-    Harmonic,
     apply_drive_options,
-    excitation_from_drivers,
     excitation_from_measured,
     fit_periodic_profile,
     read_profile_csv,
 )
+from rigval.model.laws import DriveLaw, Excitation, Harmonic, excitation_from_drivers
 
 TWO_PI = 2.0 * math.pi
 

@@ -11,7 +11,7 @@ import xarray as xr
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError
 from rigval.model import builtin_mechanism, load_mechanism, solve, solve_cycle
-from rigval.model.drive_laws import Harmonic
+from rigval.model.laws import Harmonic
 from rigval.model.predict import (
     file_excitation,
     ground_pins,

@@ -17,7 +17,6 @@ import numpy as np
 import xarray as xr
 
 import rigval.model as rm
-from rigval.model.drives import law_motion
 from rigval.validation.bench.core import BenchRow, Measured, measure, with_baseline
 
 __all__ = ["blas_label", "blas_thread_row", "model_rows"]
@@ -192,7 +191,7 @@ def _cycle_rows(mech: rm.Mechanism, t: np.ndarray, reference: xr.Dataset, case: 
                 repeats: int, quick: bool, every_sample: Measured) -> list[BenchRow]:
     """Return rows of evaluation points per cycle, interpolated to every sample's angle."""
     main = mech.drivers[0]
-    theta = law_motion(main, t)[0]
+    theta = main.motion(t)[0]
     phi = np.mod(theta - theta[0], 2 * np.pi)
     truth_torque = reference["driver_torque"]
     solved = every_sample.value
