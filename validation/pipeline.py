@@ -34,7 +34,6 @@ compare
 from __future__ import annotations
 
 import datetime
-import json
 import logging
 import math
 import time
@@ -233,7 +232,8 @@ def _tree(scene: Scene, raw: Mapping[str, xr.Dataset], aligned: Mapping[str, xr.
             "units": result.units, "long_name": f"{result.spec.model} x {result.spec.scale:g}"
                                                 f" + {result.offset:g}"})
     scores = sorted({k for r in results for k, v in r.scores.items()
-                     if isinstance(v, int | float) and not isinstance(v, bool)})
+                     if isinstance(v, int | float) and not isinstance(v, bool)}
+                    | {k for r in results for k in r.spec.thresholds})
     table = {row: np.array([[float(source.get(s, np.nan)) for s in scores]
                             for source in sources]) for row, sources in (
         ("model", [r.scores for r in results]),
@@ -245,8 +245,9 @@ def _tree(scene: Scene, raw: Mapping[str, xr.Dataset], aligned: Mapping[str, xr.
         coords={"comparison": [r.name for r in results], "score": scores})
     validation["passed"] = ("comparison", np.array([r.passed for r in results], dtype=np.int8),
                             {"long_name": "all thresholds met", "units": "1"})
-    validation.attrs["thresholds"] = json.dumps({r.name: dict(r.spec.thresholds)
-                                                 for r in results})
+    validation["threshold"] = (("comparison", "score"), np.array(
+        [[str(r.spec.thresholds.get(s, "")) for s in scores] for r in results], dtype=object),
+        {"long_name": "pass/fail rule on the score, OP LIMIT (empty: none)"})
     nodes: dict[str, xr.Dataset] = {}
     for name, ds in raw.items():
         nodes[f"/raw/{name}"] = _measured_float32(ds)
@@ -399,7 +400,9 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
                for line in str(ds.attrs.get("history", "")).splitlines()]
     tree = _tree(scene, raw, aligned if scene.output.aligned else {}, grid.angle, grid.times,
                  measured, results, model, steps, history)
-    tree["/angle"].attrs["lowpass_hz"] = json.dumps(corners)
+    for name, corner in corners.items():  # absent: not low-passed
+        if corner is not None:
+            tree["/angle"][name].attrs["lowpass_hz"] = float(corner)
     numerics = NumericsSummary(dict(watch.seconds), residuals, errors, grid.fine_angle.size)
     logger.info("validated %s in %.2f s: %s", scene.path.name, sum(watch.seconds.values()),
                 "passed" if passed else "failed")
