@@ -405,7 +405,8 @@ def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
         groups = _clock_groups(stream)
         if pulse.method == "stamps":
             clock = _stamps_clock(stream, ref, coarse, window)
-            aligned[name] = align_stream(stream, clock, name=name)
+            aligned[name] = align_stream(stream, clock, name=name,
+                                         reference_start=ref.attrs["start_time"])
             diagnostics[name] = _stream_summary(
                 name, aligned[name], clock, is_reference=False, residual_time=np.zeros(0),
                 residual=np.zeros(0), matched=0, missing=0, spurious=0)
@@ -424,7 +425,8 @@ def align_streams(scene: Scene, converted: Mapping[str, xr.Dataset]
         clock = _fit_clock(events, found, coarse, window, groups, pulse, name, where)
         clock = dataclasses.replace(clock, offsets_u95_s=tuple(
             float(np.hypot(u, main.zero_u95_s)) for u in clock.offsets_u95_s))
-        aligned[name] = align_stream(stream, clock, name=name)
+        aligned[name] = align_stream(stream, clock, name=name,
+                                         reference_start=ref.attrs["start_time"])
         mapped = clock.to_reference(edges, segments)
         ok = np.isfinite(mapped)
         residual, matched = _residuals(mapped[ok], events, period, pulse.per_revolution)
