@@ -13,8 +13,9 @@ from pathlib import Path
 import numpy as np
 
 from rigval.processing.align import channel_time
+from rigval.processing.alignment import align_streams
 from rigval.sample_data import shipped_runs
-from rigval.validation.alignment import align_streams
+from rigval.validation.alignment import alignment_settings
 from rigval.validation.convert import convert_stream
 from rigval.validation.pipeline import read_streams
 from rigval.validation.scene import load_scene
@@ -24,7 +25,7 @@ def main(scene_path: Path) -> None:
     scene = load_scene(scene_path)
     raw = read_streams(scene)
     physical = {name: convert_stream(raw[name], spec) for name, spec in scene.streams.items()}
-    aligned, clocks, main_angle = align_streams(scene, physical)
+    aligned, clocks, main_angle = align_streams(alignment_settings(scene), physical)
     for name, clock in clocks.items():
         print(f"{name:5s} offset {clock.offset_s:+.6f} s  drift {clock.drift_ppm:+7.2f} ppm  "
               f"residual {clock.residual_rms_s * 1e6:6.1f} us  {clock.events_matched} pulses "

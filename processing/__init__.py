@@ -11,6 +11,9 @@ that keep the channel metadata and append a ``history`` line):
 - :mod:`~rigval.processing.convert`: the Dataset-level sensor conversions;
 - :mod:`~rigval.processing.pulses`: reference edges, missing and spurious pulses;
 - :mod:`~rigval.processing.align`: clock models and aligned streams;
+- :mod:`~rigval.processing.stamps`: start stamps to a coarse offset and its window, clock groups;
+- :mod:`~rigval.processing.alignment`: every stream of a set on the reference timeline, from
+  plain settings; :mod:`~rigval.processing.alignment_summary`: its per-stream diagnostics;
 - :mod:`~rigval.processing.timeline`: all aligned streams on one uniform time grid;
 - :mod:`~rigval.processing.angle`: phi_F, cycles, angle-domain resampling;
 - :mod:`~rigval.processing.cycles`: cycle statistics and outlier cycles;

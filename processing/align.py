@@ -44,7 +44,6 @@ from rigval.acquisition.schema import (
     append_history,
     cf_time_attrs,
     invalid_counts,
-    parse_start_time,
     with_invalid_counts,
 )
 from rigval.processing.errors import AlignmentError
@@ -53,13 +52,13 @@ __all__ = [
     "ClockModel",
     "align_stream",
     "channel_time",
-    "coarse_offset",
     "estimate_clock",
     "identity_clock",
     "input_delay",
     "match_events",
     "ni9237_input_delay",
     "reference_event_times",
+    "robust_inliers",
 ]
 
 logger = logging.getLogger(__name__)
@@ -81,6 +80,44 @@ _OUTSIDE_FACTOR = 10.0
 _OUTSIDE_MIN_EVENTS = 6
 #: Residual scales below this (s) count as equal: no clock is timed better than a nanosecond.
 _TIMING_FLOOR_S = 1e-9
+#: Matched events farther than this many robust sigmas (1.4826 times the median absolute
+#: deviation) from a clock line count as strays: the one cut of every robust refit here and of
+#: the alignment diagnostics (docs/processing.md, "Clock alignment", gives the coverage figures
+#: that chose 5 over 6).
+OUTLIER_SIGMAS = 5.0
+
+
+def robust_inliers(residual: ArrayLike, *, among: ArrayLike | None = None,
+                   floor_s: float = 0.0) -> NDArray[np.bool_]:
+    """Return which residuals lie within :data:`OUTLIER_SIGMAS` robust sigmas of their centre.
+
+    The centre is the median and the robust sigma 1.4826 times the median absolute deviation
+    (the standard deviation of Gaussian residuals, unmoved by a fifth of strays), both taken
+    over the residuals selected by ``among``.
+
+    Parameters
+    ----------
+    residual : array_like
+        Residuals in s (NaN is never an inlier).
+    among : array_like of bool, optional
+        Residuals that set the centre and the scale (default: the finite ones).
+    floor_s : float, default 0
+        Distance in s from the centre that always counts as inlying (a timing bound below which
+        a sharp residual distribution would otherwise reject good events).
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        True for the inliers; all False when ``among`` selects nothing.
+    """
+    res = np.asarray(residual, dtype=np.float64)
+    use = np.isfinite(res) if among is None else np.asarray(among, dtype=bool) & np.isfinite(res)
+    if not use.any():
+        return np.zeros(res.shape, dtype=bool)
+    centre = float(np.median(res[use]))
+    sigma = 1.4826 * float(np.median(np.abs(res[use] - centre)))
+    with np.errstate(invalid="ignore"):
+        return np.abs(res - centre) <= max(OUTLIER_SIGMAS * sigma, floor_s)
 
 
 def input_delay(attrs: Mapping[str, Any], fs: float) -> float:
@@ -254,15 +291,16 @@ def _line_residual(x: _FloatArray, y: _FloatArray) -> tuple[_FloatArray, float]:
 
     A first line from the median of the pairwise slopes (Theil-Sen: a stray partner 0.1 period
     off cannot drag it, as it drags a least-squares line), the scale 1.4826 times the median
-    absolute deviation about it; points beyond 5 of it are dropped before a least-squares fit of
-    the rest, so a stray partner does not decide between candidate offsets.
+    absolute deviation about it; points beyond :data:`OUTLIER_SIGMAS` of it are dropped before
+    a least-squares fit of the rest, so a stray partner does not decide between candidate
+    offsets.
     """
     if x.size < 3:
         return np.array([float(np.mean(y - x)) if x.size else 0.0, 1.0]), np.inf
     centre = x.mean()
     slope, res = _theil_sen(x - centre, y)
     scale = 1.4826 * float(np.median(np.abs(res)))
-    use = np.abs(res) <= 5.0 * scale + 1e-12
+    use = robust_inliers(res, floor_s=1e-12)
     coeffs = np.array([slope, float(np.median(y - slope * (x - centre)))])
     if use.sum() >= 3:
         coeffs = np.polyfit(x[use] - centre, y[use], 1)
@@ -591,7 +629,7 @@ def _clock_fit(ref: _FloatArray, dev: _FloatArray, group: _IntArray, kind: _IntA
 
 
 def _without_strays(match: _Match, ref: _FloatArray, dev: _FloatArray, bound: float) -> _Match:
-    """Drop pairs beyond 5 robust sigma of the segment's Theil-Sen line (a stray partner).
+    """Drop pairs beyond :data:`OUTLIER_SIGMAS` of the segment's Theil-Sen line (a stray partner).
 
     A least-squares fit with a partner 0.1 period off is dragged so far that a sigma-based
     rejection after it can miss the stray; the median of pairwise slopes is not. At most a fifth
@@ -600,9 +638,8 @@ def _without_strays(match: _Match, ref: _FloatArray, dev: _FloatArray, bound: fl
     if match.ref_index.size < 4:
         return match
     x = dev[match.dev_index]
-    res = _line_fit(x - x.mean(), ref[match.ref_index] - x)
-    scale = 1.4826 * float(np.median(np.abs(res)))
-    keep = np.abs(res) <= max(5.0 * scale, 2.0 * bound + 1e-6)
+    keep = robust_inliers(_line_fit(x - x.mean(), ref[match.ref_index] - x),
+                          floor_s=2.0 * bound + 1e-6)
     if keep.sum() < 0.8 * keep.size:
         return match
     return dataclasses.replace(match, ref_index=match.ref_index[keep],
@@ -625,8 +662,8 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
     matched again within 0.4 event period of that segment's offset (a restart's new stamp is off
     by milliseconds, not periods). One least-squares fit then gives one drift, one offset per
     clock group and, with several pulses per revolution, a constant per pulse (each may fire at
-    its own angle). Residuals beyond 5 robust sigma are left out, unless that would leave out
-    more than a fifth of the pairs (then the residual check decides).
+    its own angle). Residuals beyond :data:`OUTLIER_SIGMAS` are left out, unless that would
+    leave out more than a fifth of the pairs (then the residual check decides).
 
     Parameters
     ----------
@@ -740,11 +777,8 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
         shift = np.zeros(r.size)
         for k in np.unique(kind_of):
             shift[kind_of == k] = np.nanmedian((r - model)[keep & (kind_of == k)])
-        residual = r - model - shift
-        sigma = 1.4826 * float(np.nanmedian(np.abs(residual[keep]
-                                                   - np.nanmedian(residual[keep]))))
-        limit = max(5.0 * sigma, 2.0 * float(h.max()) + 1e-6)
-        trial = np.abs(residual) <= limit
+        trial = robust_inliers(r - model - shift, among=keep,
+                               floor_s=2.0 * float(h.max()) + 1e-6)
         if trial.sum() < max(0.8 * r.size, min_events):
             logger.info("rejection would leave %d of %d pairs: all kept", trial.sum(), r.size)
             break
@@ -780,17 +814,6 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
                 model.offsets_u95_s[0], drift * 1e6, model.drift_u95 * 1e6, rms,
                 model.pulses_matched, model.pulses_total, model.periods_decided_by)
     return model
-
-
-def coarse_offset(reference: xr.Dataset, stream: xr.Dataset) -> float:
-    """Return the rough clock offset ``t_ref - t_dev`` in s from the streams' start times.
-
-    The start times are software time stamps (ms-accurate at best, off by seconds after a bad
-    host clock); :func:`estimate_clock` refines this within ``max_offset_error_s``.
-    """
-    start_ref = parse_start_time(reference.attrs["start_time"])
-    start_dev = parse_start_time(stream.attrs["start_time"])
-    return float((start_dev - start_ref) / np.timedelta64(1, "ns")) * 1e-9
 
 
 def channel_time(aligned: xr.Dataset, name: str) -> _FloatArray:

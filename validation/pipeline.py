@@ -52,9 +52,10 @@ from rigval.model.mechanism import load_mechanism
 from rigval.processing.align import (
     channel_time,
 )
+from rigval.processing.alignment import MainAngle, align_streams
 from rigval.processing.angle import cycle_grid, resample_to_angle
 from rigval.processing.filters import zero_phase
-from rigval.validation.alignment import MainAngle, align_streams
+from rigval.validation.alignment import alignment_settings
 from rigval.validation.convert import convert_stream
 from rigval.validation.metrics.compare import baseline, check_thresholds, compare
 from rigval.validation.model_run import (
@@ -368,7 +369,7 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         if not scene.output.raw:
             raw = {}  # not written: free the streams as read before the next stage
     with watch.stage("align"), encoder_scale_errors(scene):
-        aligned, diagnostics, main = align_streams(scene, converted)
+        aligned, diagnostics, main = align_streams(alignment_settings(scene), converted)
     with watch.stage("angle"):
         grid = _grid(scene, main)
         measured, corners = {}, {}

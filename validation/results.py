@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from rigval.processing.alignment_summary import StreamAlignment
 from rigval.validation.metrics.thresholds import ThresholdCheck
 from rigval.validation.scene import ComparisonSpec, Scene
 
@@ -86,116 +87,6 @@ class ComparisonResult:
     def passed(self) -> bool:
         """Whether every threshold of this comparison is met (True without thresholds)."""
         return all(check.passed for check in self.checks)
-
-
-@dataclass(frozen=True)
-class StreamAlignment:
-    """How one stream's clock was mapped onto the reference timeline.
-
-    Parameters
-    ----------
-    stream : str
-        Stream name.
-    device : str
-        Device kind.
-    is_reference : bool
-        True for the reference stream (offset 0, drift 0 by definition).
-    offset_s : float
-        Clock offset in s (reference time of the stream's time zero).
-    drift_ppm : float
-        Clock drift in ppm, as in ``t_ref = offset + (1 + drift) t_stream``: positive when the
-        stream's clock runs slow against the reference's.
-    residual_rms_s : float
-        RMS of the clock-fit residuals on the matched events in s.
-    events_matched : int
-        Reference events matched with the reference stream.
-    events_missing : int
-        Expected events that were not seen.
-    events_spurious : int
-        Events that matched nothing.
-    input_delay_s : float
-        Module input delay removed in s.
-    segments : int
-        Gap-free segments (each with its own clock fit).
-    gaps : tuple of mapping
-        Gaps: ``{"after_s", "duration_s", "missing_samples"}`` on the stream's own clock.
-    span_s : tuple of float
-        First and last sample on the reference timeline in s.
-    residual_time : numpy.ndarray
-        Reference-timeline times of the matched events in s.
-    residual_s : numpy.ndarray
-        Clock-fit residual per matched event in s.
-    pulse_time : numpy.ndarray
-        A short window of the raw pulse channel around one reference pulse that every stream
-        recorded: times on the reference timeline in s.
-    pulse_signal : numpy.ndarray
-        The raw pulse signal there, in ``pulse_units``.
-    pulse_units : str
-        Unit of the pulse channel as read.
-    edge_times : numpy.ndarray
-        Detected rising edges within that stretch in s.
-    offset_u95_s, drift_u95_ppm : float
-        Half-widths of the 95 % intervals of the offset (s) and the drift (ppm).
-    periods_decided_by : str
-        What decided the whole pulse periods (``stamps``, ``data``, ``neighbour``).
-    method : str
-        ``pulses`` or ``stamps`` (the scene's ``alignment.pulses.<stream>.method``).
-    start_time_uncertainty_s : float
-        Half-width in s of the window the offset was searched in.
-    coarse_offset_s : float
-        Centre of that window in s.
-    coarse_offset_source : str
-        Where the centre came from (start stamps, the scene's coarse_offset_s, no start time).
-    segment_table : tuple of mapping
-        Per gap-free segment: clock offset and its 95 % interval, clock group, samples, samples
-        dropped and why.
-    """
-
-    stream: str
-    device: str
-    is_reference: bool
-    offset_s: float
-    drift_ppm: float
-    residual_rms_s: float
-    events_matched: int
-    events_missing: int
-    events_spurious: int
-    input_delay_s: float
-    segments: int
-    gaps: tuple[Mapping[str, Any], ...]
-    span_s: tuple[float, float]
-    residual_time: np.ndarray = field(repr=False)
-    residual_s: np.ndarray = field(repr=False)
-    pulse_time: np.ndarray = field(repr=False)
-    pulse_signal: np.ndarray = field(repr=False)
-    pulse_units: str
-    edge_times: np.ndarray = field(repr=False)
-    offset_u95_s: float = 0.0
-    drift_u95_ppm: float = 0.0
-    periods_decided_by: str = ""
-    method: str = "pulses"
-    start_time_uncertainty_s: float = 0.0
-    coarse_offset_s: float = 0.0
-    coarse_offset_source: str = ""
-    segment_table: tuple[Mapping[str, Any], ...] = ()
-
-    def summary(self) -> dict[str, Any]:
-        """Return the JSON-ready summary written to ``alignment.json``."""
-        return {
-            "device": self.device, "reference": self.is_reference, "offset_s": self.offset_s,
-            "drift_ppm": self.drift_ppm, "residual_rms_s": self.residual_rms_s,
-            "events_matched": self.events_matched, "events_missing": self.events_missing,
-            "events_spurious": self.events_spurious, "input_delay_s": self.input_delay_s,
-            "segments": self.segments, "gaps": [dict(g) for g in self.gaps],
-            "span_s": list(self.span_s), "offset_u95_s": self.offset_u95_s,
-            "drift_u95_ppm": self.drift_u95_ppm, "periods_decided_by": self.periods_decided_by,
-            "method": self.method, "start_time_uncertainty_s": self.start_time_uncertainty_s,
-            "coarse_offset_s": self.coarse_offset_s,
-            "coarse_offset_source": self.coarse_offset_source,
-            "samples_dropped": sum(int(row.get("samples_dropped", 0))
-                                   for row in self.segment_table),
-            "segment_table": [dict(row) for row in self.segment_table],
-        }
 
 
 @dataclass(frozen=True)

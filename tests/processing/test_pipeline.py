@@ -16,6 +16,7 @@ from rigval.processing import (
     cycles,
     excitation,
     pulses,
+    stamps,
     timeline,
     torsion,
 )
@@ -59,7 +60,7 @@ def test_streams_to_cycle_statistics_recover_the_true_torque(make_rig, synth) ->
     dev_pulses = pulses.stream_pulses(wls, "opt2")
     assert dev_pulses.delay_s == pytest.approx(align.ni9237_input_delay(synth.FS_DEV))
     clock = align.estimate_clock(ref_pulses.good, dev_pulses.good, dev_pulses.good_segment,
-                                 coarse_offset_s=align.coarse_offset(cdaq, wls),
+                                 coarse_offset_s=stamps.coarse_offset(cdaq, wls).offset_s,
                                  where={"stream": "wls"})
     torque = convert.torque_channel(wls, "tor1", rosette="full", gauge_factor=2.05, **SHAFT)
     aligned = {"cdaq": align.align_stream(cdaq, align.identity_clock()),

@@ -41,8 +41,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from rigval.processing.alignment import MainAngle, align_streams
 from rigval.sample_data import Imperfections, RigSettings, load_truth, simulate_rig
-from rigval.validation.alignment import MainAngle, align_streams
+from rigval.validation.alignment import alignment_settings
 from rigval.validation.convert import convert_stream
 from rigval.validation.pipeline import read_streams
 from rigval.validation.results import StreamAlignment
@@ -69,7 +70,7 @@ def _aligned_run(folder: Path, imperfections: Imperfections, seed: int,
         warnings.simplefilter("ignore")  # the CSV reader notes its guesses
         raw = read_streams(scene)
     converted = {name: convert_stream(raw[name], spec) for name, spec in scene.streams.items()}
-    aligned, diagnostics, main = align_streams(scene, converted)
+    aligned, diagnostics, main = align_streams(alignment_settings(scene), converted)
     truth = load_truth(next(folder.glob("*_truth.json")))
     return {"aligned": aligned, "diagnostics": diagnostics, "main": main, "truth": truth.record,
             "run_truth": truth,

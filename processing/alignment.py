@@ -1,0 +1,328 @@
+"""Alignment of a set of streams: phi_F from the main encoder, one clock per device.
+
+:func:`align_streams` puts every stream on the reference stream's timeline: phi_F(t) from the
+main-shaft encoder (smoothed, never differenced raw, :func:`rigval.processing.angle.phi_f`) is
+zero at the main reference pulse; each other stream's clock (offset and drift per gap-free
+segment) is fitted on its reference pulses against the events the encoder angle predicts
+(:func:`rigval.processing.align.estimate_clock`), with module input delays removed, within the
+window its start stamps allow (:func:`rigval.processing.stamps.coarse_offset`); segments a
+dropout did not restart keep one offset, and every offset's 95 % interval includes the
+uncertainty of phi_F = 0. The inputs are plain settings (:class:`AlignmentSettings`, which a
+scene's ``[alignment]`` table fills, docs/scene.md); the diagnostics
+(:class:`~rigval.processing.alignment_summary.StreamAlignment`) feed the report's alignment
+section and ``alignment.json``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import xarray as xr
+from scipy.stats import t as student_t
+
+from rigval.acquisition.channel_map import ChannelSpec
+from rigval.acquisition.devices import get_module
+from rigval.acquisition.errors import ChannelNotFoundError, DataError
+from rigval.processing import align
+from rigval.processing import alignment_summary as diagnose
+from rigval.processing.alignment_summary import StreamAlignment
+from rigval.processing.angle import phi_f
+from rigval.processing.errors import AlignmentError
+from rigval.processing.pulses import StreamPulses, stream_pulses
+from rigval.processing.stamps import CoarseOffset, clock_groups, coarse_offset, stamps_clock
+
+__all__ = ["AlignmentSettings", "ClockSettings", "MainAngle", "align_streams"]
+
+logger = logging.getLogger(__name__)
+
+#: Hysteresis half-band of a reference pulse's ``threshold``, as a fraction of it.
+PULSE_HYSTERESIS = 0.1
+#: Half-width of the raw-pulse window in the alignment figure, in main-shaft periods.
+PULSE_WINDOW = 0.04
+
+
+@dataclass(frozen=True)
+class ClockSettings:
+    """How one non-reference stream's clock is found.
+
+    Attributes
+    ----------
+    method : {"pulses", "stamps"}
+        ``"pulses"``: fitted on the pulse channel; ``"stamps"``: the stream's clock is
+        synchronised with the reference's (same chassis, NTP/PTP) and its start stamp is used as
+        it is, good to the window.
+    pulse : ChannelSpec or None
+        The stream's reference-pulse channel (``params``: ``threshold``, ``edge``); None with
+        ``method = "stamps"``.
+    per_revolution : int, default 1
+        Pulses per main-shaft revolution (2 for a lifting shaft turning twice as fast).
+    angle : float, default 0
+        phi_F in rad at which the sensor fires (its mounting position).
+    coarse_offset_s : float or None
+        ``t_ref - t_stream`` in s to search around instead of the start stamps' difference.
+    start_time_uncertainty_s : float or None
+        Bound in s of the error of the stamps' difference (or of ``coarse_offset_s``); None:
+        the sum of both device profiles' bounds.
+    key : str, default ""
+        Key path of these settings (``alignment.pulses.wls1``), named in error messages.
+    """
+
+    method: Literal["pulses", "stamps"] = "pulses"
+    pulse: ChannelSpec | None = None
+    per_revolution: int = 1
+    angle: float = 0.0
+    coarse_offset_s: float | None = None
+    start_time_uncertainty_s: float | None = None
+    key: str = ""
+
+
+@dataclass(frozen=True)
+class AlignmentSettings:
+    """What :func:`align_streams` needs to know about the streams.
+
+    Attributes
+    ----------
+    reference : str
+        Name of the stream that keeps its own clock: every other stream is mapped onto it.
+    encoder : ChannelSpec
+        Main-shaft encoder on the reference stream (``params``: ``counts_per_rev``,
+        ``index_reset``): phi_F(t).
+    reference_pulse : ChannelSpec
+        Once-per-revolution pulse on the reference stream: phi_F = 0 at its edges.
+    streams : mapping of str to ClockSettings
+        Per other stream, how its clock is found.
+    direction : float, default 1
+        +1, or -1 for an encoder that counts down while the shaft turns forward.
+    min_pulses : int, default 2
+        Fewest good reference pulses the reference stream must hold.
+    key : str, default "alignment"
+        Key path of these settings, named in error messages.
+    """
+
+    reference: str
+    encoder: ChannelSpec
+    reference_pulse: ChannelSpec
+    streams: Mapping[str, ClockSettings] = field(default_factory=dict)
+    direction: float = 1.0
+    min_pulses: int = 2
+    key: str = "alignment"
+
+
+@dataclass(frozen=True)
+class MainAngle:
+    """phi_F, the main shaft angle from the reference position, on the reference timeline.
+
+    Parameters
+    ----------
+    time : numpy.ndarray
+        Reference-clock times in s where the encoder angle is defined.
+    phi : numpy.ndarray
+        phi_F in rad, increasing, multiples of 2 pi at the reference pulse.
+    zero_u95_s : float, default 0
+        Half-width in s of the 95 % interval of the time at which phi_F = 0 (the mean of the
+        reference pulses: Student t on their scatter, with the bound of sample-switched edges).
+        It shifts every reference event alike, so it adds to every stream's offset interval.
+    """
+
+    time: np.ndarray
+    phi: np.ndarray
+    zero_u95_s: float = 0.0
+
+    def times_at(self, angles: np.ndarray) -> np.ndarray:
+        """Return the reference times (s) at which phi_F takes the given values (rad)."""
+        return np.interp(angles, self.phi, self.time)
+
+
+def _pulses(stream: xr.Dataset, channel: ChannelSpec) -> StreamPulses:
+    """Edges of a reference-pulse channel (delay-corrected, classified) as its spec says."""
+    threshold = channel.params.get("threshold")
+    low = high = None
+    if threshold is not None:
+        band = PULSE_HYSTERESIS * max(abs(threshold), float(np.finfo(float).tiny))
+        low, high = threshold - band, threshold + band
+    found = stream_pulses(stream, channel.name, polarity=channel.params.get("edge", "rising"),
+                          low=low, high=high)
+    if found.timing_bound_s == 0.0 and channel.module:
+        try:
+            kind = get_module(channel.module).kind
+        except ChannelNotFoundError:
+            kind = "delta-sigma"  # unknown module: trust the edge shape (sample_switched)
+        if kind != "delta-sigma":
+            # No anti-alias filter: an edge faster than the sample clock is interpolated from
+            # samples that do not describe it; half a sample bounds the error.
+            found = dataclasses.replace(found, timing_bound_s=0.5 / float(
+                stream.attrs["fs_nominal"]))
+    return found
+
+
+def _main_angle(settings: AlignmentSettings, ref: xr.Dataset) -> tuple[MainAngle, StreamPulses]:
+    """Return phi_F(t) from the main encoder, zero at the reference pulse, and those pulses."""
+    encoder, pulse_channel = settings.encoder, settings.reference_pulse
+    pulses = _pulses(ref, pulse_channel)
+    if pulses.good.size < settings.min_pulses:
+        raise DataError(f"only {pulses.good.size} reference pulses on "
+                        f"{settings.reference}.{pulse_channel.name}",
+                        where={"key": f"{settings.key}.main_reference_pulse"},
+                        hint="check the pulse channel (threshold, edge, wiring)")
+    angle = phi_f(ref, encoder.name, pulses, counts_per_rev=encoder.params["counts_per_rev"],
+                  direction=float(settings.direction),
+                  index_reset=bool(encoder.params.get("index_reset", False)))
+    t = align.channel_time(ref, encoder.name)
+    phi = angle["phi_F"].to_numpy()
+    finite = np.isfinite(phi)
+    t, phi = t[finite], phi[finite]
+    if phi.size < 2 or np.any(np.diff(phi) <= 0):
+        raise DataError("the main shaft angle does not increase steadily (standstill, reversal "
+                        "or the encoder counting down)",
+                        where={"channel": f"{settings.reference}.{encoder.name}"},
+                        hint="validate runs at steady speed; set direction = -1 in the driver "
+                             "table of an encoder that counts down")
+    used = pulses.good.size
+    period = float(np.median(np.diff(pulses.good)))
+    scatter_s = float(angle["phi_F"].attrs.get("reference_scatter_rad", 0.0)) / (2 * np.pi) * period
+    mean_u95 = float(student_t.ppf(0.975, used - 1)) * scatter_s / np.sqrt(used)
+    zero_u95 = float(np.hypot(mean_u95, pulses.timing_bound_s))
+    return MainAngle(t, phi, zero_u95), pulses
+
+
+def _fit_clock(events: np.ndarray, found: StreamPulses, coarse: CoarseOffset,
+               groups: Mapping[int, int], clock: ClockSettings, name: str,
+               where: Mapping[str, Any]) -> align.ClockModel:
+    """Fit the stream's clock on its pulses; segments grouped by a running clock first."""
+    edges, segments = found.times[~found.spurious], found.segment[~found.spurious]
+    key = clock.key or name
+    # as few events as leave one degree of freedom (3 for one offset and a drift): the
+    # Student-t interval then says how little they tell
+    kwargs = {"coarse_offset_s": coarse.offset_s, "max_offset_error_s": coarse.window_s,
+              "min_events": 3, "timing_bound_s": found.timing_bound_s,
+              "per_revolution": clock.per_revolution, "where": where,
+              "settle_keys": (f"{key}.coarse_offset_s", f"{key}.start_time_uncertainty_s")}
+    if len(set(groups.values())) < len(groups):
+        try:
+            return align.estimate_clock(events, edges, segments, clock_groups=groups, **kwargs)
+        except AlignmentError as error:
+            logger.info("%s: one clock across the dropouts does not fit (%s); a clock per "
+                        "segment", name, error)
+    return align.estimate_clock(events, edges, segments, **kwargs)
+
+
+def _reference(settings: AlignmentSettings, ref: xr.Dataset
+               ) -> tuple[MainAngle, StreamAlignment, np.ndarray, float]:
+    """phi_F, the reference stream's record, its good pulses (s) and the pulse period (s)."""
+    main, ref_pulses = _main_angle(settings, ref)
+    pulses = ref_pulses.good[(ref_pulses.good >= main.time[0])
+                             & (ref_pulses.good <= main.time[-1])]
+    period = float(np.median(np.diff(pulses)))
+    expected = main.times_at(2.0 * np.pi * np.arange(math.ceil(main.phi[0] / (2 * np.pi)),
+                                                     math.floor(main.phi[-1] / (2 * np.pi)) + 1))
+    residual, matched = diagnose.event_residuals(pulses, expected, period)
+    summary = diagnose.stream_summary(
+        settings.reference, ref, align.identity_clock(), is_reference=True,
+        residual_time=pulses, residual=residual[matched], matched=int(matched.sum()),
+        missing=max(expected.size - int(matched.sum()), 0),
+        spurious=int(ref_pulses.spurious.sum()))
+    return main, summary, pulses, period
+
+
+def _align_by_pulses(name: str, stream: xr.Dataset, clock: ClockSettings, coarse: CoarseOffset,
+                     main: MainAngle, period: float, reference_start: str
+                     ) -> tuple[xr.Dataset, StreamAlignment, np.ndarray]:
+    """Align one stream on its pulses; return it, its record and its mapped edges (s).
+
+    ``reference_start`` is the reference stream's ``start_time``, the origin of the CF time units.
+    """
+    if clock.pulse is None:
+        raise AlignmentError(f"stream {name} has no pulse channel to fit its clock on",
+                             where={"stream": name, "key": clock.key},
+                             hint='name its pulse channel or use method = "stamps"')
+    found = _pulses(stream, clock.pulse)
+    edges, segments = found.times[~found.spurious], found.segment[~found.spurious]
+    events = align.reference_event_times(main.time, main.phi, event_angle=clock.angle,
+                                         events_per_rev=clock.per_revolution)
+    where = {"stream": name, "channel": clock.pulse.name}
+    model = _fit_clock(events, found, coarse, clock_groups(stream), clock, name, where)
+    model = dataclasses.replace(model, offsets_u95_s=tuple(
+        float(np.hypot(u, main.zero_u95_s)) for u in model.offsets_u95_s))
+    aligned = align.align_stream(stream, model, name=name, reference_start=reference_start)
+    mapped = model.to_reference(edges, segments)
+    mapped = mapped[np.isfinite(mapped)]
+    residual, matched = diagnose.event_residuals(mapped, events, period, clock.per_revolution)
+    time = aligned["time"].to_numpy()
+    inside = (events >= time[0]) & (events <= time[-1])
+    summary = dataclasses.replace(diagnose.stream_summary(
+        name, aligned, model, is_reference=False, residual_time=mapped[matched],
+        residual=residual[matched], matched=int(matched.sum()),
+        missing=max(int(inside.sum()) - int(matched.sum()), 0),
+        spurious=int((~matched).sum() + found.spurious.sum())),
+        start_time_uncertainty_s=coarse.window_s, coarse_offset_s=coarse.offset_s,
+        coarse_offset_source=coarse.source,
+        segment_table=diagnose.segment_table(stream, model, found, events))
+    return aligned, summary, mapped
+
+
+def align_streams(settings: AlignmentSettings, converted: Mapping[str, xr.Dataset]
+                  ) -> tuple[dict[str, xr.Dataset], dict[str, StreamAlignment], MainAngle]:
+    """Put every stream on the reference timeline.
+
+    Parameters
+    ----------
+    settings : AlignmentSettings
+        The reference stream, its encoder and pulse, and how each other stream is aligned.
+    converted : mapping of str to xarray.Dataset
+        The streams in physical units (:func:`rigval.validation.convert.convert_stream`); every
+        stream named in ``settings`` must be there.
+
+    Returns
+    -------
+    aligned : dict of str to xarray.Dataset
+        Streams with ``time`` on the reference clock (samples unchanged).
+    diagnostics : dict of str to StreamAlignment
+        Clock model, events and gaps per stream.
+    main : MainAngle
+        phi_F(t).
+
+    Raises
+    ------
+    AlignmentError
+        When a stream's clock cannot be fitted with confidence.
+    DataError
+        When the reference stream has too few pulses or its encoder angle does not increase.
+    """
+    reference = settings.reference
+    ref = align.align_stream(converted[reference],
+                             align.identity_clock(converted[reference]["segment"]), name=reference)
+    main, ref_summary, pulses, period = _reference(settings, ref)
+    aligned = {reference: ref}
+    diagnostics = {reference: ref_summary}
+    shown = {reference: (settings.reference_pulse.name, pulses)}
+    for name, clock in settings.streams.items():
+        stream = converted[name]
+        coarse = coarse_offset(ref, stream, offset_s=clock.coarse_offset_s,
+                               uncertainty_s=clock.start_time_uncertainty_s)
+        if clock.method == "stamps":
+            model = stamps_clock(stream, ref, coarse)
+            aligned[name] = align.align_stream(stream, model, name=name,
+                                               reference_start=ref.attrs["start_time"])
+            diagnostics[name] = dataclasses.replace(diagnose.stream_summary(
+                name, aligned[name], model, is_reference=False, residual_time=np.zeros(0),
+                residual=np.zeros(0), matched=0, missing=0, spurious=0),
+                method="stamps", start_time_uncertainty_s=coarse.window_s,
+                coarse_offset_s=coarse.offset_s, coarse_offset_source=coarse.source,
+                segment_table=diagnose.segment_table(stream, model, None, np.zeros(0)))
+            continue
+        aligned[name], diagnostics[name], mapped = _align_by_pulses(
+            name, stream, clock, coarse, main, period, ref.attrs["start_time"])
+        shown[name] = (clock.pulse.name if clock.pulse else "", mapped)
+    half_width = PULSE_WINDOW * period
+    centre = diagnose.common_pulse(pulses, [d.span_s for d in diagnostics.values()], half_width)
+    diagnostics = {name: diagnose.with_pulse_window(summary, aligned[name], *shown[name],
+                                                    centre, half_width)
+                   if name in shown else summary
+                   for name, summary in diagnostics.items()}
+    return aligned, diagnostics, main

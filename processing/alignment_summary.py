@@ -1,0 +1,269 @@
+"""Alignment diagnostics: how each stream's clock was mapped onto the reference timeline.
+
+:class:`StreamAlignment` is the record per stream (clock, events, gaps, a raw-pulse window) that
+the report's alignment section and ``alignment.json`` show; the functions here fill it from a
+fitted :class:`~rigval.processing.align.ClockModel` and the stream's pulse edges
+(:func:`rigval.processing.alignment.align_streams` calls them).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from rigval.acquisition.schema import stream_gaps
+from rigval.processing.align import ClockModel, channel_time, robust_inliers
+from rigval.processing.pulses import StreamPulses
+
+__all__ = [
+    "MIN_EVENT_TOLERANCE_S",
+    "StreamAlignment",
+    "common_pulse",
+    "event_residuals",
+    "segment_table",
+    "stream_summary",
+    "with_pulse_window",
+]
+
+#: Matched events within this distance in s of the clock line always count as matched (a
+#: sample period of the slowest device), however tight the others are.
+MIN_EVENT_TOLERANCE_S = 1e-3
+
+
+@dataclass(frozen=True)
+class StreamAlignment:
+    """How one stream's clock was mapped onto the reference timeline.
+
+    Parameters
+    ----------
+    stream : str
+        Stream name.
+    device : str
+        Device kind.
+    is_reference : bool
+        True for the reference stream (offset 0, drift 0 by definition).
+    offset_s : float
+        Clock offset in s (reference time of the stream's time zero).
+    drift_ppm : float
+        Clock drift in ppm, as in ``t_ref = offset + (1 + drift) t_stream``: positive when the
+        stream's clock runs slow against the reference's.
+    residual_rms_s : float
+        RMS of the clock-fit residuals on the matched events in s.
+    events_matched : int
+        Reference events matched with the reference stream.
+    events_missing : int
+        Expected events that were not seen.
+    events_spurious : int
+        Events that matched nothing.
+    input_delay_s : float
+        Module input delay removed in s.
+    segments : int
+        Gap-free segments (each with its own clock fit).
+    gaps : tuple of mapping
+        Gaps: ``{"after_s", "duration_s", "missing_samples"}`` on the stream's own clock.
+    span_s : tuple of float
+        First and last sample on the reference timeline in s.
+    residual_time : numpy.ndarray
+        Reference-timeline times of the matched events in s.
+    residual_s : numpy.ndarray
+        Clock-fit residual per matched event in s.
+    pulse_time : numpy.ndarray
+        A short window of the raw pulse channel around one reference pulse that every stream
+        recorded: times on the reference timeline in s.
+    pulse_signal : numpy.ndarray
+        The raw pulse signal there, in ``pulse_units``.
+    pulse_units : str
+        Unit of the pulse channel as read.
+    edge_times : numpy.ndarray
+        Detected rising edges within that stretch in s.
+    offset_u95_s, drift_u95_ppm : float
+        Half-widths of the 95 % intervals of the offset (s) and the drift (ppm).
+    periods_decided_by : str
+        What decided the whole pulse periods (``stamps``, ``data``, ``neighbour``).
+    method : str
+        ``pulses`` or ``stamps`` (:class:`~rigval.processing.alignment.ClockSettings`).
+    start_time_uncertainty_s : float
+        Half-width in s of the window the offset was searched in.
+    coarse_offset_s : float
+        Centre of that window in s.
+    coarse_offset_source : str
+        Where the centre came from (:attr:`~rigval.processing.stamps.CoarseOffset.source`).
+    segment_table : tuple of mapping
+        Per gap-free segment: clock offset and its 95 % interval, clock group, samples, samples
+        dropped and why.
+    """
+
+    stream: str
+    device: str
+    is_reference: bool
+    offset_s: float
+    drift_ppm: float
+    residual_rms_s: float
+    events_matched: int
+    events_missing: int
+    events_spurious: int
+    input_delay_s: float
+    segments: int
+    gaps: tuple[Mapping[str, Any], ...]
+    span_s: tuple[float, float]
+    residual_time: np.ndarray = field(repr=False)
+    residual_s: np.ndarray = field(repr=False)
+    pulse_time: np.ndarray = field(repr=False)
+    pulse_signal: np.ndarray = field(repr=False)
+    pulse_units: str
+    edge_times: np.ndarray = field(repr=False)
+    offset_u95_s: float = 0.0
+    drift_u95_ppm: float = 0.0
+    periods_decided_by: str = ""
+    method: str = "pulses"
+    start_time_uncertainty_s: float = 0.0
+    coarse_offset_s: float = 0.0
+    coarse_offset_source: str = ""
+    segment_table: tuple[Mapping[str, Any], ...] = ()
+
+    def summary(self) -> dict[str, Any]:
+        """Return the JSON-ready summary written to ``alignment.json``."""
+        return {
+            "device": self.device, "reference": self.is_reference, "offset_s": self.offset_s,
+            "drift_ppm": self.drift_ppm, "residual_rms_s": self.residual_rms_s,
+            "events_matched": self.events_matched, "events_missing": self.events_missing,
+            "events_spurious": self.events_spurious, "input_delay_s": self.input_delay_s,
+            "segments": self.segments, "gaps": [dict(g) for g in self.gaps],
+            "span_s": list(self.span_s), "offset_u95_s": self.offset_u95_s,
+            "drift_u95_ppm": self.drift_u95_ppm, "periods_decided_by": self.periods_decided_by,
+            "method": self.method, "start_time_uncertainty_s": self.start_time_uncertainty_s,
+            "coarse_offset_s": self.coarse_offset_s,
+            "coarse_offset_source": self.coarse_offset_source,
+            "samples_dropped": sum(int(row.get("samples_dropped", 0))
+                                   for row in self.segment_table),
+            "segment_table": [dict(row) for row in self.segment_table],
+        }
+
+
+def event_residuals(mapped: np.ndarray, events: np.ndarray, period: float,
+                    per_revolution: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Residual (s) of each mapped event against its nearest expected event; matched mask.
+
+    An event within a quarter period (of the pulse rate) of an expected event is matched unless
+    :func:`~rigval.processing.align.robust_inliers` calls it a stray (within
+    :data:`MIN_EVENT_TOLERANCE_S` it never is). With several pulses per revolution, each kind of
+    pulse (its place within the revolution) may fire at its own angle; the median residual of
+    each kind is removed, as the clock fit does.
+    """
+    index = np.clip(np.searchsorted(events, mapped), 1, events.size - 1)
+    nearest = np.where(np.abs(mapped - events[index - 1]) <= np.abs(events[index] - mapped),
+                       index - 1, index)
+    residual = mapped - events[nearest]
+    matched = np.abs(residual) < 0.25 * period / per_revolution
+    if matched.sum() > 3:  # a spurious pulse can fall inside a quarter period: robust cut
+        matched &= robust_inliers(residual, among=matched, floor_s=MIN_EVENT_TOLERANCE_S)
+    if per_revolution > 1:
+        kind = nearest % per_revolution
+        for k in range(per_revolution):
+            chosen = matched & (kind == k)
+            if chosen.any():
+                residual[kind == k] -= np.median(residual[chosen])
+    return residual, matched
+
+
+def with_pulse_window(summary: StreamAlignment, aligned: xr.Dataset, channel: str,
+                      edges: np.ndarray, centre: float, half_width: float) -> StreamAlignment:
+    """Attach the raw pulse signal and its edges within ``centre +- half_width`` (s)."""
+    t = channel_time(aligned, channel)
+    inside = np.abs(t - centre) <= half_width
+    return dataclasses.replace(
+        summary, pulse_time=t[inside], pulse_signal=aligned[channel].to_numpy()[inside],
+        pulse_units=str(aligned[channel].attrs.get("units", "")),
+        edge_times=edges[np.abs(edges - centre) <= half_width])
+
+
+def common_pulse(pulses: np.ndarray, spans: list[tuple[float, float]], margin: float) -> float:
+    """Return the first reference pulse (s) that every stream recorded (else the first pulse)."""
+    start = max(span[0] for span in spans) + margin
+    stop = min(span[1] for span in spans) - margin
+    inside = pulses[(pulses >= start) & (pulses <= stop)]
+    return float(inside[0] if inside.size else pulses[0])
+
+
+def stream_summary(name: str, aligned: xr.Dataset, clock: ClockModel, *, is_reference: bool,
+                   residual_time: np.ndarray, residual: np.ndarray, matched: int,
+                   missing: int, spurious: int) -> StreamAlignment:
+    """Return a stream's record without its pulse window (:func:`with_pulse_window` adds it).
+
+    Parameters
+    ----------
+    name : str
+        Stream name.
+    aligned : xarray.Dataset
+        The stream on the reference timeline.
+    clock : ClockModel
+        Its clock model.
+    is_reference : bool
+        Whether it is the reference stream.
+    residual_time, residual : numpy.ndarray
+        Reference times (s) of the matched events and their residuals (s).
+    matched, missing, spurious : int
+        Event counts.
+    """
+    empty = np.zeros(0)
+    delays = [float(aligned[v].attrs.get("input_delay_s", 0.0)) for v in aligned.data_vars
+              if v not in ("valid", "segment")]
+    times = aligned["time"].to_numpy()
+    return StreamAlignment(
+        stream=name, device=str(aligned.attrs.get("device", "")), is_reference=is_reference,
+        offset_s=float(clock.offsets_s[0]), drift_ppm=clock.drift * 1e6,
+        offset_u95_s=float(clock.offsets_u95_s[0]) if clock.offsets_u95_s else 0.0,
+        drift_u95_ppm=clock.drift_u95 * 1e6, periods_decided_by=clock.periods_decided_by,
+        residual_rms_s=float(np.sqrt(np.mean(residual**2))) if residual.size else 0.0,
+        events_matched=matched, events_missing=missing, events_spurious=spurious,
+        input_delay_s=max(delays, default=0.0), segments=len(clock.segments),
+        gaps=tuple(stream_gaps(aligned)),
+        span_s=(float(times[0]), float(times[-1])), residual_time=residual_time,
+        residual_s=residual, pulse_time=empty, pulse_signal=empty, pulse_units="",
+        edge_times=empty)
+
+
+def _dropped_because(n_edges: int, span: tuple[float, float], events: np.ndarray) -> str:
+    """Why a segment could not be aligned (span: its rough reference-clock times in s)."""
+    if events.size and (span[1] < events[0] or span[0] > events[-1]):
+        return ("not aligned: the segment lies outside the reference record (no reference "
+                "events to match)")
+    if n_edges < 2:
+        return f"not aligned: {n_edges} reference-pulse edges in the segment (need 2)"
+    return (f"not aligned: its {n_edges} reference-pulse edges could not be matched to the "
+            "reference events")
+
+
+def segment_table(stream: xr.Dataset, clock: ClockModel, edges: StreamPulses | None,
+                  events: np.ndarray) -> tuple[dict[str, Any], ...]:
+    """Per segment: offset, its 95 % interval, clock group, samples and samples dropped (why).
+
+    ``edges`` are the stream's pulse edges (None for a stream aligned by its stamps) and
+    ``events`` the reference events (s) they were matched with.
+    """
+    segment = stream["segment"].to_numpy()
+    device_time = stream["time"].to_numpy()
+    offsets = dict(zip(clock.segments, clock.offsets_s, strict=True))
+    fitted_groups = dict(zip(clock.segments, clock.clock_groups or clock.segments, strict=True))
+    u95 = dict(zip(clock.segments, clock.offsets_u95_s or (0.0,) * len(clock.segments),
+                   strict=True))
+    rows = []
+    for s in np.unique(segment):
+        mine = segment == s
+        aligned = int(s) in offsets
+        n_edges = int(np.count_nonzero(edges.segment == s)) if edges is not None else 0
+        rows.append({
+            "segment": int(s), "clock_group": fitted_groups.get(int(s)),
+            "device_time_s": [float(device_time[mine][0]), float(device_time[mine][-1])],
+            "samples": int(mine.sum()),
+            "clock_offset_s": offsets.get(int(s)), "clock_offset_u95_s": u95.get(int(s)),
+            "samples_dropped": 0 if aligned else int(mine.sum()),
+            "dropped_because": "" if aligned else _dropped_because(
+                n_edges, (float(device_time[mine][0] + clock.offsets_s[0]),
+                          float(device_time[mine][-1] + clock.offsets_s[0])), events)})
+    return tuple(rows)
