@@ -14,7 +14,6 @@ import os
 from pathlib import Path
 
 from rigval.acquisition.errors import DataFileError
-from rigval.acquisition.schema import file_sha256
 
 __all__ = ["FORMATS", "NOT_COMPUTED", "checked_path", "detect_format", "source_checksum"]
 
@@ -84,6 +83,8 @@ def detect_format(path: str | os.PathLike[str]) -> str:
 @functools.lru_cache(maxsize=64)
 def _sha256_of(path: str, size: int, mtime_ns: int) -> str:
     """Hash a file; cached on (path, size, modification time)."""
+    from rigval.acquisition.schema import file_sha256  # numpy, pandas, xarray: only when hashing
+
     return file_sha256(path)
 
 

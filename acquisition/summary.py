@@ -10,26 +10,27 @@ from __future__ import annotations
 import os
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import xarray as xr
 
 from rigval.acquisition.detect import checked_path, detect_format
-from rigval.acquisition.schema import stream_gaps
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = ["describe"]
 
 
 def _describe_tdms(path: Path, **options: Any) -> dict[str, Any]:
     """Describe a TDMS file from its segment metadata."""
-    from rigval.acquisition.tdms import _raise_empty, plan_tdms, warn_about_plans
     from rigval.acquisition.tdms_layout import object_path_parts, scan_tdms
+    from rigval.acquisition.tdms_plan import plan_tdms, raise_empty, warn_about_plans
 
     layout = scan_tdms(path)
     plans = plan_tdms(layout, **options)
     if not plans:
-        _raise_empty(layout)  # as read() does: no samples is an error, never an empty listing
+        raise_empty(layout)  # as read() does: no samples is an error, never an empty listing
     warn_about_plans(layout, plans)
     skipped = sorted({object_path_parts(p)[0] for p in layout.channels}
                      - {p.group for p in plans})
@@ -66,6 +67,8 @@ def _describe_tdms(path: Path, **options: Any) -> dict[str, Any]:
 
 def _describe_stream(name: str, ds: xr.Dataset) -> dict[str, Any]:
     """Describe a stream Dataset read from a text file."""
+    from rigval.acquisition.schema import stream_gaps
+
     duration = float(ds.time[-1]) + 1.0 / ds.attrs["fs_nominal"] if ds.sizes["time"] else 0.0
     return {
         "name": name, "fs_hz": ds.attrs["fs_nominal"], "samples": int(ds.sizes["time"]),
