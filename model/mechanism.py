@@ -29,6 +29,7 @@ from rigval.model.laws import DriveLaw, Excitation, cycle_rate, law_from_rates
 
 __all__ = [
     "BUILTIN_MECHANISMS",
+    "BUILTIN_PREFIX",
     "SCHEMA",
     "Body",
     "Driver",
@@ -37,6 +38,7 @@ __all__ = [
     "PointTable",
     "builtin_mechanism",
     "load_mechanism",
+    "mechanism_file",
 ]
 
 logger = logging.getLogger(__name__)
@@ -46,6 +48,8 @@ SCHEMA = "rigval-mechanism/1"
 
 #: Mechanism files shipped with rigval (``rigval/model/mechanisms/<name>.toml``).
 BUILTIN_MECHANISMS = ("pendulum", "fourbar", "single_pendulum")
+#: Prefix of a built-in mechanism named instead of a path (``builtin:pendulum``).
+BUILTIN_PREFIX = "builtin:"
 
 _TOP_KEYS = {"schema", "name", "description", "gravity", "bodies", "joints", "drivers"}
 _BODY_KEYS = {"name", "description", "mass", "inertia", "guess", "points"}
@@ -288,6 +292,32 @@ def builtin_mechanism(name: str) -> Path:
                              where={"name": name},
                              hint=f"use one of {', '.join(BUILTIN_MECHANISMS)}")
     return Path(str(resources.files("rigval.model") / "mechanisms" / f"{stem}.toml"))
+
+
+def mechanism_file(text: str | Path, base_dir: Path | None = None) -> Path:
+    """Return the file of a mechanism named by a path or ``builtin:NAME`` (scene, command line).
+
+    Parameters
+    ----------
+    text : str or pathlib.Path
+        ``builtin:pendulum`` for a shipped mechanism, else a file path.
+    base_dir : pathlib.Path, optional
+        Folder a relative path is relative to (a scene's folder); default the working directory.
+
+    Returns
+    -------
+    pathlib.Path
+        The file (not checked for existence; :func:`load_mechanism` does).
+
+    Raises
+    ------
+    MechanismError
+        For ``builtin:`` with an unknown name.
+    """
+    value = str(text)
+    if value.startswith(BUILTIN_PREFIX):
+        return builtin_mechanism(value.removeprefix(BUILTIN_PREFIX))
+    return (base_dir or Path()) / value
 
 
 def load_mechanism(source: str | Path | Mapping[str, Any]) -> Mechanism:

@@ -29,8 +29,9 @@ from the joint's point towards a second point of the body, both in the global fr
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 import xarray as xr
@@ -40,8 +41,9 @@ from rigval.model.dynamics import mechanical_energy
 from rigval.model.kinematics import point_motion
 from rigval.model.mechanism import Mechanism
 
-__all__ = ["EXTRA_OUTPUTS", "OUTPUTS", "Selection", "Solution", "axial_joint_force",
-           "axial_toward", "build_dataset", "select"]
+__all__ = ["COMPARABLE", "EXTRA_OUTPUTS", "OUTPUTS", "QUANTITIES", "Quantity", "Selection",
+           "Solution", "axial_joint_force", "axial_toward", "build_dataset", "output_attrs",
+           "select"]
 
 #: The contract variables, computed by default.
 OUTPUTS = ("position", "velocity", "acceleration", "point_position", "point_velocity",
@@ -49,6 +51,89 @@ OUTPUTS = ("position", "velocity", "acceleration", "point_position", "point_velo
 #: Further variables computed only when asked for.
 EXTRA_OUTPUTS = ("support_force", "kinetic_energy", "potential_energy", "drive_power",
                  "condition_number")
+
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """One model quantity of the result contract: what it is indexed by and its units.
+
+    Parameters
+    ----------
+    item : str or None
+        Dimension of the items (``"body"``, ``"point"``, ``"joint"``, ``"driver"``,
+        ``"support"``); None for a whole-mechanism value.
+    axis : str or None
+        Dimension of the components (``"coord"``: x, y, theta; ``"axis"``: x, y); None for a
+        scalar per item.
+    units : mapping of str to str
+        UDUNITS unit per component (key ``""`` when there is no axis).
+    long_name : str
+        Meaning, with the sign convention.
+    """
+
+    item: str | None
+    axis: str | None
+    units: Mapping[str, str]
+    long_name: str
+
+    @property
+    def axes(self) -> tuple[str, ...] | None:
+        """The component names (None for a scalar per item)."""
+        return tuple(self.units) if self.axis else None
+
+
+def _planar_quantity(item: str, units: str, long_name: str) -> Quantity:
+    return Quantity(item, "axis", {"x": units, "y": units}, long_name)
+
+
+def _body_quantity(linear: str, angular: str, long_name: str) -> Quantity:
+    return Quantity("body", "coord", {"x": linear, "y": linear, "theta": angular}, long_name)
+
+
+#: Every model quantity (docs/model.md, *Result contract*): the solver's variables and the
+#: derived ``joint_axial_force`` (:func:`axial_joint_force`). The scene, the pipeline and
+#: prediction read names, dimensions and units from here.
+QUANTITIES: Mapping[str, Quantity] = MappingProxyType({
+    "position": _body_quantity("m", "rad", "centre of gravity position and body angle"),
+    "velocity": _body_quantity("m s-1", "rad s-1",
+                               "centre of gravity velocity and angular velocity"),
+    "acceleration": _body_quantity("m s-2", "rad s-2", "centre of gravity acceleration and "
+                                   "angular acceleration"),
+    "point_position": _planar_quantity("point", "m", "point position, global frame"),
+    "point_velocity": _planar_quantity("point", "m s-1", "point velocity, global frame"),
+    "point_acceleration": _planar_quantity("point", "m s-2", "point acceleration, global frame"),
+    "joint_force": _planar_quantity("joint", "N", "joint force on the joint's first body "
+                                    "(ground pin: on the body), global frame"),
+    "driver_torque": Quantity("driver", None, {"": "N m"}, "drive torque on the driven body, "
+                              "counter-clockwise positive"),
+    "support_force": _planar_quantity("support", "N",
+                                      "support force on the ground at the ground pins"),
+    "kinetic_energy": Quantity(None, None, {"": "J"}, "kinetic energy of the mechanism"),
+    "potential_energy": Quantity(None, None, {"": "J"},
+                                 "gravitational potential energy of the mechanism"),
+    "drive_power": Quantity("driver", None, {"": "W"},
+                            "drive power: drive torque times driven angular speed"),
+    "condition_number": Quantity(None, None, {"": "1"},
+                                 "condition number of the reduced constraint Jacobian"),
+    "joint_axial_force": Quantity("joint", None, {"": "N"}, "joint force projected on a body's "
+                                  "axis, tension positive"),
+})
+#: Quantities a scene comparison may name: the contract variables and the axial force.
+COMPARABLE = (*OUTPUTS, "joint_axial_force")
+
+
+def output_attrs(name: str) -> dict[str, str]:
+    """Return a quantity's result-Dataset attributes: ``units``, ``long_name``.
+
+    Body variables (``coord`` = x, y, theta) also get ``theta_units``.
+    """
+    quantity = QUANTITIES[name]
+    if quantity.axis == "coord":
+        return {"units": quantity.units["x"], "theta_units": quantity.units["theta"],
+                "long_name": quantity.long_name}
+    return {"units": next(iter(quantity.units.values())), "long_name": quantity.long_name}
+
 
 _NEEDS_VELOCITY = {"velocity", "point_velocity", "acceleration", "point_acceleration",
                    "joint_force", "driver_torque", "support_force", "kinetic_energy",
@@ -151,14 +236,13 @@ def _planar(values: np.ndarray, sign: float = 1.0) -> np.ndarray:
     return np.moveaxis(out, 0, -1)
 
 
-def _body_var(linear: np.ndarray, angular: np.ndarray, units: tuple[str, str], name: str
-              ) -> xr.Variable:
+def _body_var(linear: np.ndarray, angular: np.ndarray, name: str) -> xr.Variable:
     data = np.empty((3, *angular.shape))
     data[0] = linear.real
     data[1] = linear.imag
     data[2] = angular
     return xr.Variable(("time", "body", "coord"), np.moveaxis(data, 0, -1),
-                       {"units": units[0], "theta_units": units[1], "long_name": name})
+                       output_attrs(name))
 
 
 def build_dataset(mechanism: Mechanism, solution: Solution, selection: Selection,
@@ -186,15 +270,11 @@ def build_dataset(mechanism: Mechanism, solution: Solution, selection: Selection
     data: dict[str, xr.Variable] = {}
     s = solution
     if "position" in out:
-        data["position"] = _body_var(s.position, s.theta, ("m", "rad"),
-                                     "centre of gravity position and body angle")
+        data["position"] = _body_var(s.position, s.theta, "position")
     if "velocity" in out:
-        data["velocity"] = _body_var(s.velocity, s.omega, ("m s-1", "rad s-1"),
-                                     "centre of gravity velocity and angular velocity")
+        data["velocity"] = _body_var(s.velocity, s.omega, "velocity")
     if "acceleration" in out:
-        data["acceleration"] = _body_var(s.acceleration, s.alpha, ("m s-2", "rad s-2"),
-                                         "centre of gravity acceleration and angular "
-                                         "acceleration")
+        data["acceleration"] = _body_var(s.acceleration, s.alpha, "acceleration")
     if {"position", "velocity", "acceleration"} & out:
         coords["body"] = ("body", list(mechanism.body_names))
         coords["coord"] = ("coord", ["x", "y", "theta"])
@@ -205,37 +285,32 @@ def build_dataset(mechanism: Mechanism, solution: Solution, selection: Selection
         index = [mechanism.joint_names.index(j) for j in selection.joints]
         data["joint_force"] = xr.Variable(
             ("time", "joint", "axis"), _planar(s.joint[:, index], -1.0),
-            {"units": "N", "long_name": "joint force on the joint's first body (ground pin: on "
-                                        "the body), global frame"})
+            output_attrs("joint_force"))
         coords["joint"] = ("joint", list(selection.joints))
     if "support_force" in out:
         ground = [k for k, j in enumerate(mechanism.joints) if j.kind == "ground"]
         data["support_force"] = xr.Variable(
             ("time", "support", "axis"), _planar(s.joint[:, ground]),
-            {"units": "N", "long_name": "support force on the ground at the ground pins"})
+            output_attrs("support_force"))
         coords["support"] = ("support", [mechanism.joints[k].name for k in ground])
     if "driver_torque" in out:
         data["driver_torque"] = xr.Variable(
-            ("time", "driver"), -s.driver,
-            {"units": "N m", "long_name": "drive torque on the driven body, counter-clockwise "
-                                          "positive"})
+            ("time", "driver"), -s.driver, output_attrs("driver_torque"))
     if "drive_power" in out:
         data["drive_power"] = xr.Variable(
-            ("time", "driver"), -s.driver * s.omega_driven,
-            {"units": "W", "long_name": "drive power: drive torque times driven angular speed"})
+            ("time", "driver"), -s.driver * s.omega_driven, output_attrs("drive_power"))
     if {"driver_torque", "drive_power"} & out:
         coords["driver"] = ("driver", list(mechanism.driver_names))
     if {"kinetic_energy", "potential_energy"} & out:
         kinetic, potential = mechanical_energy(mechanism, s.position, s.velocity, s.omega)
         if "kinetic_energy" in out:
-            data["kinetic_energy"] = xr.Variable("time", kinetic, {
-                "units": "J", "long_name": "kinetic energy of the mechanism"})
+            data["kinetic_energy"] = xr.Variable("time", kinetic, output_attrs("kinetic_energy"))
         if "potential_energy" in out:
-            data["potential_energy"] = xr.Variable("time", potential, {
-                "units": "J", "long_name": "gravitational potential energy of the mechanism"})
+            data["potential_energy"] = xr.Variable("time", potential,
+                                                   output_attrs("potential_energy"))
     if "condition_number" in out:
-        data["condition_number"] = xr.Variable("time", s.condition, {
-            "units": "1", "long_name": "condition number of the reduced constraint Jacobian"})
+        data["condition_number"] = xr.Variable("time", s.condition,
+                                               output_attrs("condition_number"))
     if {"point_position", "point_velocity", "point_acceleration", "joint_force",
             "support_force"} & out:
         coords["axis"] = ("axis", ["x", "y"])
@@ -256,9 +331,8 @@ def _add_points(mechanism: Mechanism, s: Solution, selection: Selection, out: se
     want_v = bool({"point_velocity", "point_acceleration"} & out)
     want_a = "point_acceleration" in out
     shape = (2, s.theta.shape[0], len(owners))
-    table = (("point_position", "m", "position"), ("point_velocity", "m s-1", "velocity"),
-             ("point_acceleration", "m s-2", "acceleration"))
-    planar = {name: np.empty(shape) for name, _u, _l in table if name in out}
+    table = ("point_position", "point_velocity", "point_acceleration")
+    planar = {name: np.empty(shape) for name in table if name in out}
     for start in range(0, s.theta.shape[0], _BLOCK):
         part = slice(start, start + _BLOCK)
         theta = s.theta[part][:, owners]
@@ -269,15 +343,14 @@ def _add_points(mechanism: Mechanism, s: Solution, selection: Selection, out: se
             s.omega[part][:, owners] if want_v else None,
             s.acceleration[part][:, owners] if want_a else None,
             s.alpha[part][:, owners] if want_a else None)
-        for (name, _u, _l), value in zip(table, values, strict=True):
+        for name, value in zip(table, values, strict=True):
             if name in planar:
                 planar[name][0, part] = value.real
                 planar[name][1, part] = value.imag
-    for name, units, label in table:
+    for name in table:
         if name in planar:
             data[name] = xr.Variable(("time", "point", "axis"), np.moveaxis(planar[name], 0, -1),
-                                     {"units": units, "long_name": f"point {label}, global "
-                                                                   "frame"})
+                                     output_attrs(name))
 
 
 def axial_toward(mechanism: Mechanism, joint: str, body: str, toward: str | None = None) -> str:

@@ -19,7 +19,7 @@ import xarray as xr
 
 from rigval.acquisition.errors import ConfigError
 from rigval.model.mechanism import Mechanism
-from rigval.model.results import axial_joint_force
+from rigval.model.results import QUANTITIES, axial_joint_force
 from rigval.model.solver import solve, solve_cycle
 from rigval.processing.align import channel_time
 from rigval.processing.excitation import drive_excitation
@@ -33,10 +33,6 @@ logger = logging.getLogger(__name__)
 #: The model also runs on a grid this many times finer, to measure the chosen grid's error.
 FINE_FACTOR = 4
 
-_ITEM_DIM = {"position": ("body", "coord"), "velocity": ("body", "coord"),
-             "acceleration": ("body", "coord"), "point_position": ("point", "axis"),
-             "point_velocity": ("point", "axis"), "point_acceleration": ("point", "axis"),
-             "joint_force": ("joint", "axis"), "driver_torque": ("driver", None)}
 
 
 def model_request(scene: Scene, mechanism: Mechanism) -> dict[str, Any]:
@@ -186,7 +182,7 @@ def model_values(model: xr.Dataset, output: ModelOutput) -> np.ndarray:
     if output.quantity == "joint_axial_force":
         return model["joint_axial_force"].sel(member=_axial_label(output)).to_numpy().astype(
             np.float64)
-    item_dim, axis_dim = _ITEM_DIM[output.quantity]
+    item_dim, axis_dim = QUANTITIES[output.quantity].item, QUANTITIES[output.quantity].axis
     var = model[output.quantity].sel({item_dim: output.item})
     if axis_dim is not None:
         var = var.sel({axis_dim: output.axis})

@@ -35,7 +35,9 @@ from rigval.acquisition.channel_map import ChannelSpec, StreamSpec, parse_stream
 from rigval.acquisition.errors import ChannelMapError, ConfigError, UnitError
 from rigval.acquisition.units import dimension, multiply, parse_unit
 from rigval.model.errors import MechanismError
-from rigval.model.mechanism import builtin_mechanism, load_mechanism
+from rigval.model.mechanism import BUILTIN_PREFIX, load_mechanism, mechanism_file
+from rigval.model.results import COMPARABLE, QUANTITIES
+from rigval.processing.sensors import channel_units
 from rigval.validation.errors import SceneError
 from rigval.validation.metrics.compare import DEFAULT_METRICS, METRICS, compare
 from rigval.validation.metrics.thresholds import parse_threshold
@@ -69,48 +71,16 @@ logger = logging.getLogger(__name__)
 SCHEMA = "rigval-scene/1"
 
 
-#: Unit of a converted channel per sensor kind (``strain_bridge``: stress with E, else strain).
-_SENSOR_UNITS: Mapping[str, Callable[[Mapping[str, Any]], str]] = MappingProxyType({
-    "charge_accelerometer": lambda p: "m s-2",
-    "strain_bridge": lambda p: "Pa" if p.get("youngs_modulus") is not None else "1",
-    "torsion_bridge": lambda p: "N m",
-    "encoder": lambda p: "rad",
-    "reference_pulse": lambda p: "V",
-    "voltage": lambda p: "V",
-    "physical": lambda p: str(p["units"]),
-    "linear": lambda p: str(p["units"]),
-    "iepe_accelerometer": lambda p: "m s-2",
-    "load_cell": lambda p: "N",
-})
-
-
 #: Sensor kinds a comparison may measure (encoders and reference pulses serve the alignment).
 _MEASURED_SENSORS = ("charge_accelerometer", "strain_bridge", "torsion_bridge", "physical",
                      "voltage", "linear", "iepe_accelerometer", "load_cell")
 
 
-def channel_units(channel: ChannelSpec) -> str:
-    """Return the unit of a channel after conversion (UDUNITS), from its sensor kind."""
-    return _SENSOR_UNITS[channel.sensor](channel.params)
-
-
-#: Model quantities a comparison may name (docs/model.md, *Result contract*): item kind, axes,
-#: unit per axis.
+#: Model quantities a comparison may name (docs/model.md, *Result contract*; the table is
+#: :data:`rigval.model.results.QUANTITIES`): item kind, axes, unit per axis.
 MODEL_QUANTITIES: Mapping[str, tuple[str, tuple[str, ...] | None, Mapping[str, str]]] = (
-    MappingProxyType({
-        "position": ("body", ("x", "y", "theta"), {"x": "m", "y": "m", "theta": "rad"}),
-        "velocity": ("body", ("x", "y", "theta"),
-                     {"x": "m s-1", "y": "m s-1", "theta": "rad s-1"}),
-        "acceleration": ("body", ("x", "y", "theta"),
-                         {"x": "m s-2", "y": "m s-2", "theta": "rad s-2"}),
-        "point_position": ("point", ("x", "y"), {"x": "m", "y": "m"}),
-        "point_velocity": ("point", ("x", "y"), {"x": "m s-1", "y": "m s-1"}),
-        "point_acceleration": ("point", ("x", "y"), {"x": "m s-2", "y": "m s-2"}),
-        "joint_force": ("joint", ("x", "y"), {"x": "N", "y": "N"}),
-        "driver_torque": ("driver", None, {"": "N m"}),
-        "joint_axial_force": ("joint", None, {"": "N"}),
-    }))
-
+    MappingProxyType({name: (str(QUANTITIES[name].item), QUANTITIES[name].axes,
+                             QUANTITIES[name].units) for name in COMPARABLE}))
 
 
 @dataclass(frozen=True)
@@ -542,10 +512,10 @@ def _note(scene_dir: Path, value: str) -> Path:
 
 
 def _mechanism_path(scene_dir: Path, value: str, key: str) -> Path:
-    if not value.startswith("builtin:"):
+    if not value.startswith(BUILTIN_PREFIX):
         return _file(scene_dir, value, key)
     try:
-        return builtin_mechanism(value.removeprefix("builtin:"))
+        return mechanism_file(value)
     except MechanismError as error:
         raise _error(key, error.message, hint=f"{error.hint}; or give a path") from None
 

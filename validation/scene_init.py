@@ -610,11 +610,11 @@ def _mechanism(mechanism: str | None, scene_dir: Path) -> tuple[str, Any] | None
     """Return the mechanism as written in the scene and the loaded mechanism, or None."""
     if mechanism is None:
         return None
-    from rigval.model.mechanism import builtin_mechanism, load_mechanism
+    from rigval.model.mechanism import BUILTIN_PREFIX, load_mechanism, mechanism_file
 
-    if mechanism.startswith("builtin:"):
-        return mechanism, load_mechanism(builtin_mechanism(mechanism.removeprefix("builtin:")))
-    path = Path(mechanism).resolve()
+    if mechanism.startswith(BUILTIN_PREFIX):
+        return mechanism, load_mechanism(mechanism_file(mechanism))
+    path = mechanism_file(mechanism).resolve()
     return Path(os.path.relpath(path, scene_dir)).as_posix(), load_mechanism(path)
 
 
