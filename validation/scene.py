@@ -23,13 +23,11 @@ import logging
 import math
 import re
 import tomllib
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Literal
-
-import numpy as np
 
 from rigval.acquisition.channel_map import ChannelSpec, StreamSpec, parse_streams
 from rigval.acquisition.errors import ChannelMapError, ConfigError, UnitError
@@ -39,7 +37,7 @@ from rigval.model.mechanism import BUILTIN_PREFIX, load_mechanism, mechanism_fil
 from rigval.model.results import COMPARABLE, QUANTITIES
 from rigval.processing.sensors import channel_units
 from rigval.validation.errors import SceneError
-from rigval.validation.metrics.compare import DEFAULT_METRICS, METRICS, compare
+from rigval.validation.metrics.compare import DEFAULT_METRICS, METRICS, score_names
 from rigval.validation.metrics.thresholds import parse_threshold
 from rigval.validation.note import read_note
 
@@ -664,18 +662,9 @@ def _model(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec], reference:
     return ModelSpec(drives, MappingProxyType(drivers))
 
 
-def _score_names(metrics: tuple[str, ...]) -> tuple[str, ...]:
-    """Names of the numeric scores the given metrics report (from a run on a test signal)."""
-    angle = np.arange(32) * (2.0 * math.pi / 32)
-    scores = compare(np.sin(angle), np.sin(angle + 0.1), angle, metrics=metrics,
-                     cycles=np.sin(angle + np.array([[0.0], [0.2]])))
-    return tuple(k for k, v in scores.items() if isinstance(v, int | float)
-                 and not isinstance(v, bool))
-
-
 def _thresholds(table: Mapping[str, Any], metrics: tuple[str, ...], key: str
                 ) -> Mapping[str, str]:
-    known = _score_names(metrics) if table else ()
+    known = score_names(metrics) if table else ()
     for metric, text in table.items():
         tkey = f'{key}."{metric}"'
         if isinstance(text, bool) or not isinstance(text, str):

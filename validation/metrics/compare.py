@@ -23,7 +23,9 @@ thresholds. Definitions, ranges and grades: ``docs/metrics.md``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
+import typing
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -59,6 +61,7 @@ from rigval.validation.metrics.waveform import (
 __all__ = [
     "DEFAULT_METRICS",
     "METRICS",
+    "SCORE_TYPES",
     "BaselineScores",
     "IsoParameters",
     "IsoScores",
@@ -86,6 +89,7 @@ __all__ = [
     "peak_error",
     "pearson_r",
     "russell",
+    "score_names",
     "sprague_geers",
     "vv20",
     "vv20_curve",
@@ -226,6 +230,46 @@ def compare(measured: Any, model: Any, angle: Any = None, *,
                        iso_params=iso_params, cycles=cycles, uncertainty=uncertainty)
 
 
+def _score_key(metric: str, field: str) -> str:
+    """Return a score's name: ``"<metric>.<field>"``, or the metric's name for its own field."""
+    return metric if field == metric else f"{metric}.{field}"
+
+
+@functools.cache
+def _numeric_fields(cls: type[Scores]) -> tuple[str, ...]:
+    """Names of the int and float fields of a score dataclass, nested ones as ``a.b``."""
+    hints = typing.get_type_hints(cls)
+    names: list[str] = []
+    for field in dataclasses.fields(cls):
+        kind = hints[field.name]
+        if isinstance(kind, type) and issubclass(kind, Scores):
+            names += [f"{field.name}.{inner}" for inner in _numeric_fields(kind)]
+        elif kind in (int, float):
+            names.append(field.name)
+    return tuple(names)
+
+
+def score_names(metrics: Sequence[str]) -> tuple[str, ...]:
+    """Return the names of the numeric scores :func:`compare` reports for some metrics.
+
+    Read from the fields of the metrics' score dataclasses (:data:`SCORE_TYPES`), so nothing is
+    computed.
+
+    Parameters
+    ----------
+    metrics : sequence of str
+        Names from :data:`METRICS`.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown metric name.
+    """
+    _check_options(metrics, None)
+    return tuple(_score_key(metric, field) for metric in metrics
+                 for field in _numeric_fields(SCORE_TYPES[metric]))
+
+
 def _check_options(metrics: Sequence[str], uncertainty: Mapping[str, Any] | None) -> None:
     """Raise ConfigError for an unknown metric name or uncertainty option."""
     unknown = [name for name in metrics if name not in METRICS]
@@ -262,7 +306,7 @@ def _score_pair(m: np.ndarray, c: np.ndarray, angle_deg: np.ndarray, *, metrics:
     scores: dict[str, Any] = {}
     for name in metrics:
         for field, value in runners[name]().as_dict().items():
-            scores[name if field == name else f"{name}.{field}"] = value
+            scores[_score_key(name, field)] = value
     return scores
 
 
