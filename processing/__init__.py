@@ -9,6 +9,7 @@ that keep the channel metadata and append a ``history`` line):
 - :mod:`~rigval.processing.transducers`: linear scales, IEPE accelerometers, load cells;
 - :mod:`~rigval.processing.encoder`: counts to angle, quadrature decoding, revolution checks;
 - :mod:`~rigval.processing.convert`: the Dataset-level sensor conversions;
+  :mod:`~rigval.processing.sensors`: a stream's channel map applied with them;
 - :mod:`~rigval.processing.pulses`: reference edges, missing and spurious pulses;
 - :mod:`~rigval.processing.align`: clock models and aligned streams;
 - :mod:`~rigval.processing.stamps`: start stamps to a coarse offset and its window, clock groups;

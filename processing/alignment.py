@@ -275,7 +275,7 @@ def align_streams(settings: AlignmentSettings, converted: Mapping[str, xr.Datase
     settings : AlignmentSettings
         The reference stream, its encoder and pulse, and how each other stream is aligned.
     converted : mapping of str to xarray.Dataset
-        The streams in physical units (:func:`rigval.validation.convert.convert_stream`); every
+        The streams in physical units (:func:`rigval.processing.sensors.convert_stream`); every
         stream named in ``settings`` must be there.
 
     Returns

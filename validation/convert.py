@@ -1,93 +1,22 @@
-"""Scene channel maps applied to streams: raw channels to physical units.
+"""A scene stream's channels to physical units, its problems reported as scene errors.
 
-Each channel's ``sensor`` (``docs/scene.md``) picks a dataset-level conversion of
-:mod:`rigval.processing.convert`: charge amplifier volts to m s-2, bridge ratios to strain or
-stress, rosette ratios to shaft torque. Encoders (counts) and reference pulses stay as read; the
-pipeline turns them into angles and events. A channel whose unit in the file does not fit its
-declared sensor is a :class:`~rigval.validation.errors.SceneError` naming the channel's key.
+The conversion is :func:`rigval.processing.sensors.convert_stream` (one sensor kind per channel,
+docs/scene.md); a channel map problem it finds (a unit that does not fit the sensor, a missing
+excitation) is in the scene's ``[streams]`` part, so it is passed on as a
+:class:`~rigval.validation.errors.SceneError` with the same key path, as :func:`load_scene
+<rigval.validation.scene.load_scene>` does for the channel map's own checks.
 """
 
 from __future__ import annotations
 
-import logging
-
 import xarray as xr
 
-from rigval.acquisition.channel_map import ChannelSpec, StreamSpec
-from rigval.acquisition.errors import ConfigError, UnitError
-from rigval.acquisition.units import same_unit
-from rigval.processing import convert
+from rigval.acquisition.channel_map import StreamSpec
+from rigval.acquisition.errors import ChannelMapError
+from rigval.processing import sensors
 from rigval.validation.errors import SceneError
-from rigval.validation.scene import channel_units
 
-__all__ = ["NULL_WINDOW_S", "convert_stream"]
-
-logger = logging.getLogger(__name__)
-
-#: Window (s from the first sample) averaged for ``null_offset = "first_second"``.
-NULL_WINDOW_S = (0.0, 1.0)
-
-_CONVERTED = "__converted"
-
-
-def _convert_channel(ds: xr.Dataset, channel: ChannelSpec) -> xr.Dataset:
-    """Return ``ds`` with the channel's converted values in the variable ``__converted``."""
-    p = channel.params
-    name = channel.name
-    null = NULL_WINDOW_S if p.get("null_offset") == "first_second" else None
-    if channel.sensor == "charge_accelerometer":
-        return convert.acceleration_channel(
-            ds, name, charge_sensitivity=p["charge_sensitivity"],
-            amplifier_gain=p["amplifier_gain"] * 1e3,  # scene: V/pC; processing: mV/pC
-            highpass_hz=p.get("highpass_hz") if p.get("correct_highpass") else None,
-            name=_CONVERTED)
-    if channel.sensor == "strain_bridge":
-        out = convert.strain_channel(
-            ds, name, bridge_type=p["bridge"].lower(), gauge_factor=p["gauge_factor"],
-            poisson=p["poisson"], gauge_resistance=p["gauge_resistance"],
-            lead_resistance=p["lead_resistance"], excitation_voltage=p.get("excitation"),
-            unstrained=null, name=_CONVERTED)
-        if p.get("youngs_modulus") is None:
-            return out
-        out = convert.axial_stress_channel(out, _CONVERTED, youngs_modulus=p["youngs_modulus"],
-                                           name=f"{_CONVERTED}_stress")
-        return out.drop_vars(_CONVERTED).rename({f"{_CONVERTED}_stress": _CONVERTED})
-    if channel.sensor == "torsion_bridge":
-        return convert.torque_channel(
-            ds, name, rosette=p["bridge"], gauge_factor=p["gauge_factor"],
-            shear_modulus=p["shear_modulus"], outer_diameter=p["outer_diameter"],
-            inner_diameter=p["inner_diameter"], excitation_voltage=p.get("excitation"),
-            unstrained=null, name=_CONVERTED)
-    if channel.sensor == "linear":
-        try:
-            return convert.linear_channel(ds, name, slope=p["slope"], offset=p["offset"],
-                                          units=p["units"], input_units=p["input_units"],
-                                          name=_CONVERTED)
-        except UnitError as error:
-            raise SceneError(f"{channel.key}.input_units: {error.message}",
-                             where={"key": f"{channel.key}.input_units"},
-                             hint=error.hint) from None
-    if channel.sensor == "iepe_accelerometer":
-        return convert.iepe_acceleration_channel(ds, name, sensitivity=p["sensitivity"],
-                                                 name=_CONVERTED)
-    if channel.sensor == "load_cell":
-        try:
-            return convert.load_cell_channel(
-                ds, name, sensitivity=p["sensitivity"], capacity=p["capacity"],
-                excitation_voltage=p.get("excitation"), unstrained=null, name=_CONVERTED)
-        except ConfigError as error:
-            if error.where.get("key") != "excitation_voltage":
-                raise
-            raise SceneError(f"{channel.key}.excitation: {error.message}",
-                             where={"key": f"{channel.key}.excitation"},
-                             hint="give the bridge excitation in V for a channel read in volts"
-                             ) from None
-    units = str(ds[name].attrs.get("units", "1"))
-    if channel.sensor in ("voltage", "physical") and not same_unit(units,
-                                                                  channel_units(channel)):
-        raise UnitError(f"{channel.source!r} is in {units!r} in the file, the scene says "
-                        f"{channel_units(channel)!r}")
-    return ds  # encoders and reference pulses: turned into angles and events where used
+__all__ = ["convert_stream"]
 
 
 def convert_stream(stream: xr.Dataset, spec: StreamSpec) -> xr.Dataset:
@@ -96,38 +25,23 @@ def convert_stream(stream: xr.Dataset, spec: StreamSpec) -> xr.Dataset:
     Parameters
     ----------
     stream : xarray.Dataset
-        The stream as :func:`rigval.acquisition.channel_map.load_stream` returns it (channel
-        variables named as in the scene).
+        The stream as :func:`rigval.acquisition.channel_map.load_stream` returns it.
     spec : StreamSpec
         The scene's stream table.
 
     Returns
     -------
     xarray.Dataset
-        The same samples; converted channels (float64) replace the raw ones under the same
-        names, with ``units``, ``conversion`` and the calibration in their attributes.
+        As :func:`rigval.processing.sensors.convert_stream` returns it.
 
     Raises
     ------
     SceneError
         When a channel's unit in the file does not fit its declared sensor, or a needed
-        calibration value (the excitation of a bridge read in volts) is missing.
+        calibration value is missing (``where["key"]`` is the channel's key path).
     """
-    out = stream
-    for name, channel in spec.channels.items():
-        try:
-            converted = _convert_channel(out, channel)
-        except (UnitError, ConfigError) as error:
-            if isinstance(error, SceneError):
-                raise
-            raise SceneError(f"{channel.key}: {error.message}",
-                             where={"key": f"{channel.key}.sensor", "file": str(spec.file)},
-                             hint=error.hint or "check the channel's sensor kind and its unit "
-                                                "in the file (rigval info FILE)") from None
-        if _CONVERTED in converted:
-            attrs = {**converted[_CONVERTED].attrs,
-                     "long_name": stream[name].attrs.get("long_name", name),
-                     "sensor": channel.sensor, "scene_key": channel.key}
-            out = converted.drop_vars(_CONVERTED).assign(
-                {name: converted[_CONVERTED].assign_attrs(attrs)})
-    return out
+    try:
+        return sensors.convert_stream(stream, spec)
+    except ChannelMapError as error:
+        raise SceneError(error.message, where=error.where, hint=error.hint,
+                         **error.extra) from None

@@ -535,7 +535,7 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
     notes : list of str
         The guesses and estimates, one line each.
     """
-    from rigval.validation.scene import _SENSOR_UNITS
+    from rigval.processing.sensors import SENSOR_UNITS
 
     scene_dir = Path(scene_path).resolve().parent
     mech = _mechanism(mechanism, scene_dir)
@@ -598,10 +598,10 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
     w.key("min_cycles", 3)
     w.line()
     _model(w, reference, mech, notes, main_pulse)
-    units_of = {(s.name, c.name): _SENSOR_UNITS[c.sensor]({
+    units_of = {(s.name, c.name): SENSOR_UNITS[c.sensor]({
         "units": c.output_units if c.sensor == "linear" else c.units, "youngs_modulus": TODO})
                 for s in streams for c in s.channels if c.role == "sensor"
-                and c.sensor in _SENSOR_UNITS}
+                and c.sensor in SENSOR_UNITS}
     _comparisons(w, streams, units_of, mech)
     return "\n".join(w.lines).rstrip() + "\n", notes
 
