@@ -7,7 +7,7 @@ import re
 
 from matplotlib.figure import Figure
 
-from rigval.validation.report.page import Page, figure_data_uri, format_value
+from rigval.validation.report.page import Link, Page, figure_data_uri, format_value
 
 
 def _figure() -> Figure:
@@ -39,6 +39,15 @@ def test_page_escapes_text_and_links_sections() -> None:
     assert ">0.9123<" in text and '"text ok">pass<' in text and '"text bad">fail<' in text
     assert "<svg" in text and "<?xml" not in text
     assert not re.search(r'(src|href)="(https?:|file:|/)', text)  # nothing outside the file
+
+
+def test_table_link_cells_are_escaped_anchors() -> None:
+    page = Page("t")
+    page.table([{"run": Link("a<b", 'r"1/report.html'), "value": 0.5},
+                {"run": "plain", "value": 1}])
+    html = page.render()
+    assert '<td class="text"><a href="r&quot;1/report.html">a&lt;b</a></td>' in html
+    assert '<td class="text">plain</td>' in html and "<td>0.5</td>" in html
 
 
 def test_duplicate_headings_get_unique_ids() -> None:

@@ -16,6 +16,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from rigval.validation.commands.common import add_command, add_out_option
+
 __all__ = ["add_parser", "run"]
 
 
@@ -23,15 +25,16 @@ def add_parser(subparsers: Any) -> None:
     """Register the ``bench`` subcommand."""
     from rigval.validation.bench.core import STAGES
 
-    parser = subparsers.add_parser(
-        "bench", help="measure speed against error of the main choices (tables and plots)",
+    parser = add_command(
+        subparsers, run, "bench",
+        help="measure speed against error of the main choices (tables and plots)",
         description="Sweep each stage's main choices (model tolerance and evaluation points, "
                     "alignment events and pulse quality, angle resampling, drive-angle "
                     "derivatives, readers) on synthetic cases with known truth; write a CSV and "
                     "Markdown table and plots of time against error.",
-        epilog="Exit codes: 0 every error within its stated bound, 1 a bound exceeded, "
-               "2 usage error.")
-    parser.add_argument("--out", type=Path, required=True, help="output folder (created)")
+        exit_codes="0 every error within its stated bound, 1 a bound exceeded, "
+                   "2 usage error.")
+    add_out_option(parser)
     parser.add_argument("--quick", action="store_true",
                         help="small cases and fewer choices (well under a minute)")
     parser.add_argument("--stage", dest="stages", action="append", choices=STAGES,
@@ -39,7 +42,6 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--compare", type=Path, metavar="CSV",
                         help="an earlier bench.csv: print this run's errors and CPU times "
                              "against it")
-    parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

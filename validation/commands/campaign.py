@@ -16,6 +16,8 @@ import time
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any, TextIO
 
+from rigval.validation.commands.common import add_command, add_out_option
+
 if TYPE_CHECKING:
     from rigval.validation.campaign.engine import RunOutcome
 
@@ -24,17 +26,17 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``campaign`` subcommand."""
-    parser = subparsers.add_parser(
-        "campaign",
+    parser = add_command(
+        subparsers, run, "campaign",
         help="validate many runs (scenes) at once, on Dask if installed",
         description="Validate every scene into OUT/<run>/ and write a campaign summary "
                     "(campaign.html, campaign_metrics.csv, campaign.json) beside them. Runs "
                     "whose inputs and outputs are unchanged since the last campaign are reused.",
-        epilog="Exit codes: 0 all passed, 1 some run failed its thresholds, 2 usage error, "
-               "3 some run could not be validated (the others still complete).",
+        exit_codes="0 all passed, 1 some run failed its thresholds, 2 usage error, "
+                   "3 some run could not be validated (the others still complete).",
     )
     parser.add_argument("scenes", nargs="+", metavar="SCENE", help="scene files, one per run")
-    parser.add_argument("--out", required=True, metavar="DIR", help="campaign folder")
+    add_out_option(parser, "campaign folder")
     parser.add_argument("--workers", type=_positive_int, metavar="N",
                         help="worker processes of the embedded Dask cluster (default: CPUs)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
@@ -44,7 +46,6 @@ def add_parser(subparsers: Any) -> None:
                         help="recompute every run, even those that are up to date")
     parser.add_argument("--title", default="rigval campaign", help="title of the summary page")
     parser.add_argument("--no-progress", action="store_true", help="no progress line")
-    parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

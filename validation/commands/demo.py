@@ -1,40 +1,62 @@
 """``rigval demo --out DIR``: validate the sample runs shipped with rigval.
 
-Each shipped run (:func:`rigval.sample_data.shipped_runs`, virtual-rig data at several speeds) is
-validated into ``DIR/<run>/`` like ``rigval validate`` does, runs in parallel on the available
-cores; ``DIR/index.html`` links the reports. Exit code 0 when every run meets its thresholds,
-else 1.
+The shipped runs (:func:`rigval.sample_data.shipped_runs`, virtual-rig data at several speeds)
+form a campaign (:func:`rigval.validation.campaign.engine.run_campaign`): each run is validated
+into ``DIR/<run>/`` like ``rigval validate`` does, in parallel on the embedded Dask cluster when
+the ``parallel`` extra is installed (else one after the other), and a run whose inputs and
+outputs are unchanged since an earlier demo is reused. ``DIR/index.html`` (a
+:class:`~rigval.validation.report.page.Page`) links the reports. Exit code 0 when every run
+meets its thresholds, 1 when one misses a threshold, 3 when one cannot be validated.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
-import os
+import io
+import json
+import logging
+import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+import tomllib
+from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["add_parser", "run", "validate_one"]
+from rigval.validation.commands.common import add_command
+
+if TYPE_CHECKING:
+    from rigval.validation.campaign.engine import RunOutcome, RunReport
+
+__all__ = ["SUMMARY_NAME", "add_parser", "run", "validate_one"]
+
+#: The printed summary of a run (``rigval validate``'s console output), kept in its folder.
+SUMMARY_NAME = "summary.txt"
+#: The score shown per comparison in the index page.
+_RATING = "iso18571_periodic.rating"
 
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``demo`` subcommand."""
-    parser = subparsers.add_parser(
-        "demo", help="validate the shipped sample runs and write their reports",
+    parser = add_command(
+        subparsers, run, "demo", help="validate the shipped sample runs and write their reports",
         description="Validate the sample runs shipped with rigval (virtual-rig data at several "
                     "speeds) and write one report folder per run plus an index page.",
-        epilog="Exit codes: 0 all runs met their thresholds, 1 a threshold failed, 3 data "
-               "error.")
+        exit_codes="0 all runs met their thresholds, 1 a threshold failed, 3 data error.")
     parser.add_argument("--out", type=Path, required=True, help="output folder (created)")
     parser.add_argument("--workers", type=int, default=None,
-                        help="parallel runs (default: one per core, at most one per run)")
-    parser.set_defaults(func=run)
+                        help="parallel runs (default: one per core, at most one per run; 1: "
+                             "one after the other in this process)")
+    parser.add_argument("--force", action="store_true",
+                        help="recompute runs whose earlier outputs in --out are up to date")
 
 
-def validate_one(scene: Path, out_dir: Path) -> dict[str, Any]:
-    """Validate one scene into ``out_dir``; return a small picklable summary with its printout.
+def validate_one(scene: Path, out_dir: Path) -> RunReport:
+    """Validate one scene into ``out_dir`` and keep its printed summary there.
+
+    The campaign's validate function (module level, so that a worker process can call it):
+    the pipeline's validation plus :data:`SUMMARY_NAME`, the lines ``rigval validate`` prints.
 
     Parameters
     ----------
@@ -42,76 +64,117 @@ def validate_one(scene: Path, out_dir: Path) -> dict[str, Any]:
         The scene file.
     out_dir : pathlib.Path
         Its report folder.
-    """
-    import io
 
+    Returns
+    -------
+    RunReport
+        What the campaign records of the run (the summary file among its outputs).
+    """
+    from rigval.validation.campaign.engine import RunReport
     from rigval.validation.commands.validate import print_summary
-    from rigval.validation.console import run_context
+    from rigval.validation.outputs import write_text_atomic
     from rigval.validation.pipeline import validate_scene
 
-    start = time.perf_counter()
-    with run_context(out_dir.name):
-        result = validate_scene(scene, out_dir)
+    result = validate_scene(scene, out_dir)
     text = io.StringIO()
     print_summary(result, out_dir, text)
-    ratings = {c.name: c.scores.get("iso18571_periodic.rating") for c in result.comparisons}
-    return {"run": out_dir.name, "title": result.scene.title, "passed": result.passed,
-            "speed_rev_s": result.speed_rev_s, "cycles": result.n_cycles, "ratings": ratings,
-            "seconds": time.perf_counter() - start, "summary": text.getvalue()}
+    summary = write_text_atomic(out_dir / SUMMARY_NAME, text.getvalue())
+    return RunReport(passed=result.passed, metrics=tuple(result.metric_rows()),
+                     outputs=(*result.outputs, summary), inputs=tuple(result.inputs),
+                     speed_rev_s=result.speed_rev_s)
 
 
-def _index(out_dir: Path, rows: list[dict[str, Any]]) -> Path:
-    """Write ``index.html`` linking every run's report."""
-    from rigval.validation.report.page import Page, escape, format_value
+def _title(outcome: RunOutcome) -> str:
+    """Return the scene's title (its ``title`` key), or the run name without one."""
+    try:
+        title = tomllib.loads(outcome.scene.read_text(encoding="utf-8")).get("title")
+    except (OSError, ValueError):  # it was validated: only a file changed since could fail
+        title = None
+    return title if isinstance(title, str) and title else outcome.name
 
+
+def _cycles(outcome: RunOutcome) -> int | None:
+    """Return the run's number of revolutions from its ``metrics.json`` (None without one)."""
+    path = outcome.output("metrics.json")
+    try:
+        return int(json.loads(path.read_text(encoding="utf-8"))["cycles"]) if path else None
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _index(out_dir: Path, outcomes: Sequence[RunOutcome]) -> Path:
+    """Write ``index.html``: one row per run, linking its report."""
+    from rigval.validation.report.page import Link, Page
+
+    passed = all(o.status == "passed" for o in outcomes)
     page = Page("rigval demo: the shipped sample runs",
-                subtitle="PASSED" if all(r["passed"] for r in rows) else "FAILED",
-                contents=False)
+                subtitle="PASSED" if passed else "FAILED", contents=False)
     page.section("Runs")
     page.paragraph("Virtual-rig runs with known truth, validated against the pendulum model. "
                    "Each row links the run's report; ratings are ISO/TS 18571 (periodic) of the "
                    "model against the measured mean.")
-    names = list(dict.fromkeys(name for r in rows for name in r["ratings"]))
-    head = '<th class="text">run</th>' + "".join(
-        f"<th>{escape(h)}</th>" for h in ["speed [rev/s]", "revolutions", *names, "status"])
-    body = []
-    for r in rows:
-        link = f'<a href="{escape(r["run"])}/report.html">{escape(r["title"])}</a>'
-        cells = [f'<td class="text">{link}</td>', f"<td>{format_value(r['speed_rev_s'])}</td>",
-                 f"<td>{r['cycles']}</td>"]
-        cells += [f"<td>{format_value(r['ratings'].get(n))}</td>" for n in names]
-        status = "pass" if r["passed"] else "fail"
-        cells.append(f'<td class="text {"ok" if r["passed"] else "bad"}">{status}</td>')
-        body.append("<tr>" + "".join(cells) + "</tr>")
-    page.raw(f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>")
+    rows = []
+    for outcome in outcomes:
+        ratings = {m["comparison"]: m["value"] for m in outcome.metrics
+                   if m.get("row") == "model" and m.get("metric") == _RATING}
+        report = outcome.output("report.html")
+        title = _title(outcome)
+        rows.append({"run": Link(title, f"{outcome.name}/report.html") if report else title,
+                     "speed [rev/s]": outcome.speed_rev_s, "revolutions": _cycles(outcome),
+                     **ratings,
+                     "status": {"passed": "pass", "failed": "fail"}.get(outcome.status,
+                                                                        "error")})
+    page.table(rows)
     return page.write(out_dir / "index.html")
 
 
+@contextlib.contextmanager
+def _forked_workers() -> Iterator[None]:
+    """Start the embedded cluster's workers by forking this process, modules already imported.
+
+    A spawned worker imports numpy, scipy, xarray, matplotlib and rigval again: measured about
+    4 s of CPU per worker, half the time the demo is allowed. Forked, it starts in well under a
+    second. Without Dask (runs in this process) this does nothing.
+    """
+    try:
+        import dask
+    except ImportError:
+        yield
+        return
+    for name in ("rigval.validation.pipeline", "rigval.validation.report.run_report"):
+        importlib.import_module(name)
+    with dask.config.set({"distributed.worker.multiprocessing-method": "fork"}):
+        yield
+
+
 def run(args: argparse.Namespace) -> int:
-    """Validate every shipped run; return 0 when all pass, else 1."""
+    """Validate every shipped run; return 0 when all pass, 1 when one fails, 3 on an error."""
     from rigval.acquisition.errors import DataError
     from rigval.sample_data import shipped_runs
+    from rigval.validation.campaign.engine import dask_available, run_campaign
+    from rigval.validation.campaign.report import run_reason
 
     scenes = shipped_runs()
     if not scenes:
         raise DataError("no sample runs are shipped with this installation",
                         hint="reinstall rigval; the wheel carries sample_data/runs")
-    out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
-    targets = [out / scene.name.removesuffix("_scene.toml") for scene in scenes]
-    workers = args.workers or min(len(scenes), os.cpu_count() or 1)
     start = time.perf_counter()
-    # imported once here: forked workers inherit the modules instead of importing them again
-    importlib.import_module("rigval.validation.pipeline")
-    importlib.import_module("rigval.validation.report.run_report")
-    if workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            rows = list(pool.map(validate_one, scenes, targets))
-    else:
-        rows = [validate_one(scene, target) for scene, target in zip(scenes, targets,
-                                                                      strict=True)]
-    for row in rows:
-        print(row["summary"], end="")
-    index = _index(out, rows)
-    print(f"demo: {len(rows)} runs in {time.perf_counter() - start:.1f} s; open {index}")
-    return 0 if all(r["passed"] for r in rows) else 1
+    in_process = args.workers == 1 or len(scenes) == 1 or not dask_available()
+    # Dask logs its cluster's start and stop at INFO; show that only with -vv
+    verbose = logging.getLogger().getEffectiveLevel() <= logging.DEBUG
+    logging.getLogger("distributed").setLevel(logging.INFO if verbose else logging.WARNING)
+    with _forked_workers():
+        outcomes = run_campaign(scenes, args.out, scheduler="none" if in_process else "local",
+                                workers=args.workers, validate=validate_one, force=args.force)
+    for outcome in outcomes:
+        summary = outcome.output(SUMMARY_NAME)
+        if summary is not None:
+            print(summary.read_text(encoding="utf-8"), end="")
+        reason = run_reason(outcome)
+        if outcome.status == "error":
+            print(f"rigval: run {outcome.name} error: {reason}", file=sys.stderr)
+    index = _index(Path(args.out), outcomes)
+    print(f"demo: {len(outcomes)} runs in {time.perf_counter() - start:.1f} s; open {index}")
+    if any(o.status == "error" for o in outcomes):
+        return 3
+    return 0 if all(o.status == "passed" for o in outcomes) else 1

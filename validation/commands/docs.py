@@ -14,21 +14,23 @@ from importlib.resources.abc import Traversable
 from pathlib import Path
 from typing import Any
 
+from rigval.validation.commands.common import add_command
+
 __all__ = ["add_parser", "pages", "run"]
 
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``docs`` subcommand."""
-    parser = subparsers.add_parser(
-        "docs", help="print a documentation page (scene, mechanism, formats, ...)",
+    parser = add_command(
+        subparsers, run, "docs",
+        help="print a documentation page (scene, mechanism, formats, ...)",
         description="Print one of rigval's documentation pages (Markdown), e.g. 'rigval docs "
                     "scene' for every key of a scene file. Without TOPIC: list the pages.",
-        epilog="Exit codes: 0 ok, 2 unknown topic.")
+        exit_codes="0 ok, 2 unknown topic.")
     parser.add_argument("topic", nargs="?", metavar="TOPIC",
                         help="page name, e.g. scene, mechanism, formats (with or without .md)")
     parser.add_argument("--path", action="store_true",
                         help="print where the page is installed instead of its text")
-    parser.set_defaults(func=run)
 
 
 def _folder() -> Traversable:

@@ -18,19 +18,22 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from rigval.validation.commands.common import add_command, add_out_option, add_scene_argument
+
 __all__ = ["add_parser", "run", "write_identification"]
 
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``identify`` subcommand."""
-    parser = subparsers.add_parser(
-        "identify", help="identify masses, inertias (and drive friction) from a run",
+    parser = add_command(
+        subparsers, run, "identify",
+        help="identify masses, inertias (and drive friction) from a run",
         description="Fit the inertial parameters of the scene's mechanism to the measured drive "
                     "torques (linear least squares on the revolution-averaged curves), write "
                     "identified.json, mechanism.toml and a report that re-validates the run with "
                     "the identified values beside the nominal ones.",
-        epilog="Exit codes: 0 done, 2 bad scene or parameter, 3 data error.")
-    parser.add_argument("scene", type=Path, help="scene file (TOML, docs/scene.md)")
+        exit_codes="0 done, 2 bad scene or parameter, 3 data error.")
+    add_scene_argument(parser)
     parser.add_argument("--parameters", default="auto",
                         help='"auto" (identifiable base parameters) or a comma list such as '
                              "A.mass,A.inertia,E.mass (kinds: mass, mx, my, inertia; friction: "
@@ -40,8 +43,7 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--comparisons", default=None,
                         help="comma list of the scene's torque/force comparisons to use "
                              "(default: the drive torques)")
-    parser.add_argument("--out", type=Path, required=True, help="output folder (created)")
-    parser.set_defaults(func=run)
+    add_out_option(parser)
 
 
 def write_identification(identification: Any, out_dir: Path) -> list[Path]:

@@ -12,13 +12,16 @@ import json
 import sys
 from typing import Any
 
+from rigval.validation.commands.common import add_command
+
 __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``info`` subcommand."""
-    parser = subparsers.add_parser(
-        "info", help="describe TDMS, LVM and CSV files (streams, channels, rates, gaps)",
+    parser = add_command(
+        subparsers, run, "info",
+        help="describe TDMS, LVM and CSV files (streams, channels, rates, gaps)",
         description="Describe data files: groups, channels, rates, lengths, units, start times "
                     "and gaps. TDMS files are described from their metadata only.")
     parser.add_argument("files", nargs="+", metavar="FILE", help="data files")
@@ -28,7 +31,6 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--timezone", metavar="ZONE",
                         help="time zone of local date-times in LVM and CSV files (IANA name, "
                              "e.g. Europe/Berlin); default: taken as UTC, with a note")
-    parser.set_defaults(func=run)
 
 
 def _print_text(info: dict[str, Any]) -> None:

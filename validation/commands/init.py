@@ -13,25 +13,27 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from rigval.validation.commands.common import add_command
+
 __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``init`` subcommand."""
-    parser = subparsers.add_parser(
-        "init", help="write a commented scene skeleton from data files (unknowns as TODO)",
+    parser = add_command(
+        subparsers, run, "init",
+        help="write a commented scene skeleton from data files (unknowns as TODO)",
         description="Read TDMS, CSV or LVM files and write a scene skeleton: streams, channels "
                     "with units and rates, guessed device profiles and sensor kinds, the "
                     "alignment and comparison blocks. What the files cannot tell is marked "
                     "TODO; rigval validate refuses the scene until each TODO is filled.",
-        epilog="Exit codes: 0 written, 2 bad option or existing --out (use --force), 3 a file "
-               "cannot be read.")
+        exit_codes="0 written, 2 bad option or existing --out (use --force), 3 a file "
+                   "cannot be read.")
     parser.add_argument("files", nargs="+", type=Path, metavar="FILE", help="data files")
     parser.add_argument("--out", type=Path, required=True, help="scene file to write (TOML)")
     parser.add_argument("--mechanism", metavar="M", default=None,
                         help="builtin:NAME or a mechanism file (default: TODO in the scene)")
     parser.add_argument("--force", action="store_true", help="overwrite --out")
-    parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

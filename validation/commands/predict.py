@@ -12,13 +12,15 @@ import shlex
 from pathlib import Path
 from typing import Any
 
+from rigval.validation.commands.common import add_command
+
 __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``predict`` subcommand."""
-    parser = subparsers.add_parser(
-        "predict",
+    parser = add_command(
+        subparsers, run, "predict",
         help="predict tip path, torques and support forces for given drive laws (no measurement)",
         description="Run the model over one cycle for an excitation and write a report folder "
                     "(report.html, cycle.csv, peaks.csv, prediction.nc; sweep.csv with --sweep).",
@@ -67,7 +69,6 @@ def add_parser(subparsers: Any) -> None:
                         help="also report the force of this joint (repeatable)")
     parser.add_argument("--main", metavar="DRIVER",
                         help="main drive, the cycle's reference (default: the first driver)")
-    parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -8,17 +8,20 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from rigval.validation.commands.common import add_command, add_out_option
+
 __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``simulate-rig`` subcommand."""
-    parser = subparsers.add_parser(
-        "simulate-rig", help="write a virtual rig run with known truth",
+    parser = add_command(
+        subparsers, run, "simulate-rig",
+        help="write a virtual rig run with known truth",
         description="Run the virtual test rig (a mechanism file, the rig's sensors and DAQ) and "
                     "write the cDAQ and WLS #1 TDMS files, the WLS #2 CSV, the truth, a scene "
                     "that validates the run and the operator's note into a folder.")
-    parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    add_out_option(parser)
     parser.add_argument("--speed", type=float, default=1.0, help="main-shaft speed, rev/s")
     parser.add_argument("--duration", type=float, default=20.0, help="record length, s")
     parser.add_argument("--seed", type=int, default=1, help="random seed")
@@ -56,7 +59,6 @@ def add_parser(subparsers: Any) -> None:
                        help="the wireless clocks run on through each dropout (no restart)")
     group.add_argument("--fast-pulses", action="store_const", const=True,
                        help="1 us optical edges (opt1 on the NI 9215 sample-switched)")
-    parser.set_defaults(func=run)
 
 
 #: Command-line option -> Imperfections field.

@@ -11,21 +11,23 @@ import sys
 from pathlib import Path
 from typing import Any, TextIO
 
+from rigval.validation.commands.common import add_command, add_out_option, add_scene_argument
+
 __all__ = ["add_parser", "print_summary", "run"]
 
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``validate`` subcommand."""
-    parser = subparsers.add_parser(
-        "validate", help="validate one run (a scene file) and write its report folder",
+    parser = add_command(
+        subparsers, run, "validate",
+        help="validate one run (a scene file) and write its report folder",
         description="Read the scene's data files, align them, solve the model for the compared "
                     "quantities, compute the metrics and write report.html, metrics.csv, "
                     "metrics.json, alignment.json and the run's netCDF file into --out.",
-        epilog="Exit codes: 0 all thresholds met, 1 a threshold failed, 2 bad scene, 3 data "
-               "error.")
-    parser.add_argument("scene", type=Path, help="scene file (TOML, docs/scene.md)")
-    parser.add_argument("--out", type=Path, required=True, help="report folder (created)")
-    parser.set_defaults(func=run)
+        exit_codes="0 all thresholds met, 1 a threshold failed, 2 bad scene, 3 data "
+                   "error.")
+    add_scene_argument(parser)
+    add_out_option(parser, "report folder (created)")
 
 
 def print_summary(result: Any, out_dir: Path, stream: TextIO | None = None) -> None:

@@ -26,6 +26,7 @@ import math
 import numbers
 import re
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
@@ -33,7 +34,8 @@ from matplotlib.figure import Figure
 
 from rigval.validation.outputs import write_text_atomic
 
-__all__ = ["STATUS_CLASSES", "Page", "escape", "figure_data_uri", "figure_svg", "format_value"]
+__all__ = ["STATUS_CLASSES", "Link", "Page", "escape", "figure_data_uri", "figure_svg",
+           "format_value"]
 
 #: CSS class per status word; :meth:`Page.table` colours cells whose text is one of these.
 STATUS_CLASSES = {"pass": "ok", "passed": "ok", "ok": "ok", "fail": "bad", "failed": "bad",
@@ -69,6 +71,22 @@ summary{cursor:pointer;color:#1f5fa8;font-size:.9rem}
 pre{background:#f6f8fa;padding:.6rem;overflow-x:auto;font-size:.8rem}
 footer{margin-top:3rem;color:#57606a;font-size:.8rem}
 """
+
+
+@dataclass(frozen=True)
+class Link:
+    """A table cell that links to another page (:meth:`Page.table` renders it as ``<a>``).
+
+    Parameters
+    ----------
+    text : str
+        What the cell shows (escaped).
+    href : str
+        The target, usually relative to the page (``"run_0p8/report.html"``; escaped).
+    """
+
+    text: str
+    href: str
 
 
 def escape(text: Any) -> str:
@@ -184,7 +202,8 @@ class Page:
         Parameters
         ----------
         rows : iterable of mapping
-            Row values by column name; missing entries print as a dash.
+            Row values by column name; missing entries print as a dash, a :class:`Link`
+            as a link.
         columns : sequence of str, optional
             Column order; default the keys of the first row, then any new keys in order.
         caption : str, optional
@@ -203,6 +222,10 @@ class Page:
             cells = []
             for column in columns:
                 value = row.get(column)
+                if isinstance(value, Link):
+                    cells.append(f'<td class="text"><a href="{escape(value.href)}">'
+                                 f"{escape(value.text)}</a></td>")
+                    continue
                 text = format_value(value, digits)
                 classes = []
                 if not isinstance(value, numbers.Real) or isinstance(value, bool):
