@@ -74,7 +74,7 @@ from rigval.validation.results import (
 )
 from rigval.validation.scene import ComparisonSpec, Scene, load_scene
 from rigval.validation.scene_rates import check_sample_rates, encoder_scale_errors
-from rigval.validation.verdict import carried_uncertainty
+from rigval.validation.verdict import carried_uncertainty, with_common_gain
 
 __all__ = ["read_streams", "run_scene", "validate_scene"]
 
@@ -319,7 +319,7 @@ def _compare_all(scene: Scene, aligned: Mapping[str, xr.Dataset], model: xr.Data
                                       grid.speed_rev_s)
         results.append(_compare(comparison, scene.units(comparison.measured), long_name,
                                 grid.angle, measured[comparison.name], values, u_num, carried))
-    return tuple(results)
+    return with_common_gain(scene, results)
 
 
 def _history(scene: Scene, grid: _Grid, corners: Mapping[str, float | None],

@@ -680,7 +680,8 @@ def _thresholds(table: Mapping[str, Any], metrics: tuple[str, ...], key: str
 
 
 def _uncertainty(table: Mapping[str, Any], key: str) -> Mapping[str, float]:
-    _check_keys(table, key, {"u_input", "u_measurement", "u_measurement_rel", "k"})
+    _check_keys(table, key, {"u_input", "u_measurement", "u_measurement_rel",
+                             "u_measurement_rel_common", "k"})
     values = {}
     for name in table:
         value = _get(table, name, key, float)

@@ -3,23 +3,31 @@
 Every comparison carries :class:`~rigval.validation.metrics.vv20.VV20Curve` scores (``vv20.curve``):
 the model error ``E`` of the whole curve over phi_F against its validation uncertainty ``u_val``.
 This module supplies the parts of ``u_val`` that the pipeline carries from earlier stages
-(:func:`carried_uncertainty`) and turns the scores into the headline every report, console
-summary, ``metrics.json`` and campaign summary starts with (:func:`run_verdict`). How ``u_val`` is
-built and what it can detect: ``docs/metrics.md``.
+(:func:`carried_uncertainty`), adds the statement on the gains of comparisons whose sensors share
+a calibration error (:func:`with_common_gain`) and turns the scores into the headline every
+report, console summary, ``metrics.json`` and campaign summary starts with (:func:`run_verdict`).
+How ``u_val`` is built and what it can detect: ``docs/metrics.md``.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
-from rigval.validation.metrics.vv20 import CURVE_PARTS, error_ratio
+from rigval.acquisition.errors import ConfigError
+from rigval.validation.metrics.thresholds import ThresholdCheck
+from rigval.validation.metrics.vv20 import CURVE_PARTS, common_gain, error_ratio
 from rigval.validation.results import ComparisonResult, StreamAlignment, ValidationResult
 from rigval.validation.scene import Scene
 
-__all__ = ["carried_uncertainty", "comparison_verdict", "run_verdict"]
+__all__ = ["COMMON_GAIN_SCORE", "carried_uncertainty", "comparison_verdict", "run_verdict",
+           "with_common_gain"]
+
+#: The score of the common-gain statement that gets a threshold check, ``|E| / u_val <= k``.
+COMMON_GAIN_SCORE = "vv20.common_gain.normalised_error"
 
 logger = logging.getLogger(__name__)
 
@@ -68,6 +76,89 @@ def carried_uncertainty(scene: Scene, alignment: StreamAlignment, speed_rev_s: f
             "u_drive_angle": math.sqrt(u_drive)}
 
 
+def with_common_gain(scene: Scene, comparisons: Sequence[ComparisonResult]
+                     ) -> tuple[ComparisonResult, ...]:
+    """Add the common-gain statement to comparisons whose sensors share a calibration error.
+
+    Comparisons stating ``uncertainty.u_measurement_rel_common`` are grouped by the sensor kind
+    of their measured channels (all channels of a summed comparison must be of one kind); in a
+    group of two or more, each comparison's fitted gain (``vv20.curve.gain``) is compared with
+    the group's common gain (:func:`rigval.validation.metrics.vv20.common_gain`). Each gets the
+    scores ``vv20.common_gain.*`` and a threshold check ``vv20.common_gain.normalised_error``
+    ``abs <= k`` (the statement at its coverage factor).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (channels' sensor kinds).
+    comparisons : sequence of ComparisonResult
+        The run's comparisons with their ``vv20.curve`` scores.
+
+    Returns
+    -------
+    tuple of ComparisonResult
+        The comparisons, those of a group with the added scores and check.
+
+    Raises
+    ------
+    ConfigError
+        When two comparisons of a group share a channel (their gains are not independent), a
+        summed comparison mixes sensor kinds, or a group has a single comparison.
+    """
+    groups: dict[str, list[ComparisonResult]] = {}
+    for comparison in comparisons:
+        spec = comparison.spec
+        if not spec.uncertainty.get("u_measurement_rel_common"):
+            continue
+        kinds = {scene.channel(ref).sensor for _, ref in spec.terms}
+        if len(kinds) != 1:
+            raise ConfigError(f"{spec.name}: a common calibration gain needs one sensor kind, "
+                              f"got {', '.join(sorted(kinds))}",
+                              where={"key": f"{spec.key}.uncertainty.u_measurement_rel_common"},
+                              hint="remove u_measurement_rel_common from this comparison")
+        groups.setdefault(kinds.pop(), []).append(comparison)
+    added: dict[str, ComparisonResult] = {}
+    for kind, members in groups.items():
+        _check_group(kind, members)
+        statements = common_gain({c.name: (float(c.scores["vv20.curve.gain"]),
+                                           float(c.scores["vv20.curve.u_gain_own"]))
+                                  for c in members},
+                                 k=float(members[0].scores["vv20.curve.k"]))
+        for comparison in members:
+            statement = statements[comparison.name]
+            scores = dict(comparison.scores) | {f"vv20.common_gain.{name}": value for name, value
+                                                in statement.as_dict().items()}
+            check = ThresholdCheck(COMMON_GAIN_SCORE, statement.normalised_error,
+                                   f"abs <= {statement.k:g}", not statement.detected)
+            added[comparison.name] = dataclasses.replace(
+                comparison, scores=scores, checks=(*comparison.checks, check))
+            logger.info("%s: gain %+.3g %% against the common %+.3g %% of %s (u %.3g %%)",
+                        comparison.name, 100 * statement.gain, 100 * statement.group_gain, kind,
+                        100 * statement.u_val)
+    return tuple(added.get(c.name, c) for c in comparisons)
+
+
+def _check_group(kind: str, members: Sequence[ComparisonResult]) -> None:
+    """Refuse a group of one and groups whose comparisons share a channel."""
+    first = members[0].spec
+    key = f"{first.key}.uncertainty.u_measurement_rel_common"
+    if len(members) < 2:
+        raise ConfigError(f"{first.name} is the only {kind} comparison stating "
+                          "u_measurement_rel_common: a common gain needs two or more",
+                          where={"key": key},
+                          hint="state it on the other comparisons of that sensor kind, or "
+                               "remove it")
+    seen: dict[str, str] = {}
+    for comparison in members:
+        for _, ref in comparison.spec.terms:
+            other = seen.setdefault(str(ref), comparison.name)
+            if other != comparison.name:
+                raise ConfigError(f"{other} and {comparison.name} both measure {ref}: their gains "
+                                  "are not independent", where={"key": key},
+                                  hint="state u_measurement_rel_common on comparisons with "
+                                       "disjoint channels (e.g. the summed drive torques only)")
+
+
 def comparison_verdict(comparison: ComparisonResult) -> dict[str, Any]:
     """Return the V&V 20 curve verdict of one comparison as plain values.
 
@@ -79,18 +170,31 @@ def comparison_verdict(comparison: ComparisonResult) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``comparison``, ``detected`` (bool), ``E``, ``u_val``, ``k``, ``ratio`` (``E / (k
-        u_val)``), ``units``, ``dominant`` (largest part) and ``parts`` (name -> value, signal
-        units).
+        ``comparison``, ``detected`` (bool: by the curve or the common-gain statement), ``E``,
+        ``u_val``, ``k``, ``ratio`` (the larger of the curve's ``E / (k u_val)`` and the
+        common gain's ``|E| / (k u_val)``), ``units``, ``dominant`` (largest part of the curve's
+        ``u_val``), ``parts`` (name -> value, signal units) and ``common_gain`` (None, or the
+        comparison's ``gain``, the group's ``group_gain``, ``u_val``, ``ratio``, ``detected``
+        and ``group``).
     """
     scores = comparison.scores
     error, u_val, k = (float(scores["vv20.curve.error"]), float(scores["vv20.curve.u_val"]),
                        float(scores["vv20.curve.k"]))
     ratio = error_ratio(error, k * u_val)
-    return {"comparison": comparison.name, "detected": bool(scores["vv20.curve.detected"]),
+    detected = bool(scores["vv20.curve.detected"])
+    gain = None
+    if "vv20.common_gain.error" in scores:
+        gain = {name: scores[f"vv20.common_gain.{name}"]
+                for name in ("gain", "group_gain", "u_val", "detected", "group")}
+        gain["ratio"] = error_ratio(abs(float(scores["vv20.common_gain.error"])),
+                                    float(scores["vv20.common_gain.k"]) * float(gain["u_val"]))
+        detected = detected or bool(gain["detected"])
+        ratio = max(ratio, gain["ratio"])
+    return {"comparison": comparison.name, "detected": detected,
             "E": error, "u_val": u_val, "k": k, "ratio": ratio, "units": comparison.units,
             "dominant": str(scores["vv20.curve.dominant"]),
-            "parts": {part: float(scores[f"vv20.curve.{part}"]) for part in CURVE_PARTS}}
+            "parts": {part: float(scores[f"vv20.curve.{part}"]) for part in CURVE_PARTS},
+            "common_gain": gain}
 
 
 def run_verdict(result: ValidationResult) -> dict[str, Any]:
@@ -125,9 +229,17 @@ def run_verdict(result: ValidationResult) -> dict[str, Any]:
 def _statement(rows: list[Mapping[str, Any]], detected: list[Mapping[str, Any]],
                worst: Mapping[str, Any]) -> str:
     """One line: the verdict, where, and the numbers of the decisive comparison."""
-    numbers = (f"{worst['comparison']}: E = {worst['E']:.4g} {worst['units']}, u_val = "
-               f"{worst['u_val']:.4g} {worst['units']}, k = {worst['k']:g}, |E|/(k u_val) = "
-               f"{worst['ratio']:.2f}; largest part of u_val: {worst['dominant']}")
+    gain = worst["common_gain"]
+    if gain is not None and gain["ratio"] >= error_ratio(worst["E"], worst["k"] * worst["u_val"]):
+        numbers = (f"{worst['comparison']}: gain {100 * gain['gain']:+.3g} % against the common "
+                   f"{100 * gain['group_gain']:+.3g} % of {gain['group']}, u_val = "
+                   f"{100 * gain['u_val']:.3g} %, k = {worst['k']:g}, |E|/(k u_val) = "
+                   f"{gain['ratio']:.2f}")
+    else:
+        numbers = (f"{worst['comparison']}: E = {worst['E']:.4g} {worst['units']}, u_val = "
+                   f"{worst['u_val']:.4g} {worst['units']}, k = {worst['k']:g}, |E|/(k u_val) = "
+                   f"{error_ratio(worst['E'], worst['k'] * worst['u_val']):.2f}; largest part "
+                   f"of u_val: {worst['dominant']}")
     if detected:
         names = ", ".join(row["comparison"] for row in detected)
         return f"Model error detected (|E| > k u_val) on {names}; worst {numbers}"

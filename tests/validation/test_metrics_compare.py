@@ -128,7 +128,8 @@ def test_every_numeric_score_has_an_orientation_or_describes():
     scores = compare(wave(), 1.1 * wave(3.0), metrics=METRICS)
     descriptive = ("n_samples", "_peak", "_at", "normaliser_value", ".simulation", ".data",
                    ".u_num", ".u_input", ".u_data", ".u_val", ".k", ".lower", ".upper",
-                   ".u_calibration", ".u_alignment", ".u_scatter", ".u_grid", ".u_drive")
+                   ".u_calibration", ".u_alignment", ".u_scatter", ".u_grid", ".u_drive",
+                   ".u_gain_own")
     for key, value in scores.items():
         if isinstance(value, float | int) and not isinstance(value, bool):
             assert orientation(key) is not None or key.endswith(descriptive), key

@@ -4,7 +4,10 @@ The virtual rig runs a mechanism file; its scene is validated against the nomina
 pendulum. The right mechanism must pass (every threshold, "model error not detected") at each
 shipped speed and seed; an arm 5 % heavier must be detected on the whole drive torques that see
 it (torque_F, torque_H, each more than 3 % of its RMS, docs/metrics.md) and not on the
-accelerations, which do not depend on masses.
+accelerations, which do not depend on masses. An arm inertia 5 % larger changes torque_F by about
+1.4 % in the shape of torque_F itself, like a calibration gain: the whole-curve statement cannot
+see it at a 1 % torque calibration, but the common-gain statement does (the four shafts share
+most of their calibration, so torque_F's gain disagreeing with torque_H's is a model error).
 """
 
 import re
@@ -62,6 +65,26 @@ def test_heavier_arm_is_detected_where_it_shows(tmp_path, speed, seed):
     assert verdict["statement"].startswith("Model error detected (|E| > k u_val)")
 
 
+@pytest.mark.parametrize(("speed", "seed"),
+                         [(0.8, 3), pytest.param(1.2, 4, marks=pytest.mark.slow)])
+def test_larger_arm_inertia_is_detected_by_the_common_gain(tmp_path, speed, seed):
+    result = _validate_against_nominal(tmp_path, _scaled(tmp_path, "A", "inertia", 1.05), speed,
+                                       seed)
+    scores = {c.name: c.scores for c in result.comparisons}
+    # the whole-curve statement alone cannot see it: a 1 % calibration covers a 1.4 % gain
+    assert not scores["torque_F"]["vv20.curve.detected"]
+    # the model's torque_F is about 1.3 % low (a gain), torque_H's is not
+    assert -0.02 < scores["torque_F"]["vv20.curve.gain"] < -0.008
+    assert abs(scores["torque_H"]["vv20.curve.gain"]) < 0.005
+    verdict = run_verdict(result)
+    assert {"torque_F", "torque_H"} == set(verdict["detected_on"]), verdict["statement"]
+    assert "against the common" in verdict["statement"]
+    failed = {(c.name, check.metric) for c in result.comparisons for check in c.checks
+              if not check.passed}
+    assert failed == {("torque_F", "vv20.common_gain.normalised_error"),
+                      ("torque_H", "vv20.common_gain.normalised_error")}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("speed", [0.8, 1.2])
 @pytest.mark.parametrize("seed", [11, 12, 13])
@@ -69,6 +92,7 @@ def test_right_and_wrong_mechanism_over_seeds(tmp_path, speed, seed):
     nominal = Path(builtin_mechanism("pendulum"))
     right = _validate_against_nominal(tmp_path, nominal, speed, seed, 12.0)
     assert right.passed and not run_verdict(right)["detected"], run_verdict(right)["statement"]
-    wrong = _validate_against_nominal(tmp_path, _scaled(tmp_path, "A", "mass", 1.05), speed,
-                                      seed + 100, 12.0)
-    assert {"torque_F", "torque_H"} <= set(run_verdict(wrong)["detected_on"])
+    for key in ("mass", "inertia"):
+        wrong = _validate_against_nominal(tmp_path / key, _scaled(tmp_path, "A", key, 1.05),
+                                          speed, seed + 100, 12.0)
+        assert {"torque_F", "torque_H"} <= set(run_verdict(wrong)["detected_on"]), key

@@ -105,7 +105,8 @@ DEFAULT_METRICS: tuple[str, ...] = ("iso18571_periodic", "sprague_geers", "russe
                                     "pearson_r", "peak_error", "circular_lag")
 """Metrics :func:`compare` runs unless told otherwise (V&V 20 needs stated uncertainties)."""
 
-_UNCERTAINTY_OPTIONS = ("u_num", "u_input", "u_measurement", "u_measurement_rel", "k", "u_time",
+_UNCERTAINTY_OPTIONS = ("u_num", "u_input", "u_measurement", "u_measurement_rel",
+                        "u_measurement_rel_common", "k", "u_time",
                         "speed", "u_drive_angle")
 
 _HIGHER = ("iso18571_periodic.rating", "iso18571_periodic.corridor", "iso18571_periodic.phase",
@@ -119,7 +120,8 @@ _NEAR_ZERO = ("iso18571_periodic.shift_samples", "iso18571_periodic.shift",
               "iso18571.shift_samples", "iso18571.shift", "sprague_geers.magnitude",
               "russell.magnitude", "peak_error.error", "peak_error.relative_error",
               "peak_error.shift", "circular_lag.lag_deg", "vv20.peak.error",
-              "vv20.peak.normalised_error", "vv20.rms.error", "vv20.rms.normalised_error")
+              "vv20.peak.normalised_error", "vv20.rms.error", "vv20.rms.normalised_error",
+              "vv20.curve.gain")
 _ORIENTATION = (dict.fromkeys(_HIGHER, "higher") | dict.fromkeys(_LOWER, "lower")
                 | dict.fromkeys(_NEAR_ZERO, "near_zero"))
 

@@ -12,6 +12,14 @@ grid of ``S(phi) - D(phi)`` and ``u_val`` the RMS of the pointwise validation un
 from named parts (sensor calibration, clock alignment, cycle-to-cycle scatter, angle grid, drive
 angle, model inputs). Under the hypothesis "no model error" and independent parts the expected
 ``E^2`` is ``u_val^2``, so ``|E| > k u_val`` is the curve's statement "model error detected".
+
+A calibration gain error is one number for the whole curve. Each curve also reports its fitted
+gain (``S`` against ``D`` about their means) with the gain's standard uncertainty apart from the
+part of the calibration that the comparison states as common to its sensor kind
+(``u_measurement_rel_common``); :func:`common_gain` compares the gains of several comparisons whose
+sensors share that part: a model error whose effect looks like a gain on one channel (a body's
+inertia on a drive torque dominated by it) shows as gains that no common calibration error can
+explain (ASME V&V 20-2009, section 4: correlated systematic errors).
 """
 
 from __future__ import annotations
@@ -27,8 +35,8 @@ import numpy as np
 from rigval.acquisition.errors import ConfigError
 from rigval.validation.metrics.core import Scores, as_cycles, paired
 
-__all__ = ["CURVE_PARTS", "FEATURES", "VV20Curve", "VV20Feature", "VV20Scores", "vv20",
-           "vv20_curve"]
+__all__ = ["CURVE_PARTS", "FEATURES", "CommonGain", "VV20Curve", "VV20Feature", "VV20Scores",
+           "common_gain", "vv20", "vv20_curve"]
 
 logger = logging.getLogger(__name__)
 
@@ -111,6 +119,17 @@ class VV20Curve(Scores):
         ``E > k u_val``: a model error is detected.
     dominant : str
         Name of the largest part of ``u_val``.
+    gain : float
+        Fitted gain of the model against the measurement, a fraction: ``S - mean(S) = (1 + gain)
+        (D - mean(D))`` in the least-squares sense, with a free offset.
+    u_gain_own : float
+        Standard uncertainty of ``gain`` without the calibration part common to the sensor kind,
+        the quadrature sum of: the own calibration part ``sqrt(u_measurement_rel^2 -
+        u_measurement_rel_common^2)``; the cycle scatter's, ``std(per-cycle gain) /
+        sqrt(n_cycles)``; and ``sqrt(u_num^2 + u_input^2 + u_measurement^2) / rms(D - mean D)``
+        (their effect bounded as if parallel to ``D``). Alignment and drive angle shift the curve
+        along phi, an error proportional to its slope, which is orthogonal to ``D`` over a
+        revolution: they do not move the gain.
     """
 
     error: float
@@ -125,6 +144,8 @@ class VV20Curve(Scores):
     normalised_error: float
     detected: bool
     dominant: str
+    gain: float
+    u_gain_own: float
 
     def statement(self, units: str = "") -> str:
         """Return the verdict in words with its numbers.
@@ -146,6 +167,42 @@ class VV20Curve(Scores):
         ratio = error_ratio(self.error, self.k * self.u_val)
         return (f"{head}: E = {self.error:.4g}{unit}, u_val = {self.u_val:.4g}{unit}, "
                 f"k = {self.k:g}, |E|/(k u_val) = {ratio:.2f}")
+
+
+@dataclasses.dataclass(frozen=True)
+class CommonGain(Scores):
+    """V&V 20 statement on one comparison's gain against the common gain of its group.
+
+    Attributes
+    ----------
+    gain : float
+        The comparison's fitted gain (:attr:`VV20Curve.gain`), fraction.
+    group_gain : float
+        The group's common gain: the mean of its comparisons' gains weighted by ``1 /
+        u_gain_own^2``, fraction.
+    error : float
+        ``gain - group_gain``.
+    u_val : float
+        Standard uncertainty of ``error`` under "no model error": ``sqrt(u_own^2 - s^2)`` with
+        ``s^2 = 1 / sum(1 / u_own_j^2)`` over the group (the comparison is part of the mean).
+    k : float
+        Coverage factor.
+    normalised_error : float
+        ``error / u_val``.
+    detected : bool
+        ``|error| > k u_val``: no calibration error common to the group explains the gains.
+    group : str
+        The group's comparisons, comma-separated.
+    """
+
+    gain: float
+    group_gain: float
+    error: float
+    u_val: float
+    k: float
+    normalised_error: float
+    detected: bool
+    group: str
 
 
 @dataclasses.dataclass(frozen=True)
@@ -178,8 +235,8 @@ class VV20Scores(Scores):
 
 def vv20(measured: Any, model: Any, *, u_num: Uncertainty = 0.0, u_input: Uncertainty = 0.0,
          u_measurement: Uncertainty = 0.0, u_measurement_rel: Uncertainty = 0.0,
-         cycles: Any = None, k: float = 2.0, u_time: float = 0.0, speed: float = 0.0,
-         u_drive_angle: float = 0.0) -> VV20Scores:
+         u_measurement_rel_common: float = 0.0, cycles: Any = None, k: float = 2.0,
+         u_time: float = 0.0, speed: float = 0.0, u_drive_angle: float = 0.0) -> VV20Scores:
     """Compare the model's peak and RMS with the measured ones against validation uncertainty.
 
     Parameters
@@ -200,6 +257,9 @@ def vv20(measured: Any, model: Any, *, u_num: Uncertainty = 0.0, u_input: Uncert
     u_measurement_rel : float or mapping, optional
         Systematic standard uncertainty of the measured feature as a fraction of it (a sensor
         sensitivity known to 2 % gives 0.02).
+    u_measurement_rel_common : float, optional
+        For the curve only (see :func:`vv20_curve`): the part of the RMS feature's
+        ``u_measurement_rel`` common to every comparison of the same sensor kind that states it.
     cycles : array_like or xarray.DataArray, optional
         The measured cycles, shape ``(n_cycles, n_samples)``: adds the random part of the data
         uncertainty, ``std(per-cycle feature) / sqrt(n_cycles)``.
@@ -252,14 +312,16 @@ def vv20(measured: Any, model: Any, *, u_num: Uncertainty = 0.0, u_input: Uncert
                        u_measurement=_component(u_measurement, "rms", "u_measurement"),
                        u_measurement_rel=_component(u_measurement_rel, "rms",
                                                     "u_measurement_rel"),
-                       u_time=u_time, speed=speed, u_drive_angle=u_drive_angle, k=k)
+                       u_measurement_rel_common=u_measurement_rel_common, u_time=u_time,
+                       speed=speed, u_drive_angle=u_drive_angle, k=k)
     return VV20Scores(**features, curve=curve)
 
 
 def vv20_curve(measured: Any, model: Any, *, cycles: Any = None, u_num: float = 0.0,
                u_input: float = 0.0, u_measurement: float = 0.0,
-               u_measurement_rel: float = 0.0, u_time: float = 0.0, speed: float = 0.0,
-               u_drive_angle: float = 0.0, k: float = 2.0) -> VV20Curve:
+               u_measurement_rel: float = 0.0, u_measurement_rel_common: float = 0.0,
+               u_time: float = 0.0, speed: float = 0.0, u_drive_angle: float = 0.0,
+               k: float = 2.0) -> VV20Curve:
     """Compare the whole model curve over one revolution with the measured mean.
 
     Parameters
@@ -278,6 +340,9 @@ def vv20_curve(measured: Any, model: Any, *, cycles: Any = None, u_num: float = 
         Absolute calibration standard uncertainty of the sensor, signal units.
     u_measurement_rel : float
         Relative calibration standard uncertainty (a gain known to 1 % gives 0.01).
+    u_measurement_rel_common : float
+        The part of ``u_measurement_rel`` common to the sensors of the same kind (same gauge lot,
+        material, drawing), at most ``u_measurement_rel``; only ``u_gain_own`` uses it.
     u_time : float
         Standard uncertainty of the channel's time on the reference clock after alignment, s.
     speed : float
@@ -295,7 +360,8 @@ def vv20_curve(measured: Any, model: Any, *, cycles: Any = None, u_num: float = 
     Raises
     ------
     ConfigError
-        For a negative or non-finite uncertainty or ``k <= 0``.
+        For a negative or non-finite uncertainty, a common part above ``u_measurement_rel`` or
+        ``k <= 0``.
     DataError
         On bad samples or cycles that do not match the signal's length.
 
@@ -310,9 +376,16 @@ def vv20_curve(measured: Any, model: Any, *, cycles: Any = None, u_num: float = 
         raise ConfigError(f"coverage factor k must be positive, got {k}", where={"key": "k"},
                           hint="use k = 2 for about 95 %")
     for name, value in (("u_num", u_num), ("u_input", u_input), ("u_measurement", u_measurement),
-                        ("u_measurement_rel", u_measurement_rel), ("u_time", u_time),
-                        ("speed", speed), ("u_drive_angle", u_drive_angle)):
+                        ("u_measurement_rel", u_measurement_rel),
+                        ("u_measurement_rel_common", u_measurement_rel_common),
+                        ("u_time", u_time), ("speed", speed), ("u_drive_angle", u_drive_angle)):
         _component(value, "curve", name)
+    if u_measurement_rel_common > u_measurement_rel:
+        raise ConfigError(f"u_measurement_rel_common ({u_measurement_rel_common}) exceeds "
+                          f"u_measurement_rel ({u_measurement_rel})",
+                          where={"key": "u_measurement_rel_common"},
+                          hint="state the common part of the calibration uncertainty, at most "
+                               "the whole (docs/metrics.md)")
     step = 2.0 * np.pi / m.size
     scatter = (np.zeros(m.size) if cycles is None
                else np.std(as_cycles(cycles, m.size), axis=0, ddof=1)
@@ -329,10 +402,91 @@ def vv20_curve(measured: Any, model: Any, *, cycles: Any = None, u_num: float = 
     u_val = math.sqrt(sum(value**2 for value in parts.values()))
     error = float(np.sqrt(np.mean((c - m) ** 2)))
     dominant = max(parts, key=parts.__getitem__)
-    logger.debug("V&V 20 curve: E %.4g, u_val %.4g (%s)", error, u_val, parts)
+    gain, size = _gain(m, c)
+    own = (u_measurement_rel - u_measurement_rel_common) * (u_measurement_rel
+                                                            + u_measurement_rel_common)
+    scatter_gain = 0.0
+    if cycles is not None and size > 0.0:
+        array = as_cycles(cycles, m.size)
+        centred = m - m.mean()
+        per_cycle = (array - m) @ centred / (centred @ centred)
+        scatter_gain = float(np.std(per_cycle, ddof=1) / np.sqrt(array.shape[0]))
+    rest = math.hypot(u_num, u_input, u_measurement)
+    u_gain_own = (math.sqrt(own + scatter_gain**2 + (rest / size) ** 2) if size > 0.0
+                  else math.inf)
+    logger.debug("V&V 20 curve: E %.4g, u_val %.4g (%s), gain %.4g +- %.3g", error, u_val,
+                 parts, gain, u_gain_own)
     return VV20Curve(error=error, u_val=u_val, k=float(k), **parts,
                      normalised_error=_normalised(error, u_val),
-                     detected=bool(error > k * u_val), dominant=dominant)
+                     detected=bool(error > k * u_val), dominant=dominant, gain=gain,
+                     u_gain_own=u_gain_own)
+
+
+def common_gain(gains: Mapping[str, tuple[float, float]], k: float = 2.0
+                ) -> dict[str, CommonGain]:
+    """Compare the gains of comparisons whose sensors share one calibration error.
+
+    Parameters
+    ----------
+    gains : mapping of str to (float, float)
+        Per comparison its fitted gain and that gain's standard uncertainty apart from the common
+        calibration part (:attr:`VV20Curve.gain`, :attr:`VV20Curve.u_gain_own`), fractions. At
+        least two, every uncertainty finite and positive.
+    k : float
+        Coverage factor.
+
+    Returns
+    -------
+    dict of str to CommonGain
+        Per comparison: its gain against the group's weighted mean gain.
+
+    Raises
+    ------
+    ConfigError
+        For fewer than two comparisons, an uncertainty that is not finite and positive or
+        ``k <= 0``.
+
+    Notes
+    -----
+    Under "no model error" the gain of comparison ``c`` is ``g + e_c``: ``g`` the common
+    calibration error and ``e_c`` the comparison's own, independent, of standard uncertainty
+    ``u_c``. The weighted mean ``g_bar = sum(w_j g_j)``, ``w_j = s^2 / u_j^2``, ``s^2 = 1 /
+    sum(1 / u_j^2)``, removes ``g``; ``g_c - g_bar`` has the variance ``u_c^2 - s^2``.
+    """
+    if len(gains) < 2:
+        raise ConfigError(f"a common gain needs two comparisons or more, got {len(gains)}",
+                          where={"key": "u_measurement_rel_common"},
+                          hint="state u_measurement_rel_common on every comparison of that "
+                               "sensor kind that shares the calibration")
+    if not k > 0:
+        raise ConfigError(f"coverage factor k must be positive, got {k}", where={"key": "k"},
+                          hint="use k = 2 for about 95 %")
+    for name, (_, u_own) in gains.items():
+        if not (math.isfinite(u_own) and u_own > 0.0):
+            raise ConfigError(f"{name}: the gain's own uncertainty must be finite and positive, "
+                              f"got {u_own}", where={"key": "u_measurement_rel_common"},
+                              hint="a common gain needs a measured curve that is not constant")
+    s2 = 1.0 / sum(1.0 / u**2 for _, u in gains.values())
+    group_gain = s2 * sum(g / u**2 for g, u in gains.values())
+    group = ", ".join(gains)
+    out = {}
+    for name, (gain, u_own) in gains.items():
+        error = gain - group_gain
+        u_val = math.sqrt(max(u_own**2 - s2, 0.0))
+        out[name] = CommonGain(gain=gain, group_gain=group_gain, error=error, u_val=u_val,
+                               k=float(k), normalised_error=_normalised(error, u_val),
+                               detected=bool(abs(error) > k * u_val), group=group)
+    return out
+
+
+def _gain(measured: np.ndarray, model: np.ndarray) -> tuple[float, float]:
+    """Least-squares gain of ``model - measured`` on the demeaned measurement, and its RMS."""
+    centred = measured - measured.mean()
+    power = float(centred @ centred)
+    if power == 0.0:
+        return 0.0, 0.0
+    error = model - measured
+    return float(error @ centred) / power, math.sqrt(power / measured.size)
 
 
 def _slope(values: np.ndarray, step: float) -> np.ndarray:
