@@ -50,6 +50,18 @@ def test_bare_folder_names_do_not_import_from_outside(tmp_path: Path) -> None:
     assert out.stdout.strip() == "ok"
 
 
+def test_report_style_sheet_is_package_data() -> None:
+    from fnmatch import fnmatch
+
+    from rigval.validation.report.page import STYLE_SHEET, Page
+
+    config = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
+    patterns = config["package-data"]["rigval.validation.report"]
+    assert any(fnmatch(STYLE_SHEET, pattern) for pattern in patterns)
+    css = (REPO / "validation" / "report" / STYLE_SHEET).read_text(encoding="utf-8")
+    assert f"<style>{css}</style>" in Page("t").render()
+
+
 @pytest.mark.slow
 def test_built_wheel_contains_every_package(tmp_path: Path) -> None:
     pytest.importorskip("setuptools")
@@ -69,6 +81,7 @@ def test_built_wheel_contains_every_package(tmp_path: Path) -> None:
     # the documentation pages travel with the package: `rigval docs TOPIC` works when installed
     pages = sorted(p.name for p in (REPO / "docs").glob("*.md"))
     assert pages and all(f"rigval/docs/{page}" in names for page in pages)
+    assert "rigval/validation/report/page.css" in names  # the report pages' style
     unpacked = tmp_path / "unpacked"
     zipfile.ZipFile(wheel).extractall(unpacked)
     code = ("import sys; from rigval.validation.commands.docs import pages; "

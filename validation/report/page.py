@@ -1,9 +1,9 @@
 """A small builder for self-contained HTML report pages.
 
 A :class:`Page` collects sections, paragraphs, key-value lists, tables and matplotlib figures and
-renders them into one HTML file that opens offline: the style sheet is inline and every figure is
-embedded as a base64 PNG (``data:`` URI) or as inline SVG. Text is always escaped; only
-:meth:`Page.raw` inserts markup verbatim.
+renders them into one HTML file that opens offline: the style sheet (``page.css``, a data file of
+this package) is inlined and every figure is embedded as a base64 PNG (``data:`` URI) or as
+inline SVG. Text is always escaped; only :meth:`Page.raw` inserts markup verbatim.
 
 Example
 -------
@@ -27,6 +27,8 @@ import numbers
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from functools import cache
+from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
@@ -34,43 +36,15 @@ from matplotlib.figure import Figure
 
 from rigval.validation.outputs import write_text_atomic
 
-__all__ = ["STATUS_CLASSES", "Link", "Page", "escape", "figure_data_uri", "figure_svg",
-           "format_value"]
+__all__ = ["STATUS_CLASSES", "STYLE_SHEET", "Link", "Page", "escape", "figure_data_uri",
+           "figure_svg", "format_value", "style_sheet"]
 
 #: CSS class per status word; :meth:`Page.table` colours cells whose text is one of these.
 STATUS_CLASSES = {"pass": "ok", "passed": "ok", "ok": "ok", "fail": "bad", "failed": "bad",
                   "error": "bad", "inconclusive": "warn", "warning": "warn"}
 
-_STYLE = """
-body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;margin:0;color:#1b1f24;
-background:#fff;line-height:1.45}
-main{max-width:1100px;margin:0 auto;padding:1.5rem 2rem 4rem}
-header{border-bottom:2px solid #1b1f24;margin-bottom:1rem}
-h1{font-size:1.7rem;margin:.2rem 0}
-.subtitle{color:#57606a;margin:.2rem 0 .8rem}
-h2{font-size:1.3rem;margin-top:2.2rem;border-bottom:1px solid #d0d7de;padding-bottom:.2rem}
-h3{font-size:1.08rem;margin-top:1.6rem}
-nav ol{columns:2;font-size:.92rem}
-table{border-collapse:collapse;margin:.6rem 0 1rem;font-size:.86rem}
-caption{caption-side:top;text-align:left;font-weight:600;padding:.2rem 0}
-th,td{border:1px solid #d0d7de;padding:.22rem .5rem;text-align:right;vertical-align:top}
-th{background:#f6f8fa}
-td.text,th.text{text-align:left}
-dl{display:grid;grid-template-columns:max-content auto;gap:.15rem 1rem;font-size:.92rem}
-dt{font-weight:600}
-dd{margin:0;word-break:break-all}
-figure{margin:1rem 0}
-figure img,figure svg{max-width:100%;height:auto}
-figcaption{font-size:.86rem;color:#57606a}
-details{margin:.4rem 0 1rem}
-.scroll{overflow-x:auto;max-width:100%}
-summary{cursor:pointer;color:#1f5fa8;font-size:.9rem}
-.ok{background:#dafbe1;color:#116329;font-weight:600}
-.bad{background:#ffebe9;color:#a40e26;font-weight:600}
-.warn{background:#fff8c5;color:#7d4e00;font-weight:600}
-pre{background:#f6f8fa;padding:.6rem;overflow-x:auto;font-size:.8rem}
-footer{margin-top:3rem;color:#57606a;font-size:.8rem}
-"""
+#: The style sheet, a data file of this package (inlined into every page).
+STYLE_SHEET = "page.css"
 
 
 @dataclass(frozen=True)
@@ -87,6 +61,12 @@ class Link:
 
     text: str
     href: str
+
+
+@cache
+def style_sheet() -> str:
+    """Return the pages' CSS, read once from the package data file :data:`STYLE_SHEET`."""
+    return resources.files(__package__).joinpath(STYLE_SHEET).read_text(encoding="utf-8")
 
 
 def escape(text: Any) -> str:
@@ -323,7 +303,7 @@ class Page:
         return (
             '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
             '<meta name="viewport" content="width=device-width, initial-scale=1">'
-            f"<title>{escape(self.title)}</title><style>{_STYLE}</style></head>"
+            f"<title>{escape(self.title)}</title><style>{style_sheet()}</style></head>"
             f"<body><main><header><h1>{escape(self.title)}</h1>{sub}</header>{toc}"
             + "\n".join(self._parts)
             + f"<footer>Written by rigval on {stamp}.</footer></main></body></html>\n"
