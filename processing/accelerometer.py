@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.signal import lfilter
 
 from rigval.acquisition.errors import ConfigError
+from rigval.processing.arrays import FloatArray
 
 __all__ = [
     "STANDARD_GRAVITY",
@@ -39,8 +40,6 @@ logger = logging.getLogger(__name__)
 
 #: Standard gravity g0 in m s-2 (the "g" of pC/g sensitivities).
 STANDARD_GRAVITY = 9.80665
-
-_FloatArray = NDArray[np.float64]
 
 
 def _coefficients(fs: float, corner_hz: float) -> tuple[float, float]:
@@ -68,7 +67,7 @@ def highpass_response(frequency: ArrayLike, corner_hz: float) -> NDArray[np.comp
 
 
 def apply_highpass(x: ArrayLike, fs: float, corner_hz: float,
-                   initial_state: float | None = None) -> _FloatArray:
+                   initial_state: float | None = None) -> FloatArray:
     """Apply the first-order high-pass exactly for an input linear between samples.
 
     Parameters
@@ -105,7 +104,7 @@ def apply_highpass(x: ArrayLike, fs: float, corner_hz: float,
 
 
 def invert_highpass(y: ArrayLike, fs: float, corner_hz: float,
-                    initial_state: float = 0.0) -> _FloatArray:
+                    initial_state: float = 0.0) -> FloatArray:
     """Undo :func:`apply_highpass` exactly (up to the unknown DC carried by the initial state).
 
     Parameters
@@ -135,7 +134,7 @@ def invert_highpass(y: ArrayLike, fs: float, corner_hz: float,
 def charge_chain_voltage(acceleration: ArrayLike, *, charge_sensitivity: float,
                          amplifier_gain: float, fs: float | None = None,
                          highpass_hz: float | None = None,
-                         initial_state: float | None = None) -> _FloatArray:
+                         initial_state: float | None = None) -> FloatArray:
     """Forward model: amplifier output voltage (V) for an acceleration record (m s-2).
 
     Parameters
@@ -170,7 +169,7 @@ def charge_chain_voltage(acceleration: ArrayLike, *, charge_sensitivity: float,
 def acceleration_from_voltage(voltage: ArrayLike, *, charge_sensitivity: float,
                               amplifier_gain: float, fs: float | None = None,
                               highpass_hz: float | None = None,
-                              initial_state: float = 0.0) -> _FloatArray:
+                              initial_state: float = 0.0) -> FloatArray:
     """Convert charge amplifier output (V) to acceleration (m s-2).
 
     ``a = V / (S_q G_amp 1e-3) g0``; with ``highpass_hz`` the amplifier's high-pass is undone

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy.stats import t as student_t
 
 from rigval.acquisition.devices import ni9237_input_delay
@@ -46,6 +46,8 @@ from rigval.acquisition.schema import (
     invalid_counts,
     with_invalid_counts,
 )
+from rigval.processing.arrays import BoolArray, FloatArray, IntArray
+from rigval.processing.encoder import increasing_angle
 from rigval.processing.errors import AlignmentError
 
 __all__ = [
@@ -63,8 +65,6 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-_FloatArray = NDArray[np.float64]
-_IntArray = NDArray[np.int64]
 
 #: Candidate offsets are scored on the events of this many seconds at the start of a segment.
 _SCORING_SPAN_S = 60.0
@@ -88,7 +88,7 @@ OUTLIER_SIGMAS = 5.0
 
 
 def robust_inliers(residual: ArrayLike, *, among: ArrayLike | None = None,
-                   floor_s: float = 0.0) -> NDArray[np.bool_]:
+                   floor_s: float = 0.0) -> BoolArray:
     """Return which residuals lie within :data:`OUTLIER_SIGMAS` robust sigmas of their centre.
 
     The centre is the median and the robust sigma 1.4826 times the median absolute deviation
@@ -141,7 +141,7 @@ def input_delay(attrs: Mapping[str, Any], fs: float) -> float:
 
 
 def reference_event_times(time: ArrayLike, angle: ArrayLike, *, event_angle: float = 0.0,
-                          events_per_rev: int = 1) -> _FloatArray:
+                          events_per_rev: int = 1) -> FloatArray:
     """Return the times at which an unwrapped, increasing angle passes a reference position.
 
     Parameters
@@ -161,14 +161,7 @@ def reference_event_times(time: ArrayLike, angle: ArrayLike, *, event_angle: flo
     numpy.ndarray
         Times in s of ``angle = event_angle + k 2 pi / events_per_rev`` inside the record.
     """
-    t = np.asarray(time, dtype=np.float64)
-    phi = np.asarray(angle, dtype=np.float64)
-    finite = np.isfinite(phi)
-    t, phi = t[finite], phi[finite]
-    if phi.size < 2 or np.any(np.diff(phi) <= 0):
-        raise DataError("the reference angle must increase strictly to locate events",
-                        hint="use the smoothed drive angle (excitation.drive_angle) and split at "
-                             "standstills")
+    t, phi = increasing_angle(time, angle, use="to locate reference events")
     step = 2.0 * np.pi / events_per_rev
     first = np.ceil((phi[0] - event_angle) / step)
     last = np.floor((phi[-1] - event_angle) / step)
@@ -230,7 +223,7 @@ class ClockModel:
     periods_decided_by: str = "data"
     clock_groups: tuple[int, ...] = field(default_factory=tuple)
 
-    def to_reference(self, time: ArrayLike, segment: ArrayLike | int = 0) -> _FloatArray:
+    def to_reference(self, time: ArrayLike, segment: ArrayLike | int = 0) -> FloatArray:
         """Return reference-clock times (s) for device times (s) of the given segment(s).
 
         Samples of unaligned segments map to NaN.
@@ -278,7 +271,7 @@ def identity_clock(segments: ArrayLike = (0,)) -> ClockModel:
     return ClockModel(segs, tuple(0.0 for _ in segs), 0.0, 0.0, 0, 0)
 
 
-def _nearest(sorted_ref: _FloatArray, targets: _FloatArray) -> _IntArray:
+def _nearest(sorted_ref: FloatArray, targets: FloatArray) -> IntArray:
     """Return the index of the nearest reference time for each target."""
     right = np.clip(np.searchsorted(sorted_ref, targets), 1, sorted_ref.size - 1)
     left = right - 1
@@ -286,7 +279,7 @@ def _nearest(sorted_ref: _FloatArray, targets: _FloatArray) -> _IntArray:
     return np.where(pick_left, left, right)
 
 
-def _line_residual(x: _FloatArray, y: _FloatArray) -> tuple[_FloatArray, float]:
+def _line_residual(x: FloatArray, y: FloatArray) -> tuple[FloatArray, float]:
     """Fit ``y = p0 + p1 x`` robustly; return ``(p0, p1)`` and the robust residual scale.
 
     A first line from the median of the pairwise slopes (Theil-Sen: a stray partner 0.1 period
@@ -313,8 +306,8 @@ def _line_residual(x: _FloatArray, y: _FloatArray) -> tuple[_FloatArray, float]:
 class _Match:
     """Matched pairs of one device segment and how their whole periods were decided."""
 
-    ref_index: _IntArray
-    dev_index: _IntArray
+    ref_index: IntArray
+    dev_index: IntArray
     offset_s: float
     decided_by: str
 
@@ -330,7 +323,7 @@ def _settle_hint(keys: Sequence[str] | None, period: float) -> str:
             "a period")
 
 
-def _score(ref: _FloatArray, scoring: _FloatArray, offset: float, period: float,
+def _score(ref: FloatArray, scoring: FloatArray, offset: float, period: float,
            tolerance: float) -> tuple[int, float, float, float]:
     """Return one candidate's events matched, residual scale (s), offset (s), matched share.
 
@@ -345,15 +338,15 @@ def _score(ref: _FloatArray, scoring: _FloatArray, offset: float, period: float,
     return int(hit.sum()), scale, float(offset), hit.sum() / max(inside, 1)
 
 
-def _hits(ref: _FloatArray, scoring: _FloatArray, offset: float, period: float,
-          tolerance: float) -> tuple[NDArray[np.bool_], _IntArray]:
+def _hits(ref: FloatArray, scoring: FloatArray, offset: float, period: float,
+          tolerance: float) -> tuple[BoolArray, IntArray]:
     """Return which scoring events a candidate matches and their reference partners."""
     predicted = scoring + offset
     nearest = _nearest(ref, predicted)
     return np.abs(ref[nearest] - predicted) < tolerance * period, nearest
 
 
-def _theil_sen(x: _FloatArray, y: _FloatArray) -> tuple[float, _FloatArray]:
+def _theil_sen(x: FloatArray, y: FloatArray) -> tuple[float, FloatArray]:
     """Return the Theil-Sen slope through (x, y) and the residuals about that line.
 
     The slope is the median of the pairwise slopes; the residuals are centred on their median.
@@ -364,17 +357,17 @@ def _theil_sen(x: _FloatArray, y: _FloatArray) -> tuple[float, _FloatArray]:
     return slope, res - np.median(res)
 
 
-def _line_fit(x: _FloatArray, y: _FloatArray) -> _FloatArray:
+def _line_fit(x: FloatArray, y: FloatArray) -> FloatArray:
     """Residuals of y about the Theil-Sen line through (x, y)."""
     return _theil_sen(x, y)[1]
 
 
-def _rms_about_line(x: _FloatArray, y: _FloatArray) -> float:
+def _rms_about_line(x: FloatArray, y: FloatArray) -> float:
     centred = x - x.mean()
     return float(np.sqrt(np.mean((y - np.polyval(np.polyfit(centred, y, 1), centred)) ** 2)))
 
 
-def _far_better(ref: _FloatArray, scoring: _FloatArray, best: float, other: float,
+def _far_better(ref: FloatArray, scoring: FloatArray, best: float, other: float,
                 period: float, tolerance: float, *, factor: float = _OUTSIDE_FACTOR,
                 min_common: int = _OUTSIDE_MIN_EVENTS) -> bool:
     """Whether ``other`` fits the events both candidates match ``factor`` times better.
@@ -405,7 +398,7 @@ def _describe(scored: Sequence[tuple[int, float, float, float]]) -> str:
                      for hits, scale, offset, _ in scored)
 
 
-def _match(ref: _FloatArray, dev: _FloatArray, *, coarse_offset_s: float,
+def _match(ref: FloatArray, dev: FloatArray, *, coarse_offset_s: float,
            max_offset_error_s: float, tolerance: float, place: Mapping[str, Any],
            settle_keys: Sequence[str] | None, min_hits: int = 3) -> _Match:
     """Pair one segment's device events with reference events (see :func:`match_events`).
@@ -515,7 +508,7 @@ def _match(ref: _FloatArray, dev: _FloatArray, *, coarse_offset_s: float,
 def match_events(ref_times: ArrayLike, dev_times: ArrayLike, *, coarse_offset_s: float = 0.0,
                  max_offset_error_s: float = 5.0, tolerance: float = 0.25,
                  where: Mapping[str, Any] | None = None,
-                 settle_keys: Sequence[str] | None = None) -> tuple[_IntArray, _IntArray]:
+                 settle_keys: Sequence[str] | None = None) -> tuple[IntArray, IntArray]:
     """Pair device events with reference events within the start stamps' window.
 
     Candidate offsets outside ``coarse_offset_s +- max_offset_error_s`` are not considered.
@@ -562,7 +555,7 @@ def match_events(ref_times: ArrayLike, dev_times: ArrayLike, *, coarse_offset_s:
 def _event_kinds(ref_times: ArrayLike | Sequence[ArrayLike],
                  dev_times: ArrayLike | Sequence[ArrayLike],
                  dev_segment: ArrayLike | Sequence[ArrayLike] | None,
-                 ) -> list[tuple[_FloatArray, _FloatArray, _IntArray]]:
+                 ) -> list[tuple[FloatArray, FloatArray, IntArray]]:
     """Normalise one or several event kinds to a list of (ref, dev, segment) arrays."""
     several = isinstance(ref_times, (list, tuple)) and len(ref_times) > 0 and np.ndim(
         ref_times[0]) == 1
@@ -580,8 +573,8 @@ def _event_kinds(ref_times: ArrayLike | Sequence[ArrayLike],
     return kinds
 
 
-def _intervals95(design: _FloatArray, residual: _FloatArray, bound: _FloatArray,
-                 transform: _FloatArray) -> tuple[_FloatArray, _FloatArray]:
+def _intervals95(design: FloatArray, residual: FloatArray, bound: FloatArray,
+                 transform: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Return standard errors and 95 % half-widths of ``transform @ coefficients``.
 
     The half-width combines the residual-based interval (Student t with the fit's degrees of
@@ -599,9 +592,9 @@ def _intervals95(design: _FloatArray, residual: _FloatArray, bound: _FloatArray,
     return se, np.sqrt((quantile * se) ** 2 + worst**2)
 
 
-def _clock_fit(ref: _FloatArray, dev: _FloatArray, group: _IntArray, kind: _IntArray,
-               bound: _FloatArray) -> tuple[dict[int, float], float, _FloatArray, _FloatArray,
-                                            _FloatArray]:
+def _clock_fit(ref: FloatArray, dev: FloatArray, group: IntArray, kind: IntArray,
+               bound: FloatArray) -> tuple[dict[int, float], float, FloatArray, FloatArray,
+                                            FloatArray]:
     """Least squares ``ref = a_group + c_kind + (1 + drift) dev``.
 
     Returns offsets per group (s), drift, residuals (s), standard errors and 95 % half-widths
@@ -628,7 +621,7 @@ def _clock_fit(ref: _FloatArray, dev: _FloatArray, group: _IntArray, kind: _IntA
     return offsets, drift, residual, se, half
 
 
-def _without_strays(match: _Match, ref: _FloatArray, dev: _FloatArray, bound: float) -> _Match:
+def _without_strays(match: _Match, ref: FloatArray, dev: FloatArray, bound: float) -> _Match:
     """Drop pairs beyond :data:`OUTLIER_SIGMAS` of the segment's Theil-Sen line (a stray partner).
 
     A least-squares fit with a partner 0.1 period off is dragged so far that a sigma-based
@@ -816,7 +809,7 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
     return model
 
 
-def channel_time(aligned: xr.Dataset, name: str) -> _FloatArray:
+def channel_time(aligned: xr.Dataset, name: str) -> FloatArray:
     """Return the reference-clock time (s) at which a channel's samples were taken.
 
     That is the aligned ``time`` minus the channel's ``input_delay_s`` (on the reference clock).

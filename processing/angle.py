@@ -23,16 +23,25 @@ from typing import Literal
 
 import numpy as np
 import xarray as xr
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy.interpolate import make_interp_spline
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError
 from rigval.acquisition.schema import append_history
 from rigval.processing.align import channel_time
-from rigval.processing.encoder import remove_index_resets, revolution_check, unwrap_counts
+from rigval.processing.arrays import FloatArray, IntArray
+from rigval.processing.encoder import (
+    increasing_angle,
+    remove_index_resets,
+    revolution_check,
+    unwrap_counts,
+)
 from rigval.processing.excitation import Method, drive_excitation
 from rigval.processing.filters import contiguous_runs, zero_phase
 from rigval.processing.pulses import StreamPulses
+
+#: Low-pass before resampling to the angle grid: zero-phase Butterworth, or none.
+AntiAlias = Literal["butterworth", "none"]
 
 __all__ = [
     "angle_domain",
@@ -45,8 +54,6 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-_FloatArray = NDArray[np.float64]
-AntiAlias = Literal["butterworth", "none"]
 
 #: Samples per spline chunk and the overlap on each side (spline end effects decay by ~0.27 per
 #: sample for a cubic, so 64 samples put them far below rounding).
@@ -94,7 +101,7 @@ def zero_at_reference(time: ArrayLike, angle: ArrayLike, event_times: ArrayLike,
 
 
 def cycle_grid(angle_start: float, angle_stop: float, points_per_rev: int,
-               ) -> tuple[NDArray[np.int64], _FloatArray]:
+               ) -> tuple[IntArray, FloatArray]:
     """Return the whole cycles inside an angle span and their grid angles.
 
     Parameters
@@ -123,7 +130,7 @@ def cycle_grid(angle_start: float, angle_stop: float, points_per_rev: int,
 
 def interpolate_runs(time: ArrayLike, values: ArrayLike, at: ArrayLike, *, order: int = 3,
                      segment: ArrayLike | None = None,
-                     valid: ArrayLike | None = None) -> _FloatArray:
+                     valid: ArrayLike | None = None) -> FloatArray:
     """Evaluate a sampled signal at arbitrary times without crossing gaps.
 
     Parameters
@@ -176,7 +183,7 @@ def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike,
                       angle: ArrayLike, *, points_per_rev: int, fs: float, order: int = 5,
                       anti_alias: AntiAlias = "butterworth", segment: ArrayLike | None = None,
                       valid: ArrayLike | None = None,
-                      ) -> tuple[NDArray[np.int64], _FloatArray, _FloatArray]:
+                      ) -> tuple[IntArray, FloatArray, FloatArray]:
     """Resample one channel onto a uniform phi_F grid, cycle by cycle.
 
     Parameters
@@ -209,14 +216,7 @@ def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike,
     resampled : numpy.ndarray
         Values on the grid, shape (n_cycles, points_per_rev); NaN where the channel has no data.
     """
-    phi_t = np.asarray(angle_time, dtype=np.float64)
-    phi = np.asarray(angle, dtype=np.float64)
-    good = np.isfinite(phi)
-    phi_t, phi = phi_t[good], phi[good]
-    if phi.size < 2 or np.any(np.diff(phi) <= 0):
-        raise DataError("phi_F must increase strictly to be inverted",
-                        hint="use the smoothed drive angle and split the record at standstills "
-                             "or reversals")
+    phi_t, phi = increasing_angle(angle_time, angle, use="to be inverted (phi_F)")
     cycles, grid = cycle_grid(phi[0], phi[-1], points_per_rev)
     if cycles.size == 0:
         raise DataError(f"phi_F spans {phi[0]:.4g} to {phi[-1]:.4g} rad: no whole revolution",
@@ -292,7 +292,7 @@ def angle_domain(aligned: Mapping[str, xr.Dataset], angle_time: ArrayLike, angle
     for names in selection.values():
         for var in names:
             counts[var] = counts.get(var, 0) + 1
-    data_vars: dict[str, tuple[tuple[str, str], _FloatArray, dict[str, object]]] = {}
+    data_vars: dict[str, tuple[tuple[str, str], FloatArray, dict[str, object]]] = {}
     cycles = np.zeros(0, dtype=np.int64)
     start_time = np.zeros(0)
     for stream_name, names in selection.items():

@@ -36,9 +36,10 @@ import logging
 from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from rigval.acquisition.errors import ConfigError
+from rigval.processing.arrays import FloatArray
 
 __all__ = [
     "BRIDGE_TYPES",
@@ -61,8 +62,6 @@ BridgeType = Literal["quarter_i", "quarter_ii", "half_i", "half_ii", "full_i", "
 BRIDGE_TYPES: tuple[str, ...] = ("quarter_i", "quarter_ii", "half_i", "half_ii", "full_i",
                                  "full_ii", "full_iii")
 
-_FloatArray = NDArray[np.float64]
-
 
 def _check_type(bridge_type: str) -> None:
     if bridge_type not in BRIDGE_TYPES:
@@ -70,7 +69,7 @@ def _check_type(bridge_type: str) -> None:
                           hint=f"use one of {', '.join(BRIDGE_TYPES)}")
 
 
-def wheatstone_ratio(r1: ArrayLike, r2: ArrayLike, r3: ArrayLike, r4: ArrayLike) -> _FloatArray:
+def wheatstone_ratio(r1: ArrayLike, r2: ArrayLike, r3: ArrayLike, r4: ArrayLike) -> FloatArray:
     """Return the exact output ratio ``Vo/Vex = R3/(R3+R4) - R2/(R1+R2)`` of a Wheatstone bridge.
 
     Parameters
@@ -88,7 +87,7 @@ def wheatstone_ratio(r1: ArrayLike, r2: ArrayLike, r3: ArrayLike, r4: ArrayLike)
 
 
 def balanced_bridge_ratio(base_12: ArrayLike, base_34: ArrayLike, d1: ArrayLike, d2: ArrayLike,
-                          d3: ArrayLike, d4: ArrayLike) -> _FloatArray:
+                          d3: ArrayLike, d4: ArrayLike) -> FloatArray:
     """Return the exact ``Vo/Vex`` of a bridge given as nominal arms plus deviations.
 
     With ``R1 = a + d1``, ``R2 = a + d2``, ``R3 = b + d3``, ``R4 = b + d4`` the output is
@@ -114,7 +113,7 @@ def balanced_bridge_ratio(base_12: ArrayLike, base_34: ArrayLike, d1: ArrayLike,
     return numerator / ((2.0 * a + d1 + d2) * (2.0 * b + d3 + d4))
 
 
-def _arm_strains(eps: _FloatArray, bridge_type: str, poisson: float) -> tuple[_FloatArray, ...]:
+def _arm_strains(eps: FloatArray, bridge_type: str, poisson: float) -> tuple[FloatArray, ...]:
     """Return the strain each arm's gauge sees (0 for completion resistors and dummies)."""
     nu, zero = poisson, np.zeros_like(eps)
     arms = {
@@ -131,7 +130,7 @@ def _arm_strains(eps: _FloatArray, bridge_type: str, poisson: float) -> tuple[_F
 
 def bridge_arms(strain: ArrayLike, bridge_type: BridgeType, *, gauge_factor: float,
                 poisson: float = 0.3, gauge_resistance: float = 120.0,
-                lead_resistance: float = 0.0) -> tuple[_FloatArray, ...]:
+                lead_resistance: float = 0.0) -> tuple[FloatArray, ...]:
     """Return the four arm resistances of an NI bridge configuration under a strain.
 
     Gauge arms are ``Rg (1 + GF eps_arm)``; completion arms (and the quarter II dummy, which sees
@@ -172,7 +171,7 @@ def bridge_arms(strain: ArrayLike, bridge_type: BridgeType, *, gauge_factor: flo
 
 def bridge_ratio(strain: ArrayLike, bridge_type: BridgeType, *, gauge_factor: float,
                  poisson: float = 0.3, gauge_resistance: float = 120.0,
-                 lead_resistance: float = 0.0) -> _FloatArray:
+                 lead_resistance: float = 0.0) -> FloatArray:
     """Return the exact offset-free bridge output ``Vo/Vex`` (V/V) for a strain (forward model).
 
     Parameters are those of :func:`bridge_arms`; the arithmetic is that of
@@ -188,7 +187,7 @@ def bridge_ratio(strain: ArrayLike, bridge_type: BridgeType, *, gauge_factor: fl
 
 
 def voltage_ratio(output_voltage: ArrayLike, excitation_voltage: ArrayLike,
-                  unstrained_output_voltage: ArrayLike = 0.0) -> _FloatArray:
+                  unstrained_output_voltage: ArrayLike = 0.0) -> FloatArray:
     """Return the offset-nulled voltage ratio ``Vr = (Vo - Vo_unstrained) / Vex`` (V/V).
 
     Parameters
@@ -213,7 +212,7 @@ def voltage_ratio(output_voltage: ArrayLike, excitation_voltage: ArrayLike,
 
 def strain_from_ratio(ratio: ArrayLike, bridge_type: BridgeType, *, gauge_factor: float,
                       poisson: float = 0.3, gauge_resistance: float = 120.0,
-                      lead_resistance: float = 0.0, gain_adjust: float = 1.0) -> _FloatArray:
+                      lead_resistance: float = 0.0, gain_adjust: float = 1.0) -> FloatArray:
     """Convert an offset-nulled voltage ratio to strain with NI's equation for the bridge type.
 
     Parameters

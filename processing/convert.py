@@ -172,18 +172,14 @@ def torque_channel(ds: xr.Dataset, channel: str, *, rosette: Rosette, gauge_fact
                    name: str | None = None, sign: float = 1.0, gauge_resistance: float = 120.0,
                    lead_resistance: float = 0.0, excitation_voltage: float | None = None,
                    unstrained: Null = None) -> xr.Dataset:
-    """Add the shaft torque (N m) of a torsion rosette bridge channel.
+    """Return a copy of ``ds`` with the shaft torque (N m) of a torsion rosette bridge channel.
 
     Parameters
     ----------
-    ds : xarray.Dataset
-        Stream.
-    channel : str
-        Rosette bridge channel (V/V, mV/V, V or mV).
+    ds, channel, gauge_factor, excitation_voltage, unstrained
+        As in :func:`strain_channel`; the channel holds the rosette bridge.
     rosette : {"half", "full"}
         Bridge form (:mod:`~rigval.processing.torsion`).
-    gauge_factor : float
-        Gauge factor (1).
     shear_modulus : float
         G in Pa.
     outer_diameter, inner_diameter : float
@@ -194,15 +190,6 @@ def torque_channel(ds: xr.Dataset, channel: str, *, rosette: Rosette, gauge_fact
         Torque sign convention (calibration constant).
     gauge_resistance, lead_resistance : float
         Ohm (half bridge lead correction).
-    excitation_voltage : float, optional
-        Excitation in V for channels in volts.
-    unstrained : float or (float, float), optional
-        Offset null (see :func:`bridge_ratio_values`).
-
-    Returns
-    -------
-    xarray.Dataset
-        Copy of ``ds`` with the torque variable.
     """
     ratio = bridge_ratio_values(ds, channel, excitation_voltage=excitation_voltage,
                                 unstrained=unstrained)
@@ -454,18 +441,12 @@ def load_cell_channel(ds: xr.Dataset, channel: str, *, sensitivity: float, capac
 
     Parameters
     ----------
-    ds : xarray.Dataset
-        Stream.
-    channel : str
-        Bridge channel.
+    ds, channel, excitation_voltage, unstrained
+        As in :func:`strain_channel`; the channel holds the load cell's bridge.
     sensitivity : float
         Rated output in mV/V.
     capacity : float
         Rated capacity in N.
-    excitation_voltage : float, optional
-        Excitation in V for channels in volts.
-    unstrained : float or (float, float), optional
-        Offset null (see :func:`bridge_ratio_values`).
     name : str, optional
         Output variable; default ``<channel>_force``.
     """

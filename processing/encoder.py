@@ -18,12 +18,17 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from rigval.acquisition.errors import ConfigError, DataError
+from rigval.processing.arrays import BoolArray, FloatArray, IntArray
+
+#: NI's quadrature decoding types (edges of A and B counted per line period: 1, 2 or 4).
+QuadratureDecoding = Literal["x1", "x2", "x4"]
 
 __all__ = [
     "QuadratureDecoding",
     "RevolutionCheck",
     "counts_to_angle",
     "decode_quadrature",
+    "increasing_angle",
     "remove_index_resets",
     "revolution_check",
     "unwrap_counts",
@@ -31,8 +36,6 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-QuadratureDecoding = Literal["x1", "x2", "x4"]
-_FloatArray = NDArray[np.float64]
 
 # Gray-code state s = 2 A + B runs 0 -> 1 -> 3 -> 2 -> 0 when B leads A (this table counts that
 # direction as negative, i.e. A leading B is positive as in NI's convention).
@@ -51,7 +54,7 @@ _STEP = _step_table()
 _ILLEGAL = np.array([[(old ^ new) == 3 for new in range(4)] for old in range(4)])
 
 
-def unwrap_counts(raw: ArrayLike, bits: int = 32) -> NDArray[np.int64]:
+def unwrap_counts(raw: ArrayLike, bits: int = 32) -> IntArray:
     """Return cumulative int64 counts from wrapping counter values.
 
     Parameters
@@ -81,7 +84,7 @@ def unwrap_counts(raw: ArrayLike, bits: int = 32) -> NDArray[np.int64]:
 
 
 def remove_index_resets(counts: ArrayLike, counts_per_rev: float,
-                        ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+                        ) -> tuple[IntArray, IntArray]:
     """Undo the counter reloads a Z index pulse causes (DAQmx ``CI.Encoder.ZIndexEnable``).
 
     With index reset enabled the count falls back to its initial value once per revolution, a
@@ -113,7 +116,7 @@ def remove_index_resets(counts: ArrayLike, counts_per_rev: float,
 
 
 def decode_quadrature(a: ArrayLike, b: ArrayLike, decoding: QuadratureDecoding = "x4",
-                      ) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+                      ) -> tuple[IntArray, BoolArray]:
     """Decode sampled A/B lines into counts (for encoders logged as digital or analog lines).
 
     Parameters
@@ -153,8 +156,43 @@ def decode_quadrature(a: ArrayLike, b: ArrayLike, decoding: QuadratureDecoding =
     return counts, illegal
 
 
+def increasing_angle(time: ArrayLike, angle: ArrayLike, *, use: str
+                     ) -> tuple[FloatArray, FloatArray]:
+    """Return the finite samples of an angle record, checked to increase strictly.
+
+    Parameters
+    ----------
+    time : array_like
+        Sample times in s.
+    angle : array_like
+        Unwrapped angle in rad (e.g. phi_F); NaN samples (invalid, unfilterable) are dropped.
+    use : str
+        What the angle is needed for, named in the error (``"to locate events"``).
+
+    Returns
+    -------
+    time, angle : numpy.ndarray
+        The finite samples (s, rad).
+
+    Raises
+    ------
+    DataError
+        When fewer than 2 samples are left or the angle does not increase strictly (a standstill
+        or a reversal).
+    """
+    t = np.asarray(time, dtype=np.float64)
+    phi = np.asarray(angle, dtype=np.float64)
+    finite = np.isfinite(phi)
+    t, phi = t[finite], phi[finite]
+    if phi.size < 2 or np.any(np.diff(phi) <= 0):
+        raise DataError(f"the angle must increase strictly {use}",
+                        hint="use the smoothed drive angle (excitation.drive_angle) and split the "
+                             "record at standstills or reversals")
+    return t, phi
+
+
 def counts_to_angle(counts: ArrayLike, counts_per_rev: float, *, reference_count: float = 0.0,
-                    gear_ratio: float = 1.0, direction: float = 1.0) -> _FloatArray:
+                    gear_ratio: float = 1.0, direction: float = 1.0) -> FloatArray:
     """Return the shaft angle ``2 pi direction (counts - reference) / (CPR gear_ratio)`` in rad.
 
     Parameters
@@ -194,10 +232,10 @@ class RevolutionCheck:
         ``|residual| > tolerance``: wrong or missing reference event, gap or reversal.
     """
 
-    event_times: _FloatArray
-    residual: _FloatArray
-    glitch: NDArray[np.bool_]
-    gross: NDArray[np.bool_]
+    event_times: FloatArray
+    residual: FloatArray
+    glitch: BoolArray
+    gross: BoolArray
 
 
 def revolution_check(time: ArrayLike, counts: ArrayLike, event_times: ArrayLike,

@@ -25,12 +25,12 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.signal import butter, sosfiltfilt
 
 from rigval.acquisition.errors import ConfigError, DataWarning
+from rigval.processing.arrays import FloatArray
 
 __all__ = ["butter_sos", "contiguous_runs", "default_padlen", "zero_phase"]
 
 logger = logging.getLogger(__name__)
 
-_FloatArray = NDArray[np.float64]
 BandType = Literal["lowpass", "highpass", "bandpass", "bandstop"]
 PadType = Literal["odd", "line", "even", "zero"]
 
@@ -100,7 +100,7 @@ def contiguous_runs(n: int, segment: ArrayLike | None = None,
     return [(a, b) for a, b in itertools.pairwise(bounds) if b > a and ok[a]]
 
 
-def _extension(run: _FloatArray, n: int, padtype: str, side: str, fit: int) -> _FloatArray:
+def _extension(run: FloatArray, n: int, padtype: str, side: str, fit: int) -> FloatArray:
     """Return ``n`` padding samples for one end of a run, in time order."""
     if padtype == "zero":
         return np.zeros(n)
@@ -132,7 +132,7 @@ def _chunks(start: int, stop: int, chunk: int, margin: int) -> Iterator[tuple[in
 def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], *,
                order: int = 4, btype: BandType = "lowpass", segment: ArrayLike | None = None,
                valid: ArrayLike | None = None, padlen: int | None = None,
-               padtype: PadType = "odd", chunk_samples: int = DEFAULT_CHUNK) -> _FloatArray:
+               padtype: PadType = "odd", chunk_samples: int = DEFAULT_CHUNK) -> FloatArray:
     """Filter forward and backward with a Butterworth filter, run by gap-free run.
 
     Parameters

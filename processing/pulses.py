@@ -25,12 +25,13 @@ from typing import Literal
 import numpy as np
 import xarray as xr
 from numpy.lib.stride_tricks import sliding_window_view
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy.optimize import brentq
 from scipy.special import i0
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError
 from rigval.processing.align import input_delay
+from rigval.processing.arrays import BoolArray, FloatArray, IntArray
 from rigval.processing.filters import contiguous_runs
 
 __all__ = ["PulseTrain", "StreamPulses", "classify_pulses", "detect_edges", "state_levels",
@@ -38,7 +39,6 @@ __all__ = ["PulseTrain", "StreamPulses", "classify_pulses", "detect_edges", "sta
 
 logger = logging.getLogger(__name__)
 
-_FloatArray = NDArray[np.float64]
 
 #: Half-length in samples and Kaiser beta of the windowed-sinc edge reconstruction.
 _HALF_WINDOW = 32
@@ -76,7 +76,7 @@ def state_levels(x: ArrayLike, bins: int = 100) -> tuple[float, float]:
     return levels[0], levels[1]
 
 
-def _sinc_crossing(x: _FloatArray, index: int, mid: float) -> float | None:
+def _sinc_crossing(x: FloatArray, index: int, mid: float) -> float | None:
     """Return the sub-sample index where the band-limited reconstruction of x crosses ``mid``.
 
     The reconstruction is a Kaiser-windowed sinc (beta 8, +-32 samples) through the samples; the
@@ -104,7 +104,7 @@ def detect_edges(x: ArrayLike, time: ArrayLike, *, low: float | None = None,
                  high: float | None = None, polarity: Literal["rising", "falling"] = "rising",
                  holdoff_s: float = 0.0, segment: ArrayLike | None = None,
                  valid: ArrayLike | None = None,
-                 refine: Literal["linear", "sinc"] = "linear") -> _FloatArray:
+                 refine: Literal["linear", "sinc"] = "linear") -> FloatArray:
     """Return sub-sample times of the edges of a pulse signal.
 
     Parameters
@@ -208,18 +208,18 @@ class PulseTrain:
         Local period in s at each good pulse (median of neighbouring intervals).
     """
 
-    times: _FloatArray
-    spurious: NDArray[np.bool_]
-    missing_times: _FloatArray
-    period: _FloatArray
+    times: FloatArray
+    spurious: BoolArray
+    missing_times: FloatArray
+    period: FloatArray
 
     @property
-    def good(self) -> _FloatArray:
+    def good(self) -> FloatArray:
         """Times (s) of the pulses not flagged spurious."""
         return self.times[~self.spurious]
 
 
-def _local_period(intervals: _FloatArray, window: int, tolerance: float = 0.15) -> _FloatArray:
+def _local_period(intervals: FloatArray, window: int, tolerance: float = 0.15) -> FloatArray:
     """Return the local pulse period (s) at each interval: the mode, not the median.
 
     Within ``window`` intervals around each one, the candidate interval that most others equal
@@ -354,20 +354,20 @@ class StreamPulses:
 
     channel: str
     polarity: str
-    times: _FloatArray
-    segment: NDArray[np.int64]
-    spurious: NDArray[np.bool_]
-    missing_times: _FloatArray
+    times: FloatArray
+    segment: IntArray
+    spurious: BoolArray
+    missing_times: FloatArray
     delay_s: float
     timing_bound_s: float = 0.0
 
     @property
-    def good(self) -> _FloatArray:
+    def good(self) -> FloatArray:
         """Edge times (s) not flagged spurious."""
         return self.times[~self.spurious]
 
     @property
-    def good_segment(self) -> NDArray[np.int64]:
+    def good_segment(self) -> IntArray:
         """Segment of each good edge."""
         return self.segment[~self.spurious]
 
@@ -413,7 +413,7 @@ def stream_pulses(stream: xr.Dataset, channel: str, *,
                          refine=refine)
     edge_segment = segment[np.clip(np.searchsorted(time, edges) - 1, 0, time.size - 1)]
     spurious = np.zeros(edges.size, dtype=bool)
-    missing: list[_FloatArray] = []
+    missing: list[FloatArray] = []
     for s in np.unique(edge_segment):
         mine = edge_segment == s
         if mine.sum() < 3:
@@ -432,8 +432,8 @@ def stream_pulses(stream: xr.Dataset, channel: str, *,
                         delay, 0.5 / fs if switched else 0.0)
 
 
-def _sample_switched(x: _FloatArray, time: _FloatArray, edges: _FloatArray, polarity: str,
-                     valid: NDArray[np.bool_]) -> bool:
+def _sample_switched(x: FloatArray, time: FloatArray, edges: FloatArray, polarity: str,
+                     valid: BoolArray) -> bool:
     """Return True when most edges jump between the state levels in one sample.
 
     An edge is sample-switched when the samples on either side of it lie within 3 % of the

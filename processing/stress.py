@@ -11,28 +11,28 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
+
+from rigval.processing.arrays import FloatArray
 
 __all__ = ["axial_and_bending", "axial_force", "axial_stress", "bending_moment",
            "tube_section_modulus"]
 
 logger = logging.getLogger(__name__)
 
-_FloatArray = NDArray[np.float64]
 
-
-def axial_stress(strain: ArrayLike, youngs_modulus: float) -> _FloatArray:
+def axial_stress(strain: ArrayLike, youngs_modulus: float) -> FloatArray:
     """Return axial stress ``sigma = E eps`` in Pa from strain (1) and Young's modulus (Pa)."""
     return np.asarray(strain, dtype=np.float64) * youngs_modulus
 
 
-def axial_force(strain: ArrayLike, youngs_modulus: float, area: float) -> _FloatArray:
+def axial_force(strain: ArrayLike, youngs_modulus: float, area: float) -> FloatArray:
     """Return axial force ``F = E eps A`` in N from strain (1), E (Pa) and cross-section A (m^2)."""
     return axial_stress(strain, youngs_modulus) * area
 
 
 def axial_and_bending(strain_top: ArrayLike, strain_bottom: ArrayLike,
-                      ) -> tuple[_FloatArray, _FloatArray]:
+                      ) -> tuple[FloatArray, FloatArray]:
     """Split the strains of two gauges on opposite faces into axial and bending parts.
 
     Parameters
@@ -57,6 +57,6 @@ def tube_section_modulus(outer_diameter: float, inner_diameter: float = 0.0) -> 
 
 
 def bending_moment(bending_strain: ArrayLike, youngs_modulus: float,
-                   section_modulus: float) -> _FloatArray:
+                   section_modulus: float) -> FloatArray:
     """Return the bending moment ``M = E eps_bending W`` in N m (E in Pa, W in m^3)."""
     return np.asarray(bending_strain, dtype=np.float64) * youngs_modulus * section_modulus

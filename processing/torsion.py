@@ -23,10 +23,14 @@ import logging
 from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from rigval.acquisition.errors import ConfigError
+from rigval.processing.arrays import FloatArray
 from rigval.processing.bridge import balanced_bridge_ratio, strain_from_ratio
+
+#: Torsion rosette bridge forms: two gauges at +-45 degrees (half) or four (full).
+Rosette = Literal["half", "full"]
 
 __all__ = [
     "polar_moment",
@@ -38,9 +42,6 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
-
-_FloatArray = NDArray[np.float64]
-Rosette = Literal["half", "full"]
 
 
 def _check_shaft(outer_diameter: float, inner_diameter: float) -> None:
@@ -66,7 +67,7 @@ def polar_moment(outer_diameter: float, inner_diameter: float = 0.0) -> float:
 
 
 def torque_from_shear_strain(shear_strain: ArrayLike, *, shear_modulus: float,
-                             outer_diameter: float, inner_diameter: float = 0.0) -> _FloatArray:
+                             outer_diameter: float, inner_diameter: float = 0.0) -> FloatArray:
     """Return shaft torque ``T = G gamma J / (D/2)`` in N m from surface shear strain.
 
     Parameters
@@ -83,7 +84,7 @@ def torque_from_shear_strain(shear_strain: ArrayLike, *, shear_modulus: float,
 
 
 def shear_strain_from_torque(torque: ArrayLike, *, shear_modulus: float, outer_diameter: float,
-                             inner_diameter: float = 0.0) -> _FloatArray:
+                             inner_diameter: float = 0.0) -> FloatArray:
     """Return surface shear strain gamma (1) of a shaft under torque (N m); inverse of the above."""
     j = polar_moment(outer_diameter, inner_diameter)
     return np.asarray(torque, dtype=np.float64) * (outer_diameter / 2.0) / (shear_modulus * j)
@@ -93,7 +94,7 @@ def rosette_bridge_ratio(shear_strain: ArrayLike, rosette: Rosette, *, gauge_fac
                          poisson: float = 0.3, axial_strain: ArrayLike = 0.0,
                          bending_strain: ArrayLike = 0.0, transverse_shear: ArrayLike = 0.0,
                          gauge_resistance: float = 120.0,
-                         lead_resistance: float = 0.0) -> _FloatArray:
+                         lead_resistance: float = 0.0) -> FloatArray:
     """Return the exact bridge output ``Vo/Vex`` of a torsion rosette bridge (forward model).
 
     Each grid is a resistor ``Rg (1 + GF eps_grid)`` with ``eps(+-45) = (1 - nu) eps_x / 2 +-
@@ -131,7 +132,7 @@ def rosette_bridge_ratio(shear_strain: ArrayLike, rosette: Rosette, *, gauge_fac
     bending = np.asarray(bending_strain, dtype=np.float64)
     transverse = np.asarray(transverse_shear, dtype=np.float64)
 
-    def grid(eps_x: _FloatArray, gamma_local: _FloatArray, sign: float) -> _FloatArray:
+    def grid(eps_x: FloatArray, gamma_local: FloatArray, sign: float) -> FloatArray:
         """Resistance change of one grid in ohm."""
         eps = (1.0 - poisson) * eps_x / 2.0 + sign * gamma_local / 2.0
         return gauge_resistance * gauge_factor * eps
@@ -150,7 +151,7 @@ def rosette_bridge_ratio(shear_strain: ArrayLike, rosette: Rosette, *, gauge_fac
 
 def shear_strain_from_ratio(ratio: ArrayLike, rosette: Rosette, *, gauge_factor: float,
                             gauge_resistance: float = 120.0, lead_resistance: float = 0.0,
-                            sign: float = 1.0) -> _FloatArray:
+                            sign: float = 1.0) -> FloatArray:
     """Return torsional shear strain gamma (1) from an offset-nulled rosette bridge ratio.
 
     ``gamma = 2 eps_NI`` with NI Half Bridge II (``rosette="half"``) or Full Bridge I
@@ -182,7 +183,7 @@ def shear_strain_from_ratio(ratio: ArrayLike, rosette: Rosette, *, gauge_factor:
 def torque_from_ratio(ratio: ArrayLike, rosette: Rosette, *, gauge_factor: float,
                       shear_modulus: float, outer_diameter: float, inner_diameter: float = 0.0,
                       gauge_resistance: float = 120.0, lead_resistance: float = 0.0,
-                      sign: float = 1.0) -> _FloatArray:
+                      sign: float = 1.0) -> FloatArray:
     """Return shaft torque in N m from an offset-nulled rosette bridge ratio (V/V).
 
     Combines :func:`shear_strain_from_ratio` and :func:`torque_from_shear_strain`; parameters as

@@ -15,16 +15,15 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from rigval.acquisition.errors import ConfigError
 from rigval.processing.accelerometer import STANDARD_GRAVITY
+from rigval.processing.arrays import FloatArray
 
 __all__ = ["iepe_acceleration", "linear_scale", "load_cell_force"]
 
 logger = logging.getLogger(__name__)
-
-_FloatArray = NDArray[np.float64]
 
 
 def _finite_positive(value: float, name: str) -> None:
@@ -33,7 +32,7 @@ def _finite_positive(value: float, name: str) -> None:
                           where={"key": name})
 
 
-def linear_scale(x: ArrayLike, *, slope: float, offset: float = 0.0) -> _FloatArray:
+def linear_scale(x: ArrayLike, *, slope: float, offset: float = 0.0) -> FloatArray:
     """Return ``slope x + offset``.
 
     Parameters
@@ -58,7 +57,7 @@ def linear_scale(x: ArrayLike, *, slope: float, offset: float = 0.0) -> _FloatAr
     return np.asarray(x, dtype=np.float64) * slope + offset
 
 
-def iepe_acceleration(volts: ArrayLike, *, sensitivity: float) -> _FloatArray:
+def iepe_acceleration(volts: ArrayLike, *, sensitivity: float) -> FloatArray:
     """Return the acceleration in m s-2 of an IEPE accelerometer's output in V.
 
     Parameters
@@ -72,7 +71,7 @@ def iepe_acceleration(volts: ArrayLike, *, sensitivity: float) -> _FloatArray:
     return np.asarray(volts, dtype=np.float64) / (sensitivity * 1e-3) * STANDARD_GRAVITY
 
 
-def load_cell_force(ratio: ArrayLike, *, sensitivity: float, capacity: float) -> _FloatArray:
+def load_cell_force(ratio: ArrayLike, *, sensitivity: float, capacity: float) -> FloatArray:
     """Return the force of a bridge load cell from its bridge ratio.
 
     Parameters
