@@ -298,21 +298,22 @@ def predict(mechanism: Mechanism | str | Path, drives: DriveSpec = None, *, n_po
     _check_names("point", point_names, mech.point_names)
     _check_names("joint", joints, mech.joint_names)
     pins = ground_pins(mech)
-    joint_names = list(dict.fromkeys([*pins, *joints]))
+    joint_names = [j for j in dict.fromkeys(joints) if j not in pins]
     angle, t, rate, meaning = _cycle_grid(excitation, n_points)
     result = _solve(mech, excitation, t, points=point_names, joints=joint_names,
                     outputs=("point_position", "point_velocity", "point_acceleration",
-                             "joint_force", "driver_torque"))
+                             "driver_torque", "drive_power", "support_force",
+                             *(("joint_force",) if joint_names else ())))
     values = excitation.evaluate(t)
     drivers = list(mech.driver_names)
-    speed = np.stack([values[d][1] for d in drivers], axis=-1)
     torque = result["driver_torque"].sel(driver=drivers).values
-    joint_force = result["joint_force"].sel(joint=joint_names, axis=list(_AXES)).values
-    support = -joint_force[:, :len(pins)]
+    power = result["drive_power"].sel(driver=drivers).values
+    support = _support(result, pins)
+    joint_force = (result["joint_force"].sel(joint=joint_names, axis=list(_AXES)).values
+                   if joint_names else np.zeros((t.size, 0, len(_AXES))))
     pos = result["point_position"].sel(point=point_names, axis=list(_AXES)).values
     vel = result["point_velocity"].sel(point=point_names, axis=list(_AXES)).values
     acc = result["point_acceleration"].sel(point=point_names, axis=list(_AXES)).values
-    power = torque * speed
     acc_magnitude = np.hypot(acc[..., 0], acc[..., 1])
     data: dict[str, Any] = {}
     for i, (label, unit) in enumerate((("angle", "rad"), ("speed", "rad s-1"),
@@ -336,13 +337,13 @@ def predict(mechanism: Mechanism | str | Path, drives: DriveSpec = None, *, n_po
     data["support_force"] = (("angle", "support", "axis"), support, {
         "units": "N", "long_name": "support force ON THE FRAME at the ground pin "
                                    "(minus joint_force)"})
-    data["joint_force"] = (("angle", "joint", "axis"), joint_force[:, len(pins):], {
+    data["joint_force"] = (("angle", "joint", "axis"), joint_force, {
         "units": "N", "long_name": "joint force on the joint's first body, global frame"})
     data |= _summaries(angle, rate, tip=tip, tip_y=pos[:, 0, 1],
                        tip_acceleration=acc_magnitude[:, 0], support=support, torque=torque,
                        power=power)
     coords = {**_angle_coords(angle, t, meaning), "driver": drivers, "point": point_names,
-              "axis": list(_AXES), "support": list(pins), "joint": list(joint_names[len(pins):]),
+              "axis": list(_AXES), "support": list(pins), "joint": joint_names,
               "component": ["x", "y", "magnitude"]}
     ds = xr.Dataset(data, coords=coords, attrs={
         "title": f"rigval prediction: {mech.name}",
@@ -493,7 +494,7 @@ class _Needs:
         if self.acceleration:
             names.append("point_acceleration")
         if self.forces:
-            names += ["joint_force", "driver_torque"]
+            names += ["support_force", "driver_torque"]
         return tuple(names)
 
 
@@ -520,8 +521,15 @@ class _Basis:
     quadratic_per_unit: dict[str, np.ndarray]
 
 
+def _support(result: xr.Dataset, pins: Sequence[str]) -> np.ndarray:
+    """Return the model's support forces ON THE FRAME at the ground pins, (n, pins, axis), N."""
+    if not pins:
+        return np.zeros((result.sizes["time"], 0, len(_AXES)))
+    return result["support_force"].sel(support=list(pins), axis=list(_AXES)).values
+
+
 def _flat_forces(result: xr.Dataset, pins: Sequence[str], drivers: Sequence[str]) -> np.ndarray:
-    support = -result["joint_force"].sel(joint=list(pins), axis=list(_AXES)).values
+    support = _support(result, pins)
     torque = result["driver_torque"].sel(driver=list(drivers)).values
     return np.concatenate([support.reshape(support.shape[0], -1), torque], axis=1)
 
@@ -549,8 +557,8 @@ def _basis(mechanism: Mechanism, excitation: Excitation, t: np.ndarray, rate: np
     """Solve the model along one path as often as the superposition needs; return the solves."""
     drivers = mechanism.driver_names
     with_statics = split_speed and needs.forces and mechanism.gravity != (0.0, 0.0)
-    result = _solve(mechanism, excitation, t, outputs=needs.outputs(), points=[tip],
-                    joints=list(pins) if needs.forces else [], with_statics=with_statics)
+    result = _solve(mechanism, excitation, t, outputs=needs.outputs(), points=[tip], joints=[],
+                    with_statics=with_statics)
     solves = 1
     moving = result.isel(time=slice(None, None, 2)) if with_statics else result
     tip_y = moving["point_position"].sel(point=tip, axis="y").values if needs.position else None
@@ -565,8 +573,9 @@ def _basis(mechanism: Mechanism, excitation: Excitation, t: np.ndarray, rate: np
         reference = _body_value(mechanism, name)
         step = max(abs(reference), 1.0)
         changed, _ = _apply(name, reference + step, mechanism, excitation)
-        changed_result = _solve(changed, excitation, t, outputs=("joint_force", "driver_torque"),
-                                points=[], joints=pins, with_statics=with_statics)
+        changed_result = _solve(changed, excitation, t,
+                                outputs=("support_force", "driver_torque"), points=[], joints=[],
+                                with_statics=with_statics)
         solves += 1
         constant, quadratic = _force_parts(changed_result, pins, drivers,
                                            split_speed=split_speed, with_statics=with_statics)
