@@ -1,6 +1,7 @@
 """The virtual rig: settings, the random draws of one run, and the run from drive motion to files.
 
-:func:`rigval.sample_data.simulate_rig` reproduces the set-up of docs/references.md ([paper] section 4.1) on a mechanism:
+:func:`rigval.sample_data.simulate_rig` reproduces the set-up of docs/references.md ([paper]
+section 4.1) on a mechanism:
 
 1. true drive motion (:mod:`~rigval.sample_data.drive`) and the model truth along it
    (:mod:`~rigval.sample_data.truth`);
@@ -42,6 +43,9 @@ logger = logging.getLogger(__name__)
 #: cDAQ AI sample clock (Hz) and the NI 9237 rate on the wireless carriers, 50 kS/s / 31 (Hz).
 FS_CDAQ = 5000.0
 FS_WLS = 50000.0 / 31.0
+#: Longest record in s (4 hours; the rig writes in windows, memory grows only by the 1 kHz
+#: truth grid).
+MAX_DURATION_S = 14400.0
 #: Date the virtual rig's runs are dated from (a run starts ``seed`` days later, see
 #: :func:`draw_rig`).
 BASE_START = np.datetime64("2026-03-10T08:00:00", "ns")
@@ -162,9 +166,9 @@ class RigSettings:
         if not 0.05 <= self.speed <= 5.0:
             raise ConfigError(f"speed must be within 0.05 ... 5 rev/s, got {self.speed}",
                               where={"key": "speed"})
-        if not 1.0 <= self.duration <= 600.0:
-            raise ConfigError(f"duration must be within 1 ... 600 s, got {self.duration}",
-                              where={"key": "duration"})
+        if not 1.0 <= self.duration <= MAX_DURATION_S:
+            raise ConfigError(f"duration must be within 1 ... {MAX_DURATION_S:g} s, got "
+                              f"{self.duration}", where={"key": "duration"})
         if self.seed < 0:
             raise ConfigError(f"seed must be >= 0, got {self.seed}", where={"key": "seed"})
         self.imperfections.check()

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import tempfile
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -38,10 +39,15 @@ from rigval.acquisition.errors import ConfigError
 from rigval.sample_data.drive import DriveMotion, Harmonic
 from rigval.sample_data.rig import RigDraw, RigSettings, draw_rig, run_stem
 from rigval.sample_data.scene_text import local_time, note_text, scene_text
-from rigval.sample_data.streams import Stream, sample_streams
-from rigval.sample_data.tdms_writer import Acquisition, RawChannel, write_daqmx_tdms
+from rigval.sample_data.streams import Stream, StreamPiece, stream_pieces
+from rigval.sample_data.tdms_writer import Acquisition, DaqmxTdmsWriter, RawChannel
 from rigval.sample_data.truth import TruthGrid, model_truth
-from rigval.sample_data.writers import write_european_csv, write_json, write_npz
+from rigval.sample_data.writers import (
+    european_csv_head,
+    european_csv_rows,
+    write_json,
+    write_npz_from_files,
+)
 
 __all__ = ["GROUPS", "RunFiles", "TruthProvider", "default_mechanism", "mechanism_drivers",
            "simulate_rig"]
@@ -50,6 +56,12 @@ logger = logging.getLogger(__name__)
 
 #: TDMS group (task name) of each TDMS stream.
 GROUPS = {"cdaq": "cDAQ1 task", "wls1": "WLS1 task"}
+#: Window of true time (s) the streams are sampled and written in: memory does not grow with
+#: the record beyond the 1 kHz truth grid (about 60 bytes per ms of record).
+WINDOW_S = 60.0
+#: Truth grid points solved at a time (the solver needs about 2 kB per point; the model is
+#: solved point by point, so the pieces join to rounding, 1e-14 of a signal's range).
+TRUTH_POINTS = 1 << 16
 #: Version of the truth file layout.
 TRUTH_SCHEMA = "rigval-rig-truth/1"
 
@@ -139,27 +151,94 @@ def _stamp(draw: RigDraw, seconds: float) -> np.datetime64:
     return draw.start_time + np.timedelta64(round(seconds * 1e9), "ns")
 
 
-def _write_tdms(stream: Stream, draw: RigDraw, path: Path) -> None:
-    clock = stream.clock
-    acquisitions = [
-        Acquisition(GROUPS[stream.name], _stamp(draw, seg.true_start + seg.stamp_error),
+class _StreamFiles:
+    """Writes the pieces of the rig's streams to their files as they come (bounded memory).
+
+    The cDAQ and WLS #1 go to DAQmx raw TDMS files, WLS #2 to the European CSV; the truth of
+    every analog channel goes to one temporary ``.npy`` file each (in ``scratch``), copied into
+    the truth ``.npz`` by :meth:`write_truth`.
+    """
+
+    def __init__(self, streams: dict[str, Stream], draw: RigDraw, files: RunFiles,
+                 scratch: Path) -> None:
+        self.streams, self.draw, self.files, self.scratch = streams, draw, files, scratch
+        self.truth: dict[str, Path] = {}
+        self._truth_arrays: dict[str, np.ndarray] = {}
+        self._filled: dict[str, int] = {}
+        self._tdms: DaqmxTdmsWriter | None = None
+        self._csv: Any = None
+
+    def _open(self, name: str) -> None:
+        stream = self.streams[name]
+        n_total = sum(seg.n_samples for seg in stream.clock.segments)
+        for c in stream.channels:
+            if c.truth_unit is not None:
+                key = f"{name}.{c.name}"
+                self.truth[key] = self.scratch / f"{key}.npy"
+                self._truth_arrays[key] = np.lib.format.open_memmap(
+                    self.truth[key], mode="w+", dtype=np.float32, shape=(n_total,))
+                self._filled[key] = 0
+        if name == "wls2":
+            clock = stream.clock
+            first = clock.segments[0]
+            start = local_time(_stamp(self.draw, first.true_start + first.stamp_error))
+            stamp = start.strftime("%d.%m.%Y %H:%M:%S,") + f"{start.microsecond // 1000:03d}"
+            header = [("Device", "WLS-9163 #2, NI 9237 (lifting shafts)"), ("Start time", stamp)]
+            self._csv = self.files.path("wls2.csv").open("wb")
+            self._csv.write(european_csv_head(
+                header, [(c.name, c.unit or "1") for c in stream.channels]).encode("utf-8"))
+        else:
+            path = self.files.path(f"{name}.tdms")
+            self._tdms = DaqmxTdmsWriter(path, file_name=path.stem)
+
+    def close(self) -> None:
+        """Close the stream file being written."""
+        if self._tdms is not None:
+            self._tdms.close()
+            self._tdms = None
+        if self._csv is not None:
+            self._csv.close()
+            self._csv = None
+        for array in self._truth_arrays.values():
+            array.flush()
+        self._truth_arrays = {}
+
+    def write(self, piece: StreamPiece, opening: bool) -> None:
+        """Write one piece; ``opening``: the first piece of its stream."""
+        if opening:
+            self.close()
+            self._open(piece.stream)
+        stream = self.streams[piece.stream]
+        clock = stream.clock
+        for key, values in piece.truth.items():
+            full = f"{piece.stream}.{key}"
+            array = self._truth_arrays[full]
+            array[self._filled[full]:self._filled[full] + values.size] = values
+            self._filled[full] += values.size
+        for j, (i, k0) in enumerate(piece.parts):
+            raw = [piece.raw[c.name][j] for c in stream.channels]
+            if self._csv is not None:
+                seg, first = clock.segments[i], clock.segments[0]
+                time = ((seg.true_start + seg.stamp_error - first.true_start - first.stamp_error)
+                        + np.arange(k0, k0 + raw[0].size) / clock.fs_nominal)
+                self._csv.write(european_csv_rows(time, [
+                    (r.astype(np.float64) * c.slope, "%.6E")
+                    for r, c in zip(raw, stream.channels, strict=True)]).encode("utf-8"))
+            elif k0 == 0:  # a task start
+                seg = clock.segments[i]
+                assert self._tdms is not None
+                self._tdms.start(Acquisition(
+                    GROUPS[stream.name], _stamp(self.draw, seg.true_start + seg.stamp_error),
                     1.0 / clock.fs_nominal,
-                    tuple(RawChannel(c.name, c.raw[i], c.slope, 0.0, c.unit)
-                          for c in stream.channels))
-        for i, seg in enumerate(clock.segments)]
-    write_daqmx_tdms(path, acquisitions, file_name=path.stem)
+                    tuple(RawChannel(c.name, r, c.slope, 0.0, c.unit)
+                          for r, c in zip(raw, stream.channels, strict=True))))
+            else:
+                assert self._tdms is not None
+                self._tdms.append(raw)
 
-
-def _write_csv(stream: Stream, draw: RigDraw, path: Path) -> None:
-    first = stream.clock.segments[0]
-    start = local_time(_stamp(draw, first.true_start + first.stamp_error))
-    stamp = start.strftime("%d.%m.%Y %H:%M:%S,") + f"{start.microsecond // 1000:03d}"
-    header = [("Device", "WLS-9163 #2, NI 9237 (lifting shafts)"), ("Start time", stamp)]
-    columns = []
-    for c in stream.channels:
-        values = np.concatenate(c.raw).astype(np.float64) * c.slope
-        columns.append((c.name, c.unit or "1", values, "%.6E"))
-    write_european_csv(path, header, stream.clock.device_times(), columns)
+    def write_truth(self, path: Path) -> None:
+        """Write the truth ``.npz`` from the temporary files."""
+        write_npz_from_files(path, self.truth)
 
 
 def _jsonable(value: Any) -> Any:
@@ -230,6 +309,17 @@ def _references(drive: DriveMotion) -> dict[str, float]:
             "opt3_phi_F": float(np.mod(phi_f + np.pi, 2.0 * np.pi) - np.pi)}
 
 
+def _truth_grid(provider: TruthProvider, drive: DriveMotion,
+                t_grid: NDArray[np.float64]) -> TruthGrid:
+    """Return the model truth on ``t_grid``, solved :data:`TRUTH_POINTS` points at a time."""
+    if t_grid.size <= TRUTH_POINTS:
+        return provider(drive, t_grid)
+    parts = [provider(drive, t_grid[i:i + TRUTH_POINTS])
+             for i in range(0, t_grid.size, TRUTH_POINTS)]
+    return TruthGrid(t_grid, {name: np.concatenate([p.values[name] for p in parts])
+                              for name in parts[0].values})
+
+
 def simulate_rig(out_dir: str | Path, settings: RigSettings | None = None, *,
                  truth: TruthProvider | None = None) -> RunFiles:
     """Run the virtual rig and write one run folder.
@@ -258,24 +348,26 @@ def simulate_rig(out_dir: str | Path, settings: RigSettings | None = None, *,
     t0 = min(starts) - settings.preroll
     n = int(np.ceil((max(stops) + 0.5 - t0) * settings.truth_fs)) + 1
     t_grid = t0 + np.arange(n) / settings.truth_fs
-    if truth is None:
-        grid = model_truth(mechanism, draw.drive, t_grid)
-    else:
-        grid = truth(draw.drive, t_grid)
-    streams, pulses = sample_streams(draw, grid)
+    provider = truth or (lambda drive, t: model_truth(mechanism, drive, t))
+    grid = _truth_grid(provider, draw.drive, t_grid)
+    streams, pulses, pieces = stream_pieces(draw, grid, window_s=WINDOW_S)
 
     folder = Path(out_dir)
     folder.mkdir(parents=True, exist_ok=True)
     files = RunFiles(folder, run_stem(settings.speed))
-    _write_tdms(streams["cdaq"], draw, files.path("cdaq.tdms"))
-    _write_tdms(streams["wls1"], draw, files.path("wls1.tdms"))
-    _write_csv(streams["wls2"], draw, files.path("wls2.csv"))
+    with tempfile.TemporaryDirectory(dir=folder, prefix=".truth-") as scratch:
+        sink = _StreamFiles(streams, draw, files, Path(scratch))
+        written: set[str] = set()
+        try:
+            for piece in pieces:
+                sink.write(piece, opening=piece.stream not in written)
+                written.add(piece.stream)
+        finally:
+            sink.close()
+        sink.write_truth(files.path("truth.npz"))
     references = _references(draw.drive)
     write_json(files.path("truth.json"),
                _truth_record(settings, draw, streams, pulses, files, references))
-    write_npz(files.path("truth.npz"),
-              {f"{s.name}.{c.name}": c.truth.astype(np.float32)
-               for s in streams.values() for c in s.channels if c.truth is not None})
     files.path("scene.toml").write_text(scene_text(settings, draw, files, references),
                                         encoding="utf-8")
     files.path("note.txt").write_text(note_text(settings, draw, streams, files),

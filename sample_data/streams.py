@@ -28,8 +28,9 @@ wls2      opt3    NI 9237    V/V       pulse edges
 
 from __future__ import annotations
 
+import itertools
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,7 +41,7 @@ from rigval.sample_data.rig import RigDraw
 from rigval.sample_data.sensors import PulseTrain, optical_pulses
 from rigval.sample_data.truth import TruthGrid, frame_vibration
 
-__all__ = ["DEVICE_NAMES", "SampledChannel", "Stream", "sample_streams"]
+__all__ = ["DEVICE_NAMES", "SampledChannel", "Stream", "StreamPiece", "stream_pieces"]
 
 logger = logging.getLogger(__name__)
 
@@ -125,22 +126,18 @@ def _accelerometer_grids(draw: RigDraw, grid: TruthGrid) -> tuple[TruthGrid, Tru
     return TruthGrid(grid.t, physical), TruthGrid(grid.t, volts)
 
 
-def _analog(name: str, module: str, clock: DeviceClock, signal: _Signal, noise_rms: float,
-            truth: _Signal | None, truth_unit: str | None,
-            rng: np.random.Generator) -> SampledChannel:
-    """Sample a sensor output through an analog module on every segment of a clock."""
-    mod = MODULES[module]
-    # A delta-sigma module's delay is counted in periods of the device's own (drifting) clock.
-    delay = mod.delay(clock.fs_true)
-    raw, slope = [], 1.0
-    for i in range(len(clock.segments)):
-        t = clock.sample_times(i)
-        values = signal(t - delay) + rng.normal(0.0, 1.0, t.size) * noise_rms
-        codes, slope = mod.quantise(values, _FULL_SCALE[module])
-        raw.append(codes)
-    samples = clock.all_sample_times()
-    return SampledChannel(name, module, _FILE_UNIT[module], raw, slope, delay,
-                          None if truth is None else truth(samples), truth_unit)
+@dataclass(frozen=True)
+class _Plan:
+    """How one channel is sampled: an analog module on a signal, or an encoder's counter."""
+
+    name: str
+    module: str
+    signal: _Signal
+    noise_rms: float
+    truth: _Signal | None
+    truth_unit: str | None
+    #: A counter's counts(angle, angle_at_start); None for an analog channel.
+    counts: Callable[[_FloatArray, float], NDArray] | None = None
 
 
 def _pulse_signal(train: PulseTrain, module: str, fs: float) -> _Signal:
@@ -148,27 +145,9 @@ def _pulse_signal(train: PulseTrain, module: str, fs: float) -> _Signal:
     return lambda t: train.value(t, band_limit=band)
 
 
-def sample_streams(draw: RigDraw, grid: TruthGrid) -> tuple[dict[str, Stream],
-                                                            dict[str, dict[str, list[float]]]]:
-    """Sample every channel of the rig.
-
-    Parameters
-    ----------
-    draw : RigDraw
-        The run's random draws (drive, clocks, sensors).
-    grid : TruthGrid
-        Model truth covering every device's record (and the pre-roll).
-
-    Returns
-    -------
-    dict of str to Stream
-        ``"cdaq"``, ``"wls1"``, ``"wls2"``.
-    dict
-        Truth of each optical sensor's pulses (see
-        :func:`~rigval.sample_data.sensors.optical_pulses`).
-    """
+def _trains(draw: RigDraw) -> tuple[dict[str, PulseTrain], dict[str, dict[str, list[float]]]]:
+    """Return each optical sensor's pulse train over its device's record, and their truth."""
     drive = draw.drive
-    physical, volts = _accelerometer_grids(draw, grid)
     pulse_truth = {}
     trains = {}
     for name, stream, drive_name, reference in (("opt1", "cdaq", "theta_F", drive.theta_f0),
@@ -183,49 +162,181 @@ def sample_streams(draw: RigDraw, grid: TruthGrid) -> tuple[dict[str, Stream],
             draw.optical[name], drive, drive_name, reference, t_first, t_last,
             np.random.default_rng(draw.pulse_seeds[name]), draw.missing_probability,
             draw.spurious_per_minute)
-    rng = np.random.default_rng(draw.noise_seed)
+    return trains, pulse_truth
+
+
+def _plans(draw: RigDraw, grid: TruthGrid, physical: TruthGrid, volts: TruthGrid,
+           trains: dict[str, PulseTrain]) -> dict[str, list[_Plan]]:
+    """Return the channel plans of every stream on these truth grids."""
+    drive = draw.drive
 
     def angle(drive_name: str) -> _Signal:
         return lambda t: drive.angles(t)[drive_name][0]
 
     cdaq = draw.clocks["cdaq"]
-    channels = [
-        _analog(name, "NI 9215", cdaq, lambda t, n=name: volts.at(n, t),
-                draw.accelerometers[name].noise_rms, lambda t, n=name: physical.at(n, t),
-                "m s-2", rng)
-        for name in ("acc1", "acc2", "acc3")]
+    plans: dict[str, list[_Plan]] = {"cdaq": [
+        _Plan(name, "NI 9215", lambda t, n=name: volts.at(n, t),
+              draw.accelerometers[name].noise_rms, lambda t, n=name: physical.at(n, t), "m s-2")
+        for name in ("acc1", "acc2", "acc3")]}
     bridge = draw.str1
-    channels.append(_analog(
-        "str1", "NI 9237", cdaq,
-        lambda t: bridge.ratio(grid.at("rod_B_axial_force", t), t), bridge.noise_rms,
-        lambda t: grid.at("rod_B_axial_force", t) / bridge.area, "Pa", rng))
-    channels.append(_analog("opt1", "NI 9215", cdaq, _pulse_signal(trains["opt1"], "NI 9215",
-                                                                   cdaq.fs_nominal),
-                            draw.optical["opt1"].noise_rms, None, None, rng))
-    counter_delay = MODULES["NI 9411"].delay(cdaq.fs_nominal)
-    t_cdaq = cdaq.sample_times(0) - counter_delay
+    plans["cdaq"].append(_Plan(
+        "str1", "NI 9237", lambda t: bridge.ratio(grid.at("rod_B_axial_force", t), t),
+        bridge.noise_rms, lambda t: grid.at("rod_B_axial_force", t) / bridge.area, "Pa"))
+    plans["cdaq"].append(_Plan("opt1", "NI 9215",
+                               _pulse_signal(trains["opt1"], "NI 9215", cdaq.fs_nominal),
+                               draw.optical["opt1"].noise_rms, None, None))
     for name, drive_name in (("enc1", "theta_F"), ("enc2", "theta_H")):
-        theta = angle(drive_name)(t_cdaq)
-        counts = draw.encoders[name].counts(theta, float(theta[0]))
-        channels.append(SampledChannel(name, "NI 9411", None, [counts], 1.0, counter_delay,
-                                       None, None))
-    streams = {"cdaq": Stream("cdaq", DEVICE_NAMES["cdaq"], cdaq, tuple(channels))}
-
+        plans["cdaq"].append(_Plan(name, "NI 9411", angle(drive_name), 0.0, None, None,
+                                   counts=draw.encoders[name].counts))
     for stream, pair, drive_name, opt in (("wls1", ("tor1", "tor2"), "theta_F", "opt2"),
                                           ("wls2", ("tor3", "tor4"), "theta_H", "opt3")):
         clock = draw.clocks[stream]
         torque = f"torque_{drive_name}"
-        channels = []
-        for name in pair:
-            sensor = draw.torsion[name]
-            channels.append(_analog(
-                name, "NI 9237", clock,
-                lambda t, s=sensor, q=torque, d=drive_name: s.ratio(grid.at(q, t),
-                                                                    angle(d)(t), t),
-                sensor.noise_rms, lambda t, s=sensor, q=torque: s.share * grid.at(q, t), "N m",
-                rng))
-        channels.append(_analog(opt, "NI 9237", clock,
-                                _pulse_signal(trains[opt], "NI 9237", clock.fs_nominal),
-                                draw.optical[opt].noise_rms, None, None, rng))
-        streams[stream] = Stream(stream, DEVICE_NAMES[stream], clock, tuple(channels))
-    return streams, pulse_truth
+        plans[stream] = [
+            _Plan(name, "NI 9237",
+                  lambda t, s=draw.torsion[name], q=torque, d=drive_name: s.ratio(
+                      grid.at(q, t), angle(d)(t), t),
+                  draw.torsion[name].noise_rms,
+                  lambda t, s=draw.torsion[name], q=torque: s.share * grid.at(q, t), "N m")
+            for name in pair]
+        plans[stream].append(_Plan(opt, "NI 9237",
+                                   _pulse_signal(trains[opt], "NI 9237", clock.fs_nominal),
+                                   draw.optical[opt].noise_rms, None, None))
+    return plans
+
+
+@dataclass(frozen=True)
+class StreamPiece:
+    """The samples of one stream within one window of true time.
+
+    Parameters
+    ----------
+    stream : str
+        Stream name.
+    parts : tuple of (int, int)
+        For each gap-free segment the window touches: the segment's index and the index of the
+        piece's first sample within it, in time order.
+    raw : mapping of str to list of numpy.ndarray
+        Raw codes or counts per channel, one array per entry of ``parts``.
+    truth : mapping of str to numpy.ndarray
+        Physical truth at the piece's samples (parts concatenated) of the analog channels that
+        have one.
+    """
+
+    stream: str
+    parts: tuple[tuple[int, int], ...]
+    raw: dict[str, list[NDArray]]
+    truth: dict[str, _FloatArray]
+
+
+def _windows(clock: DeviceClock, window_s: float | None) -> list[list[tuple[int, int, int]]]:
+    """Split a clock's samples into windows of true time: [(segment, first, stop), ...] each."""
+    if window_s is None:
+        return [[(i, 0, seg.n_samples) for i, seg in enumerate(clock.segments)]]
+    start = clock.segments[0].true_start
+    last = clock.segments[-1]
+    stop = last.true_start + last.n_samples / clock.fs_true
+    edges = start + window_s * np.arange(int(np.ceil((stop - start) / window_s)) + 1)
+    windows = []
+    for a, b in itertools.pairwise(edges):
+        parts = []
+        for i, seg in enumerate(clock.segments):
+            k0 = int(np.clip(np.ceil((a - seg.true_start) * clock.fs_true), 0, seg.n_samples))
+            k1 = int(np.clip(np.ceil((b - seg.true_start) * clock.fs_true), 0, seg.n_samples))
+            if k1 > k0:
+                parts.append((i, k0, k1))
+        if parts:
+            windows.append(parts)
+    return windows
+
+
+def _sample(plan: _Plan, clock: DeviceClock, parts: list[tuple[int, int, int]],
+            rng: np.random.Generator) -> tuple[list[NDArray], _FloatArray | None, float, float]:
+    """Sample one channel on some segment pieces: raw arrays, truth, slope, delay."""
+    mod = MODULES[plan.module]
+    times = [clock.segments[i].true_start + np.arange(k0, k1) / clock.fs_true
+             for i, k0, k1 in parts]
+    if plan.counts is not None:
+        # The counter starts at the first sample of the record (the cDAQ has one segment).
+        delay = mod.delay(clock.fs_nominal)
+        theta0 = float(plan.signal(np.array([clock.segments[0].true_start - delay]))[0])
+        raw = [plan.counts(plan.signal(t - delay), theta0) for t in times]
+        return raw, None, 1.0, delay
+    # A delta-sigma module's delay is counted in periods of the device's own (drifting) clock.
+    delay = mod.delay(clock.fs_true)
+    raw, slope = [], 1.0
+    for t in times:
+        values = plan.signal(t - delay) + rng.normal(0.0, 1.0, t.size) * plan.noise_rms
+        codes, slope = mod.quantise(values, _FULL_SCALE[plan.module])
+        raw.append(codes)
+    truth = None if plan.truth is None else plan.truth(np.concatenate(times))
+    return raw, truth, slope, delay
+
+
+def stream_pieces(draw: RigDraw, grid: TruthGrid, window_s: float | None = None
+                  ) -> tuple[dict[str, Stream], dict[str, dict[str, list[float]]],
+                             Iterator[StreamPiece]]:
+    """Sample every channel of the rig window by window, in bounded memory.
+
+    Parameters
+    ----------
+    draw : RigDraw
+        The run's random draws (drive, clocks, sensors).
+    grid : TruthGrid
+        Model truth covering every device's record (and the pre-roll).
+    window_s : float, optional
+        Length of a window of true time in s; None: each stream in one piece.
+
+    Returns
+    -------
+    dict of str to Stream
+        ``"cdaq"``, ``"wls1"``, ``"wls2"`` with their channels' metadata (``raw`` empty and
+        ``truth`` None: the samples come in the pieces).
+    dict
+        Truth of each optical sensor's pulses (see
+        :func:`~rigval.sample_data.sensors.optical_pulses`).
+    iterator of StreamPiece
+        The samples: the streams in the order cdaq, wls1, wls2, each window after window.
+        One noise generator runs through them in this order (channel after channel within a
+        window), so one seed and one window length give the same samples.
+    """
+    trains, pulse_truth = _trains(draw)
+    physical, volts = _accelerometer_grids(draw, grid)
+    plans = _plans(draw, grid, physical, volts, trains)
+    streams = {}
+    for name, channels in plans.items():
+        clock = draw.clocks[name]
+        meta = []
+        for plan in channels:
+            mod = MODULES[plan.module]
+            if plan.counts is not None:
+                meta.append(SampledChannel(plan.name, plan.module, None, [], 1.0,
+                                           mod.delay(clock.fs_nominal), None, None))
+            else:
+                top = 2 ** (mod.bits - 1) - 1
+                meta.append(SampledChannel(plan.name, plan.module, _FILE_UNIT[plan.module], [],
+                                           _FULL_SCALE[plan.module] / top,
+                                           mod.delay(clock.fs_true), None, plan.truth_unit))
+        streams[name] = Stream(name, DEVICE_NAMES[name], clock, tuple(meta))
+
+    def pieces() -> Iterator[StreamPiece]:
+        rng = np.random.default_rng(draw.noise_seed)
+        for name, channels in plans.items():
+            clock = draw.clocks[name]
+            windows = _windows(clock, window_s)
+            for parts in windows:
+                if len(windows) > 1:  # splines on this window's part of the truth only
+                    first, last = parts[0], parts[-1]
+                    t_from = clock.segments[first[0]].true_start + first[1] / clock.fs_true - 1.0
+                    t_to = clock.segments[last[0]].true_start + last[2] / clock.fs_true + 1.0
+                    channels = _plans(draw, grid.window(t_from, t_to),
+                                      physical.window(t_from, t_to), volts.window(t_from, t_to),
+                                      trains)[name]
+                raw, truth = {}, {}
+                for plan in channels:
+                    raw[plan.name], values, _, _ = _sample(plan, clock, parts, rng)
+                    if values is not None:
+                        truth[plan.name] = values
+                yield StreamPiece(name, tuple((i, k0) for i, k0, _ in parts), raw, truth)
+
+    return streams, pulse_truth, pieces()

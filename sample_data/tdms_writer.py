@@ -39,7 +39,7 @@ from rigval.acquisition.tdms_layout import (
     TOC_RAW_DATA,
 )
 
-__all__ = ["Acquisition", "RawChannel", "write_daqmx_tdms"]
+__all__ = ["Acquisition", "DaqmxTdmsWriter", "RawChannel", "write_daqmx_tdms"]
 
 logger = logging.getLogger(__name__)
 
@@ -159,44 +159,136 @@ def _segment(objects: list[tuple[str, bytes, bytes]], data: bytes) -> bytes:
     return lead_in + meta + data
 
 
-def _acquisition_segments(acq: Acquisition, root_props: dict[str, object] | None,
-                          new_group: bool, block: int) -> list[bytes]:
-    lengths = {c.raw.size for c in acq.channels}
-    if len(lengths) != 1:
-        raise ConfigError(f"group {acq.group!r}: channels differ in length {sorted(lengths)}",
-                          where={"key": acq.group})
-    n = lengths.pop()
+def _record_dtype(acq: Acquisition) -> tuple[np.dtype, list[np.dtype], np.ndarray]:
+    """Return the interleaved row dtype, the channels' dtypes and their byte offsets."""
     dtypes = [np.dtype(c.raw.dtype).newbyteorder("<") for c in acq.channels]
     for channel, dtype in zip(acq.channels, dtypes, strict=True):
         if dtype not in _SCALER_CODES:
             raise ConfigError(f"channel {channel.name!r}: raw type {dtype} is not a DAQmx type",
                               where={"channel": channel.name})
     offsets = np.cumsum([0] + [d.itemsize for d in dtypes])
-    width = int(offsets[-1])
     record = np.dtype({"names": [f"c{i}" for i in range(len(dtypes))], "formats": dtypes,
-                       "offsets": [int(o) for o in offsets[:-1]], "itemsize": width})
-    segments = []
-    for first in range(0, n, block):
-        count = min(block, n - first)
-        rows = np.empty(count, dtype=record)
-        for i, channel in enumerate(acq.channels):
-            rows[f"c{i}"] = channel.raw[first:first + count]
-        objects: list[tuple[str, bytes, bytes]] = []
-        if first == 0:
-            if root_props is not None:
-                objects.append(("/", struct.pack("<I", NO_DATA), _properties(root_props)))
-            if new_group:
-                objects.append((_path(acq.group), struct.pack("<I", NO_DATA),
-                                struct.pack("<I", 0)))
-        for i, (channel, dtype) in enumerate(zip(acq.channels, dtypes, strict=True)):
-            index = struct.pack("<IIIQI", DAQMX_FORMAT_CHANGING, DAQMX_TYPE, 1, count, 1)
-            index += struct.pack("<IIIII", _SCALER_CODES[dtype], 0, int(offsets[i]), 0, 0)
-            index += struct.pack("<II", 1, width)
-            props = (_properties(_channel_properties(channel, acq)) if first == 0
-                     else struct.pack("<I", 0))
-            objects.append((_path(acq.group, channel.name), index, props))
-        segments.append(_segment(objects, rows.tobytes()))
-    return segments
+                       "offsets": [int(o) for o in offsets[:-1]], "itemsize": int(offsets[-1])})
+    return record, dtypes, offsets
+
+
+class DaqmxTdmsWriter:
+    """Write a DAQmx-style raw TDMS file piece by piece, in bounded memory.
+
+    :meth:`start` begins an acquisition (a task start), :meth:`append` adds samples of its
+    channels in pieces of any length; full blocks of ``block_samples`` are written as they fill,
+    the rest when the next acquisition starts or at :meth:`close`. The bytes equal those of
+    :func:`write_daqmx_tdms` with all samples at once.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file (overwritten).
+    block_samples : int, default 4096
+        Samples per channel per data segment (one DAQmx read).
+    file_name : str, default ""
+        The root object's ``name`` property.
+    """
+
+    def __init__(self, path: str | Path, *, block_samples: int = 4096,
+                 file_name: str = "") -> None:
+        self.path = Path(path)
+        self._file = self.path.open("wb")
+        self._block = block_samples
+        self._file_name = file_name
+        self._seen: set[str] = set()
+        self._acquisitions = 0
+        self._acq: Acquisition | None = None
+        self._pending: list[list[NDArray]] = []
+        self._written = 0
+
+    def start(self, acq: Acquisition) -> None:
+        """Begin an acquisition; its channels' ``raw`` arrays give the dtypes (and first samples).
+
+        Raises
+        ------
+        ConfigError
+            If a channel's raw type is not a DAQmx type.
+        """
+        self._flush(final=True)
+        _record_dtype(acq)
+        self._root = {"name": self._file_name} if self._acquisitions == 0 else None
+        self._new_group = acq.group not in self._seen
+        self._seen.add(acq.group)
+        self._acquisitions += 1
+        self._acq = acq
+        self._pending = [[] for _ in acq.channels]
+        self._written = 0
+        self.append([c.raw for c in acq.channels])
+
+    def append(self, raw: Sequence[NDArray]) -> None:
+        """Append samples to the current acquisition, one array per channel (equal lengths).
+
+        Raises
+        ------
+        ConfigError
+            Before :meth:`start`, or for channels of unequal lengths.
+        """
+        if self._acq is None:
+            raise ConfigError("append before start: no acquisition begun", where={})
+        lengths = {np.asarray(r).size for r in raw}
+        if len(lengths) != 1 or len(raw) != len(self._acq.channels):
+            raise ConfigError(f"group {self._acq.group!r}: channels differ in length "
+                              f"{sorted(lengths)}", where={"key": self._acq.group})
+        for pending, values in zip(self._pending, raw, strict=True):
+            pending.append(np.asarray(values))
+        self._flush(final=False)
+
+    def _flush(self, final: bool) -> None:
+        acq = self._acq
+        if acq is None:
+            return
+        joined = [np.concatenate(p) if len(p) != 1 else p[0] for p in self._pending]
+        n = joined[0].size if joined else 0
+        record, dtypes, offsets = _record_dtype(acq)
+        width = record.itemsize
+        first = 0
+        while n - first >= self._block or (final and n - first > 0):
+            count = min(self._block, n - first)
+            rows = np.empty(count, dtype=record)
+            for i, values in enumerate(joined):
+                rows[f"c{i}"] = values[first:first + count]
+            objects: list[tuple[str, bytes, bytes]] = []
+            opening = self._written == 0
+            if opening:
+                if self._root is not None:
+                    objects.append(("/", struct.pack("<I", NO_DATA), _properties(self._root)))
+                if self._new_group:
+                    objects.append((_path(acq.group), struct.pack("<I", NO_DATA),
+                                    struct.pack("<I", 0)))
+            for i, (channel, dtype) in enumerate(zip(acq.channels, dtypes, strict=True)):
+                index = struct.pack("<IIIQI", DAQMX_FORMAT_CHANGING, DAQMX_TYPE, 1, count, 1)
+                index += struct.pack("<IIIII", _SCALER_CODES[dtype], 0, int(offsets[i]), 0, 0)
+                index += struct.pack("<II", 1, width)
+                props = (_properties(_channel_properties(channel, acq)) if opening
+                         else struct.pack("<I", 0))
+                objects.append((_path(acq.group, channel.name), index, props))
+            self._file.write(_segment(objects, rows.tobytes()))
+            self._written += count
+            first += count
+        self._pending = [[values[first:]] for values in joined]
+        if final:
+            self._acq = None
+
+    def close(self) -> None:
+        """Write what is pending and close the file."""
+        self._flush(final=True)
+        self._file.close()
+
+    def __enter__(self) -> DaqmxTdmsWriter:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
+        if kind is None:
+            self.close()
+        else:  # a failed write leaves no partial file behind
+            self._file.close()
+            self.path.unlink(missing_ok=True)
 
 
 def write_daqmx_tdms(path: str | Path, acquisitions: Sequence[Acquisition], *,
@@ -220,12 +312,8 @@ def write_daqmx_tdms(path: str | Path, acquisitions: Sequence[Acquisition], *,
         The file written.
     """
     path = Path(path)
-    seen: set[str] = set()
-    parts: list[bytes] = []
-    for number, acq in enumerate(acquisitions):
-        parts += _acquisition_segments(acq, {"name": file_name} if number == 0 else None,
-                                       acq.group not in seen, block_samples)
-        seen.add(acq.group)
-    path.write_bytes(b"".join(parts))
+    with DaqmxTdmsWriter(path, block_samples=block_samples, file_name=file_name) as writer:
+        for acq in acquisitions:
+            writer.start(acq)
     logger.debug("wrote %s (%d acquisitions)", path, len(acquisitions))
     return path

@@ -17,7 +17,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["write_european_csv", "write_json", "write_npz"]
+__all__ = ["european_csv_head", "european_csv_rows", "write_european_csv", "write_json",
+           "write_npz", "write_npz_from_files"]
 
 logger = logging.getLogger(__name__)
 
@@ -53,15 +54,33 @@ def write_european_csv(path: str | Path, header: Sequence[tuple[str, str]],
         The file written.
     """
     path = Path(path)
-    names = ";".join(["Time [s]"] + [f"{name} [{unit}]" for name, unit, _, _ in columns])
-    preamble = "".join(f"{key};{value}\r\n" for key, value in header)
-    table = np.column_stack([time] + [values for _, _, values, _ in columns])
-    buffer = io.StringIO()
-    np.savetxt(buffer, table, fmt=["%.6f"] + [fmt for _, _, _, fmt in columns], delimiter=";",
-               newline="\r\n")
-    text = preamble + names + "\r\n" + buffer.getvalue().replace(".", ",")
+    text = european_csv_head(header, [(name, unit) for name, unit, _, _ in columns])
+    text += european_csv_rows(time, [(values, fmt) for _, _, values, fmt in columns])
     path.write_bytes(text.encode("utf-8"))
     return path
+
+
+def european_csv_head(header: Sequence[tuple[str, str]], names: Sequence[tuple[str, str]]) -> str:
+    """Return the ``key;value`` lines and the column-name row of :func:`write_european_csv`.
+
+    ``names`` are the data columns' (name, unit); the time column comes first.
+    """
+    row = ";".join(["Time [s]"] + [f"{name} [{unit}]" for name, unit in names])
+    return "".join(f"{key};{value}\r\n" for key, value in header) + row + "\r\n"
+
+
+def european_csv_rows(time: NDArray[np.float64],
+                      columns: Sequence[tuple[NDArray[np.float64], str]]) -> str:
+    """Return data rows of :func:`write_european_csv`: time, then each (values, format) column.
+
+    Rows written piece by piece after :func:`european_csv_head` give the same text as all at
+    once.
+    """
+    table = np.column_stack([time] + [values for values, _ in columns])
+    buffer = io.StringIO()
+    np.savetxt(buffer, table, fmt=["%.6f"] + [fmt for _, fmt in columns], delimiter=";",
+               newline="\r\n")
+    return buffer.getvalue().replace(".", ",")
 
 
 def write_npz(path: str | Path, arrays: Mapping[str, NDArray]) -> Path:
@@ -89,6 +108,39 @@ def write_npz(path: str | Path, arrays: Mapping[str, NDArray]) -> Path:
             info.compress_type = zipfile.ZIP_DEFLATED
             info.external_attr = 0o644 << 16
             archive.writestr(info, buffer.getvalue(), compresslevel=6)
+    return path
+
+
+def write_npz_from_files(path: str | Path, files: Mapping[str, Path],
+                         chunk_bytes: int = 1 << 24) -> Path:
+    """Write ``.npy`` files into a compressed ``.npz`` as :func:`write_npz` does, in bounded memory.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file (overwritten).
+    files : mapping of str to Path
+        ``.npy`` files by array name, written in sorted name order and copied in pieces of
+        ``chunk_bytes``.
+    chunk_bytes : int, default 16 MiB
+        Bytes read at a time.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    path = Path(path)
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED,
+                         compresslevel=6) as archive:
+        for name in sorted(files):
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=_ZIP_DATE)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o644 << 16
+            info.file_size = files[name].stat().st_size
+            with files[name].open("rb") as source, archive.open(info, "w") as target:
+                while piece := source.read(chunk_bytes):
+                    target.write(piece)
     return path
 
 
