@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -57,10 +57,12 @@ import xarray as xr
 
 from rigval.acquisition.devices import DEVICES, MODULES, get_device, get_module
 from rigval.acquisition.errors import ChannelMapError, ChannelNotFoundError, ConfigError
+from rigval.acquisition.tables import TableReader, key_path
 
 __all__ = ["SENSORS", "ChannelSpec", "StreamSpec", "load_stream", "parse_stream",
            "parse_streams", "sensor_attrs"]
 
+_TABLES = TableReader(ChannelMapError, docs="docs/scene.md")
 _COMMON = {"source", "sensor", "module", "description"}
 _STREAM_KEYS = {"file", "device", "reader", "channels", "description"}
 
@@ -198,10 +200,10 @@ class StreamSpec:
 
 def _check_value(value: Any, rule: _Param, key: str) -> Any:
     """Validate one parameter value; return it normalised (floats for numbers)."""
-    def fail(expected: str) -> ChannelMapError:
-        return ChannelMapError(f"{key} must be {expected}, got {value!r}", where={"key": key},
-                          hint="write the sensor's calibration value in SI units (docs/scene.md "
-                               "lists each sensor's keys)")
+    def fail(expected: str) -> ConfigError:
+        return _TABLES.fail(key, f"must be {expected}, got {value!r}",
+                            hint="write the sensor's calibration value in SI units (docs/scene.md "
+                                 "lists each sensor's keys)")
 
     if rule.kind == "bool":
         if not isinstance(value, bool):
@@ -230,49 +232,42 @@ def _check_value(value: Any, rule: _Param, key: str) -> Any:
 
 def _parse_channel(name: str, table: Any, key: str) -> ChannelSpec:
     """Parse one ``[streams.X.channels.NAME]`` table."""
-    if not isinstance(table, Mapping):
-        raise ChannelMapError(f"{key} must be a table", where={"key": key})
-    sensor = table.get("sensor")
-    if sensor not in SENSORS:
-        raise ChannelMapError(f"{key}.sensor must be one of {', '.join(SENSORS)}, got {sensor!r}",
-                         where={"key": f"{key}.sensor"})
+    table = _TABLES.table(table, key)
+    sensor = _TABLES.get(table, "sensor", key, str, choices=tuple(SENSORS),
+                         hint="give the channel's sensor kind (docs/scene.md, [streams])")
     rules = SENSORS[sensor]
-    unknown = sorted(set(table) - _COMMON - set(rules))
-    if unknown:
-        raise ChannelMapError(f"{key}.{unknown[0]}: unknown key for a {sensor} channel",
-                         where={"key": f"{key}.{unknown[0]}"},
-                         hint="known keys: " + ", ".join(sorted(_COMMON | set(rules))))
+    _TABLES.check_keys(table, key, _COMMON | set(rules),
+                       [p for p, rule in rules.items() if rule.required],
+                       what=f"for a {sensor} channel")
     params: dict[str, Any] = {}
     for param, rule in rules.items():
         if param in table:
             params[param] = _check_value(table[param], rule, f"{key}.{param}")
-        elif rule.required:
-            raise ChannelMapError(f"{key}.{param} is required for a {sensor} channel",
-                             where={"key": f"{key}.{param}"})
         elif rule.default is not None:
             params[param] = rule.default
     if sensor == "torsion_bridge" and params["inner_diameter"] >= params["outer_diameter"]:
-        raise ChannelMapError(f"{key}.inner_diameter must be smaller than outer_diameter "
-                         f"({params['inner_diameter']} >= {params['outer_diameter']} m)",
-                         where={"key": f"{key}.inner_diameter"})
+        raise _TABLES.fail(f"{key}.inner_diameter", "must be smaller than outer_diameter "
+                           f"({params['inner_diameter']} >= {params['outer_diameter']} m)")
     if sensor == "linear" and params["slope"] == 0:
-        raise ChannelMapError(f"{key}.slope must be non-zero (output units per input unit)",
-                         where={"key": f"{key}.slope"})
-    source = table.get("source", name)
-    if not isinstance(source, str) or not source:
-        raise ChannelMapError(f"{key}.source must be a channel name, got {source!r}",
-                         where={"key": f"{key}.source"})
-    module = table.get("module")
-    if module is not None:
-        try:
-            module = get_module(str(module)).name
-        except ChannelNotFoundError:
-            raise ChannelMapError(f"{key}.module: unknown module {module!r}",
-                             where={"key": f"{key}.module"},
-                             hint="known: " + ", ".join(MODULES)) from None
-    description = table.get("description", "")
+        raise _TABLES.fail(f"{key}.slope", "must be non-zero (output units per input unit)")
+    source = _TABLES.text(table.get("source", name), f"{key}.source")
+    module = _known(table, "module", key, get_module, MODULES)
+    description = _TABLES.get(table, "description", key, str, "")
     return ChannelSpec(name, source, sensor, MappingProxyType(params), module, str(description),
                        key)
+
+
+def _known(table: Mapping[str, Any], name: str, key: str,
+           lookup: Callable[[str], Any], known: Iterable[str]) -> str | None:
+    """Return the canonical name of a device or module named at ``key.name`` (None if absent)."""
+    value = table.get(name)
+    if value is None:
+        return None
+    try:
+        return str(lookup(str(value)).name)
+    except ChannelNotFoundError:
+        raise _TABLES.fail(key_path(key, name), f"unknown {name} {value!r}",
+                           hint="known: " + ", ".join(known)) from None
 
 
 def _check_reader_options(reader: Mapping[str, Any], path: Path, key: str) -> None:
@@ -291,9 +286,8 @@ def _check_reader_options(reader: Mapping[str, Any], path: Path, key: str) -> No
     unknown = sorted(set(reader) - known)
     if unknown:
         what = f"the {kind} reader" if kind else "no reader"
-        raise ChannelMapError(f"{key}.{unknown[0]}: {what} has this option",
-                         where={"key": f"{key}.{unknown[0]}"},
-                         hint="options: " + ", ".join(sorted(known)))
+        raise _TABLES.fail(f"{key}.{unknown[0]}", f"{what} has this option",
+                           hint="options: " + ", ".join(sorted(known)))
 
 
 def parse_stream(table: Mapping[str, Any], key: str,
@@ -319,46 +313,25 @@ def parse_stream(table: Mapping[str, Any], key: str,
     ChannelMapError
         Naming the key path of the first bad key or value.
     """
-    if not isinstance(table, Mapping):
-        raise ChannelMapError(f"{key} must be a table", where={"key": key})
-    unknown = sorted(set(table) - _STREAM_KEYS)
-    if unknown:
-        raise ChannelMapError(f"{key}.{unknown[0]}: unknown key", where={"key": f"{key}.{unknown[0]}"},
-                         hint="known keys: " + ", ".join(sorted(_STREAM_KEYS)))
-    file = table.get("file")
-    if not isinstance(file, str) or not file:
-        raise ChannelMapError(f"{key}.file is required: the stream's data file",
-                         where={"key": f"{key}.file"})
-    path = Path(file)
+    table = _TABLES.check_keys(table, key, _STREAM_KEYS, ["file"])
+    path = Path(_TABLES.text(table["file"], f"{key}.file"))
     if base_dir is not None and not path.is_absolute():
         path = Path(base_dir) / path
-    device = table.get("device")
-    if device is not None:
-        try:
-            device = get_device(str(device)).name
-        except ChannelNotFoundError:
-            raise ChannelMapError(f"{key}.device: unknown device {device!r}",
-                             where={"key": f"{key}.device"},
-                             hint="known: " + ", ".join(DEVICES)) from None
-    reader = table.get("reader", {})
-    if not isinstance(reader, Mapping):
-        raise ChannelMapError(f"{key}.reader must be a table of reader options",
-                         where={"key": f"{key}.reader"})
+    device = _known(table, "device", key, get_device, DEVICES)
+    reader = _TABLES.get(table, "reader", key, dict, {})
     for reserved in ("channels", "device", "time_range"):
         if reserved in reader:
-            raise ChannelMapError(f"{key}.reader.{reserved} is set by the scene, not the reader table",
-                             where={"key": f"{key}.reader.{reserved}"})
+            raise _TABLES.fail(f"{key}.reader.{reserved}",
+                               "is set by the scene, not the reader table")
     _check_reader_options(reader, path, f"{key}.reader")
-    channels_table = table.get("channels", {})
-    if not isinstance(channels_table, Mapping):
-        raise ChannelMapError(f"{key}.channels must be a table", where={"key": f"{key}.channels"})
+    channels_table = _TABLES.get(table, "channels", key, dict, {})
     channels = {name: _parse_channel(name, sub, f"{key}.channels.{name}")
                 for name, sub in channels_table.items()}
     sources = [c.source for c in channels.values()]
     doubled = sorted({s for s in sources if sources.count(s) > 1})
     if doubled:
-        raise ChannelMapError(f"{key}.channels: file channel {doubled[0]!r} is mapped twice",
-                         where={"key": f"{key}.channels"})
+        raise _TABLES.fail(f"{key}.channels", f"file channel {doubled[0]!r} is mapped twice",
+                           hint="map each file channel to one scene channel")
     return StreamSpec(key.rsplit(".", 1)[-1], path, device, MappingProxyType(dict(reader)),
                       MappingProxyType(channels), key)
 
@@ -372,8 +345,9 @@ def parse_streams(table: Mapping[str, Any], key: str = "streams",
     ChannelMapError
         If the table is empty or any stream is invalid (naming the key path).
     """
-    if not isinstance(table, Mapping) or not table:
-        raise ChannelMapError(f"{key} must be a table with at least one stream", where={"key": key})
+    if not _TABLES.table(table, key):
+        raise _TABLES.fail(key, "must hold at least one stream",
+                           hint=f"add a [{key}.NAME] table per data file")
     return {name: parse_stream(sub, f"{key}.{name}", base_dir) for name, sub in table.items()}
 
 

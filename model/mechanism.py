@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from rigval.acquisition.errors import ConfigError
+from rigval.acquisition.tables import TableReader
 from rigval.model.assembly import check_constraint_count
 from rigval.model.errors import MechanismError
 from rigval.model.laws import DriveLaw, Excitation, cycle_rate, law_from_rates
@@ -357,57 +358,21 @@ def load_mechanism(source: str | Path | Mapping[str, Any]) -> Mechanism:
             raise MechanismError(f"not valid TOML: {exc}", where={"file": str(path)},
                                  hint="fix the TOML syntax at the position given") from exc
         origin = str(path)
-    return check_constraint_count(_Parser(origin).parse(data))
+    return check_constraint_count(_Parser(file=origin).parse(data))
 
 
-class _Parser:
-    """Turns a mapping into a :class:`Mechanism`, naming the key path in every error."""
+@dataclass(frozen=True)
+class _Parser(TableReader):
+    """Turns a mapping into a :class:`Mechanism`, naming the file and key path in every error."""
 
-    def __init__(self, origin: str) -> None:
-        self.origin = origin
-
-    def fail(self, key: str, message: str, hint: str | None = None) -> MechanismError:
-        return MechanismError(message, where={"file": self.origin, "key": key},
-                              hint=hint or "see docs/mechanism.md for the format of this key")
-
-    def check_keys(self, table: Any, key: str, allowed: set[str], required: Sequence[str]) -> None:
-        if not isinstance(table, Mapping):
-            raise self.fail(key, f"expected a table, got {type(table).__name__}",
-                            hint="see docs/mechanism.md for the layout")
-        unknown = sorted(set(table) - allowed)
-        if unknown:
-            raise self.fail(f"{key}.{unknown[0]}" if key else unknown[0],
-                            f"unknown key {unknown[0]!r}",
-                            hint=f"allowed keys here are {', '.join(sorted(allowed))}")
-        for name in required:
-            if name not in table:
-                raise self.fail(f"{key}.{name}" if key else name, f"missing key {name!r}",
-                                hint="see docs/mechanism.md for the format")
-
-    def number(self, value: Any, key: str, *, minimum: float | None = None) -> float:
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise self.fail(key, f"expected a number, got {value!r}",
-                            hint="write a plain number in SI units (docs/mechanism.md)")
-        number = float(value)
-        if not math.isfinite(number):
-            raise self.fail(key, f"expected a finite number, got {value!r}",
-                            hint="write a finite number in SI units")
-        if minimum is not None and number < minimum:
-            raise self.fail(key, f"expected a value >= {minimum}, got {number}",
-                            hint="masses and inertias cannot be negative")
-        return number
+    error: type[ConfigError] = MechanismError
+    docs: str = "docs/mechanism.md"
 
     def vector(self, value: Any, key: str, size: int) -> tuple[float, ...]:
         if not isinstance(value, Sequence) or isinstance(value, str) or len(value) != size:
             raise self.fail(key, f"expected a list of {size} numbers, got {value!r}",
                             hint=f"write [{', '.join(['x', 'y', 'theta'][:size])}] in m and rad")
         return tuple(self.number(v, f"{key}[{i}]") for i, v in enumerate(value))
-
-    def text(self, value: Any, key: str) -> str:
-        if not isinstance(value, str) or not value.strip():
-            raise self.fail(key, f"expected a non-empty string, got {value!r}",
-                            hint="write a quoted name")
-        return value
 
     def array(self, data: Mapping[str, Any], key: str) -> list[Any]:
         value = data.get(key, [])
@@ -420,7 +385,7 @@ class _Parser:
         if data["schema"] != SCHEMA:
             raise self.fail("schema", f"unsupported schema {data['schema']!r}, expected {SCHEMA!r}",
                             hint=f'write schema = "{SCHEMA}" and the format of docs/mechanism.md')
-        default_name = Path(self.origin).stem if self.origin != "<dict>" else "unnamed mechanism"
+        default_name = Path(str(self.file)).stem if self.file != "<dict>" else "unnamed mechanism"
         name = self.text(data.get("name", default_name), "name")
         gravity = self.vector(data.get("gravity", [0.0, -9.81]), "gravity", 2)
         bodies = self.bodies(self.array(data, "bodies"))
@@ -429,7 +394,7 @@ class _Parser:
         self.check_shared_points(bodies, joints)
         self.check_grounded(bodies, joints)
         return Mechanism(name=name, bodies=bodies, joints=joints, drivers=drivers,
-                         gravity=(gravity[0], gravity[1]), source=self.origin)
+                         gravity=(gravity[0], gravity[1]), source=str(self.file))
 
     def bodies(self, tables: list[Any]) -> tuple[Body, ...]:
         if not tables:
@@ -452,8 +417,10 @@ class _Parser:
             guess = self.vector(table["guess"], f"{key}.guess", 3)
             bodies.append(Body(
                 name=name,
-                mass=self.number(table["mass"], f"{key}.mass", minimum=0.0),
-                inertia=self.number(table["inertia"], f"{key}.inertia", minimum=0.0),
+                mass=self.number(table["mass"], f"{key}.mass", minimum=0.0,
+                                hint="masses and inertias cannot be negative"),
+                inertia=self.number(table["inertia"], f"{key}.inertia", minimum=0.0,
+                                hint="masses and inertias cannot be negative"),
                 points=PointTable({p: (v[0], v[1]) for p, v in parsed.items()}),
                 guess=(guess[0], guess[1], guess[2]),
                 description=str(table.get("description", "")),

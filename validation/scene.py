@@ -31,6 +31,7 @@ from typing import Any, Literal
 
 from rigval.acquisition.channel_map import ChannelSpec, StreamSpec, parse_streams
 from rigval.acquisition.errors import ChannelMapError, ConfigError, UnitError
+from rigval.acquisition.tables import TableReader
 from rigval.acquisition.units import dimension, multiply, parse_unit
 from rigval.model.errors import MechanismError
 from rigval.model.mechanism import BUILTIN_PREFIX, load_mechanism, mechanism_file
@@ -449,49 +450,11 @@ class Scene:
 # Parsing helpers: each takes the key path for its error messages.
 
 
-def _error(key: str, message: str, hint: str | None = None, **extra: Any) -> SceneError:
-    return SceneError(f"{key}: {message}", where={"key": key}, hint=hint, **extra)
-
-
-def _table(value: Any, key: str) -> Mapping[str, Any]:
-    if not isinstance(value, Mapping):
-        raise _error(key, f"expected a table, got {type(value).__name__} {value!r}")
-    return value
-
-
-def _check_keys(table: Mapping[str, Any], key: str, allowed: set[str] | tuple[str, ...]) -> None:
-    unknown = sorted(set(table) - set(allowed))
-    if unknown:
-        raise _error(f"{key}.{unknown[0]}" if key else unknown[0], "unknown key",
-                     hint=f"allowed keys here: {', '.join(sorted(allowed))} (docs/scene.md)")
-
-
-def _get(table: Mapping[str, Any], name: str, key: str, kind: type | tuple[type, ...],
-         default: Any = ..., choices: tuple[Any, ...] | None = None) -> Any:
-    path = f"{key}.{name}" if key else name
-    if name not in table:
-        if default is ...:
-            raise _error(path, "missing required key", hint="see docs/scene.md for this table")
-        return default
-    value = table[name]
-    if kind is float and isinstance(value, int) and not isinstance(value, bool):
-        value = float(value)
-    if isinstance(value, bool) and kind is not bool:
-        raise _error(path, f"expected {_kind_name(kind)}, got {value!r}")
-    if not isinstance(value, kind):
-        raise _error(path, f"expected {_kind_name(kind)}, got {type(value).__name__} {value!r}")
-    if choices is not None and value not in choices:
-        raise _error(path, f"expected one of {', '.join(map(repr, choices))}, got {value!r}")
-    if isinstance(value, float) and not math.isfinite(value):  # TOML has nan and inf
-        raise _error(path, f"must be a finite number, got {value!r}",
-                     hint="write a finite number (TOML's nan and inf are not values here)")
-    return value
-
-
-def _kind_name(kind: type | tuple[type, ...]) -> str:
-    names = {str: "a string", float: "a number", int: "an integer", bool: "true or false"}
-    kinds = kind if isinstance(kind, tuple) else (kind,)
-    return " or ".join(names.get(k, k.__name__) for k in kinds)
+_TABLES = TableReader(SceneError, docs="docs/scene.md")
+_error = _TABLES.fail
+_table = _TABLES.table
+_check_keys = _TABLES.check_keys
+_get = _TABLES.get
 
 
 def _file(scene_dir: Path, value: str, key: str) -> Path:
