@@ -16,6 +16,9 @@ that keep the channel metadata and append a ``history`` line):
 - :mod:`~rigval.processing.alignment`: every stream of a set on the reference timeline, from
   plain settings; :mod:`~rigval.processing.alignment_summary`: its per-stream diagnostics;
 - :mod:`~rigval.processing.timeline`: all aligned streams on one uniform time grid;
+- :mod:`~rigval.processing.selection`: which channels of aligned streams the timeline and the
+  angle domain use;
+- :mod:`~rigval.processing.arrays`: the array types of the numpy functions;
 - :mod:`~rigval.processing.angle`: phi_F, cycles, angle-domain resampling;
 - :mod:`~rigval.processing.cycles`: cycle statistics and outlier cycles;
 - :mod:`~rigval.processing.excitation`: drive angles and their derivatives with an error estimate;

@@ -26,7 +26,7 @@ import xarray as xr
 from numpy.typing import ArrayLike
 from scipy.interpolate import make_interp_spline
 
-from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError
+from rigval.acquisition.errors import ConfigError, DataError
 from rigval.acquisition.schema import append_history
 from rigval.processing.align import channel_time
 from rigval.processing.arrays import FloatArray, IntArray
@@ -39,6 +39,7 @@ from rigval.processing.encoder import (
 from rigval.processing.excitation import Method, drive_excitation
 from rigval.processing.filters import contiguous_runs, zero_phase
 from rigval.processing.pulses import StreamPulses
+from rigval.processing.selection import merged_history, selected_channels
 
 #: Low-pass before resampling to the angle grid: zero-phase Butterworth, or none.
 AntiAlias = Literal["butterworth", "none"]
@@ -239,17 +240,6 @@ def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike,
     return cycles, grid_time[:, 0], resampled
 
 
-def _merged_history(aligned: Mapping[str, xr.Dataset],
-                    selection: Mapping[str, Sequence[str]]) -> str:
-    """Return the history lines of the streams used, each once, in order."""
-    lines: list[str] = []
-    for name in selection:
-        for line in str(aligned[name].attrs.get("history", "")).splitlines():
-            if line and line not in lines:
-                lines.append(line)
-    return "\n".join(lines)
-
-
 def angle_domain(aligned: Mapping[str, xr.Dataset], angle_time: ArrayLike, angle: ArrayLike,
                  *, points_per_rev: int = 360,
                  channels: Mapping[str, Sequence[str]] | None = None, order: int = 5,
@@ -286,35 +276,19 @@ def angle_domain(aligned: Mapping[str, xr.Dataset], angle_time: ArrayLike, angle
     """
     phi_t = np.asarray(angle_time, dtype=np.float64)
     phi = np.asarray(angle, dtype=np.float64)
-    selection = channels or {name: [v for v in ds.data_vars if v not in ("valid", "segment")]
-                             for name, ds in aligned.items()}
-    counts: dict[str, int] = {}
-    for names in selection.values():
-        for var in names:
-            counts[var] = counts.get(var, 0) + 1
     data_vars: dict[str, tuple[tuple[str, str], FloatArray, dict[str, object]]] = {}
     cycles = np.zeros(0, dtype=np.int64)
     start_time = np.zeros(0)
-    for stream_name, names in selection.items():
-        if stream_name not in aligned:
-            raise ChannelNotFoundError(f"no aligned stream {stream_name!r}",
-                                       where={"key": "channels"}, available=list(aligned))
+    for stream_name, var, out_name in selected_channels(aligned, channels):
         ds = aligned[stream_name]
-        fs = float(ds.attrs["fs_nominal"])
-        for var in names:
-            if var not in ds:
-                raise ChannelNotFoundError(
-                    f"channel {var!r} not in stream {stream_name!r}",
-                    where={"channel": var},
-                    available=[v for v in ds.data_vars if v not in ("valid", "segment")])
-            cycles, start_time, values = resample_to_angle(
-                channel_time(ds, var), ds[var].to_numpy(), phi_t, phi,
-                points_per_rev=points_per_rev, fs=fs, order=order, anti_alias=anti_alias,
-                segment=ds["segment"].to_numpy(), valid=ds["valid"].to_numpy())
-            out_name = var if counts[var] == 1 else f"{stream_name}_{var}"
-            attrs = {**ds[var].attrs, "stream": stream_name,
-                     "resampling": f"spline order {order}, anti-alias {anti_alias}"}
-            data_vars[out_name] = (("cycle", "angle"), values, attrs)
+        cycles, start_time, values = resample_to_angle(
+            channel_time(ds, var), ds[var].to_numpy(), phi_t, phi,
+            points_per_rev=points_per_rev, fs=float(ds.attrs["fs_nominal"]), order=order,
+            anti_alias=anti_alias, segment=ds["segment"].to_numpy(),
+            valid=ds["valid"].to_numpy())
+        attrs = {**ds[var].attrs, "stream": stream_name,
+                 "resampling": f"spline order {order}, anti-alias {anti_alias}"}
+        data_vars[out_name] = (("cycle", "angle"), values, attrs)
     if not data_vars:
         raise ConfigError("no channels selected for the angle domain", where={"key": "channels"})
     complete = np.ones(cycles.size, dtype=bool)
@@ -339,7 +313,7 @@ def angle_domain(aligned: Mapping[str, xr.Dataset], angle_time: ArrayLike, angle
                                                          "units": "rad s-1"}),
         },
         attrs={"points_per_rev": points_per_rev, "interpolation_order": order,
-               "anti_alias": anti_alias, "history": _merged_history(aligned, selection)},
+               "anti_alias": anti_alias, "history": merged_history(aligned, channels or aligned)},
     )
     append_history(out, f"processing.angle_domain {points_per_rev} points/rev, order {order}, "
                         f"anti-alias {anti_alias}, {cycles.size} cycles")

@@ -20,6 +20,7 @@ from rigval.acquisition.schema import append_history
 from rigval.processing.align import channel_time
 from rigval.processing.angle import interpolate_runs
 from rigval.processing.filters import zero_phase
+from rigval.processing.selection import merged_history, selected_channels
 
 __all__ = ["CLOCK_ATTRS", "common_timeline"]
 
@@ -67,44 +68,28 @@ def common_timeline(aligned: Mapping[str, xr.Dataset], reference: str, *,
         raise ConfigError(f"grid rate must be positive, got {rate} Hz", where={"key": "fs"})
     ref_time = ref["time"].to_numpy()
     grid = ref_time[0] + np.arange(int(np.floor((ref_time[-1] - ref_time[0]) * rate)) + 1) / rate
-    selection = channels or {name: [v for v in ds.data_vars if v not in ("valid", "segment")]
-                             for name, ds in aligned.items()}
-    uses: dict[str, int] = {}
-    for names in selection.values():
-        for var in names:
-            uses[var] = uses.get(var, 0) + 1
     data_vars = {}
-    models = {}
-    history: list[str] = []
-    for stream_name, names in selection.items():
+    selected = selected_channels(aligned, channels)
+    models = {name: {key: aligned[name].attrs[key] for key in CLOCK_ATTRS
+                     if key in aligned[name].attrs} for name in channels or aligned}
+    for stream_name, var, out_name in selected:
         ds = aligned[stream_name]
-        clock = {key: ds.attrs[key] for key in CLOCK_ATTRS if key in ds.attrs}
-        models[stream_name] = clock
-        history.extend(line for line in str(ds.attrs.get("history", "")).splitlines()
-                       if line and line not in history)
         stream_fs = float(ds.attrs["fs_nominal"])
         segment, valid = ds["segment"].to_numpy(), ds["valid"].to_numpy()
-        for var in names:
-            if var not in ds:
-                raise ChannelNotFoundError(f"channel {var!r} not in stream {stream_name!r}",
-                                           where={"channel": var},
-                                           available=[v for v in ds.data_vars
-                                                      if v not in ("valid", "segment")])
-            values = ds[var].to_numpy().astype(np.float64)
-            if stream_fs > rate:
-                values = zero_phase(values, stream_fs, 0.45 * rate, order=8, segment=segment,
-                                    valid=valid)
-            resampled = interpolate_runs(channel_time(ds, var), values, grid, order=order,
-                                         segment=segment, valid=valid)
-            out_name = var if uses[var] == 1 else f"{stream_name}_{var}"
-            attrs = {**ds[var].attrs, "stream": stream_name, **clock,
-                     "resampling": f"spline order {order} onto {rate:g} Hz, delay removed"}
-            attrs.pop("input_delay_s", None)
-            data_vars[out_name] = ("time", resampled, attrs)
+        values = ds[var].to_numpy().astype(np.float64)
+        if stream_fs > rate:
+            values = zero_phase(values, stream_fs, 0.45 * rate, order=8, segment=segment,
+                                valid=valid)
+        resampled = interpolate_runs(channel_time(ds, var), values, grid, order=order,
+                                     segment=segment, valid=valid)
+        attrs = {**ds[var].attrs, "stream": stream_name, **models[stream_name],
+                 "resampling": f"spline order {order} onto {rate:g} Hz, delay removed"}
+        attrs.pop("input_delay_s", None)
+        data_vars[out_name] = ("time", resampled, attrs)
     time_attrs = {**ref["time"].attrs, "long_name": "time on the reference device clock"}
     out = xr.Dataset(data_vars, coords={"time": ("time", grid, time_attrs)},
         attrs={"reference_stream": reference, "fs_nominal": rate, "streams": list(models),
-               "history": "\n".join(history)})
+               "history": merged_history(aligned, models)})
     append_history(out, f"processing.common_timeline {len(data_vars)} channels onto "
                         f"{rate:g} Hz ({reference} clock)")
     return out
