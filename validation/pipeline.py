@@ -8,11 +8,11 @@ read
     Each stream's file, only the channels the scene names
     (:func:`rigval.acquisition.channel_map.load_stream`).
 convert
-    Raw channels to physical units (:mod:`rigval.validation.convert`).
+    Raw channels to physical units (:mod:`rigval.processing.sensors`).
 align
     phi_F(t) from the main encoder (smoothed, never differenced raw), zero at the reference
     pulse; each other stream's clock fitted on its reference pulses against the events the
-    encoder angle predicts (:mod:`rigval.processing.align`), module input delays removed.
+    encoder angle predicts (:mod:`rigval.processing.alignment`), module input delays removed.
 angle
     Whole revolutions; each compared channel low-passed (its ``lowpass_hz``) within gap-free
     runs, then resampled at the reference times of the uniform phi_F grid with the
