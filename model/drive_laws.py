@@ -38,6 +38,7 @@ from rigval.acquisition.errors import (
     DataError,
     DataFileError,
 )
+from rigval.acquisition.tables import TableReader, key_path
 from rigval.model.laws import DriveLaw, Excitation, Harmonic, check_frequency
 
 __all__ = [
@@ -59,6 +60,8 @@ NOISE_COVERAGE = 4.0
 
 _LAW_KEYS = ("frequency", "ratio", "phase", "theta0", "harmonics", "profile", "period")
 _HARMONIC_KEYS = ("amplitude", "order", "phase")
+#: Drive-law tables (``--drive NAME={...}`` and drive-law files, docs/predict.md).
+_TABLES = TableReader(ConfigError, docs="docs/predict.md")
 _CHUNK_ROWS = 8192
 _ERROR_GRID = 720
 _TRUNCATION_ORDERS = 3
@@ -126,31 +129,21 @@ class ProfileFit(NamedTuple):
 
 
 def _number(table: Mapping[str, Any], key: str, where: str) -> float:
-    value = table[key]
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ConfigError(f"{key} must be a finite number, got {value!r}",
-                          where={"key": f"{where}.{key}"}, hint="write a plain number (SI units)")
-    return float(value)
+    return float(_TABLES.get(table, key, where, float))
 
 
 def _harmonics(value: Any, where: str) -> tuple[Harmonic, ...]:
+    key = key_path(where, "harmonics")
     if not isinstance(value, list):
-        raise ConfigError(f"harmonics must be a list of tables, got {value!r}",
-                          where={"key": f"{where}.harmonics"},
-                          hint="write harmonics = [{amplitude = 0.05, order = 1, phase = 0.0}]")
+        raise _TABLES.fail(key, f"expected a list of tables, got {value!r}",
+                           hint="write harmonics = [{amplitude = 0.05, order = 1, phase = 0.0}]")
     terms = []
     for i, item in enumerate(value):
-        key = f"{where}.harmonics[{i}]"
-        if not isinstance(item, dict):
-            raise ConfigError(f"a harmonic must be a table, got {item!r}", where={"key": key},
-                              hint="write {amplitude = 0.05, order = 1, phase = 0.0}")
-        unknown = sorted(set(item) - set(_HARMONIC_KEYS))
-        if unknown or "amplitude" not in item or "order" not in item:
-            raise ConfigError(f"a harmonic needs amplitude (rad) and order, phase (rad) optional; "
-                              f"got keys {sorted(item)}", where={"key": key},
-                              hint=f"use only the keys {', '.join(_HARMONIC_KEYS)}")
-        terms.append(Harmonic(_number(item, "amplitude", key), _number(item, "order", key),
-                              _number(item, "phase", key) if "phase" in item else 0.0))
+        term = _TABLES.check_keys(item, key_path(key, i), _HARMONIC_KEYS, ("amplitude", "order"),
+                                  what="in a harmonic (amplitude in rad, order; phase in rad)")
+        terms.append(Harmonic(_number(term, "amplitude", key_path(key, i)),
+                              _number(term, "order", key_path(key, i)),
+                              _TABLES.get(term, "phase", key_path(key, i), float, 0.0)))
     return tuple(terms)
 
 
@@ -182,18 +175,15 @@ def law_from_table(table: Mapping[str, Any], base: DriveLaw, *, where: str,
     frequency : float or None
         The cycle frequency the table sets (``frequency`` key, or a profile's period), Hz.
     """
-    unknown = sorted(set(table) - set(_LAW_KEYS))
-    if unknown:
-        raise ConfigError(f"unknown drive-law keys {unknown}", where={"key": where},
-                          hint=f"use only {', '.join(_LAW_KEYS)}")
+    _TABLES.check_keys(table, where, _LAW_KEYS, what="in a drive law")
     frequency = check_frequency(table["frequency"], f"{where}.frequency") \
         if "frequency" in table else None
     if "profile" in table:
         others = sorted(set(table) - {"profile", "period", "phase", "frequency"})
         if others:
-            raise ConfigError(f"a profile law takes only profile, period, phase and frequency, "
-                              f"not {others}", where={"key": where},
-                              hint="the profile itself fixes ratio, theta0 and harmonics")
+            raise _TABLES.fail(where, "a profile law takes only profile, period, phase and "
+                               f"frequency, not {others}",
+                               hint="the profile itself fixes ratio, theta0 and harmonics")
         path = Path(str(table["profile"]))
         if base_dir is not None and not path.is_absolute():
             path = base_dir / path

@@ -110,10 +110,10 @@ def test_inline_options_change_only_what_they_name(tmp_path: Path) -> None:
 @pytest.mark.parametrize("option, error, text", [
     ("theta_X={phase = 1}", ChannelNotFoundError, "theta_H"),
     ("theta_H={phase = 1", ConfigError, "not a TOML table"),
-    ("theta_H={speed = 1}", ConfigError, "unknown drive-law keys"),
+    ("theta_H={speed = 1}", ConfigError, "unknown key 'speed' in a drive law"),
     ("theta_H={frequency = 2}", ConfigError, "only the main drive"),
     ("theta_F={frequency = -1}", ConfigError, "positive number of Hz"),
-    ("theta_H={harmonics = [{amplitude = 1}]}", ConfigError, "needs amplitude"),
+    ("theta_H={harmonics = [{amplitude = 1}]}", ConfigError, "missing key 'order'"),
     ("theta_H", ConfigError, "NAME=LAW"),
     ("theta_H=fast", ConfigError, "cannot tell"),
     ("theta_H=/nonexistent/law.toml", DataFileError, "cannot read"),
