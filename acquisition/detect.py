@@ -96,7 +96,8 @@ def source_checksum(path: Path, enabled: bool = True) -> str:
     path : pathlib.Path
         The data file.
     enabled : bool
-        False skips hashing (about 0.7 s per GiB here) and returns :data:`NOT_COMPUTED`.
+        False skips hashing (its cost per GiB: docs/performance.md) and returns
+        :data:`NOT_COMPUTED`.
     """
     if not enabled:
         return NOT_COMPUTED

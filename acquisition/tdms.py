@@ -258,7 +258,8 @@ def read_tdms(path: str | os.PathLike[str], *, group: str | Sequence[str] | None
             raise_empty(layout)
         warn_about_plans(layout, plans)
         tdms = _open_nptdms(handle, layout)
-        # hashing (about 0.7 s per GiB) runs on the other core while nptdms reads
+        # the SHA-256 runs in a second thread (hashlib releases the GIL) while nptdms reads;
+        # its cost per GiB is measured in docs/performance.md
         with ThreadPoolExecutor(max_workers=1) as pool, plain_pages():
             sha_future = pool.submit(source_checksum, file, checksum)
             selections = []

@@ -131,7 +131,7 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
             NumericsWarning, stacklevel=2)
     exact = "condition_number" in selection.outputs
     # Many tiny systems: BLAS threads only wait for each other. Arrays filled once: huge pages
-    # only add synchronous compaction (28 % of the CPU time of a 100,000-step solve under load).
+    # only add synchronous compaction (measured in docs/performance.md).
     with single_blas_thread(), plain_pages():
         solution = _empty_solution(mech, times, motion, selection)
         continuation = track(mech, system, times, motion.theta, tolerances)
