@@ -102,10 +102,9 @@ def minimum_norm_multipliers(jacobian: np.ndarray, force: np.ndarray, moment: np
 
     Returns
     -------
-    joint : numpy.ndarray
-        (n, n_joints) complex joint multipliers, N.
-    driver : numpy.ndarray
-        (n, n_drivers) driver multipliers, N m.
+    joint, driver : numpy.ndarray
+        As :func:`multipliers` returns them: (n, n_joints) complex joint multipliers (N) and
+        (n, n_drivers) driver multipliers (N m).
     """
     rhs = np.stack([force.real, force.imag, moment], axis=-1).reshape(force.shape[0], -1)
     lam = (np.linalg.pinv(np.swapaxes(jacobian, -1, -2)) @ rhs[..., None])[..., 0]

@@ -30,12 +30,7 @@ from rigval.model.assembly import (
     phasor,
     track,
 )
-from rigval.model.drives import (
-    DriveSamples,
-    SampledDrive,
-    cycle_period,
-    drive_motion,
-)
+from rigval.model.drives import DriveSamples, SampledDrive, cycle_period, drive_motion
 from rigval.model.dynamics import applied_forces, minimum_norm_multipliers, multipliers
 from rigval.model.errors import SingularityError
 from rigval.model.finite import check_finite
