@@ -12,6 +12,7 @@ that keep the channel metadata and append a ``history`` line):
   :mod:`~rigval.processing.sensors`: a stream's channel map applied with them;
 - :mod:`~rigval.processing.pulses`: reference edges, missing and spurious pulses;
 - :mod:`~rigval.processing.align`: clock models and aligned streams;
+  :mod:`~rigval.processing.event_match`: device events paired with reference events, strays;
 - :mod:`~rigval.processing.stamps`: start stamps to a coarse offset and its window, clock groups;
 - :mod:`~rigval.processing.alignment`: every stream of a set on the reference timeline, from
   plain settings; :mod:`~rigval.processing.alignment_summary`: its per-stream diagnostics;
@@ -26,3 +27,17 @@ that keep the channel metadata and append a ``history`` line):
 
 ``docs/processing.md`` lists the pipeline calls in order and the accuracy measured.
 """
+
+from rigval.acquisition.lazy import lazy_exports
+
+#: The public modules, each imported on first use (``rigval.processing.align``).
+_LAZY = {name: name for name in (
+    "accelerometer", "align", "alignment", "angle", "bridge", "convert", "cycles", "encoder",
+    "errors", "excitation", "filters", "pulses", "sensors", "stamps", "stress", "timeline",
+    "torsion", "transducers")}
+
+__all__ = ["accelerometer", "align", "alignment", "angle", "bridge", "convert", "cycles",
+           "encoder", "errors", "excitation", "filters", "pulses", "sensors", "stamps", "stress",
+           "timeline", "torsion", "transducers"]
+
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())

@@ -17,7 +17,8 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.schema import stream_gaps
-from rigval.processing.align import ClockModel, channel_time, robust_inliers
+from rigval.processing.align import ClockModel, channel_time
+from rigval.processing.event_match import robust_inliers
 from rigval.processing.pulses import StreamPulses
 
 __all__ = [
@@ -150,7 +151,7 @@ def event_residuals(mapped: np.ndarray, events: np.ndarray, period: float,
     """Residual (s) of each mapped event against its nearest expected event; matched mask.
 
     An event within a quarter period (of the pulse rate) of an expected event is matched unless
-    :func:`~rigval.processing.align.robust_inliers` calls it a stray (within
+    :func:`~rigval.processing.event_match.robust_inliers` calls it a stray (within
     :data:`MIN_EVENT_TOLERANCE_S` it never is). With several pulses per revolution, each kind of
     pulse (its place within the revolution) may fire at its own angle; the median residual of
     each kind is removed, as the clock fit does.
