@@ -5,14 +5,15 @@ Dataset), :func:`read_stream` (exactly one stream), :func:`iter_stream` (bounded
 TDMS stream) and the format readers :func:`read_tdms`, :func:`read_csv`, :func:`read_lvm`. See
 ``docs/formats.md``.
 
-Also home of rigval's shared basics: :mod:`rigval.acquisition.errors` (the error classes) and
-:mod:`rigval.acquisition.schema` (the stream schema every reader uses).
+Also home of rigval's shared basics, which every layer uses: :mod:`rigval.acquisition.errors`
+(the error root and warnings; each layer adds its own errors, docs/errors.md),
+:mod:`rigval.acquisition.units` (the one unit vocabulary), :mod:`rigval.acquisition.tables`
+(strict TOML tables with key-path errors), :mod:`rigval.acquisition.lazy` (the packages' lazy
+public API) and :mod:`rigval.acquisition.schema` (the stream schema every reader uses).
 """
 
-from importlib import import_module
-from typing import Any
-
 from rigval.acquisition.errors import RigvalError
+from rigval.acquisition.lazy import lazy_exports
 
 #: Readers and the schema (numpy, xarray, pandas), imported on first use so that
 #: ``import rigval.acquisition.errors`` (every command line start) stays light.
@@ -23,14 +24,4 @@ _LAZY = {"iter_stream": "reader", "read": "reader", "read_stream": "reader", "re
 __all__ = ["Channel", "RigvalError", "check_stream", "iter_stream", "iter_tdms", "read",
            "read_csv", "read_lvm", "read_stream", "read_tdms", "stream_dataset"]
 
-
-def __getattr__(name: str) -> Any:
-    """Import a reader on first access (PEP 562)."""
-    if name in _LAZY:
-        return getattr(import_module(f"rigval.acquisition.{_LAZY[name]}"), name)
-    raise AttributeError(f"module 'rigval.acquisition' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    """List the module's names including the lazily imported readers (for ``dir`` and IDEs)."""
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())

@@ -20,24 +20,22 @@ counter-clockwise positive. On request also ``support_force`` (force ON the grou
 ``kinetic_energy``, ``potential_energy``, ``drive_power`` and ``condition_number``.
 """
 
-from rigval.model.laws import DriveLaw, Excitation, Harmonic
-from rigval.model.mechanism import (
-    BUILTIN_MECHANISMS,
-    Body,
-    Driver,
-    Joint,
-    Mechanism,
-    builtin_mechanism,
-    load_mechanism,
-)
-from rigval.model.reference import solve_stepwise
-from rigval.model.results import EXTRA_OUTPUTS, OUTPUTS
-from rigval.model.solver import interpolate_cycle, solve, solve_cycle
+from rigval.acquisition.lazy import lazy_exports
+
+#: Public names and the module defining each, imported on first use (numpy, scipy, xarray), so
+#: that ``import rigval.model.errors`` stays light.
+_LAZY = {"DriveLaw": "laws", "Excitation": "laws", "Harmonic": "laws",
+         "BUILTIN_MECHANISMS": "mechanism", "Body": "mechanism", "Driver": "mechanism",
+         "Joint": "mechanism", "Mechanism": "mechanism", "builtin_mechanism": "mechanism",
+         "load_mechanism": "mechanism", "solve_stepwise": "reference",
+         "EXTRA_OUTPUTS": "results", "OUTPUTS": "results", "QUANTITIES": "results",
+         "interpolate_cycle": "solver", "solve": "solver", "solve_cycle": "solver"}
 
 __all__ = [
     "BUILTIN_MECHANISMS",
     "EXTRA_OUTPUTS",
     "OUTPUTS",
+    "QUANTITIES",
     "Body",
     "DriveLaw",
     "Driver",
@@ -52,3 +50,5 @@ __all__ = [
     "solve_cycle",
     "solve_stepwise",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())

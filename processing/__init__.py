@@ -27,3 +27,17 @@ that keep the channel metadata and append a ``history`` line):
 
 ``docs/processing.md`` lists the pipeline calls in order and the accuracy measured.
 """
+
+from rigval.acquisition.lazy import lazy_exports
+
+#: The public modules, each imported on first use (``rigval.processing.align``).
+_LAZY = {name: name for name in (
+    "accelerometer", "align", "alignment", "angle", "bridge", "convert", "cycles", "encoder",
+    "errors", "excitation", "filters", "pulses", "sensors", "stamps", "stress", "timeline",
+    "torsion", "transducers")}
+
+__all__ = ["accelerometer", "align", "alignment", "angle", "bridge", "convert", "cycles",
+           "encoder", "errors", "excitation", "filters", "pulses", "sensors", "stamps", "stress",
+           "timeline", "torsion", "transducers"]
+
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())

@@ -1,8 +1,9 @@
 """Sample data: a virtual test rig and the sample runs it writes.
 
-The rig reproduces the set-up of docs/references.md ([paper] section 4.1): the model along a true drive motion, sensor
-models, devices with their own clocks, and the files the devices write (NI-DAQmx TDMS, a European
-LabVIEW CSV), with the truth and a scene that validates the run. See ``sample_data/README.md``.
+The rig reproduces the set-up of docs/references.md ([paper] section 4.1): the model along a
+true drive motion, sensor models, devices with their own clocks, and the files the devices write
+(NI-DAQmx TDMS, a European LabVIEW CSV), with the truth and a scene that validates the run. See
+``sample_data/README.md``.
 
 Public API
 ----------
@@ -18,12 +19,17 @@ shipped_runs() -> list of Path
 
 from pathlib import Path
 
-from rigval.sample_data.rig import Imperfections, RigSettings, run_stem
-from rigval.sample_data.simulate import RunFiles, simulate_rig
-from rigval.sample_data.truthfile import RunTruth, load_truth
+from rigval.acquisition.lazy import lazy_exports
+
+#: The rig's names, imported on first use (numpy, xarray and the model), so that ``runs_dir``
+#: stays light.
+_LAZY = {"Imperfections": "rig", "RigSettings": "rig", "run_stem": "rig", "RunFiles": "simulate",
+         "simulate_rig": "simulate", "RunTruth": "truthfile", "load_truth": "truthfile"}
 
 __all__ = ["Imperfections", "RigSettings", "RunFiles", "RunTruth", "load_truth", "run_stem",
            "runs_dir", "shipped_runs", "simulate_rig"]
+
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())
 
 
 def runs_dir() -> Path:
