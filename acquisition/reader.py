@@ -116,7 +116,7 @@ def read_stream(path: str | os.PathLike[str], **options: Any) -> xr.Dataset:
     Returns
     -------
     xarray.Dataset
-        The stream.
+        The file's one stream, as :func:`read` returns it.
 
     Raises
     ------
