@@ -353,11 +353,6 @@ def encoder_angle_channel(ds: xr.Dataset, channel: str, *, counts_per_rev: float
                                       "gear_ratio": gear_ratio, "direction": direction})
 
 
-#: Units a linear channel's input may be given in: unit -> (base unit, factor to the base).
-_PREFIXED = {"V": ("V", 1.0), "mV": ("V", 1e-3), "V/V": ("V/V", 1.0), "mV/V": ("V/V", 1e-3),
-             "A": ("A", 1.0), "mA": ("A", 1e-3)}
-
-
 def linear_channel(ds: xr.Dataset, channel: str, *, slope: float, offset: float = 0.0,
                    units: str, input_units: str = "V", name: str | None = None) -> xr.Dataset:
     """Add ``slope x + offset`` of a channel, with ``x`` in ``input_units``.
@@ -367,8 +362,9 @@ def linear_channel(ds: xr.Dataset, channel: str, *, slope: float, offset: float 
     ds : xarray.Dataset
         Stream.
     channel : str
-        Input channel; its ``units`` must be ``input_units`` or a prefixed form of the same
-        unit (``mV`` for ``V``, ``mV/V`` for ``V/V``, ``mA`` for ``A``), rescaled first.
+        Input channel; its ``units`` must be ``input_units`` or another unit of the same
+        dimension (``mV`` for ``V``, ``mV/V`` for ``V/V``, ``mA`` for ``A``), rescaled first
+        (:func:`rigval.acquisition.units.factor_between`).
     slope : float
         Output units per input unit (finite, non-zero).
     offset : float, default 0
@@ -387,12 +383,8 @@ def linear_channel(ds: xr.Dataset, channel: str, *, slope: float, offset: float 
     """
     var = _channel(ds, channel)
     file_units = str(var.attrs.get("units", ""))
-    if file_units == input_units:
-        factor = 1.0
-    elif (file_units in _PREFIXED and input_units in _PREFIXED
-          and _PREFIXED[file_units][0] == _PREFIXED[input_units][0]):
-        factor = _PREFIXED[file_units][1] / _PREFIXED[input_units][1]
-    else:
+    factor = 1.0 if file_units == input_units else factor_or_none(file_units, input_units)
+    if factor is None:
         raise UnitError(f"channel {channel!r} is in {file_units!r}; the linear scale expects "
                         f"{input_units!r}", where={"channel": channel, "key": "input_units"},
                         hint="set input_units to the channel's unit in the file (rigval info "
