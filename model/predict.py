@@ -34,12 +34,13 @@ import numpy.typing as npt
 import xarray as xr
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError
-from rigval.model import Mechanism, builtin_mechanism, load_mechanism, solve
+from rigval.model import Mechanism, load_mechanism, solve
 from rigval.model.drive_laws import apply_drive_options, excitation_from_measured
 from rigval.model.laws import Excitation
+from rigval.model.mechanism import mechanism_file
+from rigval.model.results import QUANTITIES, output_attrs
 
 __all__ = [
-    "BUILTIN_PREFIX",
     "SUMMARIES",
     "DriveSpec",
     "default_tip",
@@ -53,9 +54,6 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
-
-#: Prefix of a built-in mechanism name given instead of a path (``builtin:pendulum``).
-BUILTIN_PREFIX = "builtin:"
 
 #: Summary quantities a sweep can evaluate, with their units and meaning.
 SUMMARIES: dict[str, tuple[str, str]] = {
@@ -88,10 +86,7 @@ def resolve_mechanism(mechanism: Mechanism | str | Path) -> Mechanism:
     """
     if isinstance(mechanism, Mechanism):
         return mechanism
-    text = str(mechanism)
-    if text.startswith(BUILTIN_PREFIX):
-        return load_mechanism(builtin_mechanism(text.removeprefix(BUILTIN_PREFIX)))
-    return load_mechanism(Path(text))
+    return load_mechanism(mechanism_file(mechanism))
 
 
 def file_excitation(mechanism: Mechanism, *, main: str | None = None) -> Excitation:
@@ -321,24 +316,20 @@ def predict(mechanism: Mechanism | str | Path, drives: DriveSpec = None, *, n_po
         data[f"drive_{label}"] = (("angle", "driver"),
                                   np.stack([values[d][i] for d in drivers], axis=-1),
                                   {"units": unit, "long_name": f"drive {label}"})
-    for name, array, unit, text in (("point_position", pos, "m", "position"),
-                                    ("point_velocity", vel, "m s-1", "velocity"),
-                                    ("point_acceleration", acc, "m s-2", "acceleration")):
-        data[name] = (("angle", "point", "axis"), array,
-                      {"units": unit, "long_name": f"point {text}, global frame"})
+    for name, array in (("point_position", pos), ("point_velocity", vel),
+                        ("point_acceleration", acc)):
+        data[name] = (("angle", "point", "axis"), array, output_attrs(name))
     data["point_speed"] = (("angle", "point"), np.hypot(vel[..., 0], vel[..., 1]),
                            {"units": "m s-1", "long_name": "absolute speed of the point"})
     data["point_acceleration_magnitude"] = (("angle", "point"), acc_magnitude, {
         "units": "m s-2", "long_name": "absolute acceleration of the point"})
-    data["driver_torque"] = (("angle", "driver"), torque, {
-        "units": "N m", "long_name": "torque of the drive on its driven body, counter-clockwise"})
-    data["drive_power"] = (("angle", "driver"), power, {
-        "units": "W", "long_name": "power the drive delivers (torque times angular speed)"})
+    data["driver_torque"] = (("angle", "driver"), torque, output_attrs("driver_torque"))
+    data["drive_power"] = (("angle", "driver"), power, output_attrs("drive_power"))
     data["support_force"] = (("angle", "support", "axis"), support, {
-        "units": "N", "long_name": "support force ON THE FRAME at the ground pin "
-                                   "(minus joint_force)"})
-    data["joint_force"] = (("angle", "joint", "axis"), joint_force, {
-        "units": "N", "long_name": "joint force on the joint's first body, global frame"})
+        "units": QUANTITIES["support_force"].units["x"],
+        "long_name": "support force ON THE FRAME at the ground pin (minus joint_force)"})
+    data["joint_force"] = (("angle", "joint", "axis"), joint_force,
+                           output_attrs("joint_force"))
     data |= _summaries(angle, rate, tip=tip, tip_y=pos[:, 0, 1],
                        tip_acceleration=acc_magnitude[:, 0], support=support, torque=torque,
                        power=power)
