@@ -18,6 +18,9 @@ Exit codes
 
 ``-v``/``-vv``/``-q`` work before and after the subcommand (``rigval info -v FILE``); ``-q``
 prints only errors (results go to the output files).
+
+This module imports only the standard library at its top: rigval's own modules are imported
+inside :func:`main`, so that a Ctrl-C while they load still ends with one line.
 """
 
 from __future__ import annotations
@@ -33,10 +36,10 @@ import sys
 import tempfile
 import traceback
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from rigval.acquisition.errors import ConfigError, RigvalError
-from rigval.validation.version import rigval_version
+if TYPE_CHECKING:  # imported where used, inside main()'s Ctrl-C handling (module docstring)
+    from rigval.acquisition.errors import RigvalError
 
 __all__ = ["EXIT_BUG", "EXIT_DATA", "EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "EXIT_USAGE",
            "build_parser", "main"]
@@ -114,6 +117,8 @@ def build_parser() -> argparse.ArgumentParser:
                f"{COMMON_EXIT_CODES} 'rigval COMMAND --help' describes each command.",
         formatter_class=HelpFormatter,
     )
+    from rigval.validation.version import rigval_version
+
     parser.add_argument("--version", action="version", version=f"rigval {rigval_version()}")
     _verbosity_options(parser, sub=False)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -157,6 +162,8 @@ def _print_error(kind: str, error: RigvalError) -> None:
 
 def _report_bug(error: BaseException, verbose: int) -> None:
     """Write the traceback to a file and say where (and print it with -v)."""
+    from rigval.validation.version import rigval_version
+
     text = "".join(traceback.format_exception(error))
     stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
     fd, name = tempfile.mkstemp(prefix=f"rigval-traceback-{stamp}-", suffix=".txt")
@@ -183,6 +190,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     int
         The exit code (see the module docstring).
     """
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:  # also while the subcommands' modules are imported
+        print("rigval: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    """Parse ``argv``, run the subcommand and turn its exceptions into exit codes."""
+    from rigval.acquisition.errors import ConfigError, RigvalError
+
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -206,9 +224,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except RigvalError as error:
         _print_error("data error", error)
         return EXIT_DATA
-    except KeyboardInterrupt:
-        print("rigval: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
     except BrokenPipeError:  # the reader went away (``rigval info ... | head``): not an error
         with contextlib.suppress(OSError):
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

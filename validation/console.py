@@ -5,6 +5,10 @@ Warnings become one line each, ``rigval: warning: [run NAME] DataWarning: what (
 that is on screen is cleared before the line and redrawn after it, so the two never interleave.
 The run a warning belongs to is set with :func:`run_context` around each run's work.
 
+Ctrl-C: inside :func:`interrupt_quietly` the first SIGINT prints one line, ``rigval:
+interrupted``, and sends everything the shutdown still writes to stderr (Dask's cancelled tasks,
+a half-started cluster's exit handlers, warnings of runs cut off) to the null device.
+
 Only the command line installs this (:func:`install_warning_display`); library code never does.
 """
 
@@ -12,13 +16,19 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import logging
+import os
+import signal
 import sys
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any, Protocol, TextIO
 
-__all__ = ["Progress", "format_warning", "install_warning_display", "progress_display",
-           "run_context", "silence"]
+__all__ = ["INTERRUPTED_LINE", "Progress", "format_warning", "install_warning_display",
+           "interrupt_quietly", "progress_display", "run_context", "silence"]
+
+#: The one line a Ctrl-C prints.
+INTERRUPTED_LINE = "rigval: interrupted"
 
 _RUN: contextvars.ContextVar[str | None] = contextvars.ContextVar("rigval_run", default=None)
 
@@ -121,3 +131,55 @@ def run_context(name: str) -> Iterator[None]:
             yield
     finally:
         _RUN.reset(token)
+
+
+@contextlib.contextmanager
+def interrupt_quietly(on_interrupt: Callable[[], None] | None = None) -> Iterator[None]:
+    """Make the first Ctrl-C inside the block print one line and nothing after it.
+
+    On SIGINT: the progress display is cleared, :data:`INTERRUPTED_LINE` is written to stderr,
+    warnings and the loggers of the shutdown (``distributed``, ``tornado``, ``asyncio``,
+    ``rigval``) are silenced, ``on_interrupt`` runs (e.g. killing worker processes), stderr (the
+    Python object and file descriptor 2) is pointed at the null device, and
+    :class:`KeyboardInterrupt` is raised in the main thread. The caller's handler of
+    KeyboardInterrupt may print its own line: it goes to the null device.
+
+    Parameters
+    ----------
+    on_interrupt : callable, optional
+        Called once, without arguments, before KeyboardInterrupt is raised.
+    """
+    def interrupted(signum: int, frame: Any) -> None:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C changes nothing
+        progress = _state["progress"]
+        with contextlib.suppress(Exception):
+            if progress is not None:
+                progress.clear()
+            sys.stderr.write(INTERRUPTED_LINE + "\n")
+            sys.stderr.flush()
+        silence()
+        for name in ("distributed", "tornado", "asyncio", "rigval"):
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+        if on_interrupt is not None:
+            on_interrupt()
+        _stderr_to_null()
+        raise KeyboardInterrupt
+
+    try:
+        previous = signal.signal(signal.SIGINT, interrupted)
+    except ValueError:  # not the main thread: leave Ctrl-C alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        with contextlib.suppress(ValueError):
+            signal.signal(signal.SIGINT, previous)
+
+
+def _stderr_to_null() -> None:
+    """Point ``sys.stderr`` and file descriptor 2 at the null device (after the one line)."""
+    null = open(os.devnull, "w")  # noqa: SIM115 - stays open until the process ends
+    with contextlib.suppress(OSError, ValueError):
+        os.dup2(null.fileno(), 2)
+    sys.stderr = null

@@ -17,6 +17,12 @@ outcome with status ``"error"`` and a :class:`RunError` (class, message, where, 
 and the other runs go on. rigval's errors pickle with their fields, so the original exception
 object crosses the process boundary intact.
 
+Warnings: a run's warnings are collected where it runs (:class:`RunWarning` in its outcome) and
+raised again in the campaign's process when the outcome arrives, inside
+:func:`~rigval.validation.console.run_context` so they name the run. Worker processes of the
+embedded cluster write their own stderr (Dask's messages, a traceback if Ctrl-C hits one while it
+starts) to ``OUT/dask-workers.log`` instead of the terminal; the file is removed when empty.
+
 Resume: after a run is validated (passed or failed), :func:`run_one` writes
 ``OUT/<run>/manifest.json`` with the SHA-256 of the scene and of every input file the validation
 read, the rigval version, the size of every output file and the run's metrics. A later
@@ -33,9 +39,11 @@ import math
 import os
 import pickle
 import re
+import sys
 import time
 import traceback
 import uuid
+import warnings
 from collections import Counter
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -59,12 +67,17 @@ __all__ = [
     "RunError",
     "RunOutcome",
     "RunReport",
+    "RunWarning",
     "ValidateFunction",
     "dask_available",
     "plan_runs",
     "run_campaign",
     "run_one",
+    "stop_worker_processes",
 ]
+
+#: Where the embedded cluster's worker processes write their stderr (in the campaign folder).
+WORKER_LOG_NAME = "dask-workers.log"
 
 logger = logging.getLogger(__name__)
 
@@ -165,6 +178,26 @@ class RunError:
 
 
 @dataclass(frozen=True)
+class RunWarning:
+    """A warning raised while a run was validated.
+
+    Parameters
+    ----------
+    category : type
+        The warning class (``DataWarning``, ``NumericsWarning``, ...; ``UserWarning`` for a class
+        that cannot cross a process boundary).
+    message : str
+        Its text.
+    """
+
+    category: type[Warning]
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.category.__name__}: {self.message}"
+
+
+@dataclass(frozen=True)
 class RunOutcome:
     """The result of one run of a campaign.
 
@@ -194,6 +227,8 @@ class RunOutcome:
         True when the outputs of an earlier campaign were up to date and nothing was recomputed.
     error : RunError or None
         Why the run could not be validated (status ``"error"`` only).
+    warnings : tuple of RunWarning
+        Warnings the validation raised, in order (none for a reused run).
     """
 
     name: str
@@ -207,6 +242,7 @@ class RunOutcome:
     cpu_s: float = 0.0
     reused: bool = False
     error: RunError | None = None
+    warnings: tuple[RunWarning, ...] = ()
 
     def output(self, suffix: str) -> Path | None:
         """Return the first output file whose name ends with ``suffix`` (e.g. ``".nc"``)."""
@@ -223,6 +259,7 @@ class RunOutcome:
             "elapsed_s": self.elapsed_s, "cpu_s": self.cpu_s, "reused": self.reused,
             "outputs": list(self.outputs), "metrics": _jsonable(list(self.metrics)),
             "error": self.error.to_dict() if self.error else None,
+            "warnings": [str(w) for w in self.warnings],
         }
 
 
@@ -327,10 +364,11 @@ def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunctio
             return reused
     validate = validate or _validate_with_pipeline
     start, cpu_start = time.perf_counter(), time.process_time()
+    caught: list[warnings.WarningMessage] = []
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
         (run_dir / MANIFEST_NAME).unlink(missing_ok=True)  # invalid until this run completes
-        with _local_dask(), run_context(name):  # warnings: one line naming the run
+        with _local_dask(), run_context(name), warnings.catch_warnings(record=True) as caught:
             report = validate(scene, run_dir)
         outcome = RunOutcome(
             name=name, scene=scene, run_dir=run_dir,
@@ -339,6 +377,7 @@ def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunctio
             speed_rev_s=_jsonable(report.speed_rev_s),
             outputs=tuple(os.path.relpath(path, run_dir) for path in report.outputs),
             elapsed_s=time.perf_counter() - start, cpu_s=time.process_time() - cpu_start,
+            warnings=_run_warnings(caught),
         )
         _write_manifest(outcome, report.inputs)
     except Exception as error:  # one run's failure must not stop the campaign
@@ -346,8 +385,29 @@ def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunctio
         return RunOutcome(name=name, scene=scene, run_dir=run_dir, status="error",
                           elapsed_s=time.perf_counter() - start,
                           cpu_s=time.process_time() - cpu_start,
-                          error=RunError.from_exception(error))
+                          error=RunError.from_exception(error), warnings=_run_warnings(caught))
     return outcome
+
+
+def _run_warnings(caught: Sequence[warnings.WarningMessage]) -> tuple[RunWarning, ...]:
+    """Return recorded warnings as :class:`RunWarning` (classes that do not pickle: UserWarning)."""
+    kept = []
+    for item in caught:
+        category = item.category if _picklable(item.category) else UserWarning
+        kept.append(RunWarning(category, " ".join(str(item.message).split())))
+    return tuple(kept)
+
+
+def _raise_again(outcome: RunOutcome) -> None:
+    """Raise a run's recorded warnings in this process, each naming the run.
+
+    ``warn_explicit`` with a fresh registry shows each one even when another run raised the same
+    text (the default filter shows a message once per place); the filters still apply.
+    """
+    with run_context(outcome.name):
+        for item in outcome.warnings:
+            warnings.warn_explicit(item.message, item.category, f"run {outcome.name}", 0,
+                                   registry={})
 
 
 def _local_dask() -> contextlib.AbstractContextManager[Any]:
@@ -423,7 +483,7 @@ def run_campaign(
         if workers not in (None, 1):
             logger.info("Dask is not used: the runs go one after the other")
         return _run_in_process(runs, validate, force, notify)
-    with _client(scheduler, workers, len(runs)) as client:
+    with _client(scheduler, workers, len(runs), out_dir / WORKER_LOG_NAME) as client:
         return _run_on_cluster(client, runs, validate, force, notify)
 
 
@@ -433,6 +493,7 @@ def _run_in_process(runs: Sequence[_Run], validate: ValidateFunction | None, for
     outcomes = []
     for run in runs:
         outcome = run_one(run.scene, run.run_dir, validate=validate, name=run.name, force=force)
+        _raise_again(outcome)
         notify(outcome)
         outcomes.append(outcome)
     return outcomes
@@ -459,13 +520,18 @@ def _run_on_cluster(client: Client, runs: Sequence[_Run], validate: ValidateFunc
                                  status="error", error=RunError.from_exception(error))
         future.release()
         outcomes[run.name] = outcome
+        _raise_again(outcome)
         notify(outcome)
     return [outcomes[run.name] for run in runs]
 
 
 @contextlib.contextmanager
-def _client(scheduler: str | Client, workers: int | None, n_runs: int) -> Iterator[Client]:
-    """Yield a Dask client for ``scheduler``; close what was opened here afterwards."""
+def _client(scheduler: str | Client, workers: int | None, n_runs: int, worker_log: Path
+            ) -> Iterator[Client]:
+    """Yield a Dask client for ``scheduler``; close what was opened here afterwards.
+
+    The embedded cluster's worker processes write their stderr to ``worker_log``.
+    """
     if not isinstance(scheduler, str):  # an existing distributed.Client
         yield scheduler
         return
@@ -494,12 +560,68 @@ def _client(scheduler: str | Client, workers: int | None, n_runs: int) -> Iterat
     n_workers = max(1, min(workers or os.cpu_count() or 1, n_runs))
     # No dashboard; the scheduler's small HTTP server (health checks) on a free local port, so
     # that two campaigns on one machine do not compete for port 8787.
-    with (LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                       dashboard_address=None,
-                       scheduler_kwargs={"dashboard_address": "localhost:0"}) as cluster,
-          Client(cluster) as client):
-        logger.info("local Dask cluster with %d worker processes", n_workers)
+    with contextlib.ExitStack() as stack:
+        with _children_stderr(worker_log):
+            cluster = stack.enter_context(LocalCluster(
+                n_workers=n_workers, threads_per_worker=1, processes=True,
+                dashboard_address=None, scheduler_kwargs={"dashboard_address": "localhost:0"}))
+        client = stack.enter_context(Client(cluster))
+        stack.callback(_remove_if_empty, worker_log)
+        logger.info("local Dask cluster with %d worker processes (their stderr: %s)", n_workers,
+                    worker_log)
         yield client
+
+
+@contextlib.contextmanager
+def _children_stderr(log: Path) -> Iterator[None]:
+    """Give processes started inside the block ``log`` as their stderr, not the terminal.
+
+    File descriptor 2 points at ``log`` while the block runs (children inherit it: what a worker
+    prints, even a traceback when Ctrl-C hits it while it imports, goes there); this process's
+    own ``sys.stderr`` writes to the terminal meanwhile. Afterwards both are restored, unless
+    something else (the Ctrl-C handler of :func:`~rigval.validation.console.interrupt_quietly`)
+    replaced ``sys.stderr`` in the meantime.
+    """
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with open(log, "ab") as file:
+        os.dup2(file.fileno(), 2)
+    previous = sys.stderr
+    terminal = os.fdopen(os.dup(saved), "w", buffering=1, encoding=previous.encoding,
+                         errors="backslashreplace")
+    sys.stderr = terminal
+    try:
+        yield
+    finally:
+        if sys.stderr is terminal:
+            sys.stderr = previous
+            os.dup2(saved, 2)
+            terminal.close()
+        os.close(saved)
+
+
+def _remove_if_empty(path: Path) -> None:
+    """Delete ``path`` if it exists and is empty."""
+    with contextlib.suppress(OSError):
+        if path.stat().st_size == 0:
+            path.unlink()
+
+
+def stop_worker_processes() -> None:
+    """Kill this process's child processes (the embedded cluster's workers) at once.
+
+    For Ctrl-C: their runs are lost either way, and killed they cannot print Dask's
+    CancelledError and heartbeat messages. Multiprocessing's resource tracker is spared (it
+    cleans up after them). Without psutil (no Dask installed) there are no such children.
+    """
+    try:
+        import psutil
+    except ImportError:
+        return
+    for child in psutil.Process().children(recursive=True):
+        with contextlib.suppress(psutil.Error):
+            if "resource_tracker" not in " ".join(child.cmdline()):
+                child.kill()
 
 
 def _reuse(name: str, scene: Path, run_dir: Path) -> RunOutcome | None:

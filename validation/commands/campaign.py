@@ -8,12 +8,9 @@ completed); 2 a usage error (e.g. ``--scheduler`` needs Dask and it is not insta
 from __future__ import annotations
 
 import argparse
-import contextlib
 import logging
-import signal
 import sys
 import time
-from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any, TextIO
 
 from rigval.validation.commands.common import add_command, add_out_option
@@ -50,9 +47,13 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the campaign and return the exit code (see the module docstring)."""
-    from rigval.validation.campaign.engine import dask_available, run_campaign
+    from rigval.validation.campaign.engine import (
+        dask_available,
+        run_campaign,
+        stop_worker_processes,
+    )
     from rigval.validation.campaign.report import run_reason, write_campaign_report
-    from rigval.validation.console import progress_display
+    from rigval.validation.console import interrupt_quietly, progress_display
 
     # Dask logs its cluster's start and stop at INFO; show that only with -vv. Importing
     # distributed (dask_available does) sets its loggers' levels, so this comes after.
@@ -66,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
                              and sys.stderr.isatty())
     start = time.perf_counter()
     try:
-        with progress_display(progress), _quiet_interrupt():
+        with progress_display(progress), interrupt_quietly(stop_worker_processes):
             outcomes = run_campaign(args.scenes, args.out, scheduler=args.scheduler,
                                     workers=args.workers, force=args.force,
                                     on_result=progress.update)
@@ -90,50 +91,6 @@ def run(args: argparse.Namespace) -> int:
     if errors:
         return 3
     return 1 if failed else 0
-
-
-@contextlib.contextmanager
-def _quiet_interrupt() -> Iterator[None]:
-    """Make Ctrl-C end the campaign with one line ("rigval: interrupted", printed by the CLI).
-
-    On the first SIGINT the shutdown's own messages (Dask's cancelled tasks and closing
-    comms, warnings of the runs that were cut off) are silenced before KeyboardInterrupt is
-    raised in the main thread.
-    """
-    from rigval.validation.console import silence
-
-    def interrupted(signum: int, frame: Any) -> None:
-        silence()
-        for name in ("distributed", "tornado", "asyncio", "rigval"):
-            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
-        _stop_workers()
-        raise KeyboardInterrupt
-
-    try:
-        previous = signal.signal(signal.SIGINT, interrupted)
-    except ValueError:  # not the main thread (e.g. called from a worker): leave Ctrl-C alone
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-def _stop_workers() -> None:
-    """Kill this process's children (the embedded cluster's workers) before they log the end.
-
-    Their runs are lost either way; killed, they cannot print Dask's CancelledError and
-    heartbeat messages. Without psutil (no Dask installed) there are no such children.
-    """
-    try:
-        import psutil
-    except ImportError:
-        return
-    for child in psutil.Process().children(recursive=True):
-        with contextlib.suppress(psutil.Error):
-            if "resource_tracker" not in " ".join(child.cmdline()):  # it cleans up after them
-                child.kill()
 
 
 def _positive_int(text: str) -> int:
