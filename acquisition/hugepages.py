@@ -2,9 +2,9 @@
 
 NumPy asks Linux for transparent huge pages (``madvise(MADV_HUGEPAGE)``) on every array of 4 MiB
 or more. With the kernel's default ``/sys/kernel/mm/transparent_hugepage/defrag = madvise`` such
-regions may compact memory synchronously on their first touch: on the 2-core test machine, filling
-1 GiB of new float64 arrays took 2.8-3.0 s of CPU with the request and 0.6-1.2 s without it
-(docs/performance.md, *Reading as installed*). A reader that fills a gigabyte of fresh arrays once
+regions may compact memory synchronously on their first touch, which made filling 1 GiB of new
+float64 arrays several times slower on a loaded machine (measured in docs/performance.md,
+*Reading as installed*). A reader that fills a gigabyte of fresh arrays once
 gains nothing from huge pages, so :func:`plain_pages` switches the request off around the read.
 
 The switch is NumPy's own (the one behind its documented ``NUMPY_MADVISE_HUGEPAGE`` environment

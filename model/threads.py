@@ -2,15 +2,13 @@
 
 The solver's matrix products are tall and thin (thousands of steps times a few bodies, complex)
 and its factorisations are 6 x 6: OpenBLAS splits such products over its threads, and on a
-machine whose cores are busy with other work the threads wait for each other. Measured on the
-2-core development machine with a second process busy (docs/performance.md): full inverse
-dynamics of the pendulum, 100,000 steps, 1.2-4.1 s with OpenBLAS's default threads against
-0.5-1.1 s with one.
+machine whose cores are busy with other work the threads wait for each other (figures in
+docs/performance.md, *Speed as installed*).
 
 :func:`single_blas_thread` limits every BLAS library loaded in the process (numpy's and scipy's
 OpenBLAS are separate libraries) to one thread for the duration of a ``with`` block and restores
 the previous limits afterwards. The libraries are found once per process (threadpoolctl scans
-the loaded shared objects, about 50 ms); a limit set by the caller's own ``threadpool_limits``
+the loaded shared objects); a limit set by the caller's own ``threadpool_limits``
 is respected, since a smaller limit is never raised.
 """
 
