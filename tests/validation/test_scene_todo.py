@@ -30,7 +30,8 @@ def test_validate_refuses_todo_naming_each_key(tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
     text = _shipped(tmp_path)
     text = text.replace("gauge_factor = 2.02", 'gauge_factor = "TODO"  # from the gauge pack')
-    text = text.replace("angle_at_reference = 4.572840589503044", 'angle_at_reference = "TODO"')
+    text, count = re.subn(r"angle_at_reference = 4\.5728\d*", 'angle_at_reference = "TODO"', text)
+    assert count == 1  # the shipped runs' last digits change when they are rewritten
     text, count = re.subn(r'(wls2 = \{[^}\n]*angle = )[-0-9.e]+', r'\1"TODO"', text)
     assert count == 1
     path = tmp_path / "scene.toml"
