@@ -105,6 +105,12 @@ DEFAULT_METRICS: tuple[str, ...] = ("iso18571_periodic", "sprague_geers", "russe
                                     "pearson_r", "peak_error", "circular_lag")
 """Metrics :func:`compare` runs unless told otherwise (V&V 20 needs stated uncertainties)."""
 
+SCORE_TYPES: Mapping[str, type[Scores]] = {
+    "iso18571_periodic": IsoScores, "iso18571": IsoScores, "sprague_geers": SpragueGeersScores,
+    "russell": RussellScores, "nrmse": NrmseScores, "pearson_r": PearsonScores,
+    "peak_error": PeakScores, "circular_lag": LagScores, "vv20": VV20Scores}
+"""The score dataclass each metric returns; its fields name the metric's scores."""
+
 _UNCERTAINTY_OPTIONS = ("u_num", "u_input", "u_measurement", "u_measurement_rel",
                         "u_measurement_rel_common", "k", "u_time",
                         "speed", "u_drive_angle")
