@@ -40,6 +40,12 @@ from rigval.acquisition.errors import (
 )
 from rigval.acquisition.tables import TableReader, key_path
 from rigval.model.laws import DriveLaw, Excitation, Harmonic, check_frequency
+from rigval.processing.periodic_fit import (
+    PeriodicFit,
+    fourier_basis,
+    fourier_normal_equations,
+    refine_period,
+)
 
 __all__ = [
     "NOISE_COVERAGE",
@@ -62,10 +68,8 @@ _LAW_KEYS = ("frequency", "ratio", "phase", "theta0", "harmonics", "profile", "p
 _HARMONIC_KEYS = ("amplitude", "order", "phase")
 #: Drive-law tables (``--drive NAME={...}`` and drive-law files, docs/predict.md).
 _TABLES = TableReader(ConfigError, docs="docs/predict.md")
-_CHUNK_ROWS = 8192
 _ERROR_GRID = 720
 _TRUNCATION_ORDERS = 3
-_PERIOD_STEPS = 4
 _ROUNDOFF = 64 * np.finfo(float).eps
 
 
@@ -341,33 +345,6 @@ def read_profile_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     return t, theta
 
 
-def _basis(tau: np.ndarray, order: int, derivative: int = 0) -> np.ndarray:
-    """Return the Fourier design matrix ``[1, cos tau, sin tau, cos 2tau, ...]`` or a derivative."""
-    k = np.arange(1, order + 1)
-    arg = np.outer(tau, k)
-    cos, sin = np.cos(arg), np.sin(arg)
-    columns = np.empty((tau.size, 2 * order + 1))
-    columns[:, 0] = 1.0 if derivative == 0 else 0.0
-    if derivative == 0:
-        columns[:, 1::2], columns[:, 2::2] = cos, sin
-    elif derivative == 1:
-        columns[:, 1::2], columns[:, 2::2] = -k * sin, k * cos
-    else:
-        columns[:, 1::2], columns[:, 2::2] = -(k**2) * cos, -(k**2) * sin
-    return columns
-
-
-def _normal_equations(tau: np.ndarray, y: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
-    """Return ``A^T A`` and ``A^T y`` of the Fourier design, built in chunks (bounded memory)."""
-    p = 2 * order + 1
-    gram, rhs = np.zeros((p, p)), np.zeros(p)
-    for start in range(0, tau.size, _CHUNK_ROWS):
-        block = _basis(tau[start:start + _CHUNK_ROWS], order)
-        gram += block.T @ block
-        rhs += block.T @ y[start:start + _CHUNK_ROWS]
-    return gram, rhs
-
-
 def fit_periodic_profile(t: npt.ArrayLike, theta: npt.ArrayLike, *, period: float | None = None,
                          max_order: int | None = None, source: str = "profile") -> ProfileFit:
     """Smooth and differentiate a periodic drive profile by a least-squares Fourier series.
@@ -426,7 +403,7 @@ def fit_periodic_profile(t: npt.ArrayLike, theta: npt.ArrayLike, *, period: floa
     n = t.size
     available = min(100, (n - 1) // 3)
     largest = available if max_order is None else max(0, min(int(max_order), available))
-    gram, rhs = _normal_equations(tau, y, min(largest + _TRUNCATION_ORDERS, available))
+    gram, rhs = fourier_normal_equations(tau, y, min(largest + _TRUNCATION_ORDERS, available))
     # Nested least squares from one Cholesky factor: the leading block of R factors the leading
     # block of A^T A, and with z = R^-T A^T y the residual of the first p columns is
     # y^T y - sum(z[:p]**2).
@@ -451,9 +428,7 @@ def fit_periodic_profile(t: npt.ArrayLike, theta: npt.ArrayLike, *, period: floa
     p = 2 * order + 1
     factor = full_factor[:p, :p]
     coef = scipy.linalg.solve_triangular(factor, projected[:p])
-    residual = np.concatenate([
-        y[s:s + _CHUNK_ROWS] - _basis(tau[s:s + _CHUNK_ROWS], order) @ coef
-        for s in range(0, n, _CHUNK_ROWS)])
+    residual = theta - PeriodicFit(t0=float(t[0]), period=period, ratio=ratio, coef=coef)(t)[0]
     sigma = math.sqrt(float(residual @ residual) / (n - p)) if n > p else 0.0
     grid = np.linspace(0.0, 2.0 * math.pi, _ERROR_GRID, endpoint=False)
     noise, truncation = [], []
@@ -463,13 +438,13 @@ def fit_periodic_profile(t: npt.ArrayLike, theta: npt.ArrayLike, *, period: floa
         pe = 2 * extra + 1
         extra_coef = scipy.linalg.solve_triangular(full_factor[:pe, :pe], projected[:pe])
     for derivative in range(3):
-        rows = _basis(grid, order, derivative)
+        rows = fourier_basis(grid, order, derivative)
         spread = scipy.linalg.solve_triangular(factor, rows.T, trans="T")
         noise.append(NOISE_COVERAGE * sigma * float(np.sqrt(np.max(np.sum(spread**2, axis=0)))))
         if extra_coef is None:
             truncation.append(0.0)
         else:
-            tail = _basis(grid, extra, derivative)[:, p:] @ extra_coef[p:]
+            tail = fourier_basis(grid, extra, derivative)[:, p:] @ extra_coef[p:]
             truncation.append(float(np.max(np.abs(tail))))
     scale = abs(coef[0]) + abs(ratio) * 2.0 * math.pi + np.abs(coef[1:]).sum()
     roundoff = [_ROUNDOFF * scale * max(1, order) ** m for m in range(3)]
@@ -558,7 +533,9 @@ def excitation_from_measured(data: xr.Dataset, names: Sequence[str], *, main: st
                         int(np.count_nonzero(~keep)), keep.size)
         t = t_all[keep]
         if period is None:
-            period = _refine_period(t, angle[keep], _whole_turns_period(t, angle[keep], main))
+            start = _whole_turns_period(t, angle[keep], main)
+            first = fit_periodic_profile(t, angle[keep], period=start).law.error
+            period = refine_period(t, angle[keep], start, first.order if first else 0)
         fit = fit_periodic_profile(t - t_all[0], angle[keep], period=period,
                                    source=f"measured {name}")
         law = fit.law
@@ -569,32 +546,6 @@ def excitation_from_measured(data: xr.Dataset, names: Sequence[str], *, main: st
     assert period is not None
     ordered = tuple(next(item for item in laws if item[0] == name) for name in names)
     return Excitation(frequency=1.0 / period, laws=ordered, main=main)
-
-
-def _refine_period(t: np.ndarray, theta: np.ndarray, period: float) -> float:
-    """Refine a period estimate by Gauss-Newton on the periodic fit's residual, s.
-
-    The fitted law depends on the period through the phase ``2 pi t / period``; its derivative
-    with respect to the period is ``s = -(t / period) d theta / dt``. With the Fourier columns
-    ``A`` of the fit and its residual ``r`` (orthogonal to ``A``), the Gauss-Newton step is
-    ``s^T r / (s^T s - b^T (A^T A)^-1 b)``, ``b = A^T s``. A few steps remove the bias of the
-    interpolated whole-turn estimate (about 1e-8 relative at 1 ms sampling).
-    """
-    for _ in range(_PERIOD_STEPS):
-        fit = fit_periodic_profile(t, theta, period=period)
-        order = fit.law.error.order if fit.law.error is not None else 0
-        elapsed = t - t[0]
-        model, speed, _ = fit.law.evaluate(elapsed, 2.0 * math.pi / period)
-        sensitivity = -elapsed / period * speed
-        tau = 2.0 * math.pi * elapsed / period
-        gram, projection = _normal_equations(tau, sensitivity, order)
-        explained = float(projection @ scipy.linalg.solve(gram, projection, assume_a="pos"))
-        step = float(sensitivity @ (theta - model)) / (float(sensitivity @ sensitivity)
-                                                        - explained)
-        period += step
-        if abs(step) <= 1e-13 * period:
-            break
-    return period
 
 
 def _shift_time(law: DriveLaw, phase: float) -> DriveLaw:

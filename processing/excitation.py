@@ -16,8 +16,8 @@ estimators (docs/processing.md; [Schafer] in docs/references.md):
     harmonic the model needs.
 ``"fourier"`` (strictly periodic operation)
     ``theta(t) = c0 + W t + sum_k a_k cos(k W t) + b_k sin(k W t)`` by least squares, with the
-    fundamental W equal to the fitted mean speed (iterated to a fixed point: a periodic motion
-    advances 2 pi per period); derivatives analytic.
+    fundamental W the mean speed (a periodic motion advances 2 pi per period; the period by
+    Gauss-Newton on the residual, :mod:`rigval.processing.periodic_fit`); derivatives analytic.
 
 Both report the noise that quantisation alone leaves on angle, speed and acceleration, computed
 from the estimator's own response to ``q^2 / 12`` white noise, and the rms
@@ -40,15 +40,16 @@ from scipy.signal import sosfreqz
 
 from rigval.acquisition.errors import ConfigError, DataError
 from rigval.acquisition.schema import append_history
+from rigval.processing.arrays import FloatArray
 from rigval.processing.encoder import counts_to_angle, remove_index_resets, unwrap_counts
 from rigval.processing.filters import PadType, butter_sos, contiguous_runs, zero_phase
+from rigval.processing.periodic_fit import PeriodicFit, fit_periodic, refine_period
 
 __all__ = ["DriveAngle", "drive_angle", "drive_excitation", "quantisation_noise"]
 
 logger = logging.getLogger(__name__)
 
-_FloatArray = NDArray[np.float64]
-_Triple = tuple[_FloatArray, _FloatArray, _FloatArray]
+_Triple = tuple[FloatArray, FloatArray, FloatArray]
 Method = Literal["butterworth", "fourier"]
 
 
@@ -73,10 +74,10 @@ class DriveAngle:
         Corner, order or harmonics used.
     """
 
-    time: _FloatArray
-    angle: _FloatArray
-    velocity: _FloatArray
-    acceleration: _FloatArray
+    time: FloatArray
+    angle: FloatArray
+    velocity: FloatArray
+    acceleration: FloatArray
     angle_noise: float
     velocity_noise: float
     acceleration_noise: float
@@ -119,68 +120,32 @@ def quantisation_noise(step_rad: float, fs: float, sos: NDArray[np.float64] | No
 _FIT_SAMPLES = 200_000
 #: Most samples the Butterworth method's trend is fitted to.
 _TREND_SAMPLES = 50_000
-#: Samples evaluated at once.
-_BLOCK = 1 << 16
 
 
-class _FourierFit:
-    """Least-squares mean-speed Fourier series of an angle record.
+def _fourier_fit(t: FloatArray, theta: FloatArray, harmonics: int,
+                 max_samples: int = _FIT_SAMPLES) -> PeriodicFit:
+    """Return the mean-speed Fourier series of an angle record (module docstring).
 
-    ``theta = c0 + W t + sum_k a_k cos(k W t) + b_k sin(k W t)`` with the fundamental W equal to
-    the mean speed (a periodic motion advances 2 pi per period).
+    The fundamental W is the mean speed: the period ``2 pi / W`` starts from the straight line
+    through the record and is refined by Gauss-Newton on the fit's residual
+    (:func:`~rigval.processing.periodic_fit.refine_period`). At most ``max_samples`` evenly
+    thinned samples are fitted (bounded time).
     """
-
-    def __init__(self, t: _FloatArray, theta: _FloatArray, harmonics: int,
-                 max_samples: int = _FIT_SAMPLES) -> None:
-        thin = max(1, t.size // max_samples)
-        t, theta = t[::thin], theta[::thin]
-        self.centre = float(t.mean())
-        self.k = np.arange(1, harmonics + 1)
-        tc = t - self.centre
-        omega = float(np.polyfit(tc, theta, 1)[0])
-        coeffs = np.zeros(2 + 2 * harmonics)
-        for _ in range(20):
-            kp = np.outer(omega * tc, self.k)
-            design = np.column_stack([np.ones_like(tc), tc, np.cos(kp), np.sin(kp)])
-            coeffs, *_ = np.linalg.lstsq(design, theta, rcond=None)
-            converged = abs(coeffs[1] - omega) < 1e-12 * abs(omega)
-            omega = float(coeffs[1])
-            if converged:
-                break
-        self.omega = omega
-        self.coeffs = coeffs
-
-    def __call__(self, t: _FloatArray, out: _Triple | None = None) -> _Triple:
-        """Return angle (rad), velocity (rad/s) and acceleration (rad/s^2) at times t (s).
-
-        ``out`` receives the three results in place when given (bounded memory).
-        """
-        n = self.k.size
-        a, b = self.coeffs[2:2 + n], self.coeffs[2 + n:]
-        kw = self.k * self.omega
-        angle, velocity, acceleration = out or (np.empty(t.size), np.empty(t.size),
-                                                np.empty(t.size))
-        for lo in range(0, t.size, _BLOCK):
-            tc = t[lo:lo + _BLOCK] - self.centre
-            # exp(j k W t) for k = 1..K by repeated products of exp(j W t): one complex
-            # exponential per sample instead of 2 K trigonometric calls.
-            phasor = np.cumprod(np.broadcast_to(np.exp(1j * self.omega * tc)[:, None],
-                                                (tc.size, n)), axis=1)
-            cos, sin = phasor.real, phasor.imag
-            angle[lo:lo + _BLOCK] = self.coeffs[0] + self.coeffs[1] * tc + cos @ a + sin @ b
-            velocity[lo:lo + _BLOCK] = self.coeffs[1] + sin @ (-kw * a) + cos @ (kw * b)
-            acceleration[lo:lo + _BLOCK] = cos @ (-(kw**2) * a) + sin @ (-(kw**2) * b)
-        return angle, velocity, acceleration
+    thin = max(1, t.size // max_samples)
+    t, theta = t[::thin], theta[::thin]
+    slope = float(np.polyfit(t - t.mean(), theta, 1)[0])
+    period = refine_period(t, theta, 2.0 * np.pi / abs(slope), harmonics)
+    return fit_periodic(t, theta, period, harmonics)
 
 
-def _butterworth_run(t: _FloatArray, theta: _FloatArray, fs: float, cutoff_hz: float,
+def _butterworth_run(t: FloatArray, theta: FloatArray, fs: float, cutoff_hz: float,
                      order: int, trend_harmonics: int, padtype: PadType,
                      out: _Triple) -> None:
     """Smooth one gap-free run into ``out`` (angle, velocity, acceleration), in place."""
     angle, velocity, acceleration = out
     # The trend's harmonics lie inside the pass band, so its own noise is filtered like the
     # data's: a thinned fit is enough.
-    _FourierFit(t, theta, trend_harmonics, max_samples=_TREND_SAMPLES)(t, out=out)
+    _fourier_fit(t, theta, trend_harmonics, max_samples=_TREND_SAMPLES)(t, out=out)
     smooth = zero_phase(theta - angle, fs, cutoff_hz, order=order, padtype=padtype)
     angle += smooth
     dt = 1.0 / fs
@@ -279,7 +244,7 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
             _butterworth_run(t[start:stop], theta[start:stop], fs, cutoff_hz, order,
                              trend_harmonics, padtype, views)
         else:
-            _FourierFit(t[start:stop], theta[start:stop], harmonics)(t[start:stop], out=views)
+            _fourier_fit(t[start:stop], theta[start:stop], harmonics)(t[start:stop], out=views)
     residual = theta - out[0]
     rms = float(np.sqrt(np.nanmean(residual**2)))
     return DriveAngle(t, out[0], out[1], out[2], *noise, rms, method, params)

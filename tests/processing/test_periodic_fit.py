@@ -1,0 +1,46 @@
+"""The one periodic Fourier fit (rigval.processing.periodic_fit) against closed forms."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rigval.processing.periodic_fit import fit_periodic, fourier_basis, refine_period
+
+PERIOD = 0.8
+
+
+def _angle(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """theta = 2 pi t / P + 0.3 + 0.05 sin(w t + 0.4) + 0.01 cos(3 w t), its speed and accel."""
+    w = 2 * math.pi / PERIOD
+    theta = w * t + 0.3 + 0.05 * np.sin(w * t + 0.4) + 0.01 * np.cos(3 * w * t)
+    speed = w + 0.05 * w * np.cos(w * t + 0.4) - 0.03 * w * np.sin(3 * w * t)
+    accel = -0.05 * w**2 * np.sin(w * t + 0.4) - 0.09 * w**2 * np.cos(3 * w * t)
+    return theta, speed, accel
+
+
+def test_fit_recovers_an_exact_series_and_its_derivatives() -> None:
+    t = np.linspace(0.0, 5 * PERIOD, 4001)
+    theta, speed, accel = _angle(t)
+    fit = fit_periodic(t, theta, PERIOD, 4)
+    assert fit.ratio == 1.0
+    for got, expected, tol in zip(fit(t), (theta, speed, accel), (1e-12, 1e-10, 1e-8),
+                                  strict=True):
+        np.testing.assert_allclose(got, expected, rtol=0, atol=tol)
+    # the coefficients of the harmonics the law does not have vanish
+    np.testing.assert_allclose(fit.coef[[3, 4, 7, 8]], 0.0, atol=1e-12)
+
+
+def test_refine_period_finds_the_period_from_a_rough_start() -> None:
+    t = np.linspace(0.0, 12.0, 24001)
+    theta, _, _ = _angle(t)
+    assert abs(refine_period(t, theta, PERIOD * (1 + 2e-3), 4) - PERIOD) < 1e-11
+
+
+def test_basis_derivatives_are_finite_differences() -> None:
+    tau, h = np.linspace(0.0, 7.0, 50), 1e-6
+    for derivative in (1, 2):
+        numeric = (fourier_basis(tau + h, 5, derivative - 1)
+                   - fourier_basis(tau - h, 5, derivative - 1)) / (2 * h)
+        np.testing.assert_allclose(fourier_basis(tau, 5, derivative), numeric, atol=2e-7)
