@@ -16,9 +16,9 @@ Invariants checked for every variant (a failure is a *violation*):
    text: fewer samples than the intact file only with a DataWarning;
 5. never an empty result without a warning.
 
-Usage: ``python benchmarks/fuzz_readers.py [--variants-per-file N] [--seed S] [--full]``;
+Usage: ``python tests/acquisition/fuzz_engine.py [--variants-per-file N] [--seed S] [--full]``;
 prints the number of variants, outcomes and violations. The unit test
-``tests/acquisition/test_fuzz.py`` runs a few hundred variants with the same code.
+``tests/acquisition/test_fuzz.py`` runs a few hundred variants with this engine.
 """
 
 from __future__ import annotations
@@ -423,7 +423,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--full", action="store_true", help="every sample run, whole CSVs")
     parser.add_argument("--realdata", type=Path,
                         default=Path(os.environ.get("RIGVAL_SHARED", Path(__file__).resolve()
-                                                    .parents[2] / "shared")) / "realdata")
+                                                    .parents[3] / "shared")) / "realdata")
     args = parser.parse_args(argv)
     files = sources(args.realdata, args.full)
     started = time.perf_counter()

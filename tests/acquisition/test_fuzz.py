@@ -1,9 +1,10 @@
 """Fuzz suite of the readers: damaged copies of real NI files and of the shipped sample runs.
 
-The mutations, invariants and limits are those of ``benchmarks/fuzz_readers.py`` (loaded from
-there so that the benchmark and the test check the same thing): only rigval errors, no hang, no
-allocation beyond a stated multiple of the file size, every sample nptdms reads returned with its
-value or its loss reported in a DataWarning, never an empty result without a warning. The normal
+The mutations, invariants and limits are those of the engine ``fuzz_engine.py`` beside this file
+(also a command for long campaigns: ``python tests/acquisition/fuzz_engine.py --help``): only
+rigval errors, no hang, no allocation beyond a stated multiple of the file size, every sample
+nptdms reads returned with its value or its loss reported in a DataWarning, never an empty result
+without a warning. The normal
 run uses a few hundred seeded variants; ``-m slow`` runs thousands.
 """
 
@@ -17,11 +18,11 @@ from types import ModuleType
 
 import pytest
 
-BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "fuzz_readers.py"
+ENGINE = Path(__file__).resolve().with_name("fuzz_engine.py")
 
 
 def _engine() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("fuzz_readers", BENCH)
+    spec = importlib.util.spec_from_file_location("fuzz_readers", ENGINE)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     sys.modules.setdefault("fuzz_readers", module)  # dataclasses look their module up there
