@@ -4,8 +4,8 @@
 than the comparison grid (the chosen grid is every :data:`FINE_FACTOR`-th point, so its error is
 measured by :func:`grid_error`): with measured drives, each driver's angle, speed and
 acceleration from its encoder averaged over the revolutions at each grid angle; with analytic
-drives, the mechanism file's laws over one revolution. :func:`energy_residual` checks the model's
-numerics by its power balance.
+drives, the mechanism file's laws over one revolution. :func:`energy_residual` (from
+:mod:`rigval.model.balance`) checks the model's numerics by its power balance.
 """
 
 from __future__ import annotations
@@ -14,13 +14,12 @@ import logging
 from typing import Any
 
 import numpy as np
-import scipy.interpolate
 import xarray as xr
 
-from rigval.acquisition.errors import ConfigError
+from rigval.model.balance import energy_residual
 from rigval.model.mechanism import Mechanism
 from rigval.model.results import QUANTITIES, axial_joint_force
-from rigval.model.solver import solve, solve_cycle
+from rigval.model.solver import interpolate_cycle, solve, solve_cycle
 from rigval.processing.align import channel_time
 from rigval.processing.excitation import drive_excitation
 from rigval.validation.scene import ModelOutput, Scene
@@ -189,13 +188,6 @@ def model_values(model: xr.Dataset, output: ModelOutput) -> np.ndarray:
     return var.to_numpy().astype(np.float64)
 
 
-def _periodic_interp(angle: np.ndarray, values: np.ndarray, targets: np.ndarray) -> np.ndarray:
-    closed = np.append(angle, angle[0] + 2.0 * np.pi)
-    spline = scipy.interpolate.CubicSpline(closed, np.append(values, values[0]),
-                                           bc_type="periodic")
-    return spline(targets)
-
-
 def grid_error(scene: Scene, fine: xr.Dataset) -> dict[str, float]:
     """Return the error of the chosen angle grid per comparison.
 
@@ -210,57 +202,13 @@ def grid_error(scene: Scene, fine: xr.Dataset) -> dict[str, float]:
     fine : xarray.Dataset
         Output of :func:`run_model`.
     """
-    angle = fine["angle"].to_numpy()
+    needed = sorted({comparison.model.quantity for comparison in scene.comparisons})
+    coarse = interpolate_cycle(fine[needed].isel(angle=slice(None, None, FINE_FACTOR)),
+                               fine["angle"].to_numpy())
     errors = {}
     for comparison in scene.comparisons:
         values = model_values(fine, comparison.model)
-        coarse = _periodic_interp(angle[::FINE_FACTOR], values[::FINE_FACTOR], angle)
         span = float(np.ptp(values)) or 1.0
-        errors[comparison.name] = float(np.max(np.abs(coarse - values)) / span)
+        error = model_values(coarse, comparison.model) - values
+        errors[comparison.name] = float(np.max(np.abs(error)) / span)
     return errors
-
-
-def energy_residual(mechanism: Mechanism, points: int) -> dict[str, float]:
-    """Check the model's numerics by its power balance on the file's drive laws.
-
-    Drive power against the rate of change of kinetic plus potential energy over one
-    revolution, both derivatives spectral; with the conditioning and the Newton tolerance.
-
-    Parameters
-    ----------
-    mechanism : rigval.model.Mechanism
-        The mechanism.
-    points : int
-        Angle points per revolution.
-
-    Returns
-    -------
-    dict of str to float
-        Check name to value; empty when the drive laws do not repeat per revolution.
-    """
-    try:
-        cycle = solve_cycle(mechanism, points, outputs=["kinetic_energy", "potential_energy",
-                                                         "drive_power"])
-    except ConfigError as error:  # drive laws that do not repeat per revolution
-        logger.info("power balance skipped: %s", error)
-        return {}
-    energy = (cycle["kinetic_energy"] + cycle["potential_energy"]).to_numpy()
-    power = cycle["drive_power"].sum("driver").to_numpy()
-    slope = float(cycle.attrs["cycle_period_s"]) / (2 * np.pi)
-    # dE/dt = (dE/dphi) / (dt/dphi); t(phi) - slope phi is periodic, so both derivatives are
-    # spectral (exact to rounding for these smooth periodic signals)
-    dt_dphi = _periodic_derivative(cycle["time"].to_numpy() - slope * cycle["angle"].to_numpy())
-    balance = power - _periodic_derivative(energy) / (dt_dphi + slope)
-    return {"power balance max |P - dE/dt| / max |P|":
-            float(np.max(np.abs(balance)) / max(float(np.max(np.abs(power))), 1e-300)),
-            "max condition number of C_e": float(cycle.attrs["max_condition_number"]),
-            "Newton tolerance": float(cycle.attrs["newton_tol"])}
-
-
-def _periodic_derivative(values: np.ndarray) -> np.ndarray:
-    """d/dphi of samples of a periodic function on a uniform grid over one revolution."""
-    spectrum = np.fft.rfft(values)
-    order = np.arange(spectrum.size, dtype=np.float64)
-    if values.size % 2 == 0:
-        order[-1] = 0.0  # the Nyquist term has no defined derivative
-    return np.fft.irfft(1j * order * spectrum, n=values.size)
