@@ -150,18 +150,21 @@ class TableReader:
         return value
 
     def number(self, value: Any, key: str, *, minimum: float | None = None,
-               hint: str | None = None) -> float:
-        """Return a finite number (an int is accepted) that is at least ``minimum``."""
+               why_minimum: str | None = None) -> float:
+        """Return a finite number (an int is accepted) that is at least ``minimum``.
+
+        ``why_minimum`` is the hint given when the value is below ``minimum``.
+        """
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.fail(key, f"expected a number, got {value!r}",
-                            hint=hint or "write a plain number in SI units"
-                                         + (f" ({self.docs})" if self.docs else ""))
+                            hint="write a plain number in SI units"
+                                 + (f" ({self.docs})" if self.docs else ""))
         number = float(value)
         if not math.isfinite(number):
             raise self.fail(key, f"expected a finite number, got {value!r}",
                             hint="write a finite number (TOML's nan and inf are not values here)")
         if minimum is not None and number < minimum:
-            raise self.fail(key, f"expected a value >= {minimum}, got {number}", hint=hint)
+            raise self.fail(key, f"expected a value >= {minimum}, got {number}", hint=why_minimum)
         return number
 
     def text(self, value: Any, key: str) -> str:

@@ -418,9 +418,9 @@ class _Parser(TableReader):
             bodies.append(Body(
                 name=name,
                 mass=self.number(table["mass"], f"{key}.mass", minimum=0.0,
-                                hint="masses and inertias cannot be negative"),
+                                why_minimum="masses and inertias cannot be negative"),
                 inertia=self.number(table["inertia"], f"{key}.inertia", minimum=0.0,
-                                hint="masses and inertias cannot be negative"),
+                                why_minimum="masses and inertias cannot be negative"),
                 points=PointTable({p: (v[0], v[1]) for p, v in parsed.items()}),
                 guess=(guess[0], guess[1], guess[2]),
                 description=str(table.get("description", "")),

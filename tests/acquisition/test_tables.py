@@ -74,3 +74,12 @@ def test_every_format_reports_through_it(tmp_path) -> None:
                      "streams.s", base_dir=tmp_path)
     assert chan.value.where["key"] == "streams.s.channels.a.gain"
     assert "for a voltage channel" in str(chan.value) and "sensor" in chan.value.hint
+
+
+def test_number_hints_fit_the_problem() -> None:
+    with pytest.raises(MechanismError) as wrong:
+        READER.number("heavy", "bodies[0].mass", minimum=0.0, why_minimum="masses are >= 0")
+    assert "SI units" in wrong.value.hint and "docs/mechanism.md" in wrong.value.hint
+    with pytest.raises(MechanismError) as low:
+        READER.number(-1, "bodies[0].mass", minimum=0.0, why_minimum="masses are >= 0")
+    assert low.value.hint == "masses are >= 0" and "expected a value >= 0.0" in str(low.value)
