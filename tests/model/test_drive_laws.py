@@ -160,19 +160,20 @@ def test_truncation_of_a_profile_with_infinitely_many_harmonics_is_covered() -> 
     assert np.max(np.abs(speed - exact_speed)) <= fit.law.error.speed
 
 
-def test_profile_table_errors(tmp_path: Path) -> None:
-    unsorted = tmp_path / "unsorted.csv"
-    unsorted.write_text("time_s,angle_rad\n0,0\n0.2,1\n0.1,2\n")
-    with pytest.raises(DataError, match="increase strictly"):
-        read_profile_csv(unsorted)
-    text = tmp_path / "text.csv"
-    text.write_text("time_s,angle_rad\n0,0\n0.1,abc\n")
-    with pytest.raises(DataError, match="not finite"):
-        read_profile_csv(text)
-    three = tmp_path / "three.csv"
-    three.write_text("a,b,c\n0,0,0\n")
-    with pytest.raises(DataFileError, match="time_s and angle_rad"):
-        read_profile_csv(three)
+@pytest.mark.parametrize(("content", "error", "match"), [
+    ("time_s,angle_rad\n0,0\n0.2,1\n0.1,2\n", DataError, "increase strictly"),
+    ("time_s,angle_rad\n0,0\n0.1,abc\n", DataError, "not finite"),
+    ("a,b,c\n0,0,0\n", DataFileError, "time_s and angle_rad"),
+])
+def test_profile_table_errors(tmp_path: Path, content: str, error: type[Exception],
+                              match: str) -> None:
+    profile = tmp_path / "profile.csv"
+    profile.write_text(content)
+    with pytest.raises(error, match=match):
+        read_profile_csv(profile)
+
+
+def test_profile_fit_errors() -> None:
     with pytest.raises(DataError, match="at least 8"):
         fit_periodic_profile([0.0, 1.0], [0.0, 1.0])
     with pytest.raises(DataError, match="at most the profile's span"):
