@@ -314,7 +314,7 @@ def parse_stream(table: Mapping[str, Any], key: str,
         Naming the key path of the first bad key or value.
     """
     table = _TABLES.check_keys(table, key, _STREAM_KEYS, ["file"],
-                               what="in a stream table (file: the stream's data file)")
+                               what="in a stream table")
     path = Path(_TABLES.text(table["file"], f"{key}.file"))
     if base_dir is not None and not path.is_absolute():
         path = Path(base_dir) / path

@@ -100,7 +100,7 @@ class TableReader:
         for name in required:
             if name not in table:
                 suffix = f" {what}" if what else ""
-                raise self.fail(key_path(key, name), f"missing key {name!r}{suffix} (required)")
+                raise self.fail(key_path(key, name), f"missing key {name!r}{suffix}")
         return table
 
     def get(self, table: Mapping[str, Any], name: str, key: str, kind: type | tuple[type, ...],
