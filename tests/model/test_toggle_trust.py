@@ -3,15 +3,15 @@
 The rocker of the crank-rocker four-bar is driven; at its limit angle the crank and the coupler
 are collinear and ``C_e`` loses rank. The reference is a second, well-conditioned solve of the
 same motion with the crank driven, mapped to the rocker by the power balance
-``tau_rocker omega_rocker = tau_crank omega_crank`` (one degree of freedom, no losses).
+``tau_rocker omega_rocker = tau_crank omega_crank`` (one degree of freedom, no losses). The case
+is built by ``rigval.validation.bench.toggle_cases``, which benchmarks/bench_toggle_forces.py
+uses for the table of docs/numerics.md.
 """
 
 from __future__ import annotations
 
 import math
-import tomllib
 import warnings
-from typing import Any
 
 import numpy as np
 import pytest
@@ -20,50 +20,16 @@ import rigval.model as rm
 from rigval.acquisition.errors import NumericsWarning
 from rigval.model.assembly import COND_MAX
 from rigval.model.errors import SingularityError
-
-# fourbar.toml: crank a = 0.1 (O2 at 0, 0), coupler b = 0.35, rocker c = 0.3, O4 at (0.4, 0)
-A, B, C, D = 0.1, 0.35, 0.3, 0.4
-LIMIT = math.acos(((A + B) ** 2 - D * D - C * C) / (2 * D * C))   # rocker angle, stretched
-CRANK_AT_LIMIT = math.atan2(C * math.sin(LIMIT), D + C * math.cos(LIMIT))
-SPEED = 2.0      # rad/s, crank
-CRANK0 = 0.3958851077208406   # crank guess of fourbar.toml: the laws start at the file's guesses
-T_STAR = (CRANK_AT_LIMIT - CRANK0) / SPEED     # s, the crank passes the toggle
-
-
-def _fourbar(driver: dict[str, Any], guess: np.ndarray | None = None) -> rm.Mechanism:
-    data = tomllib.loads(rm.builtin_mechanism("fourbar").read_text())
-    data["drivers"] = [driver]
-    if guess is not None:
-        for body, values in zip(data["bodies"], guess, strict=True):
-            body["guess"] = [float(v) for v in values]
-    return rm.load_mechanism(data)
-
-
-def _crank_reference(t: np.ndarray) -> tuple[Any, ...]:
-    """Rocker motion and torque for a crank turning steadily through the toggle at T_STAR."""
-    crank = _fourbar({"name": "crank", "body": "crank", "law": "harmonic",
-                      "theta0": CRANK0, "omega": SPEED})
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")          # well conditioned: no warning at all
-        ds = rm.solve(crank, t, outputs=["position", "velocity", "acceleration",
-                                         "driver_torque"])
-    theta = ds["position"].sel(coord="theta").to_numpy()
-    omega = ds["velocity"].sel(coord="theta").to_numpy()
-    alpha = ds["acceleration"].sel(coord="theta").to_numpy()
-    tau_crank = ds["driver_torque"].to_numpy()[:, 0]
-    return ((theta[:, 2], omega[:, 2], alpha[:, 2]), tau_crank * SPEED / omega[:, 2],
-            ds["position"].to_numpy()[0])
-
-
-def _rocker_solve(t: np.ndarray, **options: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    drive, reference, start = _crank_reference(t)
-    rocker = _fourbar({"name": "rocker", "body": "rocker", "law": "harmonic",
-                       "theta0": float(start[2, 2]), "omega": 0.0}, guess=start)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", NumericsWarning)
-        ds = rm.solve(rocker, t, drives={"rocker": drive},
-                      outputs=["driver_torque", "condition_number"], **options)
-    return ds["driver_torque"].to_numpy()[:, 0], reference, ds["condition_number"].to_numpy()
+from rigval.validation.bench.toggle_cases import (
+    LIMIT,
+    T_STAR,
+    A,
+    B,
+    C,
+    D,
+    fourbar,
+    rocker_solve,
+)
 
 
 def test_criterion_is_cond_squared_eps() -> None:
@@ -74,7 +40,7 @@ def test_turning_point_exactly_at_the_limit_is_an_error() -> None:
     t = T_STAR + np.linspace(-1.0, 1.0, 201)          # holds T_STAR exactly
     assert np.any(t == T_STAR)
     with pytest.raises(SingularityError, match="joints involved") as info:
-        _rocker_solve(t)
+        rocker_solve(t)
     assert info.value.where["time_s"] == pytest.approx(T_STAR, abs=0.011)
     assert {"A", "B"} <= set(info.value.joints)
 
@@ -82,7 +48,7 @@ def test_turning_point_exactly_at_the_limit_is_an_error() -> None:
 def test_harmonic_drive_exactly_into_the_limit_is_an_error() -> None:
     low = math.acos(((B - A) ** 2 - D * D - C * C) / (2 * D * C))
     middle = 0.5 * (LIMIT + low)
-    rocker = _fourbar({"name": "rocker", "body": "rocker", "law": "harmonic",
+    rocker = fourbar({"name": "rocker", "body": "rocker", "law": "harmonic",
                        "theta0": middle, "omega": 0.0,
                        "harmonics": [{"amplitude": LIMIT - middle, "omega": 1.0,
                                       "phase": 0.0}]},
@@ -105,7 +71,7 @@ def test_forces_are_right_to_a_percent_or_refused(gap: float) -> None:
     """
     t = np.append(np.linspace(T_STAR - 1.0, T_STAR - 0.01, 20), T_STAR - gap)
     try:
-        torque, reference, cond = _rocker_solve(t)
+        torque, reference, cond = rocker_solve(t)
     except SingularityError as error:
         assert gap <= 3e-6, f"refused at a gap of {gap} s: {error}"
         assert error.condition**2 * np.finfo(float).eps > 1e-5
