@@ -25,7 +25,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import tempfile
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import resources
@@ -36,6 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rigval.acquisition.errors import ConfigError
+from rigval.model.mechanism import load_mechanism
 from rigval.sample_data.drive import DriveMotion, Harmonic
 from rigval.sample_data.rig import RigDraw, RigSettings, draw_rig, run_stem
 from rigval.sample_data.scene_text import local_time, note_text, scene_text
@@ -117,33 +117,28 @@ def mechanism_drivers(path: str | Path) -> dict[str, tuple[float, tuple[Harmonic
     Raises
     ------
     ConfigError
-        If the file cannot be read, lacks a driver theta_F or theta_H, or a harmonic is not a
-        whole multiple of the main speed.
+        If the file is not a valid mechanism (:class:`~rigval.model.errors.MechanismError`),
+        lacks a driver theta_F or theta_H, or a harmonic is not a whole multiple of the main
+        speed.
     """
-    try:
-        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise ConfigError(f"cannot read the mechanism file: {exc}", where={"file": str(path)},
-                          hint="pass a mechanism TOML file (schema rigval-mechanism/1)") from exc
-    drivers = {d.get("name"): d for d in data.get("drivers", [])}
-    missing = {"theta_F", "theta_H"} - drivers.keys()
+    mechanism = load_mechanism(path)
+    missing = sorted({"theta_F", "theta_H"} - set(mechanism.driver_names))
     if missing:
-        raise ConfigError(f"mechanism has no driver {sorted(missing)}; the rig drives theta_F "
+        raise ConfigError(f"mechanism has no driver {missing}; the rig drives theta_F "
                           f"and theta_H", where={"file": str(path), "key": "drivers"})
-    main_speed = float(drivers["theta_F"]["omega"])
+    excitation = mechanism.excitation("theta_F")
     out = {}
     for name in ("theta_F", "theta_H"):
-        harmonics = []
-        for k, term in enumerate(drivers[name].get("harmonics", [])):
-            order = float(term["omega"]) / main_speed
-            if abs(order - round(order)) > 1e-9 or round(order) < 1:
-                raise ConfigError(f"harmonic omega {term['omega']} is not a whole multiple of "
-                                  f"the main speed {main_speed}",
+        law = excitation.law(name)
+        for k, term in enumerate(law.harmonics):
+            if abs(term.order - round(term.order)) > 1e-9 or round(term.order) < 1:
+                raise ConfigError(f"harmonic {k} of {name} turns {term.order:g} times per main "
+                                  "revolution, not a whole number",
                                   where={"file": str(path),
                                          "key": f"drivers.{name}.harmonics[{k}]"})
-            harmonics.append(Harmonic(order=round(order), amplitude=float(term["amplitude"]),
-                                      phase=float(term["phase"])))
-        out[name] = (float(drivers[name]["theta0"]), tuple(harmonics))
+        out[name] = (law.theta0 + law.phase, tuple(
+            Harmonic(order=round(h.order), amplitude=h.amplitude, phase=h.phase)
+            for h in law.harmonics))
     return out
 
 
