@@ -87,6 +87,11 @@ def test_campaign_on_two_worker_processes(tmp_path: Path, scenes: list[Path]) ->
     summary = json.loads(files.outcomes_json.read_text())
     statuses = [o.status for o in outcomes]
     assert summary["counts"] == {s: statuses.count(s) for s in ("passed", "failed", "error")}
+    # what each validated run could not use, read from its alignment.json (no dropouts here)
+    for run in summary["runs"][::2]:
+        assert [r["stream"] for r in run["data_not_used"]] == ["cdaq", "wls1", "wls2"]
+        assert all(r["gaps"] == r["samples missing in gaps"] == 0 for r in run["data_not_used"])
+    assert summary["runs"][1]["data_not_used"] == []  # the broken run wrote no alignment
 
     with open_campaign(out) as data:
         assert list(data["run"].values) == ["run_1p5", "run_2p0"]

@@ -4,14 +4,16 @@
 report folders:
 
 ``campaign.html``
-    Self-contained page: counts, one row per run (status, speed, time, link to its report), the
-    metrics of every comparison over the runs, the metrics plotted against running speed, and
-    every error with its class, message, location, hint and traceback.
+    Self-contained page: counts, one row per run (status, speed, time, why it did not pass,
+    warnings, link to its report), the data each run could not use (:func:`data_not_used`: gaps,
+    samples dropped and why, pulses missed), the metrics of every comparison over the runs, the
+    metrics plotted against running speed, every warning, and every error with its class,
+    message, location, hint and traceback.
 ``campaign_metrics.csv``
     The metrics of every run in long form (one row per run, comparison and metric).
 ``campaign.json``
     Every :class:`~rigval.validation.campaign.engine.RunOutcome` as data (what :func:`open_campaign`
-    and scripts read back).
+    and scripts read back), each with its ``data_not_used`` rows.
 
 :func:`open_campaign` reads the runs' netCDF files back as one dataset with a ``run`` dimension.
 """
@@ -23,7 +25,7 @@ import json
 import logging
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -41,6 +43,7 @@ from rigval.validation.report.page import Page, escape
 
 __all__ = [
     "CampaignFiles",
+    "data_not_used",
     "metrics_table",
     "open_campaign",
     "plot_metrics_against_speed",
@@ -202,12 +205,58 @@ def write_campaign_report(outcomes: Sequence[RunOutcome], out_dir: str | Path, *
         table.to_csv(partial, index=False)
     counts = {status: sum(o.status == status for o in outcomes)
               for status in ("passed", "failed", "error")}
+    unused = {outcome.name: data_not_used(outcome) for outcome in outcomes}
     document = {"written": datetime.now(UTC).isoformat(timespec="seconds"), "counts": counts,
-                **details, "runs": [outcome.to_dict() for outcome in outcomes]}
+                **details, "runs": [{**outcome.to_dict(), "data_not_used": unused[outcome.name]}
+                                    for outcome in outcomes]}
     write_text_atomic(files.outcomes_json, json.dumps(document, indent=1, allow_nan=False))
-    _summary_page(outcomes, table, out_dir, title, counts, details).write(files.html)
+    _summary_page(outcomes, table, out_dir, title, counts, details, unused).write(files.html)
     logger.info("campaign summary written to %s", files.html)
     return files
+
+
+def data_not_used(outcome: RunOutcome) -> list[dict[str, Any]]:
+    """Return what a run's streams could not use, one row per stream, from its alignment.json.
+
+    Parameters
+    ----------
+    outcome : RunOutcome
+        The run; a run without an ``alignment.json`` output (an error, a custom validation)
+        gives no rows.
+
+    Returns
+    -------
+    list of dict
+        ``stream``, ``gaps`` (count), ``samples missing in gaps`` (never recorded: the device
+        dropped them), ``samples dropped`` (recorded, but in segments that could not be
+        aligned), ``why dropped`` (the reasons, or None), ``pulses missing`` and ``pulses
+        spurious`` (expected reference events not seen; events that matched nothing). One row
+        with only a ``note`` when the file cannot be read.
+    """
+    path = outcome.output("alignment.json")
+    if path is None:
+        return []
+    try:
+        streams = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as error:
+        return [{"stream": None, "note": f"{path.name} cannot be read: {error}"}]
+    rows = []
+    for name, info in (streams.items() if isinstance(streams, Mapping) else ()):
+        if not isinstance(info, Mapping):
+            continue
+        gaps = [g for g in info.get("gaps") or () if isinstance(g, Mapping)]
+        table = info.get("segment_table")
+        reasons = sorted({str(row["dropped_because"]) for row in table
+                          if isinstance(row, Mapping) and row.get("dropped_because")}
+                         ) if isinstance(table, list) else []
+        rows.append({"stream": str(name), "gaps": len(gaps),
+                     "samples missing in gaps": sum(int(g.get("missing_samples", 0))
+                                                    for g in gaps),
+                     "samples dropped": int(info.get("samples_dropped", 0)),
+                     "why dropped": "; ".join(reasons) or None,
+                     "pulses missing": info.get("events_missing"),
+                     "pulses spurious": info.get("events_spurious")})
+    return rows
 
 
 def run_reason(outcome: RunOutcome, *, limit: int = 3) -> str:
@@ -258,8 +307,9 @@ _KEY_METRICS = ("iso18571_periodic.rating", "iso18571_periodic.grade", "nrmse", 
 
 
 def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: Path,
-                  title: str, counts: dict[str, int], details: dict[str, Any]) -> Page:
-    """Build the campaign page."""
+                  title: str, counts: dict[str, int], details: dict[str, Any],
+                  unused: Mapping[str, list[dict[str, Any]]]) -> Page:
+    """Build the campaign page; ``unused``: :func:`data_not_used` per run name."""
     verdict = ("errors" if counts["error"] else "failed" if counts["failed"] else "passed")
     page = Page(title, subtitle=f"{len(outcomes)} runs: {counts['passed']} passed, "
                                 f"{counts['failed']} failed, {counts['error']} errors")
@@ -279,6 +329,7 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
                      _vv20_detected(o)) if _vv20_detected(o) else "not detected"),
                  "speed [rev/s]": o.speed_rev_s,
                  "time [s]": o.elapsed_s, "CPU [s]": o.cpu_s, "reused": o.reused,
+                 "warnings": len(o.warnings),
                  "reason": run_reason(o) or None} for o in outcomes], digits=3)
     links = []
     for outcome in outcomes:
@@ -289,6 +340,16 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
     if links:
         page.paragraph("Per-run reports:")
         page.raw("<ul>" + "".join(links) + "</ul>")
+
+    page.section("Data not used")
+    rows = [{"run": name, **row} for name, part in unused.items() for row in part]
+    if rows:
+        page.paragraph("Per run and stream, from its alignment.json: samples the device never "
+                       "recorded (gaps), samples recorded but dropped (segments that could not "
+                       "be aligned) and why, reference pulses missing or spurious.")
+        page.table(rows, digits=3)
+    else:
+        page.paragraph("No run reported its alignment (runs with errors have none).")
 
     if not table.empty:
         page.section("Metrics against running speed")
@@ -307,6 +368,11 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
                 rows.append({"run": run, "speed [rev/s]": speed, **cells})
             page.wide_table(rows, key=["run", "speed [rev/s]", *_KEY_METRICS],
                             caption=str(comparison), digits=3)
+
+    warned = [{"run": o.name, "warning": str(w)} for o in outcomes for w in o.warnings]
+    if warned:
+        page.section("Warnings")
+        page.table(warned)
 
     errors = [o for o in outcomes if o.error is not None]
     if errors:
