@@ -8,20 +8,8 @@ import pytest
 from rigval.acquisition.errors import DataError
 from rigval.processing import angle, cycles
 
-FS = 5000.0
-W = 2 * np.pi
-
-
-def _ripple_angle(t: np.ndarray) -> np.ndarray:
-    """1 rev/s with +-8 % speed ripple."""
-    return W * t + 0.08 * np.sin(W * t)
-
-
-def _time_of(phi: np.ndarray) -> np.ndarray:
-    t = phi / W
-    for _ in range(40):
-        t -= (_ripple_angle(t) - phi) / (W * (1 + 0.08 * np.cos(W * t)))
-    return t
+# the shaft of `rigval bench --stage resampling`: 1 rev/s with +-8 % speed ripple, exact inverse
+from rigval.validation.bench.signal_cases import FS, ripple_angle, ripple_time
 
 
 @pytest.mark.parametrize(("f_rel", "order", "limit"), [(0.05, 5, 1e-5), (0.01, 5, 1e-9),
@@ -31,10 +19,10 @@ def test_resampling_error_for_content_up_to_a_twentieth_of_fs(f_rel: float, orde
     t = np.arange(0.0, 6.0, 1 / FS)
     f = f_rel * FS
     x = np.sin(2 * np.pi * f * t + 0.3)
-    cyc, _, y = angle.resample_to_angle(t, x, t, _ripple_angle(t), points_per_rev=8192, fs=FS,
+    cyc, _, y = angle.resample_to_angle(t, x, t, ripple_angle(t), points_per_rev=8192, fs=FS,
                                         order=order)
     grid = 2 * np.pi * (cyc[:, None] + np.arange(8192)[None, :] / 8192)
-    truth = np.sin(2 * np.pi * f * _time_of(grid) + 0.3)           # the first cycle starts at t=0
+    truth = np.sin(2 * np.pi * f * ripple_time(grid) + 0.3)  # the first cycle starts at t=0
     assert np.nanmax(np.abs(y - truth)) < limit
     assert np.isfinite(y).all()
 
@@ -42,21 +30,21 @@ def test_resampling_error_for_content_up_to_a_twentieth_of_fs(f_rel: float, orde
 def test_linear_interpolation_is_far_worse_at_a_twentieth_of_fs() -> None:
     t = np.arange(0.0, 4.0, 1 / FS)
     x = np.sin(2 * np.pi * 250 * t)
-    cyc, _, y = angle.resample_to_angle(t, x, t, _ripple_angle(t), points_per_rev=8192, fs=FS,
+    cyc, _, y = angle.resample_to_angle(t, x, t, ripple_angle(t), points_per_rev=8192, fs=FS,
                                         order=1)
     grid = 2 * np.pi * (cyc[:, None] + np.arange(8192)[None, :] / 8192)
-    assert np.max(np.abs(y - np.sin(2 * np.pi * 250 * _time_of(grid)))) > 1e-3
+    assert np.max(np.abs(y - np.sin(2 * np.pi * 250 * ripple_time(grid)))) > 1e-3
 
 
 def test_anti_alias_removes_content_above_the_angle_grid_nyquist() -> None:
     t = np.arange(0.0, 8.0, 1 / FS)
     low = np.sin(2 * np.pi * 5 * t)
     x = low + 0.5 * np.sin(2 * np.pi * 300 * t)                # 300 Hz > 180 orders / 2 at 1 rev/s
-    cyc, _, clean = angle.resample_to_angle(t, x, t, _ripple_angle(t), points_per_rev=360, fs=FS)
-    _, _, raw = angle.resample_to_angle(t, x, t, _ripple_angle(t), points_per_rev=360, fs=FS,
+    cyc, _, clean = angle.resample_to_angle(t, x, t, ripple_angle(t), points_per_rev=360, fs=FS)
+    _, _, raw = angle.resample_to_angle(t, x, t, ripple_angle(t), points_per_rev=360, fs=FS,
                                         anti_alias="none")
     grid = 2 * np.pi * (cyc[:, None] + np.arange(360)[None, :] / 360)
-    truth = np.sin(2 * np.pi * 5 * _time_of(grid))
+    truth = np.sin(2 * np.pi * 5 * ripple_time(grid))
     inner = slice(1, -1)                                           # filter edges: first/last cycle
     assert np.max(np.abs(clean[inner] - truth[inner])) < 1e-3
     assert np.max(np.abs(raw[inner] - truth[inner])) > 0.3
@@ -81,8 +69,8 @@ def test_interpolation_never_crosses_a_gap_and_chunks_change_nothing(monkeypatch
 
 def test_zero_at_reference_and_cycle_grid() -> None:
     t = np.arange(0, 10, 1e-3)
-    phi = _ripple_angle(t) + 0.7
-    events = _time_of(2 * np.pi * np.arange(1, 9))
+    phi = ripple_angle(t) + 0.7
+    events = ripple_time(2 * np.pi * np.arange(1, 9))
     offset, scatter = angle.zero_at_reference(t, phi, events)
     assert offset == pytest.approx(0.7, abs=1e-6)
     assert scatter < 1e-6
@@ -112,12 +100,12 @@ def test_a_gap_in_the_angle_record_leaves_its_grid_points_empty() -> None:
     t = np.arange(0.0, 6.0, 1 / FS)
     keep = (t < 2.3) | (t > 2.6)                                   # the reference has a gap
     x = np.sin(2 * np.pi * 3 * t)
-    cyc, _, y = angle.resample_to_angle(t, x, t[keep], _ripple_angle(t[keep]),
+    cyc, _, y = angle.resample_to_angle(t, x, t[keep], ripple_angle(t[keep]),
                                         points_per_rev=360, fs=FS)
     grid = 2 * np.pi * (cyc[:, None] + np.arange(360)[None, :] / 360)
-    in_gap = (_time_of(grid) > 2.3 + 1 / FS) & (_time_of(grid) < 2.6 - 1 / FS)
+    in_gap = (ripple_time(grid) > 2.3 + 1 / FS) & (ripple_time(grid) < 2.6 - 1 / FS)
     assert np.isnan(y[in_gap]).all()
-    truth = np.sin(2 * np.pi * 3 * _time_of(grid))
+    truth = np.sin(2 * np.pi * 3 * ripple_time(grid))
     assert np.nanmax(np.abs(y - truth)) < 1e-6
 
 
