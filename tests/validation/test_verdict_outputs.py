@@ -28,7 +28,12 @@ def test_verdict_first_everywhere(sample, tmp_path):
         # the parts are the RMS of independent pointwise parts: u_val^2 = sum of squares
         assert row["u_val"] == pytest.approx(sum(v**2 for v in row["parts"].values()) ** 0.5,
                                              rel=1e-12), name
-        assert row["ratio"] == pytest.approx(row["E"] / (2.0 * row["u_val"]), rel=1e-12)
+        # the larger of the curve's and (torque_F, torque_H) the common gain's |E|/(k u_val)
+        gain = row["common_gain"]
+        assert (gain is not None) == (name in ("torque_F", "torque_H")), name
+        curve = row["E"] / (2.0 * row["u_val"])
+        assert row["ratio"] == pytest.approx(max(curve, gain["ratio"] if gain else 0.0),
+                                             rel=1e-12)
     assert verdict["worst"] == max(rows, key=lambda n: rows[n]["ratio"])
 
     write_report(sample, tmp_path)
