@@ -91,6 +91,7 @@ def test_campaign_on_two_worker_processes(tmp_path: Path, scenes: list[Path]) ->
     for run in summary["runs"][::2]:
         assert [r["stream"] for r in run["data_not_used"]] == ["cdaq", "wls1", "wls2"]
         assert all(r["gaps"] == r["samples missing in gaps"] == 0 for r in run["data_not_used"])
+        assert all(r["invalid samples"] in (None, 0) for r in run["data_not_used"])
     assert summary["runs"][1]["data_not_used"] == []  # the broken run wrote no alignment
 
     with open_campaign(out) as data:

@@ -27,7 +27,8 @@ ALIGNMENT = {
                  {"segment": 1, "samples_dropped": 2805,
                   "dropped_because": "2 edges in 1.7 s: fewer than 3 pulses to fit"},
                  {"segment": 2, "samples_dropped": 0, "dropped_because": ""}],
-             "events_missing": 0, "events_spurious": 3},
+             "events_missing": 0, "events_spurious": 3,
+             "invalid_samples": {"empty cells": 12, "unaligned segment": 2805}},
 }
 
 
@@ -53,7 +54,10 @@ def test_rows_count_gaps_dropped_samples_and_pulses(tmp_path: Path) -> None:
     assert wls1["samples dropped"] == 2805
     assert wls1["why dropped"] == "2 edges in 1.7 s: fewer than 3 pulses to fit"
     assert (wls1["pulses missing"], wls1["pulses spurious"]) == (0, 3)
+    assert wls1["invalid samples"] == 12 + 2805
+    assert wls1["why invalid"] == "empty cells: 12; unaligned segment: 2805"
     assert rows[0]["samples dropped"] == 0 and rows[0]["why dropped"] is None
+    assert rows[0]["invalid samples"] is None  # a file that does not record them
     assert data_not_used(_run(tmp_path, "b", alignment=False)) == []
 
 

@@ -230,7 +230,9 @@ def data_not_used(outcome: RunOutcome) -> list[dict[str, Any]]:
         ``stream``, ``gaps`` (count), ``samples missing in gaps`` (never recorded: the device
         dropped them), ``samples dropped`` (recorded, but in segments that could not be
         aligned), ``why dropped`` (the reasons, or None), ``pulses missing`` and ``pulses
-        spurious`` (expected reference events not seen; events that matched nothing). One row
+        spurious`` (expected reference events not seen; events that matched nothing),
+        ``invalid samples`` and ``why invalid`` (samples marked invalid by reason: empty
+        cells, unaligned segments, ...; None when the file does not record them). One row
         with only a ``note`` when the file cannot be read.
     """
     path = outcome.output("alignment.json")
@@ -255,8 +257,18 @@ def data_not_used(outcome: RunOutcome) -> list[dict[str, Any]]:
                      "samples dropped": int(info.get("samples_dropped", 0)),
                      "why dropped": "; ".join(reasons) or None,
                      "pulses missing": info.get("events_missing"),
-                     "pulses spurious": info.get("events_spurious")})
+                     "pulses spurious": info.get("events_spurious"),
+                     **_invalid(info.get("invalid_samples"))})
     return rows
+
+
+def _invalid(counts: Any) -> dict[str, Any]:
+    """Return the ``invalid samples``/``why invalid`` cells of a reason -> count mapping."""
+    if not isinstance(counts, Mapping):
+        return {"invalid samples": None, "why invalid": None}
+    return {"invalid samples": sum(int(n) for n in counts.values()),
+            "why invalid": "; ".join(f"{reason}: {int(n)}" for reason, n in counts.items())
+            or None}
 
 
 def run_reason(outcome: RunOutcome, *, limit: int = 3) -> str:
