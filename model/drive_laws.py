@@ -22,7 +22,6 @@ import logging
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -39,7 +38,7 @@ from rigval.acquisition.errors import (
     DataFileError,
 )
 from rigval.acquisition.tables import TableReader, key_path
-from rigval.model.laws import DriveLaw, Excitation, Harmonic, check_frequency
+from rigval.model.laws import DriveLaw, Excitation, FitUncertainty, Harmonic, check_frequency
 from rigval.processing.periodic_fit import (
     PeriodicFit,
     fourier_basis,
@@ -49,7 +48,6 @@ from rigval.processing.periodic_fit import (
 
 __all__ = [
     "NOISE_COVERAGE",
-    "FitError",
     "ProfileFit",
     "apply_drive_options",
     "excitation_from_measured",
@@ -71,50 +69,6 @@ _TABLES = TableReader(ConfigError, docs="docs/predict.md")
 _ERROR_GRID = 720
 _TRUNCATION_ORDERS = 3
 _ROUNDOFF = 64 * np.finfo(float).eps
-
-
-@dataclass(frozen=True)
-class FitError:
-    """Stated error of a law fitted to samples, per unit of cycle phase.
-
-    The error of the angle, speed and acceleration at frequency ``Omega`` (rad/s) is ``angle``,
-    ``speed * Omega`` and ``acceleration * Omega**2``. Each is the maximum over the cycle of
-    :data:`NOISE_COVERAGE` standard deviations of the sample noise propagated through the least-
-    squares fit, plus the truncation estimate (what the next harmonics above the fitted order
-    add) and floating-point round-off.
-
-    Parameters
-    ----------
-    angle : float
-        Error of the angle, rad.
-    speed : float
-        Error of ``d theta / d tau``, rad per rad of cycle phase.
-    acceleration : float
-        Error of ``d2 theta / d tau2``, rad per rad**2 of cycle phase.
-    residual_rms : float
-        Root mean square of the fit residual, rad (the estimated sample noise).
-    order : int
-        Number of harmonics kept.
-    samples : int
-        Number of samples fitted.
-    """
-
-    angle: float
-    speed: float
-    acceleration: float
-    residual_rms: float
-    order: int
-    samples: int
-
-    def at(self, omega: float) -> tuple[float, float, float]:
-        """Return the errors of angle (rad), speed (rad/s) and acceleration (rad/s**2) at ``omega``.
-
-        Parameters
-        ----------
-        omega : float
-            Cycle angular frequency, rad/s.
-        """
-        return self.angle, self.speed * abs(omega), self.acceleration * omega**2
 
 
 class ProfileFit(NamedTuple):
@@ -352,10 +306,10 @@ def fit_periodic_profile(t: npt.ArrayLike, theta: npt.ArrayLike, *, period: floa
     The angle minus its whole turns per cycle, ``theta - ratio * tau``, is fitted by a Fourier
     series in the cycle phase ``tau = 2 pi (t - t0) / period``; the number of harmonics minimises
     generalised cross-validation, ``N RSS / (N - p)**2``. Derivatives are the series' analytic
-    derivatives. The stated error (:class:`FitError`) adds the noise propagated through the fit
-    (:data:`NOISE_COVERAGE` standard deviations, from the least-squares covariance, worst point of
-    the cycle) and a truncation estimate (what harmonics ``K+1 .. K+3`` add when fitted) and
-    floating-point round-off.
+    derivatives. The stated error (:class:`~rigval.model.laws.FitUncertainty`) adds the noise
+    propagated through the fit (:data:`NOISE_COVERAGE` standard deviations, from the least-squares
+    covariance, worst point of the cycle), a truncation estimate (what harmonics ``K+1 .. K+3``
+    add when fitted) and floating-point round-off.
 
     Parameters
     ----------
@@ -449,8 +403,8 @@ def fit_periodic_profile(t: npt.ArrayLike, theta: npt.ArrayLike, *, period: floa
     scale = abs(coef[0]) + abs(ratio) * 2.0 * math.pi + np.abs(coef[1:]).sum()
     roundoff = [_ROUNDOFF * scale * max(1, order) ** m for m in range(3)]
     total = [a + b + c for a, b, c in zip(noise, truncation, roundoff, strict=True)]
-    error = FitError(angle=total[0], speed=total[1], acceleration=total[2], residual_rms=sigma,
-                     order=order, samples=n)
+    error = FitUncertainty(angle=total[0], speed=total[1], acceleration=total[2],
+                           residual_rms=sigma, order=order, samples=n)
     harmonics = tuple(
         Harmonic(amplitude=math.hypot(coef[2 * k - 1], coef[2 * k]), order=float(k),
                  phase=math.atan2(coef[2 * k - 1], coef[2 * k]))

@@ -35,12 +35,11 @@ from rigval.model.errors import ModelError
 if TYPE_CHECKING:
     import xarray as xr
 
-    from rigval.model.drive_laws import FitError
-
 __all__ = [
     "MAX_FREQUENCY_HZ",
     "DriveLaw",
     "Excitation",
+    "FitUncertainty",
     "Harmonic",
     "check_frequency",
     "cycle_rate",
@@ -81,6 +80,50 @@ class Harmonic:
 
 
 @dataclass(frozen=True)
+class FitUncertainty:
+    """Stated error of a law fitted to samples, per unit of cycle phase.
+
+    The error of the angle, speed and acceleration at frequency ``Omega`` (rad/s) is ``angle``,
+    ``speed * Omega`` and ``acceleration * Omega**2``. Each is the maximum over the cycle of
+    :data:`rigval.model.drive_laws.NOISE_COVERAGE` standard deviations of the sample noise
+    propagated through the least-squares fit, plus the truncation estimate (what the next
+    harmonics above the fitted order add) and floating-point round-off.
+
+    Parameters
+    ----------
+    angle : float
+        Error of the angle, rad.
+    speed : float
+        Error of ``d theta / d tau``, rad per rad of cycle phase.
+    acceleration : float
+        Error of ``d2 theta / d tau2``, rad per rad**2 of cycle phase.
+    residual_rms : float
+        Root mean square of the fit residual, rad (the estimated sample noise).
+    order : int
+        Number of harmonics kept.
+    samples : int
+        Number of samples fitted.
+    """
+
+    angle: float
+    speed: float
+    acceleration: float
+    residual_rms: float
+    order: int
+    samples: int
+
+    def at(self, omega: float) -> tuple[float, float, float]:
+        """Return the errors of angle (rad), speed (rad/s) and acceleration (rad/s**2) at ``omega``.
+
+        Parameters
+        ----------
+        omega : float
+            Cycle angular frequency, rad/s.
+        """
+        return self.angle, self.speed * abs(omega), self.acceleration * omega**2
+
+
+@dataclass(frozen=True)
 class DriveLaw:
     """The angle of one drive over the cycle (see the module docstring for the formula).
 
@@ -96,7 +139,7 @@ class DriveLaw:
         Harmonic terms.
     source : str
         Where the law came from (``"mechanism file"``, a CSV path, ``"command line"``, ...).
-    error : FitError, optional
+    error : FitUncertainty, optional
         Stated error when the law was fitted to samples; None for an exact law.
     """
 
@@ -105,7 +148,7 @@ class DriveLaw:
     phase: float = 0.0
     harmonics: tuple[Harmonic, ...] = ()
     source: str = "mechanism file"
-    error: FitError | None = None
+    error: FitUncertainty | None = None
 
     def at_phase(self, tau: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return the angle (rad) and its first and second derivatives in the cycle phase.
