@@ -33,26 +33,26 @@ compare
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import logging
 import math
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
-from rigval.acquisition.channel_map import load_stream
+from rigval.acquisition.channel_map import StreamSpec, load_stream
 from rigval.acquisition.errors import DataError
 from rigval.model.mechanism import load_mechanism
-from rigval.processing.align import (
-    channel_time,
-)
-from rigval.processing.alignment import MainAngle, align_streams
+from rigval.processing.align import channel_time, input_delay
+from rigval.processing.alignment import AlignmentSettings, MainAngle, align_streams
 from rigval.processing.angle import cycle_grid, resample_to_angle
 from rigval.processing.filters import zero_phase
 from rigval.validation.alignment import alignment_settings
@@ -102,20 +102,83 @@ class _Stopwatch:
             logger.info("stage %s: %.3f s", name, self.seconds[name])
 
 
-def read_streams(scene: Scene) -> dict[str, xr.Dataset]:
+def read_streams(scene: Scene, channels: Mapping[str, Iterable[str]] | None = None
+                 ) -> dict[str, xr.Dataset]:
     """Read every stream of a scene: the mapped channels under their scene names.
 
     Parameters
     ----------
     scene : Scene
         The scene.
+    channels : mapping of str to iterable of str, optional
+        Per stream, only these scene channels; default every mapped channel.
 
     Returns
     -------
     dict of str to xarray.Dataset
         Stream name -> stream as read (raw units).
     """
-    return {name: load_stream(spec) for name, spec in scene.streams.items()}
+    if channels is None:
+        return {name: load_stream(spec) for name, spec in scene.streams.items()}
+    return {name: load_stream(_stream_part(spec, channels[name]))
+            for name, spec in scene.streams.items()}
+
+
+def _stream_part(spec: StreamSpec, names: Iterable[str]) -> StreamSpec:
+    """Return the stream table with only the named channels (in table order)."""
+    keep = set(names)
+    return dataclasses.replace(spec, channels=MappingProxyType(
+        {name: channel for name, channel in spec.channels.items() if name in keep}))
+
+
+def _alignment_channels(scene: Scene, settings: AlignmentSettings) -> dict[str, set[str]]:
+    """Return the channels read before the alignment: pulses, encoders of phi_F and the drives.
+
+    A stream aligned by its start stamps needs no channel; its first is read for its samples.
+    """
+    needs: dict[str, set[str]] = {name: set() for name in scene.streams}
+    needs[settings.reference] |= {settings.encoder.name, settings.reference_pulse.name}
+    if scene.model.drives == "measured":
+        for driver in scene.model.drivers.values():
+            needs[driver.encoder.stream].add(driver.encoder.channel)
+    for name, clock in settings.streams.items():
+        if clock.pulse is not None:
+            needs[name].add(clock.pulse.name)
+    for name, names in needs.items():
+        if not names:
+            names.add(next(iter(scene.streams[name].channels)))
+    return needs
+
+
+def _add_channels(scene: Scene, name: str, aligned: xr.Dataset, channels: list[str]
+                  ) -> xr.Dataset:
+    """Read, convert and put on the reference timeline channels of an aligned stream.
+
+    The samples are those of the alignment's read of the same file, so they take its
+    reference times; each channel's module delay is scaled by the stream's clock drift as
+    :func:`rigval.processing.align.align_stream` does.
+
+    Raises
+    ------
+    DataError
+        If the file holds another number of samples than when the stream was aligned.
+    """
+    spec = _stream_part(scene.streams[name], channels)
+    part = convert_stream(load_stream(spec, checksum=False), spec)
+    if part.sizes["time"] != aligned.sizes["time"]:
+        raise DataError(f"stream {name}: {spec.file.name} gave {part.sizes['time']} samples for "
+                        f"{channels} but {aligned.sizes['time']} when it was aligned",
+                        where={"file": str(spec.file), "stream": name},
+                        hint="the file changed during the validation: validate a finished "
+                             "copy of the run")
+    drift = float(aligned.attrs.get("clock_drift_ppm", 0.0)) * 1e-6
+    fs = float(part.attrs["fs_nominal"])
+    out = aligned.copy()
+    for channel in channels:
+        var = part[channel]
+        out[channel] = xr.Variable("time", var.to_numpy(), {
+            **var.attrs, "input_delay_s": input_delay(var.attrs, fs) * (1.0 + drift)})
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -302,15 +365,13 @@ def _grid(scene: Scene, main: MainAngle) -> _Grid:
     return _Grid(turns, fine_grid[0] - fine_grid[0, 0], fine_times, turns.size / duration)
 
 
-def _compare_all(scene: Scene, aligned: Mapping[str, xr.Dataset], model: xr.Dataset,
+def _compare_all(scene: Scene, long_names: Mapping[str, str], model: xr.Dataset,
                  grid: _Grid, measured: Mapping[str, np.ndarray],
                  errors: Mapping[str, float], alignment: Mapping[str, StreamAlignment]
                  ) -> tuple[ComparisonResult, ...]:
     results = []
     for comparison in scene.comparisons:
-        channel = scene.channel(comparison.measured)
-        long_name = str(aligned[comparison.measured.stream][channel.name].attrs.get(
-            "long_name", channel.name))
+        long_name = long_names[comparison.name]
         if comparison.summed:
             long_name = comparison.measured_text
         values = model_values(model, comparison.model)
@@ -320,6 +381,42 @@ def _compare_all(scene: Scene, aligned: Mapping[str, xr.Dataset], model: xr.Data
         results.append(_compare(comparison, scene.units(comparison.measured), long_name,
                                 grid.angle, measured[comparison.name], values, u_num, carried))
     return with_common_gain(scene, results)
+
+
+def _angle_domain(scene: Scene, aligned: dict[str, xr.Dataset], main: MainAngle, *, keep: bool
+                  ) -> tuple[dict[str, np.ndarray], dict[str, float | None], dict[str, str]]:
+    """Resample every comparison's measured signal onto the phi_F grid, stream by stream.
+
+    The alignment's own channels (pulses, encoders) are dropped first, the model having its
+    drives; then each stream's compared channels are read in one go, resampled and dropped
+    before the next stream's (``keep``: every channel was read and stays, the streams go into
+    the output). Returns the resampled cycles, the low-pass corners and the channels' long
+    names, by comparison.
+    """
+    by_stream: dict[str, list[ComparisonSpec]] = {}
+    for comparison in scene.comparisons:
+        by_stream.setdefault(comparison.measured.stream, []).append(comparison)
+    if not keep:
+        for stream, ds in aligned.items():
+            # the device clock and the pulse and encoder channels served the alignment only
+            aligned[stream] = ds.drop_vars(
+                [name for name in ds.data_vars if name not in ("valid", "segment")]
+                + ["device_time"], errors="ignore")
+    measured, corners, long_names = {}, {}, {}
+    for stream, comparisons in by_stream.items():
+        names = list(dict.fromkeys(ref.channel for c in comparisons for _, ref in c.terms))
+        missing = [name for name in names if name not in aligned[stream]]
+        if missing:
+            aligned[stream] = _add_channels(scene, stream, aligned[stream], missing)
+        for comparison in comparisons:
+            measured[comparison.name], corners[comparison.name] = _resample_channel(
+                scene, comparison, aligned[stream], main)
+            channel = comparison.measured.channel
+            long_names[comparison.name] = str(aligned[stream][channel].attrs.get(
+                "long_name", channel))
+        if not keep:
+            aligned[stream] = aligned[stream].drop_vars(names)
+    return measured, corners, long_names
 
 
 def _history(scene: Scene, grid: _Grid, corners: Mapping[str, float | None],
@@ -362,20 +459,23 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
     with watch.stage("read"):
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
-        raw = read_streams(scene)
+        settings = alignment_settings(scene)
+        # Streams kept in the output are read whole; otherwise only what the alignment
+        # needs, and each compared channel when its comparison comes (memory: see
+        # docs/performance.md, long records).
+        whole = scene.output.raw or scene.output.aligned
+        first = None if whole else _alignment_channels(scene, settings)
+        raw = read_streams(scene, first)
         check_sample_rates(scene, raw)
     with watch.stage("convert"):
-        converted = {name: convert_stream(raw[name], spec) for name, spec in scene.streams.items()}
+        converted = {name: convert_stream(raw[name], _stream_part(spec, raw[name].data_vars))
+                     for name, spec in scene.streams.items()}
         if not scene.output.raw:
             raw = {}  # not written: free the streams as read before the next stage
     with watch.stage("align"), encoder_scale_errors(scene):
-        aligned, diagnostics, main = align_streams(alignment_settings(scene), converted)
-    with watch.stage("angle"):
+        aligned, diagnostics, main = align_streams(settings, converted)
+        del converted
         grid = _grid(scene, main)
-        measured, corners = {}, {}
-        for comparison in scene.comparisons:
-            measured[comparison.name], corners[comparison.name] = _resample_channel(
-                scene, comparison, aligned[comparison.measured.stream], main)
     with watch.stage("model"), encoder_scale_errors(scene):
         mechanism = load_mechanism(scene.mechanism)
         fine = run_model(scene, mechanism, aligned[scene.alignment.reference], grid.fine_times,
@@ -387,10 +487,12 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
                                "rev/s: forces scale with the square of the speed; consider "
                                'drives = "measured"', law_speed, grid.speed_rev_s)
         model = fine.isel(angle=slice(None, None, FINE_FACTOR))
+    with watch.stage("angle"):
+        measured, corners, long_names = _angle_domain(scene, aligned, main, keep=whole)
     with watch.stage("numerics"):
         errors = grid_error(scene, fine)
     with watch.stage("compare"):
-        results = _compare_all(scene, aligned, model, grid, measured, errors, diagnostics)
+        results = _compare_all(scene, long_names, model, grid, measured, errors, diagnostics)
     with watch.stage("numerics"):
         residuals = energy_residual(mechanism, scene.angle.points_per_revolution)
         residuals["max condition number (this run)"] = float(

@@ -187,6 +187,23 @@ def test_output_keys_keep_raw_and_aligned_streams(scene_path: Path, tmp_path: Pa
     assert acc1.dtype == np.float32 and acc1.attrs["units"] == "m s-2"
 
 
+def test_channel_by_channel_equals_the_whole_record(scene_path: Path, tmp_path: Path) -> None:
+    """Without [output] the pipeline reads the alignment's channels first and each stream's
+    compared channels after the model: the same revolutions and scores as reading every
+    channel at once (what [output] aligned = true does), to rounding."""
+    text = scene_path.read_text()
+    whole = _edited(scene_path, tmp_path, text, text + "\n[output]\naligned = true\n")
+    lazy, full = run_scene(scene_path), run_scene(whole)
+    assert [c.name for c in lazy.comparisons] == [c.name for c in full.comparisons]
+    for a, b in zip(lazy.comparisons, full.comparisons, strict=True):
+        assert a.cycles.shape == b.cycles.shape and a.cycles.shape[0] >= 10
+        np.testing.assert_allclose(a.cycles, b.cycles, rtol=1e-12, atol=0, err_msg=a.name)
+        for key, value in b.scores.items():
+            if isinstance(value, float):
+                assert a.scores[key] == pytest.approx(value, rel=1e-9, abs=1e-12), (a.name, key)
+    assert "aligned" not in lazy.tree.children and "aligned" in full.tree.children
+
+
 def test_validate_scene_returns_what_a_campaign_needs(scene_path: Path, tmp_path: Path) -> None:
     result = validate_scene(scene_path, tmp_path)
     assert result.passed
