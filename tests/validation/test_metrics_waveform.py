@@ -10,14 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from rigval.acquisition.errors import ConfigError, DataError
-from rigval.validation.metrics.compare import (
-    circular_lag,
-    nrmse,
-    peak_error,
-    pearson_r,
-    russell,
-    sprague_geers,
-)
+from rigval.validation.metrics import waveform as wf
 
 N = 360
 THETA = np.arange(N) * 2 * np.pi / N
@@ -36,11 +29,11 @@ factors = st.floats(0.05, 20.0)
 
 @given(signals, factors, st.booleans())
 def test_sprague_geers_pure_scaling(measured, k, periodic):
-    scores = sprague_geers(measured, k * measured, periodic=periodic)
+    scores = wf.sprague_geers(measured, k * measured, periodic=periodic)
     assert scores.magnitude == pytest.approx(k - 1, rel=1e-12, abs=1e-12)
     assert scores.phase == pytest.approx(0.0, abs=1e-6)  # arccos near 1: sqrt(eps) resolution
     assert scores.comprehensive == pytest.approx(np.hypot(scores.magnitude, scores.phase))
-    inverted = sprague_geers(measured, -k * measured, periodic=periodic)
+    inverted = wf.sprague_geers(measured, -k * measured, periodic=periodic)
     assert inverted.magnitude == pytest.approx(k - 1, rel=1e-12, abs=1e-12)
     assert inverted.phase == pytest.approx(1.0, abs=1e-6)
 
@@ -48,12 +41,12 @@ def test_sprague_geers_pure_scaling(measured, k, periodic):
 @given(st.floats(0.0, 180.0))
 def test_sprague_geers_phase_of_shifted_sinusoid(angle_deg):
     phi = np.radians(angle_deg)
-    scores = sprague_geers(np.sin(THETA), np.sin(THETA - phi), periodic=True)
+    scores = wf.sprague_geers(np.sin(THETA), np.sin(THETA - phi), periodic=True)
     assert scores.phase == pytest.approx(phi / np.pi, abs=1e-7)
     assert scores.magnitude == pytest.approx(0.0, abs=1e-12)
     # an interval whose both ends are samples: the trapezoid rule is exact as well
     closed = np.linspace(0, 2 * np.pi, N + 1)
-    trapezoid = sprague_geers(np.sin(closed), np.sin(closed - phi))
+    trapezoid = wf.sprague_geers(np.sin(closed), np.sin(closed - phi))
     assert trapezoid.phase == pytest.approx(phi / np.pi, abs=1e-7)
 
 
@@ -65,14 +58,14 @@ pairs = st.integers(8, 200).flatmap(lambda n: st.tuples(
 @given(pairs)
 def test_sprague_geers_symmetries(pair):
     a, b = pair
-    forward, backward = sprague_geers(a, b), sprague_geers(b, a)
+    forward, backward = wf.sprague_geers(a, b), wf.sprague_geers(b, a)
     assert forward.phase == pytest.approx(backward.phase, abs=1e-12)
     assert (1 + forward.magnitude) * (1 + backward.magnitude) == pytest.approx(1.0, rel=1e-12)
 
 
 @given(signals, factors)
 def test_russell_pure_scaling_closed_form(measured, k):
-    scores = russell(measured, k * measured)
+    scores = wf.russell(measured, k * measured)
     m = (k**2 - 1) / k
     assert scores.magnitude == pytest.approx(np.sign(m) * np.log10(1 + abs(m)), abs=1e-12)
     assert scores.comprehensive == pytest.approx(
@@ -81,12 +74,12 @@ def test_russell_pure_scaling_closed_form(measured, k):
 
 def test_russell_is_antisymmetric_in_over_and_under_prediction():
     measured = wave()
-    double, half = russell(measured, 2 * measured), russell(measured, 0.5 * measured)
+    double, half = wf.russell(measured, 2 * measured), wf.russell(measured, 0.5 * measured)
     assert double.magnitude == pytest.approx(np.log10(2.5), abs=1e-12)  # 0.398
     assert half.magnitude == pytest.approx(-double.magnitude, abs=1e-12)
-    forward, backward = russell(measured, wave(30)), russell(wave(30), measured)
+    forward, backward = wf.russell(measured, wave(30)), wf.russell(wave(30), measured)
     assert forward.magnitude == pytest.approx(-backward.magnitude, abs=1e-12)
-    assert forward.phase == pytest.approx(sprague_geers(measured, wave(30)).phase)
+    assert forward.phase == pytest.approx(wf.sprague_geers(measured, wave(30)).phase)
 
 
 @pytest.mark.parametrize(("normaliser", "scale"), [
@@ -95,7 +88,7 @@ def test_russell_is_antisymmetric_in_over_and_under_prediction():
 @given(offset=st.floats(-5, 5))
 def test_nrmse_of_an_offset(normaliser, scale, offset):
     measured = wave()
-    scores = nrmse(measured, measured + offset, normaliser=normaliser)
+    scores = wf.nrmse(measured, measured + offset, normaliser=normaliser)
     assert scores.rmse == pytest.approx(abs(offset), abs=1e-12)
     assert scores.nrmse == pytest.approx(abs(offset) / scale(measured), abs=1e-12)
     assert scores.normaliser == normaliser
@@ -105,35 +98,35 @@ def test_nrmse_of_an_offset(normaliser, scale, offset):
 def test_nrmse_rms_is_relative_l2_error():
     measured, model = wave(), 1.2 * wave(10)
     expected = np.linalg.norm(model - measured) / np.linalg.norm(measured)
-    assert nrmse(measured, model, "rms").nrmse == pytest.approx(expected, rel=1e-12)
+    assert wf.nrmse(measured, model, "rms").nrmse == pytest.approx(expected, rel=1e-12)
 
 
 def test_nrmse_bad_normaliser():
     with pytest.raises(ConfigError, match="unknown NRMSE normaliser") as info:
-        nrmse(wave(), wave(), normaliser="mean")
+        wf.nrmse(wave(), wave(), normaliser="mean")
     assert info.value.where["key"] == "normaliser"
     with pytest.raises(DataError, match="range is zero"):
-        nrmse(np.ones(10), np.arange(10.0))
+        wf.nrmse(np.ones(10), np.arange(10.0))
 
 
 @given(signals, st.floats(0.1, 10), st.floats(-10, 10))
 def test_pearson_ignores_scale_and_offset(measured, k, offset):
-    assert pearson_r(measured, k * measured + offset).pearson_r == pytest.approx(1.0, abs=1e-9)
-    assert pearson_r(measured, offset - k * measured).pearson_r == pytest.approx(-1.0, abs=1e-9)
+    assert wf.pearson_r(measured, k * measured + offset).pearson_r == pytest.approx(1.0, abs=1e-9)
+    assert wf.pearson_r(measured, offset - k * measured).pearson_r == pytest.approx(-1.0, abs=1e-9)
 
 
 def test_pearson_matches_numpy_and_is_symmetric():
     a, b = wave(), wave(40) + 0.1 * np.cos(9 * THETA)
-    r = pearson_r(a, b).pearson_r
+    r = wf.pearson_r(a, b).pearson_r
     assert r == pytest.approx(np.corrcoef(a, b)[0, 1], abs=1e-14)
-    assert r == pytest.approx(pearson_r(b, a).pearson_r, abs=1e-15)
+    assert r == pytest.approx(wf.pearson_r(b, a).pearson_r, abs=1e-15)
     with pytest.raises(DataError, match="measured signal is constant"):
-        pearson_r(np.ones(10), np.arange(10.0))
+        wf.pearson_r(np.ones(10), np.arange(10.0))
 
 
 def test_peak_error_value_and_angle():
     degrees = np.degrees(THETA)
-    scores = peak_error(np.sin(THETA), 1.1 * np.sin(THETA - np.radians(10)), degrees,
+    scores = wf.peak_error(np.sin(THETA), 1.1 * np.sin(THETA - np.radians(10)), degrees,
                         period=360.0)
     assert scores.measured_peak == pytest.approx(1.0)
     assert scores.model_peak == pytest.approx(1.1)
@@ -146,7 +139,7 @@ def test_peak_error_wraps_shift_and_keeps_polarity():
     degrees = np.degrees(THETA)
     measured = -np.exp(-((degrees - 355) / 5) ** 2) - np.exp(-((degrees + 5) / 5) ** 2)
     model = 0.8 * np.roll(measured, 10) + 0.85 * np.sin(THETA) ** 40  # larger positive bump
-    scores = peak_error(measured, model, degrees, period=360.0)
+    scores = wf.peak_error(measured, model, degrees, period=360.0)
     assert scores.measured_at == 355.0 and scores.model_at == 5.0
     assert scores.shift == 10.0  # not -350
     assert scores.model_peak < 0  # the model's extreme of the measured peak's sign
@@ -155,53 +148,53 @@ def test_peak_error_wraps_shift_and_keeps_polarity():
 
 def test_peak_error_uses_dataarray_coordinate():
     measured = xr.DataArray(np.sin(THETA), dims="angle", coords={"angle": THETA})
-    assert peak_error(measured, measured).measured_at == pytest.approx(np.pi / 2)
+    assert wf.peak_error(measured, measured).measured_at == pytest.approx(np.pi / 2)
 
 
 @pytest.mark.parametrize("samples", [-90, -1, 0, 7, 179])
 def test_circular_lag_of_whole_samples(samples):
-    lag = circular_lag(wave(), np.roll(wave(), samples), THETA)
+    lag = wf.circular_lag(wave(), np.roll(wave(), samples), THETA)
     assert lag.lag_deg == pytest.approx(samples * 360 / N, abs=1e-9)
     assert lag.correlation == pytest.approx(1.0, abs=1e-12)
 
 
 @given(st.floats(-179.0, 179.0))
 def test_circular_lag_recovers_any_shift(lag_deg):
-    lag = circular_lag(wave(), wave(lag_deg))
+    lag = wf.circular_lag(wave(), wave(lag_deg))
     assert lag.lag_deg == pytest.approx(lag_deg, abs=1e-8)
-    assert circular_lag(wave(lag_deg), wave()).lag_deg == pytest.approx(-lag_deg, abs=1e-8)
+    assert wf.circular_lag(wave(lag_deg), wave()).lag_deg == pytest.approx(-lag_deg, abs=1e-8)
 
 
 def test_circular_lag_of_odd_length_and_noisy_signal():
     n = 361
     rng = np.random.default_rng(1)
     measured = wave(0, n) + 0.05 * rng.normal(size=n)
-    lag = circular_lag(measured, wave(12.5, n))
+    lag = wf.circular_lag(measured, wave(12.5, n))
     assert lag.lag_deg == pytest.approx(12.5, abs=0.3)
 
 
 def test_circular_lag_checks_the_angle_grid():
     on_grid = xr.DataArray(wave(), dims="angle", coords={"angle": np.degrees(THETA)})
     with pytest.raises(DataError, match="degrees"):
-        circular_lag(on_grid, wave())
+        wf.circular_lag(on_grid, wave())
     with pytest.raises(DataError, match="repeats the first"):
-        circular_lag(wave(0, N + 1), wave(0, N + 1), np.linspace(0, 2 * np.pi, N + 1))
+        wf.circular_lag(wave(0, N + 1), wave(0, N + 1), np.linspace(0, 2 * np.pi, N + 1))
     with pytest.raises(DataError, match="degrees"):
-        circular_lag(wave(), wave(), np.degrees(THETA))
+        wf.circular_lag(wave(), wave(), np.degrees(THETA))
     with pytest.raises(DataError, match="constant"):
-        circular_lag(np.ones(N), wave())
+        wf.circular_lag(np.ones(N), wave())
 
 
 def test_scores_as_dict_are_plain_python():
-    scores = sprague_geers(wave(), 1.1 * wave(5))
+    scores = wf.sprague_geers(wave(), 1.1 * wave(5))
     values = scores.as_dict()
     assert list(values) == ["magnitude", "phase", "comprehensive"]
     assert all(type(v) is float for v in values.values())
-    assert nrmse(wave(), wave(3)).as_dict()["normaliser"] == "range"
+    assert wf.nrmse(wave(), wave(3)).as_dict()["normaliser"] == "range"
 
 
 def test_zero_energy_is_refused():
     with pytest.raises(DataError, match="model signal is zero everywhere"):
-        sprague_geers(wave(), np.zeros(N))
+        wf.sprague_geers(wave(), np.zeros(N))
     with pytest.raises(DataError, match="measured signal is zero everywhere"):
-        russell(np.zeros(N), wave())
+        wf.russell(np.zeros(N), wave())

@@ -325,12 +325,9 @@ def iso18571_periodic_many(measured: Any, models: Any, angle: Any = None, *,
         Reference signal over one revolution (any units).
     models : array_like
         Signals to rate, shape ``(m, n)``, on the reference's angle grid and in its units.
-    angle : array_like, optional
-        Shaft angle of the samples, rad (see :func:`iso18571_periodic`).
-    params : IsoParameters, optional
-        Rating parameters; the standard's by default.
-    max_samples : int
-        Longer signals are Fourier-resampled to this many samples before rating.
+    angle, params, max_samples
+        As for :func:`iso18571_periodic` (shaft angle in rad, rating parameters, resampling
+        limit).
 
     Returns
     -------
