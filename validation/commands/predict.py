@@ -17,23 +17,24 @@ from rigval.validation.commands.common import add_command
 __all__ = ["add_parser", "run"]
 
 
+_HELP = "predict tip path, torques and support forces for given drive laws (no measurement)"
+_DESCRIPTION = ("Run the model over one cycle for an excitation and write a report folder "
+                "(report.html, cycle.csv, peaks.csv, prediction.nc; sweep.csv with --sweep).")
+_EPILOG = ("Drive laws: NAME=file | NAME=PROFILE.csv | NAME=LAW.toml | NAME='{TOML table}' "
+           "with keys frequency (Hz, main drive), ratio, phase (rad), theta0 (rad), "
+           "harmonics = [{amplitude, order, phase}], profile, period (s). "
+           "Example: --drive 'theta_F={frequency = 1.2}' --drive 'theta_H={phase = 0.3}'; "
+           "a number alone is the main drive's speed: --drive theta_F=1.2 (rev/s, or "
+           "1.2Hz, 72rpm). --list-drivers shows a mechanism's drivers. "
+           "Sweeps: NAME=START:STOP:COUNT[unit] or NAME=V1,V2[unit], e.g. "
+           "--sweep frequency=0.5:1.5:10 --sweep theta_H.phase=0:324:10deg.")
+
+
 def add_parser(subparsers: Any) -> None:
     """Register the ``predict`` subcommand."""
-    parser = add_command(
-        subparsers, run, "predict",
-        help="predict tip path, torques and support forces for given drive laws (no measurement)",
-        description="Run the model over one cycle for an excitation and write a report folder "
-                    "(report.html, cycle.csv, peaks.csv, prediction.nc; sweep.csv with --sweep).",
-        epilog="Drive laws: NAME=file | NAME=PROFILE.csv | NAME=LAW.toml | NAME='{TOML table}' "
-               "with keys frequency (Hz, main drive), ratio, phase (rad), theta0 (rad), "
-               "harmonics = [{amplitude, order, phase}], profile, period (s). "
-               "Example: --drive 'theta_F={frequency = 1.2}' --drive 'theta_H={phase = 0.3}'; "
-               "a number alone is the main drive's speed: --drive theta_F=1.2 (rev/s, or "
-               "1.2Hz, 72rpm). --list-drivers shows a mechanism's drivers. "
-               "Sweeps: NAME=START:STOP:COUNT[unit] or NAME=V1,V2[unit], e.g. "
-               "--sweep frequency=0.5:1.5:10 --sweep theta_H.phase=0:324:10deg. "
-               "Exit codes: 0 ok, 2 usage or configuration error, 3 data or model error.",
-    )
+    parser = add_command(subparsers, run, "predict", help=_HELP, description=_DESCRIPTION,
+                         epilog=_EPILOG,
+                         exit_codes="0 ok, 2 usage or configuration error, 3 data or model error.")
     parser.add_argument("mechanism", metavar="MECHANISM",
                         help="mechanism TOML file, or builtin:NAME (e.g. builtin:pendulum)")
     parser.add_argument("--out", metavar="DIR", help="report folder (required unless "
