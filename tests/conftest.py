@@ -37,24 +37,25 @@ def shared_dir() -> Path:
     return SHARED
 
 
+def _shared_subfolder(shared_dir: Path, name: str, what: str) -> Path:
+    """Return ``shared_dir / name``; skip the test, saying how to provide it, when absent."""
+    path = shared_dir / name
+    if not path.is_dir():
+        pytest.skip(f"needs {what}, not found at {path}: set RIGVAL_SHARED to a folder holding "
+                    f"{name}/ (README, section Tests)")
+    return path
+
+
 @pytest.fixture(scope="session")
 def realdata_dir(shared_dir: Path) -> Path:
     """``shared/realdata``: byte copies of NI-written files."""
-    path = shared_dir / "realdata"
-    if not path.is_dir():
-        pytest.skip(f"needs the real NI files, not found at {path}: set RIGVAL_SHARED to a "
-                    "folder holding realdata/ (README, section Tests)")
-    return path
+    return _shared_subfolder(shared_dir, "realdata", "the real NI files")
 
 
 @pytest.fixture(scope="session")
 def mechanisms_dir(shared_dir: Path) -> Path:
     """``shared/mechanisms``: the project's reference mechanism files."""
-    path = shared_dir / "mechanisms"
-    if not path.is_dir():
-        pytest.skip(f"needs the reference mechanism files, not found at {path}: set "
-                    "RIGVAL_SHARED to a folder holding mechanisms/ (README, section Tests)")
-    return path
+    return _shared_subfolder(shared_dir, "mechanisms", "the reference mechanism files")
 
 
 def _chromium_probe(page: Path, script: str, tmp_path: Path, *extra_args: str) -> object:
