@@ -99,7 +99,18 @@ class _Stopwatch:
             yield
         finally:
             self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
-            logger.info("stage %s: %.3f s", name, self.seconds[name])
+            logger.info("stage %s: %.3f s (process CPU %.1f s, peak memory %s)", name,
+                        self.seconds[name], time.process_time(), _peak_memory())
+
+
+def _peak_memory() -> str:
+    """Return the process's peak resident memory so far as text (``"n/a"`` off Unix)."""
+    try:
+        import resource
+    except ImportError:
+        return "n/a"
+    kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux
+    return f"{kib / 1024:.0f} MiB"
 
 
 def read_streams(scene: Scene, channels: Mapping[str, Iterable[str]] | None = None
