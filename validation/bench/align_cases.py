@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from scipy.special import sici
 
 from rigval.processing import align, pulses
-from rigval.validation.bench.core import BenchRow, measure, with_baseline
+from rigval.validation.bench.rows import BenchRow, measure, with_baseline
 
 __all__ = ["TwoClockRun", "alignment_rows", "two_clock_run"]
 

@@ -15,7 +15,7 @@ import tempfile
 from pathlib import Path
 
 from rigval.model import builtin_mechanism
-from rigval.validation.bench.core import BenchRow, measure, with_baseline
+from rigval.validation.bench.rows import BenchRow, measure, with_baseline
 
 __all__ = ["identification_rows"]
 

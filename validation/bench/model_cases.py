@@ -17,7 +17,7 @@ import numpy as np
 import xarray as xr
 
 import rigval.model as rm
-from rigval.validation.bench.core import BenchRow, Measured, measure, with_baseline
+from rigval.validation.bench.rows import BenchRow, Measured, measure, with_baseline
 
 __all__ = ["blas_label", "blas_thread_row", "model_rows"]
 

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rigval.validation.bench.core import BenchRow, with_baseline
+from rigval.validation.bench.rows import BenchRow, with_baseline
 
 __all__ = ["READERS", "reading_rows", "run_reader", "write_test_file"]
 

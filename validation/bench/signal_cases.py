@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from scipy.signal import savgol_filter
 
 from rigval.processing import angle, encoder, excitation
-from rigval.validation.bench.core import BenchRow, measure, with_baseline
+from rigval.validation.bench.rows import BenchRow, measure, with_baseline
 
 __all__ = ["derivative_rows", "resampling_rows", "ripple_angle", "ripple_time"]
 
