@@ -175,14 +175,14 @@ def markdown_table(rows: Sequence[BenchRow], note: str = "") -> str:
               "the baseline's wall time scaled to the row's work. `bound`: the stated upper "
               "bound of the error (checked); `limit`: the error the input itself sets, where "
               "known.", ""]
-    for stage in STAGES:
+    for stage in dict.fromkeys((*STAGES, *(r.stage for r in rows))):  # then other stages (long)
         stage_rows = [r for r in rows if r.stage == stage]
         if not stage_rows:
             continue
         lines += [f"## {stage}", ""]
         for case in dict.fromkeys(r.case for r in stage_rows):
             lines += [f"**{case}**", ""]
-            memory = stage == "reading"
+            memory = stage in ("reading", "long")
             head = ["choice", "metric", "error", "unit", "bound", "limit", "wall s", "CPU s",
                     "n"] + (["peak MiB"] if memory else []) + \
                    ["baseline", "baseline error", "baseline wall s"]

@@ -39,6 +39,13 @@ def add_parser(subparsers: Any) -> None:
                         help="small cases and fewer choices (well under a minute)")
     parser.add_argument("--stage", dest="stages", action="append", choices=STAGES,
                         help="run only this stage (repeatable; default: all)")
+    parser.add_argument("--long", action="store_true",
+                        help="instead of the sweeps: write and validate virtual-rig runs of "
+                             "20, 200, 2000 and 3600 s (--quick: 20 and 200 s) and report "
+                             "each validation's wall and CPU time and peak memory (tens of "
+                             "minutes; docs/performance.md)")
+    parser.add_argument("--durations", type=lambda text: [float(v) for v in text.split(",")],
+                        metavar="S,S,...", help="with --long: these record lengths in s")
     parser.add_argument("--compare", type=Path, metavar="CSV",
                         help="an earlier bench.csv: print this run's errors and CPU times "
                              "against it")
@@ -62,7 +69,12 @@ def run(args: argparse.Namespace) -> int:
               "model's full inverse dynamics also with the default BLAS threads)",
               file=sys.stderr)
     before = machine_note()
-    rows = run_bench(args.stages, quick=args.quick)
+    if args.long:
+        from rigval.validation.bench.long_cases import DURATIONS_S, QUICK_DURATIONS_S, long_rows
+
+        rows = long_rows(args.durations or (QUICK_DURATIONS_S if args.quick else DURATIONS_S))
+    else:
+        rows = run_bench(args.stages, quick=args.quick)
     note = (("Quick run (small cases). " if args.quick else "") + "Machine: " + before
             + f"; load average {os.getloadavg()[0]:.2f} after the run")
     paths = write_outputs(rows, args.out, note)
