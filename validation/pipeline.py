@@ -146,6 +146,8 @@ def _alignment_channels(scene: Scene, settings: AlignmentSettings) -> dict[str, 
     """Return the channels read before the alignment: pulses, encoders of phi_F and the drives.
 
     A stream aligned by its start stamps needs no channel; its first is read for its samples.
+    A stream in a text file (CSV, LVM) brings its compared channels too: only TDMS files are
+    read channel by channel.
     """
     needs: dict[str, set[str]] = {name: set() for name in scene.streams}
     needs[settings.reference] |= {settings.encoder.name, settings.reference_pulse.name}
@@ -158,6 +160,10 @@ def _alignment_channels(scene: Scene, settings: AlignmentSettings) -> dict[str, 
     for name, names in needs.items():
         if not names:
             names.add(next(iter(scene.streams[name].channels)))
+        if scene.streams[name].file.suffix.lower() != ".tdms":
+            # a text file is parsed whole for any channel: its compared channels come along
+            names.update(ref.channel for c in scene.comparisons for _, ref in c.terms
+                         if ref.stream == name)
     return needs
 
 
@@ -410,8 +416,10 @@ def _angle_domain(scene: Scene, aligned: dict[str, xr.Dataset], main: MainAngle,
     if not keep:
         for stream, ds in aligned.items():
             # the device clock and the pulse and encoder channels served the alignment only
+            compared = {ref.channel for c in by_stream.get(stream, []) for _, ref in c.terms}
             aligned[stream] = ds.drop_vars(
-                [name for name in ds.data_vars if name not in ("valid", "segment")]
+                [name for name in ds.data_vars
+                 if name not in ("valid", "segment") and name not in compared]
                 + ["device_time"], errors="ignore")
     measured, corners, long_names = {}, {}, {}
     for stream, comparisons in by_stream.items():
