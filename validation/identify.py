@@ -8,13 +8,20 @@ chosen stay at the mechanism file's values. Each comparison is weighted by the i
 RMS cycle-to-cycle scatter of its mean (``vv20.curve.u_scatter``). Definitions and a worked
 example: ``docs/identify.md``.
 
-Standard errors (``std``) come from two estimates of the same thing, the larger taken per
-parameter: the scatter of the parameters fitted to each revolution alone, divided by
-``sqrt(n_cycles)``; and the residual of the fit to the mean, with the covariance
-``s^2 (X^T X)^-1`` inflated by ``(1 + rho) / (1 - rho)`` for the residual's correlation ``rho``
-between neighbouring grid angles. A sensor's calibration uncertainty (the scene's
-``u_measurement_rel``) scales every parameter seen through it; it is reported apart, as
-``u_calibration``.
+Standard errors (``std``) add two parts in quadrature. The random part: the scatter of the
+parameters fitted to each revolution alone, divided by ``sqrt(n_cycles)``, each revolution with
+its own regressor (the main shaft's speed and acceleration over that revolution from its times at
+the grid angles, the lifting drive on the same path in angle), so that the slow speed wander,
+which the mean drives take into account, does not count as error. The systematic part: the
+residual of the fit to the mean, with the covariance ``s^2 (X^T X)^-1`` inflated by ``(1 + rho) /
+(1 - rho)`` for the residual's correlation ``rho`` between neighbouring grid angles. The
+kinematic part: the drives' accelerations are estimated from the encoders, and an error of
+theirs moves mostly the inertias; the fit to the mean is repeated with the mean of the
+revolutions' own regressors (a second estimate of the same kinematics, from the main shaft's
+grid times instead of the drive encoders' derivatives), and half the square of the difference
+is taken as the variance (two estimates with independent errors of equal size). A sensor's
+calibration uncertainty (the scene's ``u_measurement_rel``) scales every parameter seen through
+it; it is reported apart, as ``u_calibration``.
 """
 
 from __future__ import annotations
@@ -166,7 +173,8 @@ def identify(scene: Scene | str | Path, parameters: str | Sequence[str] = "auto"
     if parameters == "auto" and not friction:
         candidates = [n for n in candidates if not n.endswith((".viscous", ".coulomb"))]
     chosen, reasons = _identifiable(design, candidates)
-    return _fit(design, chosen, reasons, result, used)
+    return _fit(design, chosen, reasons, result, used,
+                _revolutions(result, mechanism, used, design))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -187,6 +195,7 @@ class _Design:
     blocks: tuple[slice, ...]
     weights: np.ndarray      # per comparison
     calibration: np.ndarray  # u_measurement_rel per comparison
+    friction: tuple[str, ...]  # drivers with friction columns
 
 
 def _choose_comparisons(result: ValidationResult, names: Sequence[str] | None
@@ -232,36 +241,28 @@ def _design(result: ValidationResult, mechanism: Mechanism, used: list[Compariso
     units = [UNITS[n.split(".")[1]] for n in names]
     size = [nominal[n] if n.endswith((".mass", ".inertia")) else
             FIRST_MOMENT_LENGTH * nominal[n.split(".")[0] + ".mass"] for n in names]
-    columns = [np.moveaxis(reg.matrix, 2, 0)]     # (P, n_out, n)
-    torque_drivers = sorted({c.spec.model.item for c in used
-                             if c.spec.model.quantity == "driver_torque"})
-    if friction:
-        extra = []
-        for driver in torque_drivers:
-            omega = reg.omega[driver]
-            for kind, column, unit in (("viscous", omega, "N m s rad-1"),
-                                       ("coulomb", np.sign(omega), "N m")):
-                extra.append(np.stack([column if c.spec.model.quantity == "driver_torque"
-                                       and c.spec.model.item == driver else 0.0 * column
-                                       for c in used]))
-                names.append(f"{driver}.{kind}")
-                values.append(0.0)
-                units.append(unit)
-                curve = (reg.matrix[outputs.index(("driver_torque", driver))]
-                         @ np.array(values[:4 * len(mechanism.bodies)]))
-                torque = float(np.sqrt(np.mean(curve**2)))
-                scale = float(np.sqrt(np.mean(column**2))) or 1.0
-                size.append(0.01 * torque / scale)
-        columns.append(np.stack(extra))
-    stacked = np.concatenate(columns)             # (P, n_out, n)
+    torque_drivers = tuple(sorted({c.spec.model.item for c in used
+                                   if c.spec.model.quantity == "driver_torque"}))
+    if not friction:
+        torque_drivers = ()
+    for driver in torque_drivers:
+        omega = reg.omega[driver]
+        for kind, column, unit in (("viscous", omega, "N m s rad-1"),
+                                   ("coulomb", np.sign(omega), "N m")):
+            names.append(f"{driver}.{kind}")
+            values.append(0.0)
+            units.append(unit)
+            curve = (reg.matrix[outputs.index(("driver_torque", driver))]
+                     @ np.array(values[:4 * len(mechanism.bodies)]))
+            torque = float(np.sqrt(np.mean(curve**2)))
+            scale = float(np.sqrt(np.mean(column**2))) or 1.0
+            size.append(0.01 * torque / scale)
     weights = np.array([1.0 / max(float(c.scores.get("vv20.curve.u_scatter", 0.0)), 1e-300)
                         if c.scores.get("vv20.curve.u_scatter") else 1.0 / (np.std(c.mean) or 1)
                         for c in used])
     n = times.size
     blocks = tuple(slice(i * n, (i + 1) * n) for i in range(len(used)))
-    design_columns = np.concatenate([stacked[:, i, :] * c.spec.scale * w
-                                     for i, (c, w) in enumerate(zip(used, weights, strict=True))],
-                                    axis=1).T
+    design_columns = _weighted_columns(reg, used, weights, torque_drivers)
     n_cycles = min(c.cycles.shape[0] for c in used)
     cycles = np.concatenate([c.cycles[:n_cycles] * w for c, w in zip(used, weights, strict=True)],
                             axis=1)
@@ -273,7 +274,77 @@ def _design(result: ValidationResult, mechanism: Mechanism, used: list[Compariso
     calibration = np.array([float(c.spec.uncertainty.get("u_measurement_rel", 0.0))
                             for c in used])
     return _Design(tuple(names), np.array(values), tuple(units), design_columns,
-                   np.abs(np.array(size)), mean, cycles, nuisance, blocks, weights, calibration)
+                   np.abs(np.array(size)), mean, cycles, nuisance, blocks, weights, calibration,
+                   torque_drivers)
+
+
+def _weighted_columns(reg: Any, used: list[ComparisonResult], weights: np.ndarray,
+                      friction: Sequence[str]) -> np.ndarray:
+    """Stacked, scaled and weighted regressor ``(n_outputs * n, P)``, friction columns last."""
+    columns = [np.moveaxis(reg.matrix, 2, 0)]     # (P, n_out, n)
+    for driver in friction:
+        omega = reg.omega[driver]
+        for column in (omega, np.sign(omega)):
+            columns.append(np.stack([column if c.spec.model.quantity == "driver_torque"
+                                     and c.spec.model.item == driver else 0.0 * column
+                                     for c in used])[None])
+    stacked = np.concatenate(columns)             # (P, n_out, n)
+    return np.concatenate([stacked[:, i, :] * c.spec.scale * w
+                           for i, (c, w) in enumerate(zip(used, weights, strict=True))],
+                          axis=1).T
+
+
+def _revolutions(result: ValidationResult, mechanism: Mechanism,
+                 used: list[ComparisonResult], design: _Design
+                 ) -> tuple[np.ndarray, np.ndarray] | None:
+    """Each whole revolution's own weighted regressor and data, for the random part of std.
+
+    The main drive's speed and acceleration over a revolution come from its reference times at
+    the grid angles (``time_at_angle``: ``omega = 1 / t'``, ``alpha = -t'' omega^3``, second-
+    order differences); the drive angles keep the mean path in angle, and the lifting drive
+    follows it, ``omega_H = kappa omega_F``, ``alpha_H = kappa' omega_F^2 + kappa alpha_F``
+    with ``kappa = d theta_H / d theta_F`` of the mean drives. Revolutions with a gap in any
+    comparison used are left out. Returns ``(columns (n_rev, rows, P), data (n_rev, rows))``,
+    or None without measured drives on the main encoder's angle.
+    """
+    scene = result.scene
+    drivers = scene.model.drivers
+    if scene.model.drives != "measured" or not drivers:
+        return None
+    main = scene.alignment.main_encoder
+    leading = [name for name, d in drivers.items() if d.encoder == main]
+    if len(leading) != 1:
+        return None
+    model = result.tree["/model"].to_dataset()
+    angle_ds = result.tree["/angle"].to_dataset()
+    times = angle_ds["time_at_angle"].to_numpy()
+    whole = {c.name: np.all(np.isfinite(angle_ds[c.name].to_numpy()), axis=1) for c in used}
+    keep = np.flatnonzero(np.logical_and.reduce(list(whole.values())))
+    if keep.size < 3:
+        return None
+    mean = {d: tuple(model[f"drive_{d}{s}"].to_numpy() for s in ("", "_dot", "_ddot"))
+            for d in drivers}
+    lead = mean[leading[0]]
+    step = float(model["angle"][1] - model["angle"][0])
+    outputs = [(c.spec.model.quantity, c.spec.model.item) if c.spec.model.axis is None
+               else (c.spec.model.quantity, c.spec.model.item, c.spec.model.axis) for c in used]
+    columns, data = [], []
+    for row in keep:
+        t = times[row]
+        slope = np.gradient(t, step)
+        omega = 1.0 / slope
+        alpha = -np.gradient(slope, step) * omega**3
+        drives = {}
+        for name, (theta, w, a) in mean.items():
+            kappa = w / lead[1]
+            bend = (a - kappa * lead[2]) / lead[1] ** 2
+            drives[name] = (theta, kappa * omega, bend * omega**2 + kappa * alpha)
+        reg = regressor(mechanism, t - t[0], outputs, drives=drives)
+        columns.append(_weighted_columns(reg, used, design.weights, design.friction))
+        data.append(np.concatenate([
+            c.cycles[int(np.count_nonzero(whole[c.name][:row]))] * w
+            for c, w in zip(used, design.weights, strict=True)]))
+    return np.array(columns), np.array(data)
 
 
 def _project_out(design: _Design, matrix: np.ndarray) -> np.ndarray:
@@ -321,17 +392,31 @@ def _identifiable(design: _Design, candidates: list[str]) -> tuple[list[str], di
 
 
 def _fit(design: _Design, chosen: list[str], reasons: dict[str, str],
-         result: ValidationResult, used: list[ComparisonResult]) -> Identification:
+         result: ValidationResult, used: list[ComparisonResult],
+         revolutions: tuple[np.ndarray, np.ndarray] | None) -> Identification:
     index = [design.names.index(n) for n in chosen]
     fixed = [i for i in range(len(design.names)) if i not in index]
     x = _project_out(design, design.columns[:, index])
     known = design.columns[:, fixed] @ design.nominal[fixed]
     target = _project_out(design, (design.mean - known)[:, None])[:, 0]
     solution, *_ = np.linalg.lstsq(x, target, rcond=None)
-    per_cycle = _project_out(design, (design.cycles - known).T)
-    cycle_fits, *_ = np.linalg.lstsq(x, per_cycle, rcond=None)       # (P, n_cycles)
-    n_cycles = design.cycles.shape[0]
-    var_cycle = np.var(cycle_fits, axis=1, ddof=1) / n_cycles
+    if revolutions is None:       # no revolution's own kinematics: the mean's regressor
+        per_cycle = _project_out(design, (design.cycles - known).T)
+        cycle_fits = np.linalg.lstsq(x, per_cycle, rcond=None)[0].T  # (n_cycles, P)
+    else:
+        cycle_fits = np.array([np.linalg.lstsq(
+            _project_out(design, cols[:, index]),
+            _project_out(design, (y - cols[:, fixed] @ design.nominal[fixed])[:, None])[:, 0],
+            rcond=None)[0] for cols, y in zip(*revolutions, strict=True)])
+    n_cycles = cycle_fits.shape[0]
+    var_cycle = np.var(cycle_fits, axis=0, ddof=1) / n_cycles
+    var_kinematic = np.zeros(len(index))
+    if revolutions is not None:
+        other = revolutions[0].mean(axis=0)
+        second, *_ = np.linalg.lstsq(_project_out(design, other[:, index]), _project_out(
+            design, (design.mean - other[:, fixed] @ design.nominal[fixed])[:, None])[:, 0],
+            rcond=None)
+        var_kinematic = 0.5 * (second - solution) ** 2
     residual = target - x @ solution
     dof = max(x.shape[0] - x.shape[1] - design.nuisance.shape[1], 1)
     s2 = float(residual @ residual) / dof
@@ -339,7 +424,7 @@ def _fit(design: _Design, chosen: list[str], reasons: dict[str, str],
     rho = np.mean([_lag_one(residual[block]) for block in design.blocks])
     inflation = (1.0 + rho) / (1.0 - rho) if rho > 0 else 1.0
     var_residual = s2 * np.diag(inverse) * inflation
-    std = np.sqrt(np.maximum(var_cycle, var_residual))
+    std = np.sqrt(var_cycle + var_residual + var_kinematic)
     scaled = x * design.size[index]
     condition = float(np.linalg.cond(scaled)) if scaled.size else math.nan
     calibration = float(np.sqrt(np.mean(design.calibration**2)))
