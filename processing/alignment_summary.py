@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from rigval.acquisition.schema import stream_gaps
+from rigval.acquisition.schema import invalid_counts, stream_gaps
 from rigval.processing.align import ClockModel, channel_time
 from rigval.processing.event_match import robust_inliers
 from rigval.processing.pulses import StreamPulses
@@ -94,6 +94,9 @@ class StreamAlignment:
         Centre of that window in s.
     coarse_offset_source : str
         Where the centre came from (:attr:`~rigval.processing.stamps.CoarseOffset.source`).
+    invalid_samples : mapping of str to int
+        Samples of the aligned stream marked invalid, by reason (empty cells, unaligned
+        segments, ...; the stream's ``invalid_reason``/``invalid_count``).
     segment_table : tuple of mapping
         Per gap-free segment: clock offset and its 95 % interval, clock group, samples, samples
         dropped and why.
@@ -126,6 +129,7 @@ class StreamAlignment:
     coarse_offset_s: float = 0.0
     coarse_offset_source: str = ""
     segment_table: tuple[Mapping[str, Any], ...] = ()
+    invalid_samples: Mapping[str, int] = field(default_factory=dict)
 
     def summary(self) -> dict[str, Any]:
         """Return the JSON-ready summary written to ``alignment.json``."""
@@ -143,6 +147,7 @@ class StreamAlignment:
             "samples_dropped": sum(int(row.get("samples_dropped", 0))
                                    for row in self.segment_table),
             "segment_table": [dict(row) for row in self.segment_table],
+            "invalid_samples": dict(self.invalid_samples),
         }
 
 
@@ -223,7 +228,7 @@ def stream_summary(name: str, aligned: xr.Dataset, clock: ClockModel, *, is_refe
         residual_rms_s=float(np.sqrt(np.mean(residual**2))) if residual.size else 0.0,
         events_matched=matched, events_missing=missing, events_spurious=spurious,
         input_delay_s=max(delays, default=0.0), segments=len(clock.segments),
-        gaps=tuple(stream_gaps(aligned)),
+        gaps=tuple(stream_gaps(aligned)), invalid_samples=invalid_counts(aligned),
         span_s=(float(times[0]), float(times[-1])), residual_time=residual_time,
         residual_s=residual, pulse_time=empty, pulse_signal=empty, pulse_units="",
         edge_times=empty)
