@@ -138,6 +138,8 @@ def _forked_workers() -> Iterator[None]:
     """
     try:
         import dask
+        import distributed  # noqa: F401  (its defaults must be in dask.config before the set below,
+        # or leaving the set deletes the whole "distributed" section for the rest of the process)
     except ImportError:
         yield
         return
