@@ -1,28 +1,34 @@
-"""The validation pipeline: scene -> read -> convert -> align -> angle domain -> model -> compare.
+"""The validation pipeline: scene -> read -> convert -> align -> model -> angle domain -> compare.
 
 :func:`run_scene` validates one scene and returns a
 :class:`~rigval.validation.results.ValidationResult` (nothing written); :func:`validate_scene`
 also writes the report folder. Stages, timed one by one:
 
 read
-    Each stream's file, only the channels the scene names
-    (:func:`rigval.acquisition.channel_map.load_stream`).
+    Each stream's file, only the channels the alignment needs (pulses, the encoders of phi_F
+    and of measured drives; a text file's compared channels too)
+    (:func:`rigval.acquisition.channel_map.load_stream`). The compared channels of a TDMS
+    file are read in the angle stage, one stream after the other, and dropped after use, so
+    memory holds the alignment's channels and one stream's compared channels, not every
+    stage of every channel (docs/performance.md, long records). With ``[output] raw`` or
+    ``aligned`` every channel is read here and kept.
 convert
     Raw channels to physical units (:mod:`rigval.processing.sensors`).
 align
     phi_F(t) from the main encoder (smoothed, never differenced raw), zero at the reference
     pulse; each other stream's clock fitted on its reference pulses against the events the
     encoder angle predicts (:mod:`rigval.processing.alignment`), module input delays removed.
+model
+    Before the angle stage, so that the encoders can be dropped. Only the outputs the
+    comparisons and predictions name, on the phi_F grid: with measured drives, each driver's
+    angle, speed and acceleration from its encoder averaged over the revolutions at each grid
+    angle; with analytic drives, the mechanism file's laws. The model runs on a grid four times
+    finer, so that the error of the chosen grid is measured.
 angle
     Whole revolutions; each compared channel low-passed (its ``lowpass_hz``) within gap-free
     runs, then resampled at the reference times of the uniform phi_F grid with the
     anti-aliasing of :func:`rigval.processing.angle.resample_to_angle`; revolutions touching a
     gap are dropped for that channel.
-model
-    Only the outputs the comparisons and predictions name, on the phi_F grid: with measured
-    drives, each driver's angle, speed and acceleration from its encoder averaged over the
-    revolutions at each grid angle; with analytic drives, the mechanism file's laws. The model
-    runs on a grid four times finer, so that the error of the chosen grid is measured.
 numerics
     The chosen grid's error against the finer one (also the V&V 20 ``u_num``), and the power
     balance of the model on the mechanism file's law.
