@@ -105,14 +105,23 @@ def test_first_moments_move_the_centre_of_gravity_in_the_written_file(tmp_path):
 
 @pytest.mark.slow
 def test_standard_errors_cover_the_truth_over_seeds(tmp_path):
-    """True values within 2 std in >= 90 % of 10 short runs (50 seeds: benchmarks/)."""
+    """True values within 2 std on 10 short runs; std neither too small nor inflated.
+
+    50 seeds of 20 s runs: benchmarks/identify_coverage.py (docs/identify.md). With a true
+    coverage of 95 %, 6 or fewer of 10 inside has probability 0.1 % per parameter; the RMS of
+    the 30 normalised errors of calibrated standard errors is 1 (measured 0.6-0.9), below 0.4
+    the std would be inflated more than 2.5 times.
+    """
     truth = {"A.mass": 432.0, "A.inertia": 330.0, "E.mass": 54.0}
     mechanism = _mechanism(tmp_path, {("A", "mass"): 432.0, ("E", "mass"): 54.0})
     inside = {name: [] for name in truth}
+    z = []
     for seed in range(200, 210):
         scene = _run(tmp_path / f"s{seed}", mechanism, seed=seed, duration=10.0)
         result = identify(scene, list(truth))
         for name, value, std in zip(result.names, result.value, result.std, strict=True):
             inside[name].append(abs(value - truth[name]) <= 2.0 * std)
+            z.append((value - truth[name]) / std)
     for name, hits in inside.items():
-        assert np.mean(hits) >= 0.9, (name, hits)
+        assert sum(hits) >= 7, (name, hits)
+    assert 0.4 <= float(np.sqrt(np.mean(np.square(z)))) <= 1.5, z
