@@ -40,7 +40,7 @@ from rigval.model.loops import LoopSystem, loop_system
 from rigval.model.mechanism import Mechanism, load_mechanism
 from rigval.model.reference import constraint_jacobian
 from rigval.model.results import Selection, Solution, build_dataset, select
-from rigval.model.threads import single_blas_thread
+from rigval.acquisition.threads import single_blas_thread
 
 __all__ = ["interpolate_cycle", "solve", "solve_cycle"]
 

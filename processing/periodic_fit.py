@@ -11,6 +11,10 @@ condition number costs nothing. :func:`refine_period` finds the period by Gauss-
 residual. Callers: the ``"fourier"`` drive-angle estimator and the Butterworth trend
 (:mod:`rigval.processing.excitation`), and fitted drive laws with their stated error
 (:func:`rigval.model.drive_laws.fit_periodic_profile`).
+
+The fits run with one BLAS thread (:func:`~rigval.acquisition.threads.single_blas_thread`): their
+products are thin blocks, which OpenBLAS's threads only slow down on a busy machine
+(docs/performance.md, *Speed as installed*).
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from rigval.acquisition.threads import single_blas_thread
 from rigval.processing.arrays import FloatArray
 
 __all__ = ["PeriodicFit", "fit_periodic", "fourier_basis", "fourier_normal_equations",
@@ -146,6 +151,7 @@ def turns_per_period(t: np.ndarray, theta: np.ndarray, period: float) -> float:
     return float(round((theta[-1] - theta[0]) / span * period / (2.0 * math.pi)))
 
 
+@single_blas_thread()
 def fit_periodic(t: np.ndarray, theta: np.ndarray, period: float, order: int, *,
                  t0: float | None = None, ratio: float | None = None) -> PeriodicFit:
     """Fit ``order`` harmonics of a given period to an angle record by least squares.
@@ -179,6 +185,7 @@ def fit_periodic(t: np.ndarray, theta: np.ndarray, period: float, order: int, *,
     return PeriodicFit(t0=t0, period=float(period), ratio=ratio, coef=coef)
 
 
+@single_blas_thread()
 def refine_period(t: np.ndarray, theta: np.ndarray, period: float, order: int, *,
                   t0: float | None = None) -> float:
     """Refine a period estimate (s) by Gauss-Newton on the residual of the periodic fit.

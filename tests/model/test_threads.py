@@ -7,7 +7,7 @@ import pytest
 from threadpoolctl import threadpool_info, threadpool_limits
 
 import rigval.model as rm
-from rigval.model.threads import single_blas_thread
+from rigval.acquisition.threads import single_blas_thread
 
 
 def blas_threads():
