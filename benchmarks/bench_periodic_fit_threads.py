@@ -14,7 +14,8 @@ from rigval.processing.excitation import drive_angle
 FS = 2000.0
 STEP = 2 * np.pi / 4096
 t = np.arange(40_000) / FS
-theta = 2 * np.pi * 0.8 * t + 0.05 * np.sin(2 * np.pi * 0.8 * t) + 0.01 * np.sin(4 * np.pi * 0.8 * t + 1)
+phase = 2 * np.pi * 0.8 * t
+theta = phase + 0.05 * np.sin(phase) + 0.01 * np.sin(2 * phase + 1)
 theta = np.round(theta / STEP) * STEP
 for method in ("fourier", "butterworth"):
     times = []
