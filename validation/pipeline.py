@@ -1,8 +1,9 @@
 """The validation pipeline: scene -> read -> convert -> align -> model -> angle domain -> compare.
 
 :func:`run_scene` validates one scene and returns a
-:class:`~rigval.validation.results.ValidationResult` (nothing written); :func:`validate_scene`
-also writes the report folder. Stages, timed one by one:
+:class:`~rigval.validation.results.ValidationResult` (nothing written;
+:func:`rigval.validation.report.validate.validate_scene` also writes the report folder). Stages,
+timed one by one:
 
 read
     Each stream's file, only the channels the alignment needs (pulses, the encoders of phi_F
@@ -82,7 +83,7 @@ from rigval.validation.scene import ComparisonSpec, Scene, load_scene
 from rigval.validation.scene_rates import check_sample_rates, encoder_scale_errors
 from rigval.validation.verdict import carried_uncertainty, with_common_gain
 
-__all__ = ["read_streams", "run_scene", "validate_scene"]
+__all__ = ["read_streams", "run_scene"]
 
 logger = logging.getLogger(__name__)
 
@@ -552,26 +553,3 @@ def _predictions(scene: Scene, model: xr.Dataset) -> xr.Dataset:
         for quantity in ("point_position", "point_velocity", "point_acceleration"):
             variables[quantity] = model[quantity].sel(point=list(scene.predictions.points))
     return xr.Dataset(variables, coords={"angle": model["angle"]})
-
-
-def validate_scene(scene_path: str | Path, out_dir: str | Path) -> ValidationResult:
-    """Validate a scene and write its report folder.
-
-    Parameters
-    ----------
-    scene_path : str or pathlib.Path
-        The scene file.
-    out_dir : str or pathlib.Path
-        The report folder (created; files in it are overwritten).
-
-    Returns
-    -------
-    ValidationResult
-        With ``passed``, ``metric_rows()``, ``outputs`` (files written), ``inputs`` (files read)
-        and ``speed_rev_s``.
-    """
-    from rigval.validation.report.run_report import write_report
-
-    result = run_scene(scene_path)
-    write_report(result, out_dir)
-    return result

@@ -15,7 +15,8 @@ import xarray as xr
 
 from rigval.sample_data import RigSettings, load_truth, simulate_rig
 from rigval.validation.cli import main
-from rigval.validation.pipeline import read_streams, run_scene, validate_scene
+from rigval.validation.pipeline import read_streams, run_scene
+from rigval.validation.report.validate import validate_scene
 from rigval.validation.scene import load_scene
 
 DURATION_S = 12.0
