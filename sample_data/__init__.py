@@ -23,7 +23,7 @@ from rigval.acquisition.lazy import lazy_exports
 
 #: The rig's names, imported on first use (numpy, xarray and the model), so that ``runs_dir``
 #: stays light.
-_LAZY = {"Imperfections": "rig", "RigSettings": "rig", "run_stem": "rig", "RunFiles": "simulate",
+_LAZY = {"Imperfections": "rig", "RigSettings": "rig", "run_stem": "rig", "RunFiles": "rig",
          "simulate_rig": "simulate", "RunTruth": "truthfile", "load_truth": "truthfile"}
 
 __all__ = ["Imperfections", "RigSettings", "RunFiles", "RunTruth", "load_truth", "run_stem",

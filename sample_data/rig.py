@@ -36,7 +36,8 @@ from rigval.sample_data.sensors import (
     TorsionBridge,
 )
 
-__all__ = ["FS_CDAQ", "FS_WLS", "Imperfections", "RigDraw", "RigSettings", "draw_rig", "run_stem"]
+__all__ = ["FS_CDAQ", "FS_WLS", "Imperfections", "RigDraw", "RigSettings", "RunFiles", "draw_rig",
+           "run_stem"]
 
 logger = logging.getLogger(__name__)
 
@@ -343,3 +344,29 @@ def draw_rig(settings: RigSettings,
     return RigDraw(start, drive, clocks, accelerometers, str1, torsion, encoders, optical, frame,
                    pulse_seeds, seeds[7], imp.missing_pulse_probability,
                    imp.spurious_pulses_per_minute)
+
+
+@dataclass(frozen=True)
+class RunFiles:
+    """Paths of one written run.
+
+    Parameters
+    ----------
+    folder : Path
+        The run folder.
+    stem : str
+        File-name stem, e.g. ``run_0p8``.
+    """
+
+    folder: Path
+    stem: str
+
+    def path(self, suffix: str) -> Path:
+        """Return the path of one file, e.g. ``path("cdaq.tdms")``."""
+        return self.folder / f"{self.stem}_{suffix}"
+
+    @property
+    def files(self) -> tuple[Path, ...]:
+        """All files of the run, in a fixed order."""
+        return tuple(self.path(s) for s in ("cdaq.tdms", "wls1.tdms", "wls2.csv", "scene.toml",
+                                             "note.txt", "truth.json", "truth.npz"))

@@ -16,10 +16,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rigval.sample_data.rig import RigDraw, RigSettings
+from rigval.sample_data.rig import RigDraw, RigSettings, RunFiles
 
 if TYPE_CHECKING:
-    from rigval.sample_data.simulate import RunFiles
     from rigval.sample_data.streams import Stream
 
 __all__ = ["LAB_TIMEZONE", "local_time", "note_text", "scene_text"]

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 from rigval.acquisition.errors import ConfigError
 from rigval.model.mechanism import load_mechanism
 from rigval.sample_data.drive import DriveMotion, Harmonic
-from rigval.sample_data.rig import RigDraw, RigSettings, draw_rig, run_stem
+from rigval.sample_data.rig import RigDraw, RigSettings, RunFiles, draw_rig, run_stem
 from rigval.sample_data.scene_text import local_time, note_text, scene_text
 from rigval.sample_data.streams import Stream, StreamPiece, stream_pieces
 from rigval.sample_data.tdms_writer import Acquisition, DaqmxTdmsWriter, RawChannel
@@ -49,7 +49,7 @@ from rigval.sample_data.writers import (
     write_npz_from_files,
 )
 
-__all__ = ["GROUPS", "RunFiles", "TruthProvider", "default_mechanism", "mechanism_drivers",
+__all__ = ["GROUPS", "TruthProvider", "default_mechanism", "mechanism_drivers",
            "simulate_rig"]
 
 logger = logging.getLogger(__name__)
@@ -67,32 +67,6 @@ TRUTH_SCHEMA = "rigval-rig-truth/1"
 
 #: A function giving the model truth grid for a drive motion at uniform true times.
 TruthProvider = Callable[[DriveMotion, NDArray[np.float64]], TruthGrid]
-
-
-@dataclass(frozen=True)
-class RunFiles:
-    """Paths of one written run.
-
-    Parameters
-    ----------
-    folder : Path
-        The run folder.
-    stem : str
-        File-name stem, e.g. ``run_0p8``.
-    """
-
-    folder: Path
-    stem: str
-
-    def path(self, suffix: str) -> Path:
-        """Return the path of one file, e.g. ``path("cdaq.tdms")``."""
-        return self.folder / f"{self.stem}_{suffix}"
-
-    @property
-    def files(self) -> tuple[Path, ...]:
-        """All files of the run, in a fixed order."""
-        return tuple(self.path(s) for s in ("cdaq.tdms", "wls1.tdms", "wls2.csv", "scene.toml",
-                                             "note.txt", "truth.json", "truth.npz"))
 
 
 def default_mechanism() -> Path:

@@ -12,7 +12,7 @@ import pytest
 import rigval.sample_data.simulate as simulate
 from rigval.acquisition import read
 from rigval.acquisition.errors import ConfigError
-from rigval.sample_data import RigSettings, simulate_rig
+from rigval.sample_data import RigSettings, RunFiles, simulate_rig
 from rigval.sample_data.tdms_writer import (
     Acquisition,
     DaqmxTdmsWriter,
@@ -78,7 +78,7 @@ def test_truth_window_keeps_the_whole_grids_spline() -> None:
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[simulate.RunFiles, ...]:
+def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[RunFiles, ...]:
     """A 10 s run written in one window and the same seed in 3 s windows."""
     folder = tmp_path_factory.mktemp("long")
     settings = RigSettings(duration=10.0, seed=3)
