@@ -50,6 +50,23 @@ correct_highpass = true
 """
 
 
+def _wls_stream(stream: str, file: str, reader: str, torsions: tuple[str, ...], pulse: str,
+                draw: RigDraw) -> str:
+    """Return the scene text of one WLS-9163 stream: its file, torsion channels and pulse."""
+    text = f"""[streams.{stream}]
+file = "{file}"
+device = "WLS-9163"
+reader = {reader}
+"""
+    text += "".join(_torsion(stream, name, draw) for name in torsions)
+    return text + f"""
+[streams.{stream}.channels.{pulse}]
+source = "{pulse}"
+module = "NI 9237"                     # spare bridge channel: the sensor switches a shunt
+sensor = "reference_pulse"
+"""
+
+
 def _torsion(stream: str, name: str, draw: RigDraw) -> str:
     sensor = draw.torsion[name]
     return f"""
@@ -161,30 +178,14 @@ source = "opt1"
 module = "NI 9215"
 sensor = "reference_pulse"
 
-[streams.wls1]
-file = "{files.path('wls1.tdms').name}"
-device = "WLS-9163"
-reader = {{ group = "WLS1 task" }}
 """
-    text += "".join(_torsion("wls1", name, draw) for name in ("tor1", "tor2"))
+    text += _wls_stream("wls1", files.path("wls1.tdms").name, '{ group = "WLS1 task" }',
+                        ("tor1", "tor2"), "opt2", draw)
+    text += "\n" + _wls_stream(
+        "wls2", files.path("wls2.csv").name,
+        f'{{ decimal = ",", delimiter = ";", timezone = "{LAB_TIMEZONE}" }}', ("tor3", "tor4"),
+        "opt3", draw)
     text += f"""
-[streams.wls1.channels.opt2]
-source = "opt2"
-module = "NI 9237"                     # spare bridge channel: the sensor switches a shunt
-sensor = "reference_pulse"
-
-[streams.wls2]
-file = "{files.path('wls2.csv').name}"
-device = "WLS-9163"
-reader = {{ decimal = ",", delimiter = ";", timezone = "{LAB_TIMEZONE}" }}
-"""
-    text += "".join(_torsion("wls2", name, draw) for name in ("tor3", "tor4"))
-    text += f"""
-[streams.wls2.channels.opt3]
-source = "opt3"
-module = "NI 9237"                     # spare bridge channel: the sensor switches a shunt
-sensor = "reference_pulse"
-
 [alignment]
 reference = "cdaq"
 main_encoder = "cdaq.enc1"
