@@ -21,14 +21,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rigval.processing.arrays import FloatArray
 from rigval.acquisition.devices import ni9237_input_delay
 from rigval.acquisition.errors import ConfigError
 
 __all__ = ["ANTI_ALIAS_BAND", "MODULES", "ClockSegment", "DeviceClock", "Module", "dropout_segments"]
 
 logger = logging.getLogger(__name__)
-
-_FloatArray = NDArray[np.float64]
 
 
 #: Pass band of a delta-sigma module's anti-alias (decimation) filter, as a fraction of its rate.
@@ -145,16 +144,16 @@ class DeviceClock:
         """Actual sampling rate in Hz of true time."""
         return self.fs_nominal * (1.0 + self.drift_ppm * 1e-6)
 
-    def sample_times(self, segment: int) -> _FloatArray:
+    def sample_times(self, segment: int) -> FloatArray:
         """Return the true times (s) of the samples of one segment."""
         seg = self.segments[segment]
         return seg.true_start + np.arange(seg.n_samples) / self.fs_true
 
-    def all_sample_times(self) -> _FloatArray:
+    def all_sample_times(self) -> FloatArray:
         """Return the true times (s) of all samples, segments concatenated."""
         return np.concatenate([self.sample_times(i) for i in range(len(self.segments))])
 
-    def device_times(self) -> _FloatArray:
+    def device_times(self) -> FloatArray:
         """Return the time axis a reader builds (s from the first recorded start time).
 
         Each segment starts at its recorded start time (with its stamp error) relative to the

@@ -23,13 +23,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rigval.processing.arrays import FloatArray
 from rigval.model.laws import DriveLaw, Harmonic
 
 __all__ = ["DriveMotion", "Harmonic", "SpeedWander"]
 
 logger = logging.getLogger(__name__)
 
-_FloatArray = NDArray[np.float64]
 _TWO_PI = 2.0 * np.pi
 
 
@@ -94,7 +94,7 @@ class DriveMotion:
             return DriveLaw(self.theta_f0, ratio=1.0, harmonics=self.ripple_f, source="rig")
         return DriveLaw(self.theta_h0, ratio=2.0, harmonics=self.ripple_h, source="rig")
 
-    def base_phase(self, t: ArrayLike) -> tuple[_FloatArray, _FloatArray, _FloatArray]:
+    def base_phase(self, t: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Return psi (rad), its rate (rad/s) and its acceleration (rad/s^2) at true times t (s)."""
         t = np.asarray(t, dtype=np.float64)
         psi = self.omega * t
@@ -107,7 +107,7 @@ class DriveMotion:
             acc += self.omega * w.rel_amplitude * w.omega * np.cos(arg)
         return psi, rate, acc
 
-    def angles(self, t: ArrayLike) -> dict[str, tuple[_FloatArray, _FloatArray, _FloatArray]]:
+    def angles(self, t: ArrayLike) -> dict[str, tuple[FloatArray, FloatArray, FloatArray]]:
         """Return each drive's angle (rad), speed (rad/s) and acceleration (rad/s^2) at times t.
 
         Parameters
@@ -127,7 +127,7 @@ class DriveMotion:
             out[name] = (theta, rate * slope, acc * slope + rate**2 * curvature)
         return out
 
-    def crossing_times(self, drive: str, angles: ArrayLike) -> _FloatArray:
+    def crossing_times(self, drive: str, angles: ArrayLike) -> FloatArray:
         """Return the true times (s) at which a drive angle passes the given values.
 
         Both laws are strictly increasing (ripple slopes are far below the gear ratio), so each

@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import erf, sici
 
+from rigval.processing.arrays import FloatArray
 from rigval.acquisition.errors import ConfigError
 from rigval.processing.accelerometer import charge_chain_voltage
 from rigval.processing.bridge import bridge_ratio
@@ -38,8 +39,6 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
-
-_FloatArray = NDArray[np.float64]
 
 #: 10-90 % rise time of an error-function edge in units of its sigma: 2 sqrt(2) erfinv(0.8).
 RISE_PER_SIGMA = 2.5631031310892007
@@ -70,7 +69,7 @@ class ChargeAccelerometer:
     highpass_hz: float
     noise_rms: float
 
-    def voltage(self, fs: float, acceleration: ArrayLike) -> _FloatArray:
+    def voltage(self, fs: float, acceleration: ArrayLike) -> FloatArray:
         """Return the amplifier output (V) for an acceleration (m s-2) sampled uniformly at fs (Hz).
 
         The record should start well before the data of interest (a pre-roll of several high-pass
@@ -82,7 +81,7 @@ class ChargeAccelerometer:
                                     highpass_hz=self.highpass_hz)
 
 
-def _thermal_drift(t: _FloatArray, total: float, time_constant: float) -> _FloatArray:
+def _thermal_drift(t: FloatArray, total: float, time_constant: float) -> FloatArray:
     """Return ``total (1 - exp(-t / time_constant))`` for t >= 0 (0 before), any unit."""
     return total * -np.expm1(-np.clip(t, 0.0, None) / time_constant)
 
@@ -129,11 +128,11 @@ class StrainBridge:
     noise_rms: float
     gauge_resistance: float = 120.0
 
-    def strain(self, axial_force: ArrayLike) -> _FloatArray:
+    def strain(self, axial_force: ArrayLike) -> FloatArray:
         """Return the axial strain (1) of the rod under an axial force (N, tension positive)."""
         return np.asarray(axial_force, dtype=np.float64) / (self.youngs_modulus * self.area)
 
-    def ratio(self, axial_force: ArrayLike, t: ArrayLike) -> _FloatArray:
+    def ratio(self, axial_force: ArrayLike, t: ArrayLike) -> FloatArray:
         """Return the bridge ratio Vr (V/V) at true times t (s) for the axial force there (N)."""
         exact = bridge_ratio(self.strain(axial_force), self.bridge_type,  # type: ignore[arg-type]
                              gauge_factor=self.gauge_factor, poisson=self.poisson,
@@ -181,7 +180,7 @@ class TorsionBridge:
     noise_rms: float
     poisson: float = 0.3
 
-    def ratio(self, drive_torque: ArrayLike, shaft_angle: ArrayLike, t: ArrayLike) -> _FloatArray:
+    def ratio(self, drive_torque: ArrayLike, shaft_angle: ArrayLike, t: ArrayLike) -> FloatArray:
         """Return Vr (V/V) for the drive's total torque (N m) at shaft angles (rad), times (s)."""
         gamma = shear_strain_from_torque(self.share * np.asarray(drive_torque, dtype=np.float64),
                                          shear_modulus=self.shear_modulus,
@@ -278,13 +277,13 @@ class PulseTrain:
         10-90 % rise time of each edge in s.
     """
 
-    rises: _FloatArray
-    falls: _FloatArray
+    rises: FloatArray
+    falls: FloatArray
     low: float
     high: float
     rise_time: float
 
-    def value(self, t: ArrayLike, band_limit: float | None = None) -> _FloatArray:
+    def value(self, t: ArrayLike, band_limit: float | None = None) -> FloatArray:
         """Return the output (unit of ``low`` and ``high``) at true times t (s).
 
         Parameters
@@ -307,7 +306,7 @@ class PulseTrain:
                 out += np.where(ok, pulse, 0.0)
         return self.low + (self.high - self.low) * out
 
-    def _step(self, u: _FloatArray, band_limit: float | None) -> _FloatArray:
+    def _step(self, u: FloatArray, band_limit: float | None) -> FloatArray:
         """Return one edge's response (0 to 1) at times u (s) after it.
 
         The sensor's edge is an error function (Gaussian impulse response of standard deviation

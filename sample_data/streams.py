@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from rigval.processing.arrays import FloatArray
 from rigval.sample_data.devices import MODULES, DeviceClock
 from rigval.sample_data.rig import RigDraw
 from rigval.sample_data.sensors import PulseTrain, optical_pulses
@@ -45,9 +46,8 @@ __all__ = ["DEVICE_NAMES", "SampledChannel", "Stream", "StreamPiece", "stream_pi
 
 logger = logging.getLogger(__name__)
 
-_FloatArray = NDArray[np.float64]
 #: A signal as a function of true time (s).
-_Signal = Callable[[_FloatArray], _FloatArray]
+_Signal = Callable[[FloatArray], FloatArray]
 
 #: Device model of each stream.
 DEVICE_NAMES = {"cdaq": "cDAQ-9172", "wls1": "WLS-9163", "wls2": "WLS-9163"}
@@ -88,7 +88,7 @@ class SampledChannel:
     raw: list[NDArray]
     slope: float
     delay: float
-    truth: _FloatArray | None
+    truth: FloatArray | None
     truth_unit: str | None
 
 
@@ -137,7 +137,7 @@ class _Plan:
     truth: _Signal | None
     truth_unit: str | None
     #: A counter's counts(angle, angle_at_start); None for an analog channel.
-    counts: Callable[[_FloatArray, float], NDArray] | None = None
+    counts: Callable[[FloatArray, float], NDArray] | None = None
 
 
 def _pulse_signal(train: PulseTrain, module: str, fs: float) -> _Signal:
@@ -226,7 +226,7 @@ class StreamPiece:
     stream: str
     parts: tuple[tuple[int, int], ...]
     raw: dict[str, list[NDArray]]
-    truth: dict[str, _FloatArray]
+    truth: dict[str, FloatArray]
 
 
 def _windows(clock: DeviceClock, window_s: float | None) -> list[list[tuple[int, int, int]]]:
@@ -251,7 +251,7 @@ def _windows(clock: DeviceClock, window_s: float | None) -> list[list[tuple[int,
 
 
 def _sample(plan: _Plan, clock: DeviceClock, parts: list[tuple[int, int, int]],
-            rng: np.random.Generator) -> tuple[list[NDArray], _FloatArray | None, float, float]:
+            rng: np.random.Generator) -> tuple[list[NDArray], FloatArray | None, float, float]:
     """Sample one channel on some segment pieces: raw arrays, truth, slope, delay."""
     mod = MODULES[plan.module]
     times = [clock.segments[i].true_start + np.arange(k0, k1) / clock.fs_true

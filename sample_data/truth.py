@@ -30,14 +30,13 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import CubicSpline
 from scipy.signal import lsim
 
+from rigval.processing.arrays import FloatArray
 from rigval.acquisition.errors import DataError
 from rigval.sample_data.drive import DriveMotion
 
 __all__ = ["TruthGrid", "frame_vibration", "model_truth"]
 
 logger = logging.getLogger(__name__)
-
-_FloatArray = NDArray[np.float64]
 
 #: Knots beyond a window that :meth:`TruthGrid.window` keeps (0.27**64 ~ 1e-36).
 WINDOW_MARGIN = 64
@@ -55,8 +54,8 @@ class TruthGrid:
         One array per quantity, same length as ``t`` (names and units in the module docstring).
     """
 
-    t: _FloatArray
-    values: Mapping[str, _FloatArray]
+    t: FloatArray
+    values: Mapping[str, FloatArray]
     _splines: dict[str, CubicSpline] = field(default_factory=dict, init=False, repr=False,
                                              compare=False)
 
@@ -65,7 +64,7 @@ class TruthGrid:
         """Grid rate in Hz."""
         return float((self.t.size - 1) / (self.t[-1] - self.t[0]))
 
-    def at(self, name: str, t: ArrayLike) -> _FloatArray:
+    def at(self, name: str, t: ArrayLike) -> FloatArray:
         """Interpolate quantity ``name`` at true times ``t`` (s) with a cubic spline.
 
         Raises
@@ -143,7 +142,7 @@ def model_truth(mechanism_path: str | Path, drive: DriveMotion, t: ArrayLike) ->
 
 
 def frame_vibration(t: ArrayLike, force: ArrayLike, natural_hz: float, damping_ratio: float,
-                    modal_mass: float) -> _FloatArray:
+                    modal_mass: float) -> FloatArray:
     """Return the acceleration (m s-2) of one frame mode driven by a support force.
 
     The frame is rigid in the model; the accelerometer acc3 near P3 sees its lowest mode, a

@@ -34,10 +34,10 @@ from functools import partial
 from typing import Literal
 
 import numpy as np
-from numpy.typing import NDArray
 from scipy.special import sici
 
 from rigval.processing import align, pulses
+from rigval.processing.arrays import FloatArray
 from rigval.validation.bench.rows import BenchRow, measure, with_baseline
 
 __all__ = ["TwoClockRun", "alignment_rows", "two_clock_run"]
@@ -53,8 +53,6 @@ START_STAMP_ERROR_S = 0.01
 MISSING_FRACTION = 0.07
 BASELINE = "no alignment: start times, no drift"
 Quality = Literal["analog", "digital"]
-_FloatArray = NDArray[np.float64]
-
 
 @dataclass(frozen=True)
 class TwoClockRun:
@@ -76,18 +74,18 @@ class TwoClockRun:
         True rise times of the pulses the second device records, s on its clock.
     """
 
-    t_ref: _FloatArray
-    x_ref: _FloatArray
-    t_dev: _FloatArray
-    x_dev: _FloatArray
+    t_ref: FloatArray
+    x_ref: FloatArray
+    t_dev: FloatArray
+    x_dev: FloatArray
     offset_s: float
     drift: float
     coarse_offset_s: float
-    pulses_dev: _FloatArray
+    pulses_dev: FloatArray
 
 
-def _pulse_signal(t: _FloatArray, rises: _FloatArray, fs: float, quality: Quality,
-                  rng: np.random.Generator) -> _FloatArray:
+def _pulse_signal(t: FloatArray, rises: FloatArray, fs: float, quality: Quality,
+                  rng: np.random.Generator) -> FloatArray:
     """Return unit pulses rising at ``rises`` (high for PULSE_WIDTH_S) as a device records them."""
     x = np.zeros_like(t)
     start = np.searchsorted(t, rises - 0.2)

@@ -23,10 +23,10 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from numpy.typing import NDArray
 from scipy.signal import savgol_filter
 
 from rigval.processing import angle, encoder, excitation
+from rigval.processing.arrays import FloatArray
 from rigval.validation.bench.rows import BenchRow, measure, with_baseline
 
 __all__ = ["derivative_rows", "resampling_rows", "ripple_angle", "ripple_time"]
@@ -44,15 +44,13 @@ HARMONICS = ((1, 0.05, 0.3), (2, 0.02, 1.1), (3, 0.01, 2.0), (4, 0.005, 0.7))
 #: Interpolation error constants c_k of a sine, max error ~ c_k (2 pi f / fs)**(k + 1) of the
 #: amplitude: linear (1/8), not-a-knot cubic spline (5/384), quintic spline (bound incl. run ends).
 _SPLINE_CONSTANT = {1: 1 / 8, 3: 5 / 384, 5: 1e-2}
-_FloatArray = NDArray[np.float64]
 
-
-def ripple_angle(t: _FloatArray) -> _FloatArray:
+def ripple_angle(t: FloatArray) -> FloatArray:
     """Shaft angle in rad at times ``t`` (s): 1 rev/s with +-8 % speed ripple."""
     return TWO_PI * t + RIPPLE * np.sin(TWO_PI * t)
 
 
-def ripple_time(phi: _FloatArray) -> _FloatArray:
+def ripple_time(phi: FloatArray) -> FloatArray:
     """Exact inverse of :func:`ripple_angle`: the time in s of each angle in rad (Newton)."""
     t = phi / TWO_PI
     for _ in range(30):
@@ -60,21 +58,21 @@ def ripple_time(phi: _FloatArray) -> _FloatArray:
     return t
 
 
-def _interp_baseline(t: _FloatArray, phi: _FloatArray, x: _FloatArray, points: int,
-                     ) -> tuple[_FloatArray, _FloatArray]:
+def _interp_baseline(t: FloatArray, phi: FloatArray, x: FloatArray, points: int,
+                     ) -> tuple[FloatArray, FloatArray]:
     _, grid = angle.cycle_grid(float(phi[0]), float(phi[-1]), points)
     return grid, np.interp(np.interp(grid, phi, t), t, x)
 
 
-def _rigval_resample(t: _FloatArray, phi: _FloatArray, x: _FloatArray, points: int, order: int,
-                     anti_alias: str) -> tuple[_FloatArray, _FloatArray]:
+def _rigval_resample(t: FloatArray, phi: FloatArray, x: FloatArray, points: int, order: int,
+                     anti_alias: str) -> tuple[FloatArray, FloatArray]:
     cycles, _, y = angle.resample_to_angle(t, x, t, phi, points_per_rev=points, fs=FS,
                                            order=order, anti_alias=anti_alias)  # type: ignore[arg-type]
     grid = TWO_PI * (cycles[:, None] + np.arange(points)[None, :] / points)
     return grid, y
 
 
-Resampler = Callable[[_FloatArray, _FloatArray, _FloatArray, int], tuple[_FloatArray, _FloatArray]]
+Resampler = Callable[[FloatArray, FloatArray, FloatArray, int], tuple[FloatArray, FloatArray]]
 
 
 def resampling_rows(quick: bool = False) -> list[BenchRow]:
@@ -116,7 +114,7 @@ def resampling_rows(quick: bool = False) -> list[BenchRow]:
     return with_baseline(rows, INTERP_BASELINE)
 
 
-def _anti_alias_rows(t: _FloatArray, phi: _FloatArray, seconds: float, repeats: int,
+def _anti_alias_rows(t: FloatArray, phi: FloatArray, seconds: float, repeats: int,
                      ) -> list[BenchRow]:
     """360 points/rev, 5 Hz signal plus a 300 Hz disturbance above the grid's 180 orders."""
     x = np.sin(TWO_PI * 5 * t) + 0.5 * np.sin(TWO_PI * 300 * t)
@@ -140,7 +138,7 @@ def _anti_alias_rows(t: _FloatArray, phi: _FloatArray, seconds: float, repeats: 
     return rows
 
 
-def _central_differences(raw: _FloatArray) -> tuple[_FloatArray, _FloatArray]:
+def _central_differences(raw: FloatArray) -> tuple[FloatArray, FloatArray]:
     velocity = np.gradient(raw, 1 / FS)
     return velocity, np.gradient(velocity, 1 / FS)
 
@@ -185,13 +183,13 @@ def derivative_rows(quick: bool = False) -> list[BenchRow]:
     sigma_q = step / math.sqrt(12)
     case = (f"{COUNTS_PER_REV} counts/rev, {FS:g} Hz, 1 rev/s + harmonics 1-4, {seconds:g} s")
     # choice -> estimator returning speed, acceleration and their predicted noise
-    choices: dict[str, Callable[[], tuple[_FloatArray, _FloatArray, float, float]]] = {
+    choices: dict[str, Callable[[], tuple[FloatArray, FloatArray, float, float]]] = {
         DIFF_BASELINE: lambda: (*_central_differences(raw), sigma_q * FS / math.sqrt(2),
                                 math.sqrt(6) * sigma_q * FS**2 / 4)}
 
-    def rigval_method(**options: float | str) -> Callable[[], tuple[_FloatArray, _FloatArray,
+    def rigval_method(**options: float | str) -> Callable[[], tuple[FloatArray, FloatArray,
                                                                      float, float]]:
-        def run() -> tuple[_FloatArray, _FloatArray, float, float]:
+        def run() -> tuple[FloatArray, FloatArray, float, float]:
             result = excitation.drive_angle(t, raw, fs=FS, step_rad=step,
                                             **options)  # type: ignore[arg-type]
             return (result.velocity, result.acceleration, result.velocity_noise,
