@@ -21,6 +21,7 @@ from rigval.validation.metrics.core import Scores, as_signal, paired, revolution
 
 __all__ = [
     "LagScores",
+    "MagnitudePhaseScores",
     "NrmseScores",
     "PeakScores",
     "PearsonScores",
@@ -41,19 +42,18 @@ NORMALISERS: tuple[str, ...] = ("range", "rms", "peak")
 
 
 @dataclasses.dataclass(frozen=True)
-class SpragueGeersScores(Scores):
-    """Sprague & Geers (2004) magnitude, phase and comprehensive error.
+class MagnitudePhaseScores(Scores):
+    """Magnitude, phase and comprehensive error (the scores of Sprague-Geers and of Russell).
 
     Attributes
     ----------
     magnitude : float
-        ``M = sqrt(I_cc / I_mm) - 1`` in [-1, inf); 0 is perfect, ``k - 1`` for a model ``k`` times
-        the measurement.
+        Magnitude error: 0 is perfect, positive for a model larger than the measurement.
     phase : float
         ``P = arccos(I_mc / sqrt(I_mm I_cc)) / pi`` in [0, 1]; a sinusoid shifted by ``phi`` rad
         gives ``phi / pi``; 1 means inverted.
     comprehensive : float
-        ``C = sqrt(M^2 + P^2)``.
+        Magnitude and phase combined; 0 is perfect.
     """
 
     magnitude: float
@@ -62,24 +62,23 @@ class SpragueGeersScores(Scores):
 
 
 @dataclasses.dataclass(frozen=True)
-class RussellScores(Scores):
-    """Russell (1997) magnitude, phase and comprehensive error.
+class SpragueGeersScores(MagnitudePhaseScores):
+    """Sprague & Geers (2004) magnitude, phase and comprehensive error.
 
-    Attributes
-    ----------
-    magnitude : float
-        ``RM = sign(m) log10(1 + |m|)`` with ``m = (I_cc - I_mm) / sqrt(I_mm I_cc)``; antisymmetric
-        in over- and under-prediction (a factor 2 or 1/2 gives +-0.398).
-    phase : float
-        ``RP``, the same as the Sprague-Geers phase.
-    comprehensive : float
-        ``RC = sqrt(pi / 4 (RM^2 + RP^2))``; commonly graded excellent <= 0.15,
-        acceptable <= 0.28.
+    ``magnitude`` is ``M = sqrt(I_cc / I_mm) - 1`` in [-1, inf) (``k - 1`` for a model ``k`` times
+    the measurement); ``comprehensive`` is ``C = sqrt(M^2 + P^2)``.
     """
 
-    magnitude: float
-    phase: float
-    comprehensive: float
+
+@dataclasses.dataclass(frozen=True)
+class RussellScores(MagnitudePhaseScores):
+    """Russell (1997) magnitude, phase and comprehensive error.
+
+    ``magnitude`` is ``RM = sign(m) log10(1 + |m|)`` with ``m = (I_cc - I_mm) / sqrt(I_mm I_cc)``,
+    antisymmetric in over- and under-prediction (a factor 2 or 1/2 gives +-0.398); ``phase`` is
+    the Sprague-Geers phase; ``comprehensive`` is ``RC = sqrt(pi / 4 (RM^2 + RP^2))``, commonly
+    graded excellent <= 0.15, acceptable <= 0.28.
+    """
 
 
 @dataclasses.dataclass(frozen=True)
