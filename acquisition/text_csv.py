@@ -38,6 +38,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from rigval.acquisition.csv_blocks import is_clean_row, parse_middle, split_text
 from rigval.acquisition.detect import checked_path, source_checksum
 from rigval.acquisition.devices import get_device, module_attrs
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
@@ -62,6 +63,7 @@ _LOCALE_FORMATS = ("%d.%m.%Y %H:%M:%S.%f", "%d.%m.%Y %H:%M:%S", "%m/%d/%Y %I:%M:
                    "%Y/%m/%d %H:%M:%S.%f", "%Y/%m/%d %H:%M:%S", "%d/%m/%Y %H:%M:%S.%f",
                    "%d/%m/%Y %H:%M:%S")
 _EPOCH_1904 = np.datetime64("1904-01-01T00:00:00", "ns")
+_SAMPLE_ROWS = 200  # first data rows that decide the decimal separator
 
 
 @dataclass(frozen=True)
@@ -123,6 +125,12 @@ def read_text(path: Path, encoding: str | None = None) -> tuple[list[str], bool]
     ConfigError
         For an unknown encoding name.
     """
+    text, complete = _decode(path, encoding, stacklevel=4)
+    return text.splitlines(), complete
+
+
+def _decode(path: Path, encoding: str | None, stacklevel: int) -> tuple[str, bool]:
+    """Return the text of a file and whether it ends with a line end (see :func:`read_text`)."""
     raw = path.read_bytes()
     candidates = [encoding] if encoding else ["utf-8-sig", "cp1252"]
     if not encoding and raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
@@ -130,7 +138,7 @@ def read_text(path: Path, encoding: str | None = None) -> tuple[list[str], bool]
     for candidate in candidates:
         try:
             text = raw.decode(candidate)
-            return text.splitlines(), not text or text.endswith(("\n", "\r"))
+            return text, not text or text.endswith(("\n", "\r"))
         except UnicodeDecodeError:
             continue
         except LookupError:
@@ -145,8 +153,8 @@ def read_text(path: Path, encoding: str | None = None) -> tuple[list[str], bool]
         if text.count("\ufffd") < max(16, len(raw) // 10):  # local damage, not an encoding
             warn_data(f"{text.count(chr(0xFFFD))} character(s) are neither UTF-8 nor cp1252 "
                       f"(first at byte {first}): replaced by U+FFFD", where={"file": str(path)},
-                      hint="the file is damaged there, or pass encoding=...", stacklevel=3)
-            return text.splitlines(), text.endswith(("\n", "\r"))
+                      hint="the file is damaged there, or pass encoding=...", stacklevel=stacklevel)
+            return text, text.endswith(("\n", "\r"))
     raise DataFileError(f"text is not {encoding or 'UTF-8 or cp1252'}", where={"file": str(path)},
                         hint="pass encoding=... (e.g. 'latin-1')")
 
@@ -245,7 +253,7 @@ def sniff_csv(lines: list[str], *, delimiter: str | None = None, decimal: str | 
                 and len(rows[above - 1]) == width:
             units_row, above = above, above - 1
         header_row = above if above >= 0 and len(rows[above]) == width else None
-    sample = [c for r in rows[data_start:data_start + 200] for c in r if c.strip()]
+    sample = [c for r in rows[data_start:data_start + _SAMPLE_ROWS] for c in r if c.strip()]
     if decimal is None:
         decimal = "," if delimiter != "," and any(_COMMA_NUMBER.match(c) for c in sample) else "."
     if header_row is not None:
@@ -405,16 +413,57 @@ def _rate_of(time: np.ndarray) -> float:
 
 
 def _drop_bad_times(table: pd.DataFrame, line_of: np.ndarray, t_index: int,
-                    lost: dict[str, list[int]]) -> tuple[pd.DataFrame, np.ndarray]:
-    """Drop rows whose time cell is not a finite number (when most cells are numbers)."""
+                    lost: dict[str, list[int]], parsed: int = 0) -> tuple[pd.DataFrame, np.ndarray]:
+    """Drop rows whose time cell is not a finite number (when most cells are numbers).
+
+    ``parsed`` rows outside the table (the fast path's middle) have finite numbers there.
+    """
     cells = table[t_index].fillna("").str.strip()
     numeric = cells.str.match(_NUMBER.pattern, case=False) \
         & ~cells.str.contains("nan|inf", case=False, regex=True)
-    if numeric.all() or numeric.sum() <= 0.5 * len(cells):
+    if numeric.all() or numeric.sum() + parsed <= 0.5 * (len(cells) + parsed):
         return table, line_of  # all good, or absolute time stamps: parsed as such
     keep = numeric.to_numpy()
     lost["time cell not a number"] = [int(n) for n in line_of[~keep]]
     return table[keep].reset_index(drop=True), line_of[keep]
+
+
+def _fast_path(text: str, sniff: dict[str, Any]
+               ) -> tuple[list[str], CsvLayout, int, np.ndarray] | None:
+    """Sniff the head and tail lines only and parse the middle in blocks (see ``csv_blocks``).
+
+    Returns ``(head + tail lines, layout, number of head lines, middle values)``, or None when
+    the per-line path must read the file: short text, a layout that the whole file might not
+    give (data starting late, an override beyond the head), or a middle line that is not a clean
+    data row. A middle of clean data rows between two clean data rows makes the head and tail's
+    layout the whole file's: every rule of :func:`sniff_csv` looks at the last lines, the first
+    data rows or the line above a non-data line, and a clean row is a data row of the same width.
+    """
+    pieces = split_text(text)
+    if pieces is None:
+        return None
+    head = pieces.head
+    if any(sniff[key] is not None and sniff[key] >= len(head)
+           for key in ("header_row", "units_row")):
+        return None
+    lines = head + pieces.tail
+    try:
+        layout = sniff_csv(lines, **sniff)
+    except DataFileError:
+        return None  # the per-line path gives the error of the whole file
+    width = len(layout.names)
+    if layout.data_start + _SAMPLE_ROWS > len(head) or width < 2:
+        return None
+    in_tail = [k for k in range(len(head), len(lines))
+               if lines[k].strip() and k not in set(layout.skipped)]
+    if len(in_tail) < 2 or not is_clean_row(head[-1], layout.delimiter, layout.decimal, width) \
+            or not is_clean_row(pieces.tail[0], layout.delimiter, layout.decimal, width):
+        return None
+    middle = parse_middle(pieces, layout.delimiter, layout.decimal, width)
+    if middle is None:
+        return None
+    logger.debug("%d rows parsed in blocks, %d lines per line", len(middle), len(lines))
+    return lines, layout, len(head), middle
 
 
 def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
@@ -481,14 +530,25 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     """
     file = checked_path(path)
     where = {"file": str(file)}
-    lines, complete = read_text(file, encoding)
-    layout = sniff_csv(lines, delimiter=delimiter, decimal=decimal, header_row=header_row,
-                       units_row=units_row, file=file)
+    text, complete = _decode(file, encoding, stacklevel=3)
+    sniff = {"delimiter": delimiter, "decimal": decimal, "header_row": header_row,
+             "units_row": units_row, "file": file}
+    fast = _fast_path(text, sniff)
+    if fast is None:
+        lines = text.splitlines()
+        del text
+        layout = sniff_csv(lines, **sniff)
+        n_head, middle = len(lines), np.empty((0, len(layout.names)))
+    else:
+        del text
+        lines, layout, n_head, middle = fast
+    n_mid = len(middle)  # rows between lines[n_head - 1] and lines[n_head], parsed already
     notes: list[str] = []
     t_index = _time_column(layout.names, time_column, where)
     width = len(layout.names)
     lost: dict[str, list[int]] = {"not a data row (text line, footer)":
-                                  [k + 1 for k in layout.skipped]}
+                                  [k + 1 + (n_mid if k >= n_head else 0)
+                                   for k in layout.skipped]}
     numbers_of = [k for k in range(layout.data_start, len(lines))
                   if lines[k].strip() and k not in set(layout.skipped)]
     if numbers_of:
@@ -496,12 +556,13 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         previous = len(_split(lines[numbers_of[-2]], layout.delimiter)) if len(numbers_of) > 1 \
             else width
         if not complete and last == len(lines) - 1:
-            lost["last line without its line end (file cut mid-line)"] = [last + 1]
+            lost["last line without its line end (file cut mid-line)"] = [last + 1 + n_mid]
             numbers_of.pop()
         elif len(_split(lines[last], layout.delimiter)) < min(previous, width):
-            lost["last line with fewer fields than the line before it"] = [last + 1]
+            lost["last line with fewer fields than the line before it"] = [last + 1 + n_mid]
             numbers_of.pop()
     line_of = np.array(numbers_of, dtype=np.int64) + 1  # 1-based line number of each row
+    line_of[line_of > n_head] += n_mid
     body = "\n".join(lines[k] for k in numbers_of)
     fields = max((lines[k].count(layout.delimiter) + 1 for k in numbers_of), default=width)
     try:
@@ -518,7 +579,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     extra = np.zeros(len(table), dtype=bool)
     for k in range(width, table.shape[1]):
         extra |= (table[k].fillna("").str.strip() != "").to_numpy()
-    if extra.sum() > max(1, 0.1 * len(table)):
+    if extra.sum() > max(1, 0.1 * (len(table) + n_mid)):
         raise DataFileError(f"{int(extra.sum())} data rows hold more than the {width} fields "
                             "the header names", where=where,
                             hint="check delimiter=... and header_row=...")
@@ -526,7 +587,8 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         lost["more fields than the names row"] = [int(n) for n in line_of[extra]]
         table, line_of = table[~extra].reset_index(drop=True), line_of[~extra]
     if t_index is not None:
-        table, line_of = _drop_bad_times(table, line_of, t_index, lost)
+        table, line_of = _drop_bad_times(table, line_of, t_index, lost, n_mid)
+    split = int(np.searchsorted(line_of, n_head + 1))  # table rows above the middle
     for reason, numbers in lost.items():
         if numbers:
             warn_data(f"{len(numbers)} line(s) not read: {reason} (lines "
@@ -544,8 +606,9 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         numbers = pd.to_numeric(cells.replace("", np.nan), errors="coerce").to_numpy(float)
         bad_mask = np.isnan(numbers) & ~cells.str.match(_NUMBER.pattern, case=False).to_numpy() \
             & (cells != "").to_numpy()
+        numbers = np.concatenate([numbers[:split], middle[:, k], numbers[split:]])
         bad = int(np.count_nonzero(bad_mask))
-        if bad and bad == np.count_nonzero(cells != ""):
+        if bad and bad == np.count_nonzero(cells != "") + n_mid:
             warn_data(f"column {layout.names[k]!r} holds no numbers ({bad} text cells such as "
                       f"{cells[bad_mask].iloc[0]!r}): not read", where=where,
                       hint=f"check decimal={layout.decimal!r} and delimiter", stacklevel=2)
@@ -562,7 +625,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
                       "or empty cells): kept as NaN", where={**where, "channel": layout.names[k]},
                       hint="check the channel's wiring or export settings", stacklevel=2)
         values[k] = numbers
-    n = len(table)
+    n = len(table) + n_mid
     start = None if start_time is None else np.datetime64(
         pd.Timestamp(start_time).tz_localize(None) if pd.Timestamp(start_time).tzinfo is None
         else pd.Timestamp(start_time).tz_convert("UTC").tz_localize(None), "ns")
@@ -570,6 +633,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         cells = table[t_index].fillna("").str.strip()
         if cells.str.match(_NUMBER.pattern, case=False).all():
             seconds = pd.to_numeric(cells.str.replace(",", ".", regex=False)).to_numpy(float)
+            seconds = np.concatenate([seconds[:split], middle[:, t_index], seconds[split:]])
             unit = (time_units or layout.units[t_index] or "s").strip()
             scale = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}.get(unit)
             if scale is None:
