@@ -25,6 +25,8 @@ _BODY = "#4a6fa5"
 _GROUND = "#57606a"
 _DRIVE = "#c8322b"
 _HIGHLIGHT = "#c8322b"
+#: Figure margins left, right, bottom, top in inches: room for tick labels, axis labels, title.
+_MARGINS = (0.85, 0.2, 0.6, 0.4)
 
 
 def body_outlines(mechanism: Mechanism, positions: dict[str, np.ndarray]
@@ -87,8 +89,12 @@ def sketch_mechanism(mechanism: Mechanism, *, time: float = 0.0,
 
     span = np.ptp(xy, axis=0)
     aspect = (span[1] + 0.4) / max(span[0] + 0.4, 1e-9)
-    fig = Figure(figsize=(width, float(np.clip(0.85 * width * aspect + 0.6, 3.5, 1.4 * width))),
-                 layout="constrained")
+    height = float(np.clip(0.85 * width * aspect + 0.6, 3.5, 1.4 * width))
+    fig = Figure(figsize=(width, height))
+    # fixed margins (inches) instead of a layout engine, which would draw the figure once more
+    # to measure it; the equal aspect then shrinks the axes inside this box
+    fig.subplots_adjust(left=_MARGINS[0] / width, right=1 - _MARGINS[1] / width,
+                        bottom=_MARGINS[2] / height, top=1 - _MARGINS[3] / height)
     ax = fig.add_subplot()
     ax.set_aspect("equal")
     for body in mechanism.bodies:
@@ -181,7 +187,11 @@ def place_labels(fig: Figure, ax: Axes, x: np.ndarray, y: np.ndarray, labels: Se
     fontsize : float
         Label font size, points.
     """
-    fig.draw_without_rendering()  # final limits and layout, so data -> display is known
+    if fig.get_layout_engine() is not None:  # the engine moves the axes when it draws
+        fig.draw_without_rendering()
+    else:  # fixed axes box: final limits and aspect give data -> display without drawing
+        ax.autoscale_view()
+        ax.apply_aspect()
     scale = 72.0 / fig.dpi  # points per pixel
     marks = ax.transData.transform(np.column_stack([x, y])) * scale
     curve = (ax.transData.transform(avoid) * scale if avoid is not None and len(avoid)
