@@ -1,0 +1,140 @@
+"""The CSV reader's block path gives the per-line path's results, whatever the block size."""
+
+from __future__ import annotations
+
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from rigval.acquisition import csv_blocks, read_csv, text_csv
+
+ROWS = 3000
+MIDDLE = ROWS + 2 - 1500  # lines between the 1000 head and 500 tail lines sniffed per line
+FS = 50_000 / 31
+
+
+def _write(path: Path, rows: list[str], head: str = "Device;WLS-9163 #2\n") -> Path:
+    header = "Time [s];tor3 [V/V];opt3 [V]\n"
+    path.write_text(head + header + "\n".join(rows).replace(".", ",") + "\n", encoding="ascii")
+    return path
+
+
+def _rows(n: int = ROWS) -> tuple[list[str], np.ndarray]:
+    rng = np.random.default_rng(5)
+    values = rng.normal(0, 1e-4, (n, 2))
+    rows = [f"{k / FS:.6f};{a:.6E};{b:.6E}" for k, (a, b) in enumerate(values)]
+    return rows, values
+
+
+def _read(path: Path) -> tuple[xr.Dataset, list[str]]:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        stream = next(iter(read_csv(path, checksum=False).values()))
+    return stream, [str(w.message) for w in caught]
+
+
+def _per_line(path: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[xr.Dataset, list[str]]:
+    with monkeypatch.context() as patch:
+        patch.setattr(csv_blocks, "HEAD_LINES", 10**9)  # no middle: every line one by one
+        return _read(path)
+
+
+def _spy(monkeypatch: pytest.MonkeyPatch) -> list[int | None]:
+    """Record the rows of every middle parsed in blocks (None: not clean, per-line path)."""
+    calls: list[int | None] = []
+    real = text_csv.parse_middle
+
+    def spy(*args: object) -> np.ndarray | None:
+        out = real(*args)  # type: ignore[arg-type]
+        calls.append(None if out is None else len(out))
+        return out
+
+    monkeypatch.setattr(text_csv, "parse_middle", spy)
+    return calls
+
+
+def _same(a: tuple[xr.Dataset, list[str]], b: tuple[xr.Dataset, list[str]]) -> None:
+    xr.testing.assert_identical(a[0], b[0])
+    assert a[1] == b[1]
+
+
+@pytest.mark.parametrize("block", [97, 4096, 1 << 22])
+def test_clean_file_in_blocks_equals_one_block_and_the_per_line_path(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, block: int) -> None:
+    rows, values = _rows()
+    path = _write(tmp_path / "clean.csv", rows)
+    calls = _spy(monkeypatch)
+    whole = _read(path)
+    monkeypatch.setattr(csv_blocks, "BLOCK_CHARS", block)
+    pieces = _read(path)
+    assert calls == [MIDDLE, MIDDLE]
+    _same(pieces, whole)
+    _same(pieces, _per_line(path, monkeypatch))
+    written = [float(f"{v:.6E}") for v in values[:, 0]]
+    np.testing.assert_array_equal(pieces[0]["tor3"].values, written)
+    np.testing.assert_array_equal(pieces[0].time.values, [float(f"{k / FS:.6f}")
+                                                          for k in range(ROWS)])
+    assert pieces[1] == [] and pieces[0].attrs["samples_in_file"] == ROWS
+
+
+def test_bad_row_on_a_block_boundary_counts_and_reasons_as_per_line(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    rows, _ = _rows()
+    rows[998 + 40] = "sensor reconnected"
+    rows[998 + 59] = rows[998 + 59] + ";7,5"  # a field more
+    path = _write(tmp_path / "bad.csv", rows)
+    text = path.read_text()
+    middle = len("\n".join(text.split("\n")[:1000])) + 1  # after the 1000 head lines
+    block = text.index("sensor") - middle + 1  # the first block ends right above the text row
+    assert text[middle:middle + block].endswith("\ns") and text[middle - 1] == "\n"
+    calls = _spy(monkeypatch)
+    whole = _read(path)
+    monkeypatch.setattr(csv_blocks, "BLOCK_CHARS", block)
+    pieces = _read(path)
+    assert calls == [None, None]  # not clean: the per-line path read the file
+    _same(pieces, whole)
+    _same(pieces, _per_line(path, monkeypatch))
+    assert pieces[0].sizes["time"] == ROWS - 2
+    assert any("not a data row" in w and "[1041]" in w for w in pieces[1])
+    assert any("more fields than the names row" in w and "[1060]" in w for w in pieces[1])
+
+
+def test_bad_rows_in_head_and_tail_keep_their_line_numbers(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    rows, _ = _rows()
+    rows[100] = "pause"                        # a text line in the head's data rows
+    rows[150] = rows[150] + ";1,0"             # a field more, in the head
+    rows[ROWS - 200] = "resume"                # a text line among the tail's rows
+    rows[ROWS - 150] = rows[ROWS - 150] + ";1,0"  # a field more, in the tail
+    rows[ROWS - 120] = rows[ROWS - 120].rsplit(";", 1)[0] + ";x"  # a text cell: NaN
+    rows[ROWS - 100] = rows[ROWS - 100].split(";")[0] + ";;"  # empty cells: NaN
+    rows[-1] = rows[-1][:9]                    # the file cut mid-line
+    path = _write(tmp_path / "edges.csv", rows)
+    path.write_text(path.read_text().rstrip("\n"), encoding="ascii")
+    calls = _spy(monkeypatch)
+    monkeypatch.setattr(csv_blocks, "BLOCK_CHARS", 1000)
+    pieces = _read(path)
+    assert calls == [MIDDLE]  # the middle was clean and parsed in blocks
+    _same(pieces, _per_line(path, monkeypatch))
+    text = "\n".join(pieces[1])
+    # 1-based line numbers: two lines above the data
+    for line in (103, 153, ROWS - 197, ROWS - 147, ROWS - 117, ROWS + 2):
+        assert re.search(rf"\b{line}\b", text), line
+    assert pieces[0].sizes["time"] == ROWS - 5
+    assert pieces[0]["tor3"].attrs["empty_cells"] == 1
+
+
+def test_windows_line_ends_and_a_trailing_delimiter_take_the_block_path(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    rows, _ = _rows()
+    path = tmp_path / "crlf.csv"
+    text = _write(path, [r + ";" for r in rows]).read_text()
+    path.write_bytes(text.replace("\n", "\r\n").encode("ascii"))
+    calls = _spy(monkeypatch)
+    pieces = _read(path)
+    assert calls == [MIDDLE]
+    _same(pieces, _per_line(path, monkeypatch))
