@@ -318,9 +318,11 @@ def _predictions(page: Page, result: ValidationResult) -> None:
     page.paragraph("What the model says about quantities that were not measured, for the drive "
                    "motion of this run (the paper's figs. 15 to 17).")
     _mechanism_sketch(page, result)
-    for point in result.predictions.coords.get("point", xr.DataArray([])).values:
-        page.figure(plots.plot_point_kinematics(result.predictions, str(point)),
-                    caption=f"{point}: vertical position, absolute speed and acceleration")
+    points = [str(p) for p in result.predictions.coords.get("point", xr.DataArray([])).values]
+    # one figure redrawn per point; page.figure renders it before the next one is drawn
+    for point, figure in zip(points, plots.plot_points_kinematics(result.predictions, points),
+                             strict=True):
+        page.figure(figure, caption=f"{point}: vertical position, absolute speed and acceleration")
     if "support_force" in result.predictions:
         page.figure(plots.plot_support_forces(result.predictions),
                     caption="support forces on the frame (minus the ground pins' joint forces)")
