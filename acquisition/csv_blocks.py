@@ -1,95 +1,148 @@
-"""The fast path of the text reader: the middle of a clean data block parsed in pieces.
+r"""The fast path of the text reader: the middle of a clean data block parsed in pieces.
 
 :func:`rigval.acquisition.text_csv.read_csv` sniffs the layout on the first :data:`HEAD_LINES`
 and the last :data:`TAIL_LINES` lines of a file only. The lines between them (the middle) are
-parsed here, :data:`BLOCK_CHARS` characters at a time, by pandas' C parser into one
-preallocated float array, so that memory is the file's text, the output and one block instead
-of a Python string and a list of fields per row. A piece is taken only when every line of it is
-a clean data row: exactly the data's number of fields (one trailing delimiter allowed), every
-cell a plain number in the file's decimal separator (digits, sign, exponent; no spaces, no
-``nan``/``inf``, no empty cell). Such a row is a data row to the per-line rules of the reader,
-so sniffing the head and tail gives the layout the whole file would give. When any piece holds
-another line (text, an empty cell, a ragged row), :func:`parse_middle` returns None and the
-reader takes its per-line path for the whole file, with its exact results, warnings and counts.
+read from the file here, :data:`BLOCK_BYTES` bytes at a time, and parsed by pandas' C parser
+into one preallocated float array, so that memory is the output and one block instead of the
+file's text, a Python string and a list of fields per row. A block is taken only when every line
+of it is a clean data row: exactly the data's number of fields (one trailing delimiter allowed),
+every cell a plain number in the file's decimal separator (ASCII digits, sign, exponent; no
+spaces, no ``nan``/``inf``, no empty cell), line ends ``\n`` or ``\r\n``. Such a row is a data
+row to the per-line rules of the reader, so sniffing the head and tail gives the layout the whole
+file would give, and an ASCII middle decodes alike in every encoding the reader guesses. When a
+block holds another line (text, an empty cell, a ragged row), :func:`parse_middle` returns None
+and the reader takes its per-line path for the whole file, with its exact results, warnings and
+counts.
 """
 
 from __future__ import annotations
 
 import io
 import logging
-import re
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-__all__ = ["BLOCK_CHARS", "HEAD_LINES", "TAIL_LINES", "Pieces", "is_clean_row", "parse_middle",
-           "split_text"]
+__all__ = ["BLOCK_BYTES", "HEAD_LINES", "TAIL_LINES", "Pieces", "is_clean_row", "parse_middle",
+           "split_file"]
 
 logger = logging.getLogger(__name__)
 
-#: Characters of the middle parsed per piece (about 80,000 rows of a rig CSV).
-BLOCK_CHARS = 1 << 22
+#: Bytes of the middle parsed per block (about 80,000 rows of a rig CSV).
+BLOCK_BYTES = 1 << 22
 #: Lines at the start of a file sniffed per line (names, units, header block, first rows).
 HEAD_LINES = 1000
 #: Lines at the end of a file sniffed per line (delimiter guess, footer, a cut last line).
 TAIL_LINES = 500
-
-_LINE_ENDS = re.compile("[\r\v\f\x1c\x1d\x1e\x85\u2028\u2029]")  # str.splitlines' others
+_READ = 1 << 20  # bytes read at a time to find the head's and tail's line ends
+_ASCII = "0123456789eE+-\r\n;,.\t|"  # what a clean block holds
 
 
 @dataclass(frozen=True)
 class Pieces:
-    r"""A text cut at line ends into head lines, a middle span and tail lines.
+    """A file cut at line ends into head lines, a middle byte span and tail lines.
 
     Attributes
     ----------
-    text : str
-        The whole text (line ends ``\n``).
+    path : pathlib.Path
+        The file.
     head, tail : list of str
-        The first and last lines, without line ends.
+        The first and last lines, decoded, without line ends.
     start, stop : int
-        Character span of the middle in ``text`` (whole lines, each ending in ``\n``).
+        Byte span of the middle (whole lines, each ending in a line feed).
     rows : int
         Number of middle lines.
+    complete : bool
+        False when the file stops inside its last line.
     """
 
-    text: str
+    path: Path
     head: list[str]
     start: int
     stop: int
     rows: int
     tail: list[str]
+    complete: bool
 
 
-def split_text(text: str) -> Pieces | None:
-    r"""Cut a text into :data:`HEAD_LINES` head lines, the middle and :data:`TAIL_LINES` lines.
+def split_file(path: Path, encoding: str | None) -> Pieces | None:
+    """Cut a file into :data:`HEAD_LINES` head lines, the middle and :data:`TAIL_LINES` lines.
 
-    Returns None when the text is too short to have a middle, or uses line ends other than
-    ``\n`` and ``\r\n`` (the per-line path handles those). ``head + middle lines + tail``
-    equals ``text.splitlines()``.
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file.
+    encoding : str, optional
+        Text encoding of head and tail; default UTF-8 (with or without BOM), else cp1252, as
+        :func:`rigval.acquisition.text_csv.read_text` guesses for the whole file.
+
+    Returns
+    -------
+    Pieces or None
+        None when the file is too short to have a middle, or head and tail do not decode (the
+        per-line path then reads, and reports on, the whole file). ``head + middle lines +
+        tail`` equals the whole text's ``splitlines()`` when the middle is ASCII.
     """
-    if "\r" in text:
-        if text.count("\r") != text.count("\r\n"):
+    with path.open("rb") as stream:
+        size = stream.seek(0, io.SEEK_END)
+        stream.seek(0)
+        first = b""
+        while first.count(b"\n") < HEAD_LINES and len(first) < size:
+            first += stream.read(_READ)
+        if first.count(b"\n") < HEAD_LINES:
             return None
-        text = text.replace("\r\n", "\n")
-    if _LINE_ENDS.search(text):
-        return None
-    start = 0
-    for _ in range(HEAD_LINES):
-        start = text.find("\n", start) + 1
-        if start == 0:
-            return None
-    stop = len(text) - 1 if text.endswith("\n") else len(text)  # the last line's end
+        start = 0
+        for _ in range(HEAD_LINES):
+            start = first.index(b"\n", start) + 1
+        last, begin = b"", size
+        while last.count(b"\n") <= TAIL_LINES + 1 and begin > start:
+            begin = max(start, begin - _READ)
+            stream.seek(begin)
+            last = stream.read(min(_READ, size - begin)) + last
+    stop = len(last) - 1 if last.endswith(b"\n") else len(last)  # the last line's end
     for _ in range(TAIL_LINES):
-        stop = text.rfind("\n", 0, stop)
-        if stop < start:
+        stop = last.rfind(b"\n", 0, stop)
+        if stop < 0:
             return None
     stop += 1
-    if stop <= start:
+    if begin + stop <= start:
         return None
-    rows = text.count("\n", start, stop)
-    return Pieces(text, text[:start].splitlines(), start, stop, rows, text[stop:].splitlines())
+    head, tail = _decode(first[:start], last[stop:], encoding)
+    if head is None or tail is None:
+        return None
+    rows = _count_lines(path, start, begin + stop)
+    return Pieces(path, head.splitlines(), start, begin + stop, rows, tail.splitlines(),
+                  tail.endswith(("\n", "\r")))
+
+
+def _decode(head: bytes, tail: bytes, encoding: str | None) -> tuple[str | None, str | None]:
+    """Decode head and tail in the encoding the whole file would be read in (None: unsure)."""
+    if encoding is None and head[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        return None, None  # UTF-16: never an ASCII middle
+    try:
+        if encoding and _ASCII.encode(encoding) != _ASCII.encode():
+            return None, None  # the middle's bytes would mean other characters
+    except (LookupError, UnicodeError):
+        return None, None  # the per-line path reports an unknown encoding
+    for candidate in [encoding] if encoding else ["utf-8", "cp1252"]:
+        try:
+            return (head.decode("utf-8-sig" if candidate == "utf-8" else candidate),
+                    tail.decode(candidate))
+        except (UnicodeDecodeError, LookupError):
+            continue
+    return None, None
+
+
+def _count_lines(path: Path, start: int, stop: int) -> int:
+    """Return the number of line feeds in a byte span of a file."""
+    count = 0
+    with path.open("rb") as stream:
+        stream.seek(start)
+        for offset in range(start, stop, BLOCK_BYTES):
+            count += stream.read(min(BLOCK_BYTES, stop - offset)).count(b"\n")
+    return count
 
 
 def parse_middle(pieces: Pieces, delimiter: str, decimal: str, width: int) -> np.ndarray | None:
@@ -98,7 +151,7 @@ def parse_middle(pieces: Pieces, delimiter: str, decimal: str, width: int) -> np
     Parameters
     ----------
     pieces : Pieces
-        The cut text.
+        The cut file.
     delimiter, decimal : str
         Field and decimal separators of the layout.
     width : int
@@ -109,41 +162,59 @@ def parse_middle(pieces: Pieces, delimiter: str, decimal: str, width: int) -> np
     numpy.ndarray or None
         Values, row by row; None when a line is not a clean data row (see the module).
     """
-    if width < 1 or delimiter == decimal or "\n" in (delimiter, decimal):
+    allowed = _allowed(delimiter, decimal, width)
+    if allowed is None:
         return None
-    allowed = np.zeros(256, dtype=bool)
-    allowed[np.frombuffer(f"0123456789eE+-\n{delimiter}{decimal}".encode(), np.uint8)] = True
     out = np.empty((pieces.rows, width))
-    text, row, begin = pieces.text, 0, pieces.start
-    while begin < pieces.stop:
-        end = text.rfind("\n", begin, min(begin + BLOCK_CHARS, pieces.stop)) + 1
-        if end <= begin:  # a line longer than a block: up to its end
-            end = text.find("\n", begin, pieces.stop) + 1
-        block = text[begin:end]
-        values = _clean_block(block, delimiter, decimal, width, allowed)
-        if values is None:
-            logger.debug("rows %d... of the middle not all clean data rows: per-line path", row)
-            return None
-        out[row:row + len(values)] = values
-        row, begin = row + len(values), end
-    return out if row == pieces.rows else None
+    row, carry = 0, b""
+    with pieces.path.open("rb") as stream:
+        stream.seek(pieces.start)
+        for offset in range(pieces.start, pieces.stop, BLOCK_BYTES):
+            data = carry + stream.read(min(BLOCK_BYTES, pieces.stop - offset))
+            cut = data.rfind(b"\n") + 1  # a line longer than a block waits for the next
+            block, carry = data[:cut], data[cut:]
+            if not block:
+                continue
+            values = _clean_block(block, delimiter, decimal, width, allowed)
+            if values is None or row + len(values) > pieces.rows:
+                logger.debug("rows %d... of the middle not all clean data rows", row)
+                return None
+            out[row:row + len(values)] = values
+            row += len(values)
+    return out if row == pieces.rows and not carry else None
 
 
 def is_clean_row(line: str, delimiter: str, decimal: str, width: int) -> bool:
     """Return True when one line (without its line end) is a clean data row (see the module)."""
-    return parse_middle(Pieces(line + "\n", [], 0, len(line) + 1, 1, []), delimiter, decimal,
-                        width) is not None
+    allowed = _allowed(delimiter, decimal, width)
+    try:
+        raw = (line + "\n").encode("ascii")
+    except UnicodeEncodeError:
+        return False
+    return allowed is not None and _clean_block(raw, delimiter, decimal, width,
+                                                allowed) is not None
 
 
-def _clean_block(block: str, delimiter: str, decimal: str, width: int,
+def _allowed(delimiter: str, decimal: str, width: int) -> np.ndarray | None:
+    """Return the bytes a clean block may hold (None: the layout has no fast path)."""
+    if width < 1 or delimiter == decimal or not f"{delimiter}{decimal}".isascii() \
+            or any(c in "0123456789eE+-\r\n" for c in (delimiter, decimal)):
+        return None
+    allowed = np.zeros(256, dtype=bool)
+    allowed[np.frombuffer(f"0123456789eE+-\r\n{delimiter}{decimal}".encode(), np.uint8)] = True
+    return allowed
+
+
+def _clean_block(block: bytes, delimiter: str, decimal: str, width: int,
                  allowed: np.ndarray) -> np.ndarray | None:
     """Return the values of a block of whole lines, or None if one is not a clean data row."""
-    raw = block.encode("utf-8")
-    if len(raw) != len(block) or not allowed[np.frombuffer(raw, np.uint8)].all():
+    if not allowed[np.frombuffer(block, np.uint8)].all():
         return None  # a character no plain number holds (letters, spaces, non-ASCII)
-    lines = block.count("\n")
+    if block.count(b"\r") != block.count(b"\r\n"):
+        return None  # a lone carriage return: a line end the per-line path splits at
+    lines = block.count(b"\n")
     try:
-        table = pd.read_csv(io.BytesIO(raw), sep=delimiter, decimal=decimal, header=None,
+        table = pd.read_csv(io.BytesIO(block), sep=delimiter, decimal=decimal, header=None,
                             names=list(range(width + 1)), index_col=False, dtype=np.float64,
                             skip_blank_lines=False, engine="c")
     except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError):

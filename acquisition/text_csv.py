@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from rigval.acquisition.csv_blocks import is_clean_row, parse_middle, split_text
+from rigval.acquisition.csv_blocks import is_clean_row, parse_middle, split_file
 from rigval.acquisition.detect import checked_path, source_checksum
 from rigval.acquisition.devices import get_device, module_attrs
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
@@ -428,18 +428,19 @@ def _drop_bad_times(table: pd.DataFrame, line_of: np.ndarray, t_index: int,
     return table[keep].reset_index(drop=True), line_of[keep]
 
 
-def _fast_path(text: str, sniff: dict[str, Any]
-               ) -> tuple[list[str], CsvLayout, int, np.ndarray] | None:
+def _fast_path(file: Path, encoding: str | None, sniff: dict[str, Any]
+               ) -> tuple[list[str], CsvLayout, int, np.ndarray, bool] | None:
     """Sniff the head and tail lines only and parse the middle in blocks (see ``csv_blocks``).
 
-    Returns ``(head + tail lines, layout, number of head lines, middle values)``, or None when
+    Returns ``(head + tail lines, layout, number of head lines, middle values, whether the
+    file ends with a line end)``, or None when
     the per-line path must read the file: short text, a layout that the whole file might not
     give (data starting late, an override beyond the head), or a middle line that is not a clean
     data row. A middle of clean data rows between two clean data rows makes the head and tail's
     layout the whole file's: every rule of :func:`sniff_csv` looks at the last lines, the first
     data rows or the line above a non-data line, and a clean row is a data row of the same width.
     """
-    pieces = split_text(text)
+    pieces = split_file(file, encoding)
     if pieces is None:
         return None
     head = pieces.head
@@ -463,7 +464,7 @@ def _fast_path(text: str, sniff: dict[str, Any]
     if middle is None:
         return None
     logger.debug("%d rows parsed in blocks, %d lines per line", len(middle), len(lines))
-    return lines, layout, len(head), middle
+    return lines, layout, len(head), middle, pieces.complete
 
 
 def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
@@ -530,18 +531,17 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     """
     file = checked_path(path)
     where = {"file": str(file)}
-    text, complete = _decode(file, encoding, stacklevel=3)
     sniff = {"delimiter": delimiter, "decimal": decimal, "header_row": header_row,
              "units_row": units_row, "file": file}
-    fast = _fast_path(text, sniff)
+    fast = _fast_path(file, encoding, sniff)
     if fast is None:
+        text, complete = _decode(file, encoding, stacklevel=3)
         lines = text.splitlines()
         del text
         layout = sniff_csv(lines, **sniff)
         n_head, middle = len(lines), np.empty((0, len(layout.names)))
     else:
-        del text
-        lines, layout, n_head, middle = fast
+        lines, layout, n_head, middle, complete = fast
     n_mid = len(middle)  # rows between lines[n_head - 1] and lines[n_head], parsed already
     notes: list[str] = []
     t_index = _time_column(layout.names, time_column, where)

@@ -11,15 +11,17 @@ import pytest
 import xarray as xr
 
 from rigval.acquisition import csv_blocks, read_csv, text_csv
+from rigval.acquisition.schema import string_table
 
 ROWS = 3000
 MIDDLE = ROWS + 2 - 1500  # lines between the 1000 head and 500 tail lines sniffed per line
 FS = 50_000 / 31
 
 
-def _write(path: Path, rows: list[str], head: str = "Device;WLS-9163 #2\n") -> Path:
+def _write(path: Path, rows: list[str], head: str = "Device;WLS-9163 #2\n",
+           encoding: str = "ascii") -> Path:
     header = "Time [s];tor3 [V/V];opt3 [V]\n"
-    path.write_text(head + header + "\n".join(rows).replace(".", ",") + "\n", encoding="ascii")
+    path.write_text(head + header + "\n".join(rows).replace(".", ",") + "\n", encoding=encoding)
     return path
 
 
@@ -69,7 +71,7 @@ def test_clean_file_in_blocks_equals_one_block_and_the_per_line_path(
     path = _write(tmp_path / "clean.csv", rows)
     calls = _spy(monkeypatch)
     whole = _read(path)
-    monkeypatch.setattr(csv_blocks, "BLOCK_CHARS", block)
+    monkeypatch.setattr(csv_blocks, "BLOCK_BYTES", block)
     pieces = _read(path)
     assert calls == [MIDDLE, MIDDLE]
     _same(pieces, whole)
@@ -93,7 +95,7 @@ def test_bad_row_on_a_block_boundary_counts_and_reasons_as_per_line(
     assert text[middle:middle + block].endswith("\ns") and text[middle - 1] == "\n"
     calls = _spy(monkeypatch)
     whole = _read(path)
-    monkeypatch.setattr(csv_blocks, "BLOCK_CHARS", block)
+    monkeypatch.setattr(csv_blocks, "BLOCK_BYTES", block)
     pieces = _read(path)
     assert calls == [None, None]  # not clean: the per-line path read the file
     _same(pieces, whole)
@@ -116,7 +118,7 @@ def test_bad_rows_in_head_and_tail_keep_their_line_numbers(
     path = _write(tmp_path / "edges.csv", rows)
     path.write_text(path.read_text().rstrip("\n"), encoding="ascii")
     calls = _spy(monkeypatch)
-    monkeypatch.setattr(csv_blocks, "BLOCK_CHARS", 1000)
+    monkeypatch.setattr(csv_blocks, "BLOCK_BYTES", 1000)
     pieces = _read(path)
     assert calls == [MIDDLE]  # the middle was clean and parsed in blocks
     _same(pieces, _per_line(path, monkeypatch))
@@ -138,3 +140,19 @@ def test_windows_line_ends_and_a_trailing_delimiter_take_the_block_path(
     pieces = _read(path)
     assert calls == [MIDDLE]
     _same(pieces, _per_line(path, monkeypatch))
+
+
+@pytest.mark.parametrize("encoding", ["utf-8-sig", "cp1252"])
+def test_encoded_head_and_tail_read_as_the_whole_file(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, encoding: str) -> None:
+    rows, _ = _rows()
+    path = tmp_path / "encoded.csv"
+    _write(path, rows, head="Prüfstand;Halle 3 – µ-Messung\n", encoding=encoding)
+    with path.open("ab") as stream:
+        stream.write("Ende ±\n".encode(encoding))
+    calls = _spy(monkeypatch)
+    pieces = _read(path)
+    assert calls == [MIDDLE + 1]  # the footer: one line more in the file
+    _same(pieces, _per_line(path, monkeypatch))
+    assert string_table(pieces[0].attrs, "text_header")["Prüfstand"] == "Halle 3 – µ-Messung"
+    assert any("not a data row" in w and f"[{ROWS + 3}]" in w for w in pieces[1])
