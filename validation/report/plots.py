@@ -17,6 +17,7 @@ from matplotlib.axes import Axes
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.ticker import MultipleLocator, ScalarFormatter
+from matplotlib.transforms import ScaledTranslation
 
 from rigval.validation.results import ComparisonResult, StreamAlignment
 
@@ -46,6 +47,9 @@ HARMONIC_ORDERS = 10
 MIN_RELATIVE_SPAN = 0.02
 #: Distance of a left-aligned panel title above the axes, points: room for a legend row between.
 TITLE_PAD = 15.0
+#: Distance of an x label's top under its axes, points: tick length 3.5, pad 3.5, a line of
+#: 10 pt tick labels and the label pad 4 (matplotlib's defaults, as it would place it).
+XLABEL_DROP = 21.0
 #: Line spacing of a panel key (:func:`_key`), points (font size 8 plus the white box around).
 KEY_LINE = 11.0
 
@@ -96,12 +100,25 @@ def honest_ylim(ax: Axes, *curves: np.ndarray, exact_zero_note: bool = True) -> 
         ax.set_ylim(middle - 0.55 * least, middle + 0.55 * least)
 
 
-def _angle_axis(ax: object, label: bool = True) -> None:
-    ax.set_xlim(0.0, 360.0)  # type: ignore[attr-defined]
-    ax.xaxis.set_major_locator(MultipleLocator(45.0))  # type: ignore[attr-defined]
-    ax.grid(True, lw=0.4, alpha=0.6)  # type: ignore[attr-defined]
+def _xlabel(ax: Axes, text: str) -> None:
+    """Set the x label at a fixed distance under the axes (where matplotlib would put it).
+
+    Matplotlib places an x label under the bounding box of the tick labels, which it measures
+    once more on every draw; tick labels of one line of 10 pt digits always end
+    :data:`XLABEL_DROP` points under the axes.
+    """
+    ax.set_xlabel(text)
+    inches = ax.figure.dpi_scale_trans  # type: ignore[union-attr]
+    ax.xaxis.set_label_coords(0.5, 0.0, transform=ax.transAxes + ScaledTranslation(
+        0.0, -XLABEL_DROP / 72.0, inches))
+
+
+def _angle_axis(ax: Axes, label: bool = True) -> None:
+    ax.set_xlim(0.0, 360.0)
+    ax.xaxis.set_major_locator(MultipleLocator(45.0))
+    ax.grid(True, lw=0.4, alpha=0.6)
     if label:
-        ax.set_xlabel("main shaft angle \u03c6F [deg]")  # type: ignore[attr-defined]
+        _xlabel(ax, "main shaft angle \u03c6F [deg]")
 
 
 def _closed(angle: np.ndarray, *values: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -184,7 +201,7 @@ class _ComparisonFigure:
         _angle_axis(self.bottom)
         order = np.arange(1, orders + 1)
         self.spectrum.set_xticks(order)
-        self.spectrum.set_xlabel("order (harmonic of the shaft speed)")
+        _xlabel(self.spectrum, "order (harmonic of the shaft speed)")
         self.spectrum.grid(True, axis="y", lw=0.4, alpha=0.6)
         self.drawn: list[object] = []
 
@@ -296,7 +313,7 @@ def plot_pulse_edges(alignment: Mapping[str, StreamAlignment], *, width: float =
         edges = ", ".join(f"{edge:.5f} s" for edge in stream.edge_times)
         ax.set_title(f"{stream.stream} ({stream.device}): edge at {edges or 'none'}", y=TITLE_Y,
                      fontsize=9, loc="left")
-    axes[-1].set_xlabel("time on the reference timeline [s]")
+    _xlabel(axes[-1], "time on the reference timeline [s]")
     return fig
 
 
@@ -320,7 +337,7 @@ def plot_clock_residuals(alignment: Mapping[str, StreamAlignment], *,
                 label=f"{stream.stream}: rms {stream.residual_rms_s * 1e6:.1f} µs, "
                       f"{stream.events_matched} events")
     ax.axhline(0.0, color="black", lw=0.6)
-    ax.set_xlabel("time on the reference timeline [s]")
+    _xlabel(ax, "time on the reference timeline [s]")
     ax.set_ylabel("clock-fit residual [µs]")
     ax.grid(True, lw=0.4, alpha=0.6)
     if ax.get_legend_handles_labels()[0]:
@@ -351,7 +368,7 @@ def plot_stream_coverage(alignment: Mapping[str, StreamAlignment], *,
         if spans:
             ax.broken_barh(spans, (row - 0.3, 0.6), color=MODEL)
     ax.set_yticks(range(len(names)), names)
-    ax.set_xlabel("time on the reference timeline [s]  (red: gaps)")
+    _xlabel(ax, "time on the reference timeline [s]  (red: gaps)")
     ax.grid(True, axis="x", lw=0.4, alpha=0.6)
     return fig
 
