@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-__all__ = ["BLOCK_BYTES", "HEAD_LINES", "TAIL_LINES", "Pieces", "is_clean_row", "parse_middle",
-           "split_file"]
+__all__ = ["BLOCK_BYTES", "HEAD_LINES", "TAIL_LINES", "Middle", "Pieces", "is_clean_row",
+           "parse_middle", "split_file"]
 
 logger = logging.getLogger(__name__)
 
@@ -56,6 +56,8 @@ class Pieces:
         Number of middle lines.
     complete : bool
         False when the file stops inside its last line.
+    encoding : str
+        The encoding head and tail decoded in.
     """
 
     path: Path
@@ -65,6 +67,7 @@ class Pieces:
     rows: int
     tail: list[str]
     complete: bool
+    encoding: str
 
 
 def split_file(path: Path, encoding: str | None) -> Pieces | None:
@@ -109,30 +112,31 @@ def split_file(path: Path, encoding: str | None) -> Pieces | None:
     stop += 1
     if begin + stop <= start:
         return None
-    head, tail = _decode(first[:start], last[stop:], encoding)
+    head, tail, used = _decode(first[:start], last[stop:], encoding)
     if head is None or tail is None:
         return None
     rows = _count_lines(path, start, begin + stop)
     return Pieces(path, head.splitlines(), start, begin + stop, rows, tail.splitlines(),
-                  tail.endswith(("\n", "\r")))
+                  tail.endswith(("\n", "\r")), used)
 
 
-def _decode(head: bytes, tail: bytes, encoding: str | None) -> tuple[str | None, str | None]:
+def _decode(head: bytes, tail: bytes, encoding: str | None
+            ) -> tuple[str | None, str | None, str]:
     """Decode head and tail in the encoding the whole file would be read in (None: unsure)."""
     if encoding is None and head[:2] in (b"\xff\xfe", b"\xfe\xff"):
-        return None, None  # UTF-16: never an ASCII middle
+        return None, None, ""  # UTF-16: never an ASCII middle
     try:
         if encoding and _ASCII.encode(encoding) != _ASCII.encode():
-            return None, None  # the middle's bytes would mean other characters
+            return None, None, ""  # the middle's bytes would mean other characters
     except (LookupError, UnicodeError):
-        return None, None  # the per-line path reports an unknown encoding
+        return None, None, ""  # the per-line path reports an unknown encoding
     for candidate in [encoding] if encoding else ["utf-8", "cp1252"]:
         try:
             return (head.decode("utf-8-sig" if candidate == "utf-8" else candidate),
-                    tail.decode(candidate))
+                    tail.decode(candidate), candidate)
         except (UnicodeDecodeError, LookupError):
             continue
-    return None, None
+    return None, None, ""
 
 
 def _count_lines(path: Path, start: int, stop: int) -> int:
@@ -145,8 +149,29 @@ def _count_lines(path: Path, start: int, stop: int) -> int:
     return count
 
 
-def parse_middle(pieces: Pieces, delimiter: str, decimal: str, width: int) -> np.ndarray | None:
-    """Parse the middle lines into a ``(rows, width)`` float array, or None if one is not clean.
+@dataclass(frozen=True)
+class Middle:
+    """The middle of a file: clean rows parsed, the other lines left to the per-line rules.
+
+    Attributes
+    ----------
+    values : numpy.ndarray
+        ``(rows, width)`` values of the clean rows, in file order.
+    line : numpy.ndarray
+        0-based line number of each of those rows (int64).
+    segments : list of tuple of (int, list of str)
+        The first line number and the lines of each run of lines not parsed here: every block
+        holding a line that is not a clean data row, widened to start and end with a clean row
+        (so that the per-line rules see the same neighbours as in the whole file).
+    """
+
+    values: np.ndarray
+    line: np.ndarray
+    segments: list[tuple[int, list[str]]]
+
+
+def parse_middle(pieces: Pieces, delimiter: str, decimal: str, width: int) -> Middle | None:
+    """Parse the clean blocks of the middle; keep the lines of the other blocks as text.
 
     Parameters
     ----------
@@ -159,14 +184,16 @@ def parse_middle(pieces: Pieces, delimiter: str, decimal: str, width: int) -> np
 
     Returns
     -------
-    numpy.ndarray or None
-        Values, row by row; None when a line is not a clean data row (see the module).
+    Middle or None
+        None when the layout has no fast path or a block does not decode.
     """
     allowed = _allowed(delimiter, decimal, width)
     if allowed is None:
         return None
     out = np.empty((pieces.rows, width))
-    row, carry = 0, b""
+    line = np.empty(pieces.rows, dtype=np.int64)
+    segments: list[tuple[int, list[str]]] = []
+    row, current, carry, last, widen = 0, len(pieces.head), b"", "", False
     with pieces.path.open("rb") as stream:
         stream.seek(pieces.start)
         for offset in range(pieces.start, pieces.stop, BLOCK_BYTES):
@@ -176,12 +203,36 @@ def parse_middle(pieces: Pieces, delimiter: str, decimal: str, width: int) -> np
             if not block:
                 continue
             values = _clean_block(block, delimiter, decimal, width, allowed)
-            if values is None or row + len(values) > pieces.rows:
-                logger.debug("rows %d... of the middle not all clean data rows", row)
+            if values is not None and widen:  # its first (clean) row closes the last segment
+                first = block.index(b"\n") + 1
+                segments[-1][1].append(block[:first].decode("ascii").rstrip("\r\n"))
+                block, values, current, widen = block[first:], values[1:], current + 1, False
+            if values is not None:
+                out[row:row + len(values)] = values
+                line[row:row + len(values)] = np.arange(current, current + len(values))
+                row, current = row + len(values), current + len(values)
+                if len(values):
+                    last = block[block.rfind(b"\n", 0, len(block) - 1) + 1:].decode("ascii")
+                continue
+            try:
+                lines = block.decode(pieces.encoding).splitlines()
+            except (UnicodeDecodeError, LookupError):
                 return None
-            out[row:row + len(values)] = values
-            row += len(values)
-    return out if row == pieces.rows and not carry else None
+            if segments and segments[-1][0] + len(segments[-1][1]) == current:
+                segments[-1][1].extend(lines)  # right after the last segment: one segment
+            elif is_clean_row(lines[0], delimiter, decimal, width) or row == 0 \
+                    or line[row - 1] != current - 1:
+                segments.append((current, lines))
+            else:  # the clean row above joins, so the segment starts with a clean row
+                row -= 1
+                segments.append((current - 1, [last.rstrip("\r\n"), *lines]))
+            current += len(lines)
+            widen = not is_clean_row(segments[-1][1][-1], delimiter, decimal, width)
+    if carry or row + sum(len(lines) for _, lines in segments) != current - len(pieces.head):
+        return None
+    logger.debug("%d middle rows in blocks, %d lines per line", row,
+                 sum(len(lines) for _, lines in segments))
+    return Middle(out[:row], line[:row], segments)
 
 
 def is_clean_row(line: str, delimiter: str, decimal: str, width: int) -> bool:

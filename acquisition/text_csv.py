@@ -38,7 +38,12 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from rigval.acquisition.csv_blocks import is_clean_row, parse_middle, split_file
+from rigval.acquisition.csv_blocks import (
+    Middle,
+    is_clean_row,
+    parse_middle,
+    split_file,
+)
 from rigval.acquisition.detect import checked_path, source_checksum
 from rigval.acquisition.devices import get_device, module_attrs
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
@@ -64,6 +69,7 @@ _LOCALE_FORMATS = ("%d.%m.%Y %H:%M:%S.%f", "%d.%m.%Y %H:%M:%S", "%m/%d/%Y %I:%M:
                    "%d/%m/%Y %H:%M:%S")
 _EPOCH_1904 = np.datetime64("1904-01-01T00:00:00", "ns")
 _SAMPLE_ROWS = 200  # first data rows that decide the decimal separator
+_TAIL_WINDOW = 400  # last lines whose data rows decide the data's width
 
 
 @dataclass(frozen=True)
@@ -286,7 +292,8 @@ def _data_block(lines: list[str], rows: list[list[str]], end: int) -> tuple[int,
     the block.
     """
     data = [bool(ln.strip()) and _is_data(r) for ln, r in zip(lines, rows, strict=True)]
-    counts = [len(r) for r, d in zip(rows[max(0, end - 400):end], data[max(0, end - 400):end],
+    window = slice(max(0, end - _TAIL_WINDOW), end)
+    counts = [len(r) for r, d in zip(rows[window], data[window],
                                      strict=True) if d]
     width = max(set(counts), key=counts.count) if counts else 0
     skipped: set[int] = set()
@@ -429,42 +436,55 @@ def _drop_bad_times(table: pd.DataFrame, line_of: np.ndarray, t_index: int,
 
 
 def _fast_path(file: Path, encoding: str | None, sniff: dict[str, Any]
-               ) -> tuple[list[str], CsvLayout, int, np.ndarray, bool] | None:
-    """Sniff the head and tail lines only and parse the middle in blocks (see ``csv_blocks``).
+               ) -> tuple[list[str], CsvLayout, np.ndarray, Middle, bool] | None:
+    """Read the clean blocks of a file's middle in bounded memory (see ``csv_blocks``).
 
-    Returns ``(head + tail lines, layout, number of head lines, middle values, whether the
-    file ends with a line end)``, or None when
-    the per-line path must read the file: short text, a layout that the whole file might not
-    give (data starting late, an override beyond the head), or a middle line that is not a clean
-    data row. A middle of clean data rows between two clean data rows makes the head and tail's
-    layout the whole file's: every rule of :func:`sniff_csv` looks at the last lines, the first
-    data rows or the line above a non-data line, and a clean row is a data row of the same width.
+    Returns ``(lines read one by one, layout, their 0-based line numbers in the file, the
+    middle, whether the file ends with a line end)``, or None when the per-line path must read
+    the whole file: short text, a layout the whole file might not give (data starting late, an
+    override beyond the head, a tail of blank lines), or bytes that do not decode. Every run of
+    lines read one by one starts and ends with a clean data row, so each rule of
+    :func:`sniff_csv` sees the neighbours it sees in the whole file: it looks at the last lines,
+    the first data rows, the names row and the line above a non-data line, and a clean row is a
+    data row of the data's width.
     """
     pieces = split_file(file, encoding)
     if pieces is None:
         return None
-    head = pieces.head
+    head, tail = pieces.head, pieces.tail
     if any(sniff[key] is not None and sniff[key] >= len(head)
            for key in ("header_row", "units_row")):
         return None
-    lines = head + pieces.tail
     try:
-        layout = sniff_csv(lines, **sniff)
+        layout = sniff_csv(head + tail, **sniff)
     except DataFileError:
         return None  # the per-line path gives the error of the whole file
     width = len(layout.names)
-    if layout.data_start + _SAMPLE_ROWS > len(head) or width < 2:
+    blank_end = next((j for j, ln in enumerate(reversed(tail)) if ln.strip()), len(tail))
+    if layout.data_start + _SAMPLE_ROWS > len(head) or width < 2 \
+            or len(tail) - blank_end < _TAIL_WINDOW:
         return None
-    in_tail = [k for k in range(len(head), len(lines))
-               if lines[k].strip() and k not in set(layout.skipped)]
-    if len(in_tail) < 2 or not is_clean_row(head[-1], layout.delimiter, layout.decimal, width) \
-            or not is_clean_row(pieces.tail[0], layout.delimiter, layout.decimal, width):
+    clean = [is_clean_row(ln, layout.delimiter, layout.decimal, width)
+             for ln in (head[-1], tail[0], tail[1])]
+    if not all(clean):
         return None
     middle = parse_middle(pieces, layout.delimiter, layout.decimal, width)
     if middle is None:
         return None
-    logger.debug("%d rows parsed in blocks, %d lines per line", len(middle), len(lines))
-    return lines, layout, len(head), middle, pieces.complete
+    lines, numbers = list(head), [np.arange(len(head))]
+    for first, segment in middle.segments:
+        lines += segment
+        numbers.append(np.arange(first, first + len(segment)))
+    n_tail = len(head) + middle.line.size + sum(len(seg) for _, seg in middle.segments)
+    lines += tail
+    numbers.append(np.arange(n_tail, n_tail + len(tail)))
+    if middle.segments:  # lines of the middle read one by one: the layout of them all
+        whole = sniff_csv(lines, **sniff)
+        if (whole.delimiter, whole.decimal, whole.names, whole.data_start) != (
+                layout.delimiter, layout.decimal, layout.names, layout.data_start):
+            return None
+        layout = whole
+    return lines, layout, np.concatenate(numbers), middle, pieces.complete
 
 
 def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
@@ -539,16 +559,16 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         lines = text.splitlines()
         del text
         layout = sniff_csv(lines, **sniff)
-        n_head, middle = len(lines), np.empty((0, len(layout.names)))
+        real = np.arange(len(lines))
+        middle = Middle(np.empty((0, len(layout.names))), np.empty(0, dtype=np.int64), [])
     else:
-        lines, layout, n_head, middle, complete = fast
-    n_mid = len(middle)  # rows between lines[n_head - 1] and lines[n_head], parsed already
+        lines, layout, real, middle, complete = fast
+    n_mid = middle.line.size  # clean rows parsed in blocks, not in lines
     notes: list[str] = []
     t_index = _time_column(layout.names, time_column, where)
     width = len(layout.names)
     lost: dict[str, list[int]] = {"not a data row (text line, footer)":
-                                  [k + 1 + (n_mid if k >= n_head else 0)
-                                   for k in layout.skipped]}
+                                  [int(real[k]) + 1 for k in layout.skipped]}
     numbers_of = [k for k in range(layout.data_start, len(lines))
                   if lines[k].strip() and k not in set(layout.skipped)]
     if numbers_of:
@@ -556,13 +576,12 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         previous = len(_split(lines[numbers_of[-2]], layout.delimiter)) if len(numbers_of) > 1 \
             else width
         if not complete and last == len(lines) - 1:
-            lost["last line without its line end (file cut mid-line)"] = [last + 1 + n_mid]
+            lost["last line without its line end (file cut mid-line)"] = [int(real[last]) + 1]
             numbers_of.pop()
         elif len(_split(lines[last], layout.delimiter)) < min(previous, width):
-            lost["last line with fewer fields than the line before it"] = [last + 1 + n_mid]
+            lost["last line with fewer fields than the line before it"] = [int(real[last]) + 1]
             numbers_of.pop()
-    line_of = np.array(numbers_of, dtype=np.int64) + 1  # 1-based line number of each row
-    line_of[line_of > n_head] += n_mid
+    line_of = real[np.array(numbers_of, dtype=np.int64)] + 1  # 1-based line number of each row
     body = "\n".join(lines[k] for k in numbers_of)
     fields = max((lines[k].count(layout.delimiter) + 1 for k in numbers_of), default=width)
     try:
@@ -588,7 +607,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         table, line_of = table[~extra].reset_index(drop=True), line_of[~extra]
     if t_index is not None:
         table, line_of = _drop_bad_times(table, line_of, t_index, lost, n_mid)
-    split = int(np.searchsorted(line_of, n_head + 1))  # table rows above the middle
+    into = np.searchsorted(middle.line + 1, line_of)  # where table rows go among the middle's
     for reason, numbers in lost.items():
         if numbers:
             warn_data(f"{len(numbers)} line(s) not read: {reason} (lines "
@@ -606,7 +625,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         numbers = pd.to_numeric(cells.replace("", np.nan), errors="coerce").to_numpy(float)
         bad_mask = np.isnan(numbers) & ~cells.str.match(_NUMBER.pattern, case=False).to_numpy() \
             & (cells != "").to_numpy()
-        numbers = np.concatenate([numbers[:split], middle[:, k], numbers[split:]])
+        numbers = np.insert(middle.values[:, k], into, numbers)
         bad = int(np.count_nonzero(bad_mask))
         if bad and bad == np.count_nonzero(cells != "") + n_mid:
             warn_data(f"column {layout.names[k]!r} holds no numbers ({bad} text cells such as "
@@ -633,7 +652,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         cells = table[t_index].fillna("").str.strip()
         if cells.str.match(_NUMBER.pattern, case=False).all():
             seconds = pd.to_numeric(cells.str.replace(",", ".", regex=False)).to_numpy(float)
-            seconds = np.concatenate([seconds[:split], middle[:, t_index], seconds[split:]])
+            seconds = np.insert(middle.values[:, t_index], into, seconds)
             unit = (time_units or layout.units[t_index] or "s").strip()
             scale = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}.get(unit)
             if scale is None:
