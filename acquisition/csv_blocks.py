@@ -30,8 +30,8 @@ __all__ = ["BLOCK_BYTES", "HEAD_LINES", "TAIL_LINES", "Middle", "Pieces", "is_cl
 
 logger = logging.getLogger(__name__)
 
-#: Bytes of the middle parsed per block (about 80,000 rows of a rig CSV).
-BLOCK_BYTES = 1 << 22
+#: Bytes of the middle parsed per block (about 20,000 rows of a rig CSV).
+BLOCK_BYTES = 1 << 20
 #: Lines at the start of a file sniffed per line (names, units, header block, first rows).
 HEAD_LINES = 1000
 #: Lines at the end of a file sniffed per line (delimiter guess, footer, a cut last line).

@@ -674,6 +674,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
                                 hint="pass time_column=... or fs=... (Hz)")
         time = np.arange(n) / fs
         notes.append(f"no time column: t = i / {fs} Hz")
+    del middle, into, table  # every value is in values and time now
     if start is None:
         start = _header_start(layout.header, time_format, timezone, where, notes)
     if start is None:
