@@ -155,8 +155,9 @@ class Middle:
 
     Attributes
     ----------
-    values : numpy.ndarray
-        ``(rows, width)`` values of the clean rows, in file order.
+    values : list of numpy.ndarray
+        Per column, the values of the clean rows in file order (a list, so that a reader can
+        drop each column once it has taken it over).
     line : numpy.ndarray
         0-based line number of each of those rows (int64).
     segments : list of tuple of (int, list of str)
@@ -165,7 +166,7 @@ class Middle:
         (so that the per-line rules see the same neighbours as in the whole file).
     """
 
-    values: np.ndarray
+    values: list[np.ndarray]
     line: np.ndarray
     segments: list[tuple[int, list[str]]]
 
@@ -190,7 +191,7 @@ def parse_middle(pieces: Pieces, delimiter: str, decimal: str, width: int) -> Mi
     allowed = _allowed(delimiter, decimal, width)
     if allowed is None:
         return None
-    out = np.empty((pieces.rows, width))
+    out = [np.empty(pieces.rows) for _ in range(width)]
     line = np.empty(pieces.rows, dtype=np.int64)
     segments: list[tuple[int, list[str]]] = []
     row, current, carry, last, widen = 0, len(pieces.head), b"", "", False
@@ -208,7 +209,8 @@ def parse_middle(pieces: Pieces, delimiter: str, decimal: str, width: int) -> Mi
                 segments[-1][1].append(block[:first].decode("ascii").rstrip("\r\n"))
                 block, values, current, widen = block[first:], values[1:], current + 1, False
             if values is not None:
-                out[row:row + len(values)] = values
+                for column, cells in zip(out, values.T, strict=True):
+                    column[row:row + len(values)] = cells
                 line[row:row + len(values)] = np.arange(current, current + len(values))
                 row, current = row + len(values), current + len(values)
                 if len(values):
@@ -232,7 +234,7 @@ def parse_middle(pieces: Pieces, delimiter: str, decimal: str, width: int) -> Mi
         return None
     logger.debug("%d middle rows in blocks, %d lines per line", row,
                  sum(len(lines) for _, lines in segments))
-    return Middle(out[:row], line[:row], segments)
+    return Middle([column[:row] for column in out], line[:row], segments)
 
 
 def is_clean_row(line: str, delimiter: str, decimal: str, width: int) -> bool:

@@ -560,7 +560,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         del text
         layout = sniff_csv(lines, **sniff)
         real = np.arange(len(lines))
-        middle = Middle(np.empty((0, len(layout.names))), np.empty(0, dtype=np.int64), [])
+        middle = Middle([np.empty(0)] * len(layout.names), np.empty(0, dtype=np.int64), [])
     else:
         lines, layout, real, middle, complete = fast
     n_mid = middle.line.size  # clean rows parsed in blocks, not in lines
@@ -607,7 +607,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         table, line_of = table[~extra].reset_index(drop=True), line_of[~extra]
     if t_index is not None:
         table, line_of = _drop_bad_times(table, line_of, t_index, lost, n_mid)
-    into = np.searchsorted(middle.line + 1, line_of)  # where table rows go among the middle's
+    into = np.searchsorted(middle.line, line_of - 1)  # where table rows go among the middle's
     for reason, numbers in lost.items():
         if numbers:
             warn_data(f"{len(numbers)} line(s) not read: {reason} (lines "
@@ -625,7 +625,8 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         numbers = pd.to_numeric(cells.replace("", np.nan), errors="coerce").to_numpy(float)
         bad_mask = np.isnan(numbers) & ~cells.str.match(_NUMBER.pattern, case=False).to_numpy() \
             & (cells != "").to_numpy()
-        numbers = np.insert(middle.values[:, k], into, numbers)
+        numbers = np.insert(middle.values[k], into, numbers)
+        middle.values[k] = numbers[:0]  # taken over: freed
         bad = int(np.count_nonzero(bad_mask))
         if bad and bad == np.count_nonzero(cells != "") + n_mid:
             warn_data(f"column {layout.names[k]!r} holds no numbers ({bad} text cells such as "
@@ -652,7 +653,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         cells = table[t_index].fillna("").str.strip()
         if cells.str.match(_NUMBER.pattern, case=False).all():
             seconds = pd.to_numeric(cells.str.replace(",", ".", regex=False)).to_numpy(float)
-            seconds = np.insert(middle.values[:, t_index], into, seconds)
+            seconds = np.insert(middle.values[t_index], into, seconds)
             unit = (time_units or layout.units[t_index] or "s").strip()
             scale = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}.get(unit)
             if scale is None:
