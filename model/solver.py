@@ -20,6 +20,7 @@ import xarray as xr
 
 from rigval.acquisition.errors import ConfigError, DataError, NumericsWarning
 from rigval.acquisition.hugepages import plain_pages
+from rigval.acquisition.threads import single_blas_thread
 from rigval.model.assembly import (
     COND_MAX,
     GUESS_TOL,
@@ -40,7 +41,6 @@ from rigval.model.loops import LoopSystem, loop_system
 from rigval.model.mechanism import Mechanism, load_mechanism
 from rigval.model.reference import constraint_jacobian
 from rigval.model.results import Selection, Solution, build_dataset, select
-from rigval.acquisition.threads import single_blas_thread
 
 __all__ = ["interpolate_cycle", "solve", "solve_cycle"]
 
