@@ -229,6 +229,10 @@ def _main(argv: Sequence[str] | None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK
     except Exception as error:  # a bug: its own exit code, the traceback in a file
+        from rigval.validation.console import was_interrupted
+
+        if was_interrupted():  # a consequence of Ctrl-C (its one line is printed already)
+            return EXIT_INTERRUPTED
         _report_bug(error, verbose)
         return EXIT_BUG
 

@@ -25,7 +25,7 @@ from collections.abc import Callable, Iterator
 from typing import Any, Protocol, TextIO
 
 __all__ = ["INTERRUPTED_LINE", "Progress", "format_warning", "install_warning_display",
-           "interrupt_quietly", "progress_display", "run_context", "silence"]
+           "interrupt_quietly", "progress_display", "run_context", "silence", "was_interrupted"]
 
 #: The one line a Ctrl-C prints.
 INTERRUPTED_LINE = "rigval: interrupted"
@@ -43,7 +43,7 @@ class Progress(Protocol):
         """Draw the line again."""
 
 
-_state: dict[str, Any] = {"progress": None, "silent": False, "stream": None}
+_state: dict[str, Any] = {"progress": None, "silent": False, "stream": None, "interrupted": False}
 
 
 def format_warning(message: Warning | str, category: type[Warning]) -> str:
@@ -133,6 +133,15 @@ def run_context(name: str) -> Iterator[None]:
         _RUN.reset(token)
 
 
+def was_interrupted() -> bool:
+    """Return whether Ctrl-C hit a block of :func:`interrupt_quietly` in this process.
+
+    What fails after that (a worker process killed while it started, say Dask's "Nanny failed
+    to start") is the interrupt's consequence, not a bug: the command line exits as interrupted.
+    """
+    return bool(_state["interrupted"])
+
+
 @contextlib.contextmanager
 def interrupt_quietly(on_interrupt: Callable[[], None] | None = None) -> Iterator[None]:
     """Make the first Ctrl-C inside the block print one line and nothing after it.
@@ -151,6 +160,7 @@ def interrupt_quietly(on_interrupt: Callable[[], None] | None = None) -> Iterato
     """
     def interrupted(signum: int, frame: Any) -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C changes nothing
+        _state["interrupted"] = True
         progress = _state["progress"]
         with contextlib.suppress(Exception):
             if progress is not None:
@@ -165,6 +175,7 @@ def interrupt_quietly(on_interrupt: Callable[[], None] | None = None) -> Iterato
         _stderr_to_null()
         raise KeyboardInterrupt
 
+    _state["interrupted"] = False
     try:
         previous = signal.signal(signal.SIGINT, interrupted)
     except ValueError:  # not the main thread: leave Ctrl-C alone
