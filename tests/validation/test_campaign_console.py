@@ -64,7 +64,18 @@ def _start(script: Path, scenes: list[Path], out: Path, *options: str, **kwargs:
            ) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, str(script), "campaign", *map(str, scenes),
                              "--out", str(out), *options], cwd=script.parent,
-                            start_new_session=True, **kwargs)  # type: ignore[call-overload]
+                            start_new_session=True, preexec_fn=_default_sigint,
+                            **kwargs)  # type: ignore[call-overload]
+
+
+def _default_sigint() -> None:
+    """Give the child the SIGINT disposition of a terminal's foreground process.
+
+    A shell's background job (``cmd &`` without job control) starts with SIGINT ignored, and
+    children inherit that; Python then installs no KeyboardInterrupt handler, so the test would
+    depend on how its own runner was started.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _wait_for(condition, timeout: float = 120.0) -> None:
@@ -127,8 +138,9 @@ def test_ctrl_c_while_the_command_line_loads_prints_one_line(tmp_path: Path) -> 
     script = tmp_path / "bare.py"
     marker = tmp_path / "main.started"
     script.write_text("import pathlib, sys\nfrom rigval.validation.cli import main\n"
-                      f"pathlib.Path({str(marker)!r}).write_text('')\n"
-                      "sys.exit(main(sys.argv[1:]))\n")
+                      "if __name__ == '__main__':  # not again in a spawned worker\n"
+                      f"    pathlib.Path({str(marker)!r}).write_text('')\n"
+                      "    sys.exit(main(sys.argv[1:]))\n")
     _, scenes = _setup(tmp_path, sleep=60.0)
     process = _start(script, scenes, tmp_path / "out", stdout=subprocess.PIPE,
                      stderr=subprocess.PIPE, text=True)
