@@ -4,8 +4,8 @@
 than the comparison grid (the chosen grid is every :data:`FINE_FACTOR`-th point, so its error is
 measured by :func:`grid_error`): with measured drives, each driver's angle, speed and
 acceleration from its encoder averaged over the revolutions at each grid angle; with analytic
-drives, the mechanism file's laws over one revolution. :func:`energy_residual` (from
-:mod:`rigval.model.balance`) checks the model's numerics by its power balance.
+drives, the mechanism file's laws over one revolution. The power-balance check of the model's
+numerics is :func:`rigval.model.balance.energy_residual`.
 """
 
 from __future__ import annotations
@@ -16,7 +16,6 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from rigval.model.balance import energy_residual
 from rigval.model.mechanism import Mechanism
 from rigval.model.results import QUANTITIES, axial_joint_force
 from rigval.model.solver import interpolate_cycle, solve, solve_cycle
@@ -24,8 +23,7 @@ from rigval.processing.align import channel_time
 from rigval.processing.excitation import drive_excitation
 from rigval.validation.scene import ModelOutput, Scene
 
-__all__ = ["FINE_FACTOR", "energy_residual", "grid_error", "model_request", "model_values",
-           "run_model"]
+__all__ = ["FINE_FACTOR", "grid_error", "model_request", "model_values", "run_model"]
 
 logger = logging.getLogger(__name__)
 

@@ -57,6 +57,7 @@ import xarray as xr
 
 from rigval.acquisition.channel_map import StreamSpec, load_stream
 from rigval.acquisition.errors import DataError
+from rigval.model.balance import energy_residual
 from rigval.model.mechanism import load_mechanism
 from rigval.processing.align import channel_time, input_delay
 from rigval.processing.alignment import AlignmentSettings, MainAngle, align_streams
@@ -67,7 +68,6 @@ from rigval.validation.convert import convert_stream
 from rigval.validation.metrics.compare import baseline, check_thresholds, compare
 from rigval.validation.model_run import (
     FINE_FACTOR,
-    energy_residual,
     grid_error,
     model_request,
     model_values,
