@@ -35,6 +35,7 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import multiprocessing
 import os
 import pickle
 import re
@@ -44,7 +45,7 @@ import traceback
 import uuid
 import warnings
 from collections import Counter
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Generator, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -471,17 +472,19 @@ def run_campaign(
     out_dir : path
         Campaign folder; each run reports into ``out_dir/<run name>/`` (see :func:`plan_runs`).
     scheduler : str or distributed.Client, optional
-        Where the runs execute: ``None`` (default) an embedded local cluster of worker processes
-        if Dask is installed, else one after the other; ``"local"`` the embedded cluster (Dask
-        required); ``"none"`` one after the other in this process; an address such as
-        ``"tcp://host:8786"`` or a :class:`distributed.Client` an existing cluster (not closed
-        afterwards).
+        Where the runs execute: ``None`` (default) ``"local"`` if Dask is installed, else
+        ``"processes"``; ``"local"`` an embedded Dask cluster (Dask required); ``"processes"``
+        a child process per run, ``workers`` at a time (standard library only,
+        :mod:`~rigval.validation.campaign.processes`); ``"none"`` one after the other in this
+        process; an address such as ``"tcp://host:8786"`` or a :class:`distributed.Client` an
+        existing cluster (not closed afterwards).
     workers : int, optional
-        Worker processes of the embedded cluster (one thread each); default the number of CPUs,
-        at most the number of runs. Ignored for an existing cluster.
+        Runs at a time: worker processes of the embedded cluster (one thread each) or child
+        processes; default the number of CPUs, at most the number of runs (one: in this
+        process). Ignored for an existing cluster.
     validate : callable, optional
         ``validate(scene, run_dir) -> RunReport``; default the rigval validation pipeline. On a
-        cluster it must be picklable (a module-level function).
+        cluster, or in processes that are not forked, it must be picklable (module level).
     force : bool
         Recompute every run, even those whose outputs are up to date.
     on_result : callable, optional
@@ -505,30 +508,36 @@ def run_campaign(
     if not runs:
         return []
     if scheduler is None:
-        scheduler = "local" if dask_available() else "none"
+        scheduler = "local" if dask_available() else "processes"
+    if scheduler == "processes":
+        n_workers = min(workers or os.cpu_count() or 1, len(runs))
+        if n_workers > 1:
+            from rigval.validation.campaign.processes import run_in_processes
+
+            return _collect(runs, run_in_processes(runs, validate, force, n_workers), notify)
+        scheduler = "none"
     if scheduler == "none":
-        if workers not in (None, 1):
-            logger.info("Dask is not used: the runs go one after the other")
-        return _run_in_process(runs, validate, force, notify)
+        return _collect(runs, (run_one(run.scene, run.run_dir, validate=validate, name=run.name,
+                                       force=force) for run in runs), notify)
     with _client(scheduler, workers, len(runs), out_dir / WORKER_LOG_NAME) as client:
-        return _run_on_cluster(client, runs, validate, force, notify)
+        return _collect(runs, _run_on_cluster(client, runs, validate, force), notify)
 
 
-def _run_in_process(runs: Sequence[_Run], validate: ValidateFunction | None, force: bool,
-                    notify: Callable[[RunOutcome], None]) -> list[RunOutcome]:
-    """Run one after the other in this process."""
-    outcomes = []
-    for run in runs:
-        outcome = run_one(run.scene, run.run_dir, validate=validate, name=run.name, force=force)
-        _raise_again(outcome)
-        notify(outcome)
-        outcomes.append(outcome)
-    return outcomes
+def _collect(runs: Sequence[_Run], completed: Generator[RunOutcome, None, None],
+             notify: Callable[[RunOutcome], None]) -> list[RunOutcome]:
+    """Raise each outcome's warnings again and notify, in completion order; return scene order."""
+    outcomes = {}
+    with contextlib.closing(completed):  # on Ctrl-C at once: the schedulers clean up
+        for outcome in completed:
+            outcomes[outcome.name] = outcome
+            _raise_again(outcome)
+            notify(outcome)
+    return [outcomes[run.name] for run in runs]
 
 
 def _run_on_cluster(client: Client, runs: Sequence[_Run], validate: ValidateFunction | None,
-                    force: bool, notify: Callable[[RunOutcome], None]) -> list[RunOutcome]:
-    """Submit one task per run to a Dask cluster and collect the outcomes as they finish."""
+                    force: bool) -> Generator[RunOutcome, None, None]:
+    """Submit one task per run to a Dask cluster; yield the outcomes as they finish."""
     from distributed import as_completed
 
     token = uuid.uuid4().hex[:8]
@@ -537,7 +546,6 @@ def _run_on_cluster(client: Client, runs: Sequence[_Run], validate: ValidateFunc
                       force=force, key=f"rigval-run-{run.name}-{token}", pure=False): run
         for run in runs
     }
-    outcomes: dict[str, RunOutcome] = {}
     for future in as_completed(futures):
         run = futures[future]
         try:
@@ -546,10 +554,7 @@ def _run_on_cluster(client: Client, runs: Sequence[_Run], validate: ValidateFunc
             outcome = RunOutcome(name=run.name, scene=run.scene, run_dir=run.run_dir,
                                  status="error", error=RunError.from_exception(error))
         future.release()
-        outcomes[run.name] = outcome
-        _raise_again(outcome)
-        notify(outcome)
-    return [outcomes[run.name] for run in runs]
+        yield outcome
 
 
 @contextlib.contextmanager
@@ -639,12 +644,14 @@ def _remove_if_empty(path: Path) -> None:
 
 
 def stop_worker_processes() -> None:
-    """Kill this process's child processes (the embedded cluster's workers) at once.
+    """Kill this process's child processes (the runs' processes, a cluster's workers) at once.
 
     For Ctrl-C: their runs are lost either way, and killed they cannot print Dask's
     CancelledError and heartbeat messages. Multiprocessing's resource tracker is spared (it
-    cleans up after them). Without psutil (no Dask installed) there are no such children.
+    cleans up after them). Without psutil (no Dask installed) only multiprocessing's children.
     """
+    for child in multiprocessing.active_children():
+        child.kill()
     try:
         import psutil
     except ImportError:

@@ -1,0 +1,140 @@
+"""The campaign scheduler of the standard library: each run in a child process of its own.
+
+:func:`run_in_processes` keeps up to ``workers`` child processes busy, one per run, and yields
+each run's :class:`~rigval.validation.campaign.engine.RunOutcome` as it ends. Where the platform
+has ``fork`` (Linux) and this process runs a single thread, a child is a fork of this one: the
+modules already imported here are there at once, so a child starts in milliseconds (a spawned
+one imports numpy, xarray, matplotlib and rigval again, seconds of CPU). Otherwise (macOS,
+Windows, or a multi-threaded caller, where forking can deadlock) the children start the
+platform's safe way, ``forkserver`` or ``spawn``, and the validate function must be picklable.
+
+A child runs one BLAS thread (two children on two cores would otherwise run four), lets
+Ctrl-C end it without a traceback, and sends its outcome back through a pipe. A child that
+ends without sending one (killed by a signal, such as the kernel's out-of-memory killer, or
+crashed) becomes an error outcome of its run naming the exit; the other runs go on.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import os
+import signal
+import threading
+from collections.abc import Generator, Sequence
+from multiprocessing.connection import Connection, wait
+from typing import TYPE_CHECKING
+
+from rigval.validation.campaign.engine import RunError, RunOutcome, run_one
+
+if TYPE_CHECKING:
+    from multiprocessing.process import BaseProcess
+
+    from rigval.validation.campaign.engine import ValidateFunction, _Run
+
+__all__ = ["WORKER_DIED", "run_in_processes", "start_method"]
+
+logger = logging.getLogger(__name__)
+
+#: ``RunError.kind`` of a run whose process ended without a result.
+WORKER_DIED = "WorkerDied"
+
+
+def start_method() -> str:
+    """Return how to start the children: ``fork`` if it is safe here, else forkserver or spawn."""
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods and threading.active_count() == 1:
+        return "fork"
+    return "forkserver" if "forkserver" in methods else "spawn"
+
+
+def run_in_processes(runs: Sequence[_Run], validate: ValidateFunction | None, force: bool,
+                     workers: int) -> Generator[RunOutcome, None, None]:
+    """Validate each run in a child process, ``workers`` at a time; yield outcomes as they end.
+
+    Parameters
+    ----------
+    runs : sequence of _Run
+        The planned runs.
+    validate : callable or None
+        Passed on to :func:`~rigval.validation.campaign.engine.run_one`.
+    force : bool
+        Recompute runs whose outputs are up to date.
+    workers : int
+        Child processes at a time (at least 1).
+
+    Yields
+    ------
+    RunOutcome
+        One per run, in completion order. When the caller stops early (Ctrl-C), the children
+        still running are killed.
+    """
+    method = start_method()
+    context = multiprocessing.get_context(method)
+    logger.info("%d runs in up to %d child processes (started by %s)", len(runs), workers,
+                method)
+    waiting = list(reversed(runs))
+    running: dict[Connection, tuple[_Run, BaseProcess]] = {}
+    try:
+        while waiting or running:
+            while waiting and len(running) < workers:
+                run = waiting.pop()
+                receiver, sender = context.Pipe(duplex=False)
+                process = context.Process(target=_child, args=(sender, run, validate, force),
+                                          name=f"rigval run {run.name}")
+                process.start()
+                sender.close()  # the child holds the only sending end: its exit means EOF
+                running[receiver] = run, process
+            for receiver in wait(list(running)):
+                run, process = running.pop(receiver)
+                with receiver:
+                    try:
+                        outcome = receiver.recv()
+                    except EOFError:  # the child ended without sending its outcome
+                        outcome = None
+                    except Exception as error:  # an outcome that cannot be unpickled here
+                        outcome = _error(run, RunError.from_exception(error))
+                process.join()
+                yield outcome or _error(run, _died(run, process))
+    finally:
+        for receiver, (_, process) in running.items():
+            process.kill()
+            process.join()
+            receiver.close()
+
+
+def _child(sender: Connection, run: _Run, validate: ValidateFunction | None, force: bool
+           ) -> None:
+    """Validate one run in the child process and send its outcome to the parent."""
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.SIG_DFL)  # Ctrl-C ends the child, no traceback
+    os.environ["OMP_NUM_THREADS"] = os.environ["OPENBLAS_NUM_THREADS"] = "1"  # run_one obeys
+    outcome = run_one(run.scene, run.run_dir, validate=validate, name=run.name, force=force)
+    with sender:
+        try:
+            sender.send(outcome)
+        except Exception as error:  # e.g. a metric value that does not pickle
+            sender.send(_error(run, RunError.from_exception(error)))
+
+
+def _died(run: _Run, process: BaseProcess) -> RunError:
+    """Describe a child that ended without sending its run's outcome."""
+    code = process.exitcode
+    if code is not None and code < 0:
+        how = f"was killed by signal {signal.Signals(-code).name}"
+    else:
+        how = f"exited with code {code}"
+    hint = "run it again alone (--workers 1) to see whether it happens again"
+    if code == -signal.SIGKILL:
+        hint = ("SIGKILL usually means the system ran out of memory and the kernel's "
+                "out-of-memory killer ended the largest process; run fewer runs at once "
+                "(--workers 1), or on a machine with more memory")
+    return RunError(kind=WORKER_DIED, message=f"the process validating run {run.name} {how} "
+                    "before it finished", where={"run": run.name, "process id": process.pid},
+                    hint=hint, traceback="")
+
+
+def _error(run: _Run, error: RunError) -> RunOutcome:
+    """Return an error outcome of ``run``."""
+    return RunOutcome(name=run.name, scene=run.scene, run_dir=run.run_dir, status="error",
+                      error=error)
