@@ -2,9 +2,9 @@
 
 The shipped runs (:func:`rigval.sample_data.shipped_runs`, virtual-rig data at several speeds)
 form a campaign (:func:`rigval.validation.campaign.engine.run_campaign`): each run is validated
-into ``DIR/<run>/`` like ``rigval validate`` does, in parallel on the embedded Dask cluster when
-the ``parallel`` extra is installed (else one after the other), and a run whose inputs and
-outputs are unchanged since an earlier demo is reused. ``DIR/index.html`` (a
+into ``DIR/<run>/`` like ``rigval validate`` does, each in a process of its own forked from
+this one, one per core (``--workers 1``: one after the other in this process), and a run whose
+inputs and outputs are unchanged since an earlier demo is reused. ``DIR/index.html`` (a
 :class:`~rigval.validation.report.page.Page`) links the reports. Exit code 0 when every run
 meets its thresholds, 1 when one misses a threshold, 3 when one cannot be validated.
 """
@@ -16,11 +16,10 @@ import contextlib
 import importlib
 import io
 import json
-import logging
 import sys
 import time
 import tomllib
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -36,9 +35,9 @@ SUMMARY_NAME = "summary.txt"
 #: The score shown per comparison in the index page.
 _RATING = "iso18571_periodic.rating"
 #: Modules a run imports, some only when it first needs them (the TDMS reader, netCDF4,
-#: matplotlib's Agg backend, and dask.array, which xarray imports when it first checks for dask
-#: arrays: about 0.7 s of CPU alone). Imported once in the demo's process before the workers
-#: fork, instead of once in every worker.
+#: matplotlib's Agg backend, and dask.array if Dask is installed, which xarray imports when it
+#: first checks for dask arrays: about 0.7 s of CPU alone). Imported once in the demo's process
+#: before it forks the runs' processes, instead of once in every run's process.
 _PRELOAD = ("rigval.validation.pipeline", "rigval.validation.report.validate",
             "rigval.validation.report.sketch", "rigval.validation.commands.validate",
             "rigval.acquisition.reader", "rigval.acquisition.tdms", "rigval.acquisition.text_csv",
@@ -137,46 +136,32 @@ def _index(out_dir: Path, outcomes: Sequence[RunOutcome]) -> Path:
     return page.write(out_dir / "index.html")
 
 
-@contextlib.contextmanager
-def _forked_workers() -> Iterator[None]:
-    """Start the embedded cluster's workers by forking this process, modules already imported.
-
-    A spawned worker imports numpy, scipy, xarray, matplotlib and rigval again: measured about
-    4 s of CPU per worker, half the time the demo is allowed. Forked, it starts in well under a
-    second, with the modules of :data:`_PRELOAD` already imported. Without Dask (runs in this
-    process) this does nothing.
-    """
-    try:
-        import dask
-        import distributed  # noqa: F401  (its defaults must be in dask.config before the set below,
-        # or leaving the set deletes the whole "distributed" section for the rest of the process)
-    except ImportError:
-        yield
-        return
+def _preload() -> None:
+    """Import :data:`_PRELOAD` here, so that the forked processes of the runs have it at once."""
     for name in _PRELOAD:
-        importlib.import_module(name)
-    with dask.config.set({"distributed.worker.multiprocessing-method": "fork"}):
-        yield
+        with contextlib.suppress(ModuleNotFoundError):  # dask.array without the parallel extra
+            importlib.import_module(name)
 
 
 def run(args: argparse.Namespace) -> int:
     """Validate every shipped run; return 0 when all pass, 1 when one fails, 3 on an error."""
     from rigval.acquisition.errors import DataError
     from rigval.sample_data import shipped_runs
-    from rigval.validation.campaign.engine import dask_available, run_campaign
+    from rigval.validation.campaign.engine import run_campaign, stop_worker_processes
     from rigval.validation.campaign.report import run_reason
+    from rigval.validation.console import interrupt_quietly
 
     scenes = shipped_runs()
     if not scenes:
         raise DataError("no sample runs are shipped with this installation",
                         hint="reinstall rigval; the wheel carries sample_data/runs")
     start = time.perf_counter()
-    in_process = args.workers == 1 or len(scenes) == 1 or not dask_available()
-    # Dask logs its cluster's start and stop at INFO; show that only with -vv
-    verbose = logging.getLogger().getEffectiveLevel() <= logging.DEBUG
-    logging.getLogger("distributed").setLevel(logging.INFO if verbose else logging.WARNING)
-    with _forked_workers():
-        outcomes = run_campaign(scenes, args.out, scheduler="none" if in_process else "local",
+    # a child process per run (forked, so faster than a Dask cluster's start, also with Dask)
+    in_process = args.workers == 1 or len(scenes) == 1
+    if not in_process:
+        _preload()
+    with interrupt_quietly(stop_worker_processes):
+        outcomes = run_campaign(scenes, args.out, scheduler="none" if in_process else "processes",
                                 workers=args.workers, validate=validate_one, force=args.force)
     for outcome in outcomes:
         summary = outcome.output(SUMMARY_NAME)
