@@ -129,6 +129,14 @@ def test_ctrl_c_during_a_run_in_this_process_prints_one_line(tmp_path: Path) -> 
     _assert_one_line(*_interrupt(process))
 
 
+def test_ctrl_c_during_runs_in_child_processes_prints_one_line(tmp_path: Path) -> None:
+    script, scenes = _setup(tmp_path, sleep=60.0)
+    process = _start(script, scenes, tmp_path / "out", "--scheduler", "processes", "--workers",
+                     "2", stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    _wait_for(lambda: len(list(tmp_path.glob("*.started"))) == 2)
+    _assert_one_line(*_interrupt(process))
+
+
 def test_ctrl_c_while_the_command_line_loads_prints_one_line(tmp_path: Path) -> None:
     """Right when main() starts: its subcommands and the campaign engine are still importing.
 
@@ -148,12 +156,13 @@ def test_ctrl_c_while_the_command_line_loads_prints_one_line(tmp_path: Path) -> 
     _assert_one_line(*_interrupt(process))
 
 
-def test_worker_warnings_are_whole_lines_naming_their_run(tmp_path: Path) -> None:
+@pytest.mark.parametrize("scheduler", ["local", "processes"])
+def test_worker_warnings_are_whole_lines_naming_their_run(tmp_path: Path, scheduler: str) -> None:
     script, scenes = _setup(tmp_path, sleep=0.2)
     out = tmp_path / "out"
     leader, follower = pty.openpty()  # a terminal, so the progress line is drawn
-    process = _start(script, scenes, out, "--workers", "2", stdout=subprocess.PIPE,
-                     stderr=follower)
+    process = _start(script, scenes, out, "--workers", "2", "--scheduler", scheduler,
+                     stdout=subprocess.PIPE, stderr=follower)
     os.close(follower)
     chunks = []
     while True:

@@ -569,7 +569,8 @@ def _client(scheduler: str | Client, workers: int | None, n_runs: int, worker_lo
         return
     if scheduler != "local" and "://" not in scheduler:
         raise ConfigError(f"unknown scheduler {scheduler!r}", where={"option": "--scheduler"},
-                          hint='give "local", "none" or an address such as tcp://host:8786')
+                          hint='give "local", "processes", "none" or an address such as '
+                               'tcp://host:8786')
     if not dask_available():
         raise ConfigError(f"scheduler {scheduler!r} needs Dask, which is not installed",
                           where={"option": "--scheduler"},

@@ -4,9 +4,11 @@
 each run's :class:`~rigval.validation.campaign.engine.RunOutcome` as it ends. Where the platform
 has ``fork`` (Linux) and this process runs a single thread, a child is a fork of this one: the
 modules already imported here are there at once, so a child starts in milliseconds (a spawned
-one imports numpy, xarray, matplotlib and rigval again, seconds of CPU). Otherwise (macOS,
-Windows, or a multi-threaded caller, where forking can deadlock) the children start the
-platform's safe way, ``forkserver`` or ``spawn``, and the validate function must be picklable.
+one imports numpy, xarray, matplotlib and rigval again, seconds of CPU); with the default
+validation, the modules it imports on the way (:data:`PIPELINE_MODULES`) are imported here
+first. Otherwise (macOS, Windows, or a multi-threaded caller, where forking can deadlock) the
+children start the platform's safe way, ``forkserver`` or ``spawn``, and the validate function
+must be picklable.
 
 A child runs one BLAS thread (two children on two cores would otherwise run four), lets
 Ctrl-C end it without a traceback, and sends its outcome back through a pipe. A child that
@@ -16,6 +18,8 @@ crashed) becomes an error outcome of its run naming the exit; the other runs go 
 
 from __future__ import annotations
 
+import contextlib
+import importlib
 import logging
 import multiprocessing
 import os
@@ -32,9 +36,19 @@ if TYPE_CHECKING:
 
     from rigval.validation.campaign.engine import ValidateFunction, _Run
 
-__all__ = ["WORKER_DIED", "run_in_processes", "start_method"]
+__all__ = ["PIPELINE_MODULES", "WORKER_DIED", "preload_pipeline", "run_in_processes",
+           "start_method"]
 
 logger = logging.getLogger(__name__)
+
+#: Modules a validation imports, some only when it first needs them (the TDMS reader, netCDF4,
+#: matplotlib's Agg backend, and dask.array if Dask is installed, which xarray imports when it
+#: first checks for dask arrays: about 0.7 s of CPU alone).
+PIPELINE_MODULES = ("rigval.validation.pipeline", "rigval.validation.report.validate",
+                    "rigval.validation.report.sketch", "rigval.validation.commands.validate",
+                    "rigval.acquisition.reader", "rigval.acquisition.tdms",
+                    "rigval.acquisition.text_csv", "rigval.acquisition.lvm", "dask.array",
+                    "netCDF4", "matplotlib.backends.backend_agg", "threadpoolctl")
 
 #: ``RunError.kind`` of a run whose process ended without a result.
 WORKER_DIED = "WorkerDied"
@@ -46,6 +60,13 @@ def start_method() -> str:
     if "fork" in methods and threading.active_count() == 1:
         return "fork"
     return "forkserver" if "forkserver" in methods else "spawn"
+
+
+def preload_pipeline() -> None:
+    """Import :data:`PIPELINE_MODULES`: done before forking, once instead of once per child."""
+    for name in PIPELINE_MODULES:
+        with contextlib.suppress(ModuleNotFoundError):  # dask.array without the parallel extra
+            importlib.import_module(name)
 
 
 def run_in_processes(runs: Sequence[_Run], validate: ValidateFunction | None, force: bool,
@@ -70,6 +91,8 @@ def run_in_processes(runs: Sequence[_Run], validate: ValidateFunction | None, fo
         still running are killed.
     """
     method = start_method()
+    if method == "fork" and validate is None:
+        preload_pipeline()
     context = multiprocessing.get_context(method)
     logger.info("%d runs in up to %d child processes (started by %s)", len(runs), workers,
                 method)

@@ -25,7 +25,7 @@ def add_parser(subparsers: Any) -> None:
     """Register the ``campaign`` subcommand."""
     parser = add_command(
         subparsers, run, "campaign",
-        help="validate many runs (scenes) at once, on Dask if installed",
+        help="validate many runs (scenes) at once, in parallel (on Dask if installed)",
         description="Validate every scene into OUT/<run>/ and write a campaign summary "
                     "(campaign.html, campaign_metrics.csv, campaign.json) beside them. Runs "
                     "whose inputs and outputs are unchanged since the last campaign are reused.",
@@ -35,10 +35,13 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("scenes", nargs="+", metavar="SCENE", help="scene files, one per run")
     add_out_option(parser, "campaign folder")
     parser.add_argument("--workers", type=_positive_int, metavar="N",
-                        help="worker processes of the embedded Dask cluster (default: CPUs)")
+                        help="runs at a time: worker processes of the embedded Dask cluster or "
+                             "child processes (default: CPUs, at most the runs; 1: one after "
+                             "the other in this process)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help='"local" (default with Dask: an embedded cluster), "none" (one '
-                             'run after the other), or an existing cluster (tcp://host:8786)')
+                        help='"local" (default with Dask: an embedded cluster), "processes" '
+                             '(default without Dask: a child process per run), "none" (one run '
+                             'after the other here), or an existing cluster (tcp://host:8786)')
     parser.add_argument("--force", action="store_true",
                         help="recompute every run, even those that are up to date")
     parser.add_argument("--title", default="rigval campaign", help="title of the summary page")
@@ -58,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     # Dask logs its cluster's start and stop at INFO; show that only with -vv. Importing
     # distributed (dask_available does) sets its loggers' levels, so this comes after.
     has_dask = dask_available()
-    scheduler = args.scheduler or ("local" if has_dask else "none")
+    scheduler = args.scheduler or ("local" if has_dask else "processes")
     verbose = logging.getLogger().getEffectiveLevel() <= logging.DEBUG
     logging.getLogger("distributed").setLevel(logging.INFO if verbose else logging.WARNING)
 
@@ -73,8 +76,9 @@ def run(args: argparse.Namespace) -> int:
                                     on_result=progress.update)
     finally:
         progress.close()
-    workers = {"none": "1 (this process)", "local": args.workers or "one per CPU, at most one "
-               "per run"}.get(scheduler, "those of the cluster")
+    many = args.workers or "one per CPU, at most one per run"
+    workers = {"none": "1 (this process)", "local": many, "processes": many}.get(
+        scheduler, "those of the cluster")
     details = {"scheduler": scheduler, "workers": workers,
                "wall time [s]": round(time.perf_counter() - start, 2)}
     files = write_campaign_report(outcomes, args.out, title=args.title, details=details)

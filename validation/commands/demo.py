@@ -12,8 +12,6 @@ meets its thresholds, 1 when one misses a threshold, 3 when one cannot be valida
 from __future__ import annotations
 
 import argparse
-import contextlib
-import importlib
 import io
 import json
 import sys
@@ -34,15 +32,6 @@ __all__ = ["SUMMARY_NAME", "add_parser", "run", "validate_one"]
 SUMMARY_NAME = "summary.txt"
 #: The score shown per comparison in the index page.
 _RATING = "iso18571_periodic.rating"
-#: Modules a run imports, some only when it first needs them (the TDMS reader, netCDF4,
-#: matplotlib's Agg backend, and dask.array if Dask is installed, which xarray imports when it
-#: first checks for dask arrays: about 0.7 s of CPU alone). Imported once in the demo's process
-#: before it forks the runs' processes, instead of once in every run's process.
-_PRELOAD = ("rigval.validation.pipeline", "rigval.validation.report.validate",
-            "rigval.validation.report.sketch", "rigval.validation.commands.validate",
-            "rigval.acquisition.reader", "rigval.acquisition.tdms", "rigval.acquisition.text_csv",
-            "rigval.acquisition.lvm", "dask.array", "netCDF4", "matplotlib.backends.backend_agg",
-            "threadpoolctl")
 
 
 def add_parser(subparsers: Any) -> None:
@@ -136,18 +125,12 @@ def _index(out_dir: Path, outcomes: Sequence[RunOutcome]) -> Path:
     return page.write(out_dir / "index.html")
 
 
-def _preload() -> None:
-    """Import :data:`_PRELOAD` here, so that the forked processes of the runs have it at once."""
-    for name in _PRELOAD:
-        with contextlib.suppress(ModuleNotFoundError):  # dask.array without the parallel extra
-            importlib.import_module(name)
-
-
 def run(args: argparse.Namespace) -> int:
     """Validate every shipped run; return 0 when all pass, 1 when one fails, 3 on an error."""
     from rigval.acquisition.errors import DataError
     from rigval.sample_data import shipped_runs
     from rigval.validation.campaign.engine import run_campaign, stop_worker_processes
+    from rigval.validation.campaign.processes import preload_pipeline
     from rigval.validation.campaign.report import run_reason
     from rigval.validation.console import interrupt_quietly
 
@@ -159,7 +142,7 @@ def run(args: argparse.Namespace) -> int:
     # a child process per run (forked, so faster than a Dask cluster's start, also with Dask)
     in_process = args.workers == 1 or len(scenes) == 1
     if not in_process:
-        _preload()
+        preload_pipeline()  # once here, not in each forked process
     with interrupt_quietly(stop_worker_processes):
         outcomes = run_campaign(scenes, args.out, scheduler="none" if in_process else "processes",
                                 workers=args.workers, validate=validate_one, force=args.force)
