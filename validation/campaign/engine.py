@@ -648,19 +648,11 @@ def stop_worker_processes() -> None:
     """Kill this process's child processes (the runs' processes, a cluster's workers) at once.
 
     For Ctrl-C: their runs are lost either way, and killed they cannot print Dask's
-    CancelledError and heartbeat messages. Multiprocessing's resource tracker is spared (it
-    cleans up after them). Without psutil (no Dask installed) only multiprocessing's children.
+    CancelledError and heartbeat messages. Multiprocessing's resource tracker is not among them
+    (it cleans up after them).
     """
     for child in multiprocessing.active_children():
         child.kill()
-    try:
-        import psutil
-    except ImportError:
-        return
-    for child in psutil.Process().children(recursive=True):
-        with contextlib.suppress(psutil.Error):
-            if "resource_tracker" not in " ".join(child.cmdline()):
-                child.kill()
 
 
 def _reuse(name: str, scene: Path, run_dir: Path) -> RunOutcome | None:
