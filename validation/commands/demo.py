@@ -12,6 +12,8 @@ meets its thresholds, 1 when one misses a threshold, 3 when one cannot be valida
 from __future__ import annotations
 
 import argparse
+import atexit
+import gc
 import io
 import json
 import sys
@@ -134,6 +136,9 @@ def run(args: argparse.Namespace) -> int:
     from rigval.validation.campaign.report import run_reason
     from rigval.validation.console import interrupt_quietly
 
+    # The interpreter's exit would walk the objects of every imported module (numpy, scipy,
+    # xarray, matplotlib, rigval) looking for garbage: 0.4-0.5 s. Frozen, they are skipped.
+    atexit.register(gc.freeze)
     scenes = shipped_runs()
     if not scenes:
         raise DataError("no sample runs are shipped with this installation",
