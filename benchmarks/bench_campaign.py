@@ -1,10 +1,11 @@
-"""Campaign throughput: runs per minute one after the other, and on 1 and 2 Dask worker processes.
+"""Campaign throughput: runs per minute one after the other, in 2 child processes, on Dask.
 
 Generates ``--runs`` runs with the virtual rig (speeds spread over 1.0 ... 2.0 rev/s, ``--duration``
-seconds each, no Wi-Fi dropouts), then validates all of them as a campaign three ways, each into a
+seconds each, no Wi-Fi dropouts), then validates all of them as a campaign four ways, each into a
 fresh folder (nothing reused), ``--repeat`` rounds interleaved, and prints the best rate per way:
 
-* ``none``: one after the other in this process (what runs without the parallel extra),
+* ``none``: one after the other in this process,
+* ``processes`` with 2 child processes (forked, one per run; the default without Dask),
 * ``local`` with 1 and with 2 worker processes (the embedded LocalCluster).
 
 Wall time is what a user waits for ``rigval campaign``: cluster start, worker imports, the runs, and
@@ -29,7 +30,7 @@ from pathlib import Path
 from rigval.sample_data import Imperfections, RigSettings, simulate_rig
 from rigval.validation.campaign.engine import run_campaign
 
-MODES = (("none", 1), ("local", 1), ("local", 2))  # (scheduler, worker processes)
+MODES = (("none", 1), ("processes", 2), ("local", 1), ("local", 2))  # (scheduler, processes)
 
 
 def generate(folder: Path, runs: int, duration: float) -> list[Path]:
@@ -45,7 +46,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=6)
     parser.add_argument("--duration", type=float, default=6.0, help="record length per run, s")
-    parser.add_argument("--repeat", type=int, default=2, help="rounds over the three modes")
+    parser.add_argument("--repeat", type=int, default=2, help="rounds over the four modes")
     args = parser.parse_args()
 
     with tempfile.TemporaryDirectory() as tmp:
