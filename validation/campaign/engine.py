@@ -1,4 +1,4 @@
-"""Campaigns: validate many runs at once, on Dask when it is installed.
+"""Campaigns: validate many runs at once, on Dask or in child processes.
 
 A campaign is a list of scenes (one per measured run). :func:`run_campaign` validates every scene
 into its own report folder ``OUT/<run>/`` and returns one :class:`RunOutcome` per run, in the
@@ -9,9 +9,11 @@ order the scenes were given. Where the runs execute is a choice of the caller:
 * an existing Dask cluster given by its scheduler address (``"tcp://host:8786"``) or a
   :class:`distributed.Client`, through the same code path (the workers must see the scene, data
   and output paths under the same names, e.g. on a shared file system),
-* one after the other in this process (``scheduler="none"``, or when Dask is not installed).
+* a child process per run (``scheduler="processes"``, the default without Dask; standard
+  library only: :mod:`~rigval.validation.campaign.processes`),
+* one after the other in this process (``scheduler="none"``).
 
-All three give the same outcomes, because each run is one call of :func:`run_one`, which never
+All give the same outcomes, because each run is one call of :func:`run_one`, which never
 raises for a problem of its run: a bad file, a failed alignment or even a bug in rigval becomes an
 outcome with status ``"error"`` and a :class:`RunError` (class, message, where, hint, traceback),
 and the other runs go on. rigval's errors pickle with their fields, so the original exception
