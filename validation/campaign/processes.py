@@ -1,19 +1,13 @@
 """The campaign scheduler of the standard library: each run in a child process of its own.
 
-:func:`run_in_processes` keeps up to ``workers`` child processes busy, one per run, and yields
-each run's :class:`~rigval.validation.campaign.engine.RunOutcome` as it ends. Where the platform
-has ``fork`` (Linux) and this process runs a single thread, a child is a fork of this one: the
-modules already imported here are there at once, so a child starts in milliseconds (a spawned
-one imports numpy, xarray, matplotlib and rigval again, seconds of CPU); with the default
-validation, the modules it imports on the way (:data:`PIPELINE_MODULES`) are imported here
-first. Otherwise (macOS, Windows, or a multi-threaded caller, where forking can deadlock) the
-children start the platform's safe way, ``forkserver`` or ``spawn``, and the validate function
-must be picklable.
-
-A child runs one BLAS thread (two children on two cores would otherwise run four), lets
-Ctrl-C end it without a traceback, and sends its outcome back through a pipe. A child that
-ends without sending one (killed by a signal, such as the kernel's out-of-memory killer, or
-crashed) becomes an error outcome of its run naming the exit; the other runs go on.
+Where the platform has ``fork`` (Linux) and this process runs one thread, a child is a fork of
+this process and starts in milliseconds with its modules imported (with the default validation,
+:data:`PIPELINE_MODULES` are imported first); otherwise (macOS, Windows, a multi-threaded caller,
+where forking can deadlock) children start by ``forkserver`` or ``spawn`` and import rigval
+themselves, and the validate function must be picklable. A child runs one BLAS thread, ends on
+Ctrl-C without a traceback and sends its outcome through a pipe; one that ends without sending
+it (killed by a signal, e.g. by the out-of-memory killer, or crashed) becomes an error outcome
+of its run naming how it ended, and the other runs go on.
 """
 
 from __future__ import annotations
@@ -36,8 +30,7 @@ if TYPE_CHECKING:
 
     from rigval.validation.campaign.engine import ValidateFunction, _Run
 
-__all__ = ["PIPELINE_MODULES", "WORKER_DIED", "preload_pipeline", "run_in_processes",
-           "start_method"]
+__all__ = ["PIPELINE_MODULES", "WORKER_DIED", "preload_pipeline", "run_in_processes"]
 
 logger = logging.getLogger(__name__)
 
@@ -73,29 +66,15 @@ def run_in_processes(runs: Sequence[_Run], validate: ValidateFunction | None, fo
                      workers: int) -> Generator[RunOutcome, None, None]:
     """Validate each run in a child process, ``workers`` at a time; yield outcomes as they end.
 
-    Parameters
-    ----------
-    runs : sequence of _Run
-        The planned runs.
-    validate : callable or None
-        Passed on to :func:`~rigval.validation.campaign.engine.run_one`.
-    force : bool
-        Recompute runs whose outputs are up to date.
-    workers : int
-        Child processes at a time (at least 1).
-
-    Yields
-    ------
-    RunOutcome
-        One per run, in completion order. When the caller stops early (Ctrl-C), the children
-        still running are killed.
+    ``validate`` and ``force`` are passed on to :func:`~rigval.validation.campaign.engine.run_one`.
+    Outcomes come in completion order; when the caller stops early (Ctrl-C), the children still
+    running are killed.
     """
     method = start_method()
     if method == "fork" and validate is None:
         preload_pipeline()
     context = multiprocessing.get_context(method)
-    logger.info("%d runs in up to %d child processes (started by %s)", len(runs), workers,
-                method)
+    logger.info("%d runs in up to %d child processes (%s)", len(runs), workers, method)
     waiting = list(reversed(runs))
     running: dict[Connection, tuple[_Run, BaseProcess]] = {}
     try:
@@ -143,15 +122,11 @@ def _child(sender: Connection, run: _Run, validate: ValidateFunction | None, for
 def _died(run: _Run, process: BaseProcess) -> RunError:
     """Describe a child that ended without sending its run's outcome."""
     code = process.exitcode
-    if code is not None and code < 0:
-        how = f"was killed by signal {signal.Signals(-code).name}"
-    else:
-        how = f"exited with code {code}"
-    hint = "run it again alone (--workers 1) to see whether it happens again"
-    if code == -signal.SIGKILL:
-        hint = ("SIGKILL usually means the system ran out of memory and the kernel's "
-                "out-of-memory killer ended the largest process; run fewer runs at once "
-                "(--workers 1), or on a machine with more memory")
+    how = (f"was killed by signal {signal.Signals(-code).name}" if code is not None and code < 0
+           else f"exited with code {code}")
+    hint = ("SIGKILL usually means the system ran out of memory and the kernel's out-of-memory "
+            "killer ended the largest process; run fewer runs at once (--workers 1)"
+            if code == -signal.SIGKILL else "run it alone (--workers 1) to see if it recurs")
     return RunError(kind=WORKER_DIED, message=f"the process validating run {run.name} {how} "
                     "before it finished", where={"run": run.name, "process id": process.pid},
                     hint=hint, traceback="")
