@@ -276,34 +276,3 @@ def test_runs_at_one_speed_are_not_joined_by_a_line(tmp_path: Path) -> None:
     (line,) = plot_metrics_against_speed(metrics_table(outcomes)).axes[0].get_lines()[:1]
     assert line.get_linestyle() == "None"
     np.testing.assert_allclose(line.get_xydata(), [[1.0, 0.1], [1.0, 0.1]])
-
-
-BLAS_SEEN: list[list[int]] = []
-
-
-def blas_recording_validate(scene: Path, run_dir: Path) -> RunReport:
-    """The stand-in validation, noting the BLAS thread counts it ran with."""
-    from threadpoolctl import threadpool_info
-
-    BLAS_SEEN.append([lib["num_threads"] for lib in threadpool_info()
-                      if lib["user_api"] == "blas"])
-    return standin_validate(scene, run_dir)
-
-
-def test_run_takes_the_one_blas_thread_its_environment_asks_for(
-        tmp_path: Path, scenes: list[Path], monkeypatch: pytest.MonkeyPatch) -> None:
-    # a Dask nanny sets OMP_NUM_THREADS=1 for its worker; a forked worker's BLAS ignores it
-    from threadpoolctl import threadpool_info, threadpool_limits
-
-    with threadpool_limits(2, user_api="blas"):  # as numpy starts on a 2-core machine
-        before = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
-        BLAS_SEEN.clear()
-        monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
-        monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
-        run_one(scenes[0], tmp_path / "free", validate=blas_recording_validate, force=True)
-        monkeypatch.setenv("OMP_NUM_THREADS", "1")
-        run_one(scenes[0], tmp_path / "one", validate=blas_recording_validate, force=True)
-        after = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
-    assert before and BLAS_SEEN[0] == before
-    assert BLAS_SEEN[1] == [1] * len(before)
-    assert after == before  # restored when the run ends

@@ -380,7 +380,7 @@ def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunctio
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
         (run_dir / MANIFEST_NAME).unlink(missing_ok=True)  # invalid until this run completes
-        with _local_dask(), _blas_threads_asked(), run_context(name), \
+        with _local_dask(), run_context(name), \
                 warnings.catch_warnings(record=True) as caught:
             report = validate(scene, run_dir)
         outcome = RunOutcome(
@@ -436,23 +436,6 @@ def _local_dask() -> contextlib.AbstractContextManager[Any]:
     except ImportError:
         return contextlib.nullcontext()
     return dask.config.set(scheduler="synchronous")
-
-
-def _blas_threads_asked() -> contextlib.AbstractContextManager[Any]:
-    """Run with one BLAS thread when the environment asks for one (a Dask worker's does).
-
-    A Dask nanny sets ``OMP_NUM_THREADS=1`` and ``OPENBLAS_NUM_THREADS=1`` for a worker of one
-    thread, but a worker forked from a process that has imported numpy (the embedded cluster
-    of ``rigval demo``) keeps the BLAS threads numpy started with, one per core: two such
-    workers on two cores run four BLAS threads that wait for each other. Here the limit takes
-    effect (:func:`rigval.acquisition.threads.single_blas_thread`); without the variables, or
-    with other values, nothing changes.
-    """
-    if "1" not in (os.environ.get("OMP_NUM_THREADS"), os.environ.get("OPENBLAS_NUM_THREADS")):
-        return contextlib.nullcontext()
-    from rigval.acquisition.threads import single_blas_thread
-
-    return single_blas_thread()
 
 
 def run_campaign(

@@ -23,6 +23,7 @@ from collections.abc import Generator, Sequence
 from multiprocessing.connection import Connection, wait
 from typing import TYPE_CHECKING
 
+from rigval.acquisition.threads import single_blas_thread
 from rigval.validation.campaign.engine import RunError, RunOutcome, run_one
 
 if TYPE_CHECKING:
@@ -110,8 +111,11 @@ def _child(sender: Connection, run: _Run, validate: ValidateFunction | None, for
     """Validate one run in the child process and send its outcome to the parent."""
     if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.SIG_DFL)  # Ctrl-C ends the child, no traceback
-    os.environ["OMP_NUM_THREADS"] = os.environ["OPENBLAS_NUM_THREADS"] = "1"  # run_one obeys
-    outcome = run_one(run.scene, run.run_dir, validate=validate, name=run.name, force=force)
+    # numpy started one BLAS thread per core before the fork: two children on two cores would
+    # run four; the variables tell the child's own children
+    os.environ["OMP_NUM_THREADS"] = os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    with single_blas_thread():
+        outcome = run_one(run.scene, run.run_dir, validate=validate, name=run.name, force=force)
     with sender:
         try:
             sender.send(outcome)
