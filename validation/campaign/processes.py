@@ -3,11 +3,11 @@
 Where the platform has ``fork`` (Linux) and this process runs one thread, a child is a fork of
 this process and starts in milliseconds with its modules imported (with the default validation,
 :data:`PIPELINE_MODULES` are imported first); otherwise (macOS, Windows, a multi-threaded caller,
-where forking can deadlock) children start by ``forkserver`` or ``spawn`` and import rigval
-themselves, and the validate function must be picklable. A child runs one BLAS thread, ends on
-Ctrl-C without a traceback and sends its outcome through a pipe; one that ends without sending
-it (killed by a signal, e.g. by the out-of-memory killer, or crashed) becomes an error outcome
-of its run naming how it ended, and the other runs go on.
+where forking can deadlock) children start by ``forkserver``, whose server imports
+:data:`PIPELINE_MODULES` once, or ``spawn``, and the validate function must be picklable. A child
+runs one BLAS thread, ends on Ctrl-C without a traceback and sends its outcome through a pipe;
+one that ends without sending it (killed by a signal, e.g. by the out-of-memory killer, or
+crashed) becomes an error outcome of its run naming how it ended, and the other runs go on.
 """
 
 from __future__ import annotations
@@ -75,6 +75,8 @@ def run_in_processes(runs: Sequence[_Run], validate: ValidateFunction | None, fo
     if method == "fork" and validate is None:
         preload_pipeline()
     context = multiprocessing.get_context(method)
+    if method == "forkserver":  # its server imports these once; its children have them
+        context.set_forkserver_preload(["__main__", *PIPELINE_MODULES])
     logger.info("%d runs in up to %d child processes (%s)", len(runs), workers, method)
     waiting = list(reversed(runs))
     running: dict[Connection, tuple[_Run, BaseProcess]] = {}
