@@ -40,6 +40,8 @@ def standin(scene: Path, run_dir: Path) -> RunReport:
                       stacklevel=1)
     if spec.get("kill"):
         os.kill(os.getpid(), signal.SIGKILL)
+    if "exit" in spec:  # a crash that skips Python's clean-up
+        os._exit(spec["exit"])
     if spec.get("broken"):
         raise DataFileError("not a column of numbers", where={"file": scene, "line": 3},
                             hint="write one number per line")
@@ -103,10 +105,13 @@ def test_processes_give_the_in_process_outcomes_in_scene_order(
 
 def test_a_child_killed_by_a_signal_is_an_error_of_its_run_only(tmp_path: Path) -> None:
     data = tmp_path / "data"
-    scenes = [_scene(data, "first"), _scene(data, "killed", kill=True), _scene(data, "last")]
+    scenes = [_scene(data, "first"), _scene(data, "killed", kill=True),
+              _scene(data, "crashed", exit=3), _scene(data, "last")]
     outcomes = run_campaign(scenes, tmp_path / "out", scheduler="processes", workers=2,
                             validate=standin)
-    assert [o.status for o in outcomes] == ["passed", "error", "passed"]
+    assert [o.status for o in outcomes] == ["passed", "error", "error", "passed"]
+    assert "run crashed exited with code 3" in outcomes[2].error.message
+    assert outcomes[2].error.kind == WORKER_DIED and "--workers 1" in outcomes[2].error.hint
     error = outcomes[1].error
     assert error.kind == WORKER_DIED
     assert "run killed was killed by signal SIGKILL" in error.message

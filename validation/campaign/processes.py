@@ -91,14 +91,15 @@ def run_in_processes(runs: Sequence[_Run], validate: ValidateFunction | None, fo
                 sender.close()  # the child holds the only sending end: its exit means EOF
                 running[receiver] = run, process
             for receiver in wait(list(running)):
-                run, process = running.pop(receiver)
-                with receiver:
-                    try:
-                        outcome = receiver.recv()
-                    except EOFError:  # the child ended without sending its outcome
-                        outcome = None
-                    except Exception as error:  # an outcome that cannot be unpickled here
-                        outcome = _error(run, RunError.from_exception(error))
+                run, process = running[receiver]
+                try:
+                    outcome = receiver.recv()
+                except EOFError:  # the child ended without sending its outcome
+                    outcome = None
+                except Exception as error:  # an outcome that cannot be unpickled here
+                    outcome = _error(run, RunError.from_exception(error))
+                del running[receiver]
+                receiver.close()
                 process.join()
                 yield outcome or _error(run, _died(run, process))
     finally:
@@ -127,8 +128,9 @@ def _child(sender: Connection, run: _Run, validate: ValidateFunction | None, for
 
 def _died(run: _Run, process: BaseProcess) -> RunError:
     """Describe a child that ended without sending its run's outcome."""
-    code = process.exitcode
-    how = (f"was killed by signal {signal.Signals(-code).name}" if code is not None and code < 0
+    code = process.exitcode or 0
+    names = {-number: number.name for number in signal.Signals}  # exit code -N: signal N
+    how = (f"was killed by signal {names.get(code, -code)}" if code < 0
            else f"exited with code {code}")
     hint = ("SIGKILL usually means the system ran out of memory and the kernel's out-of-memory "
             "killer ended the largest process; run fewer runs at once (--workers 1)"
