@@ -36,8 +36,8 @@ def add_parser(subparsers: Any) -> None:
     add_out_option(parser, "campaign folder")
     parser.add_argument("--workers", type=_positive_int, metavar="N",
                         help="runs at a time: worker processes of the embedded Dask cluster or "
-                             "child processes (default: CPUs, at most the runs; 1: one after "
-                             "the other in this process)")
+                             "child processes (default: CPUs, at most the runs; 1 child "
+                             "process: the runs go one after the other in this process)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help='"local" (default with Dask: an embedded cluster), "processes" '
                              '(default without Dask: a child process per run), "none" (one run '
