@@ -73,6 +73,13 @@ _LM_TOL = 1e-10
 #: 0.5 rad select one branch unambiguously.
 GUESS_TOL = 0.5
 
+#: Largest ratio of the second- to the first-order term of a continuation step's prediction:
+#: longer steps are halved. On the pendulum and the four-bar (steps of 0.2 to 9 rad of crank from
+#: 400 seeded starts each) Newton closed the loops on another branch from 3 rad on, at ratios of
+#: 0.64 and more (1.0 and more where the corrector-distance test let it through); steps on the
+#: right branch had ratios up to 0.85 at 1 rad (docs/numerics.md, case 3).
+_SERIES_RATIO = 0.5
+
 #: Largest ``cond(C_e)**2 * eps`` at which forces are still returned (see :data:`COND_MAX`).
 FORCE_TRUST = 1e-5
 #: Condition number of the column-equilibrated, reduced ``C_e`` past which the forces cannot be
@@ -497,6 +504,19 @@ def condition_one(jacobian: np.ndarray) -> float:
     return float(np.linalg.cond(scaled, 1))
 
 
+def _within_series_range(linear: np.ndarray, bend: np.ndarray) -> bool:
+    """Whether a Taylor step stays well inside the branch's range of convergence.
+
+    ``linear`` and ``bend`` are the first- and second-order terms of the predicted change of the
+    undriven angles, rad. Their ratio estimates the step over the distance to the nearest branch
+    point (a toggle, real or complex), where the branches meet: beyond it the prediction says
+    nothing about the branch, and Newton from it can close the loops on another one however
+    close it lands (docs/numerics.md, case 3).
+    """
+    return float(np.abs(bend).max(initial=0.0)) <= (
+        _SERIES_RATIO * float(np.abs(linear).max(initial=0.0)) + 1e-6)
+
+
 class _Tracker:
     """Sequential continuation of one mechanism's assembly along a path of driven angles."""
 
@@ -583,7 +603,11 @@ class _Tracker:
             delta = (target - fraction) * path_delta
             goal_d = theta_d1 if target >= 1.0 else theta_d0 + target * path_delta
             first, second = expansion
-            guess = current_u + first @ delta + 0.5 * (second @ delta) @ delta
+            linear, bend = first @ delta, 0.5 * (second @ delta) @ delta
+            if not _within_series_range(linear, bend):
+                size /= 2.0  # beyond the predictor's range: the branch would be a guess
+                continue
+            guess = current_u + linear + bend
             found, ok, _gap, jac = self._newton(goal_d, guess)
             moved = float(np.abs(found - guess).max())
             expected = float(np.abs(guess - current_u).max())
@@ -710,22 +734,28 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
         targets = _anchor_indices(travel, spacing)
         targets = targets[~solved[targets]]
         if targets.size:
-            _refine(tracker, path, theta_d, theta_u, np.flatnonzero(solved), targets, row_order)
-            solved[targets] = True
+            _refine(tracker, path, theta_d, theta_u, solved, targets, row_order)
     return Continuation(tracker, path, theta_d, theta_u, solved, row_order)
 
 
 def _predict(system: LoopSystem, path: np.ndarray, theta_d: np.ndarray, theta_u: np.ndarray,
-             known: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+             known: np.ndarray, targets: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Second-order predictions of ``targets`` from the nearest preceding solved step.
 
-    Returns the guesses, the base steps they were predicted from, and the driven increments.
+    Returns the guesses, the base steps they were predicted from, the driven increments, and
+    whether each prediction is within the series range (:func:`_within_series_range`).
     """
     rows = np.searchsorted(known, targets, side="right") - 1
     base = known[rows]
-    expansion = taylor(system, theta_d[known], theta_u[known])
+    used, local = np.unique(rows, return_inverse=True)
+    expansion = taylor(system, theta_d[known[used]], theta_u[known[used]])
     delta = path[targets] - path[base]
-    return expansion.predict(rows, delta), base, delta
+    linear = np.einsum("nij,nj->ni", expansion.first[local], delta)
+    pairs = (delta[:, :, None] * delta[:, None, :]).reshape(delta.shape[0], -1)
+    bend = 0.5 * np.einsum("nik,nk->ni", expansion.second[local], pairs)
+    near = row_max_abs(bend) <= _SERIES_RATIO * row_max_abs(linear) + 1e-6
+    return theta_u[base] + linear + bend, base, delta, near
 
 
 def _plausible(found: np.ndarray, guess: np.ndarray, start: np.ndarray, delta: np.ndarray
@@ -737,15 +767,35 @@ def _plausible(found: np.ndarray, guess: np.ndarray, start: np.ndarray, delta: n
 
 
 def _refine(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, theta_u: np.ndarray,
-            known: np.ndarray, targets: np.ndarray, row_order: np.ndarray | None) -> None:
-    """Solve ``targets`` in one batch from the nearest preceding solved step (in place)."""
+            solved: np.ndarray, targets: np.ndarray, row_order: np.ndarray | None) -> None:
+    """Solve ``targets`` from the nearest preceding solved step, in place, and mark them solved.
+
+    Batches of the targets within the series range of their start (Newton on each batch at
+    once), each batch starting from the previous ones; the rest by sequential continuation.
+    """
     system, tols = tracker.system, tracker.tols
-    guess, base, delta = _predict(system, path, theta_d, theta_u, known, targets)
-    found, _z, ok, _gap = newton(system, driven_part(system, phasor(theta_d[targets])), guess,
-                                 tols.tol, tols.max_iter, row_order)
-    good = ok & _plausible(found, guess, theta_u[base], delta)
-    theta_u[targets[good]] = found[good]
-    for target, start in zip(targets[~good], base[~good], strict=True):
+    pending = targets
+    while pending.size:
+        guess, base, delta, near = _predict(system, path, theta_d, theta_u,
+                                            np.flatnonzero(solved), pending)
+        if not np.any(near):  # steps longer than the series range: sequential halving
+            _sequential(tracker, path, theta_d, theta_u, pending, base)
+            solved[pending] = True
+            return
+        batch = pending[near]
+        found, _z, ok, _gap = newton(system, driven_part(system, phasor(theta_d[batch])),
+                                     guess[near], tols.tol, tols.max_iter, row_order)
+        good = ok & _plausible(found, guess[near], theta_u[base[near]], delta[near])
+        theta_u[batch[good]] = found[good]
+        _sequential(tracker, path, theta_d, theta_u, batch[~good], base[near][~good])
+        solved[batch] = True
+        pending = pending[~near]
+
+
+def _sequential(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, theta_u: np.ndarray,
+                targets: np.ndarray, starts: np.ndarray) -> None:
+    """Solve ``targets`` one by one by continuation from the steps ``starts`` (in place)."""
+    for target, start in zip(targets, starts, strict=True):
         theta_u[target] = tracker.step(theta_d[start], theta_u[start],
                                        path[target] - path[start], theta_d[target], int(target))
 
