@@ -8,10 +8,13 @@ The unknowns are the undriven body angles (positions follow linearly, see
    continuation to the first time step along the shortest change of the driven angles.
 2. *Anchors*, sequentially, every ``anchor_spacing`` rad of driven-angle travel (measured with
    each step's increments wrapped to (-pi, pi], so a jump of whole turns is no travel at all):
-   second-order Taylor predictor in the driven angles, Newton corrector, step halving when Newton
-   fails or lands farther from the prediction than the predicted move explains (another branch).
-3. *Layers*, batched: steps every ``refine_spacings`` rad, each layer predicted from the previous
-   one and corrected by Newton on the whole layer at once.
+   second-order Taylor predictor in the driven angles, Newton corrector, step halving when the
+   prediction's second-order term exceeds 0.75 times its first (beyond the series' range, where the
+   prediction no longer tells the branches apart), when Newton fails, or when it lands farther
+   from the prediction than the predicted move explains (another branch).
+3. *Layers*, batched: steps every ``refine_spacings`` rad, each predicted from the nearest
+   preceding solved step and corrected by Newton on a whole batch at once; steps beyond the
+   series' range of their start wait for a later batch to come closer.
 4. *Finish*, batched over all steps: the rest predicted from the finest layer, then Newton on every
    step at once until the last update is below ``tol``; that iteration's factorisation of ``J_u``
    is returned for the velocities, accelerations and multipliers.
@@ -76,9 +79,10 @@ GUESS_TOL = 0.5
 #: Largest ratio of the second- to the first-order term of a continuation step's prediction:
 #: longer steps are halved. On the pendulum and the four-bar (steps of 0.2 to 9 rad of crank from
 #: 400 seeded starts each) Newton closed the loops on another branch from 3 rad on, at ratios of
-#: 0.64 and more (1.0 and more where the corrector-distance test let it through); steps on the
-#: right branch had ratios up to 0.85 at 1 rad (docs/numerics.md, case 3).
-_SERIES_RATIO = 0.5
+#: 0.64 and more (1.4 and more where the corrector-distance test let it through); steps on the
+#: right branch had ratios up to 0.85 at 1 rad. 0.5 cost the pendulum 14 % of solve's CPU time,
+#: 0.75 9 %, 1.0 2 % (docs/numerics.md, case 3).
+_SERIES_RATIO = 0.75
 
 #: Largest ``cond(C_e)**2 * eps`` at which forces are still returned (see :data:`COND_MAX`).
 FORCE_TRUST = 1e-5
