@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import re
+from xml.etree import ElementTree
 
 from matplotlib.figure import Figure
 
@@ -39,6 +40,26 @@ def test_page_escapes_text_and_links_sections() -> None:
     assert ">0.9123<" in text and '"text ok">pass<' in text and '"text bad">fail<' in text
     assert "<svg" in text and "<?xml" not in text
     assert not re.search(r'(src|href)="(https?:|file:|/)', text)  # nothing outside the file
+
+
+def test_inline_svgs_are_well_formed_with_ids_unique_on_the_page() -> None:
+    page = Page("t", figure_format="svg")
+    for caption in ("first", "second"):  # the same figure twice: the same ids without prefixes
+        page.figure(_figure(), caption=caption)
+    text = page.render()
+    svgs = re.findall(r"<svg .*?</svg>", text, re.S)
+    assert len(svgs) == 2 and "<img" not in text
+    ids = re.findall(r'\bid="([^"]+)"', text)
+    assert len(ids) == len(set(ids))
+    for svg in svgs:
+        root = ElementTree.fromstring(svg)  # well-formed XML
+        assert root.get("aria-label") in ("first", "second")
+        own = {element.get("id") for element in root.iter()} - {None}
+        references = re.findall(r'(?:href="#|url\(#)([^")]+)', svg)
+        assert references and set(references) <= own  # clip paths, markers: in the same SVG
+        # text stays text: the tick labels of the y axis (0.0 to 1.0)
+        texts = [t.text for t in root.iter("{http://www.w3.org/2000/svg}text")]
+        assert "0.0" in texts and "1.0" in texts
 
 
 def test_table_link_cells_are_escaped_anchors() -> None:

@@ -241,14 +241,17 @@ def test_validate_scene_returns_what_a_campaign_needs(scene_path: Path, tmp_path
 @pytest.mark.browser
 def test_report_renders_in_chromium(report_dir: Path, tmp_path: Path, chromium_probe) -> None:
     html = report_dir / "report.html"
-    assert html.read_text().count("<img ") >= 7 + 3 + 2
-    # A script writes each image's naturalWidth into the page: 0 means it did not decode.
-    script = ("<script>window.addEventListener('load',()=>{const r=[...document.images]"
-              ".map(i=>i.complete&&i.naturalWidth);const p=document.createElement('pre');"
-              "p.id='probe';p.textContent=JSON.stringify(r);document.body.appendChild(p);});"
-              "</script>")
-    widths = chromium_probe(html, script, tmp_path)
-    assert widths and all(isinstance(w, int) and w > 0 for w in widths), widths
+    figures = html.read_text().count("<svg ")
+    assert figures >= 7 + 3 + 2
+    # A script writes each inline SVG's drawn width and its number of texts laid out with a
+    # width into the page: 0 means the figure or its text is not shown.
+    script = ("<script>window.addEventListener('load',()=>{const r=[...document.querySelectorAll("
+              "'figure > svg')].map(s=>[Math.round(s.getBoundingClientRect().width),[...s."
+              "querySelectorAll('text')].filter(t=>t.getBBox().width>0).length]);const p="
+              "document.createElement('pre');p.id='probe';p.textContent=JSON.stringify(r);"
+              "document.body.appendChild(p);});</script>")
+    shown = chromium_probe(html, script, tmp_path)
+    assert len(shown) == figures and all(w > 0 and texts > 0 for w, texts in shown), shown
 
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"

@@ -84,7 +84,9 @@ def test_report_folder_has_every_file(result: ValidationResult, tmp_path: Path) 
     names = sorted(p.name for p in written)
     assert names == ["alignment.json", "metrics.csv", "metrics.json", "report.html", "scene.nc"]
     html_text = (out / "report.html").read_text()
-    assert html_text.count("<img ") == 3 + 3 + 1 + 2  # comparisons, alignment, sketch, predictions
+    # comparisons, alignment, sketch, predictions: inline SVGs, each with its caption as label
+    assert html_text.count("<svg ") == 3 + 3 + 1 + 2 and "<img " not in html_text
+    assert 'aria-label="acc1: overlay, residual and harmonic orders"' in html_text
     assert "the mechanism at t = 0" in html_text
     assert "FAILED" in html_text and not result.passed
     rows = list(csv.DictReader((out / "metrics.csv").open()))
