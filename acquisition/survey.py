@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import os
 import re
 from collections.abc import Mapping, Sequence
@@ -73,6 +74,9 @@ class ChannelGuess:
     index_counts : int
         Encoders whose counter falls back to 0 once per turn (the index pulse Z reloads it):
         the counts per turn, 0 for none.
+    index_counts_tol : int
+        How far ``index_counts`` may be off, counts: the spread of the estimates of the complete
+        turns seen; -1 when no complete turn was seen and ``index_counts`` is only a lower bound.
     """
 
     name: str
@@ -85,6 +89,7 @@ class ChannelGuess:
     counts_span: float = 0.0
     output_units: str = ""
     index_counts: int = 0
+    index_counts_tol: int = 0
 
 
 @dataclass(frozen=True)
@@ -202,15 +207,13 @@ def classify_channel(name: str, values: np.ndarray, units: str, time: np.ndarray
     integer = finite.size > 0 and bool(np.all(finite == np.round(finite)))
     two_level = integer and np.unique(finite).size == 2
     if units in ("1", "") and integer and not two_level:
-        steps = np.diff(finite)
-        resets = int(np.sum(steps < -0.5 * (finite.max() - finite.min())))
-        index = int(finite.max()) + 1 if resets and finite.min() >= 0 else 0
+        index, tol, reloads = _index_period(finite)
         span = float(_unwrap(finite, index)[-1] - finite[0]) if finite.size else 0.0
         moved = "" if span else "; it never counts in this file"
-        reloads = f"; {resets} reloads to 0 (index pulse)" if index else ""
         return ChannelGuess(scene, name, units, "encoder", "encoder",
                             f"integer counts without a unit (a counter){moved}{reloads}",
-                            counts_span=span, index_counts=index), np.empty(0)
+                            counts_span=span, index_counts=index, index_counts_tol=tol
+                            ), np.empty(0)
     edges, mid = _rising_edges(values.astype(np.float64), time)
     if edges.size >= 2 and mid <= PULSE_MID_FRACTION:
         return ChannelGuess(scene, name, units, "pulse", "reference_pulse",
@@ -342,6 +345,66 @@ def _guess_stream(name: str, path: Path, ds: xr.Dataset, index: int) -> StreamGu
                        str(ds.attrs.get("start_time", "")), gaps, device, why, tuple(channels),
                        pulses, counts,
                        "timezone" in str(ds.attrs.get("time_fallbacks", "")))
+
+
+def _index_period(counts: np.ndarray) -> tuple[int, int, str]:
+    """Estimate the counts per turn of a counter the index pulse reloads to 0, and how sure.
+
+    At a reload between samples ``k`` and ``k + 1`` the counter ran up to ``cpr - 1``, fell to 0
+    at the index and advanced on, so ``cpr = counts[k] - counts[k + 1] + advance``, the advance in
+    that sample being the mean increment of the eight samples on either side, within one count
+    (the readings are floors) plus the change of that mean across the reload. The highest count
+    plus one is only a lower bound: it is low by up to the counts advanced per sample. The first
+    reload ends counts that started where the counter task did, not at an index; it only counts
+    when it is the only one, and then ``cpr`` is known only to be at least the estimate.
+
+    Parameters
+    ----------
+    counts : numpy.ndarray
+        Finite integer counts of one channel.
+
+    Returns
+    -------
+    cpr : int
+        Counts per turn; 0 when the counts never fall back to 0 (no index reloads).
+    tol : int
+        Half-width of the counts per turn consistent with every complete turn, counts (0: exact);
+        -1: ``cpr`` is a lower bound.
+    text : str
+        For the channel's reason, ``""`` without reloads.
+    """
+    if counts.size < 2 or counts.min() < 0:
+        return 0, 0, ""
+    steps = np.diff(counts)
+    drops = np.flatnonzero(steps < -0.5 * (counts.max() - counts.min()))
+    if not drops.size:
+        return 0, 0, ""
+    estimates = []
+    for k in drops:
+        before, after = steps[max(k - 8, 0):k], steps[k + 1:k + 9]
+        before, after = before[before >= 0], after[after >= 0]
+        rates = [float(np.mean(part)) for part in (before, after) if part.size]
+        advance = float(np.mean(rates)) if rates else 0.0
+        # the counts are floors: each reading hides up to one count, and the speed may change
+        wobble = 1.0 + (abs(rates[0] - rates[-1]) if rates else 0.0)
+        estimates.append((counts[k] - counts[k + 1] + advance, wobble))
+    floor = int(counts.max()) + 1
+    if drops.size == 1:
+        cpr = max(floor, round(estimates[0][0]))
+        return cpr, -1, (f"; 1 reload to 0 (index pulse) and no complete turn: at least {cpr} "
+                         "counts per turn")
+    # each turn gives cpr within its wobble (open interval); where the phases differ from turn
+    # to turn the intervals intersect closer: the whole numbers left are the candidates
+    turns = np.array(estimates[1:])
+    low = max(math.floor(np.max(turns[:, 0] - turns[:, 1])) + 1, floor)
+    high = math.ceil(np.min(turns[:, 0] + turns[:, 1])) - 1
+    if low > high:  # inconsistent turns (the speed changed within a sample): their spread
+        low = max(math.floor(np.min(turns[:, 0] - turns[:, 1])) + 1, floor)
+        high = max(math.ceil(np.max(turns[:, 0] + turns[:, 1])) - 1, low)
+    cpr = min(max(round(float(np.median(turns[:, 0]))), low), high)
+    tol = max(high - cpr, cpr - low)
+    return cpr, tol, (f"; {drops.size} reloads to 0 (index pulse): {cpr} +- {tol} counts per "
+                      f"turn from {drops.size - 1} complete turn(s)")
 
 
 def _unwrap(counts: np.ndarray, index_counts: int) -> np.ndarray:

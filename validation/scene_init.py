@@ -92,8 +92,10 @@ def _channel_table(w: _Writer, stream: StreamGuess, channel: ChannelGuess,
     w.key("sensor", channel.sensor, f"guessed: {channel.reason}")
     if channel.sensor == "encoder":
         if channel.index_counts:
+            tol = channel.index_counts_tol  # -1: no complete turn, a lower bound
             w.key("index_reset", True, f"the counts fall back to 0 every {channel.index_counts} "
-                                       "counts: the index pulse reloads the counter")
+                                       f"counts ({'at least' if tol < 0 else f'+- {tol}'}): the "
+                                       "index pulse reloads the counter")
         if main_cpr:
             w.todo("counts_per_rev", f"after x4 decoding; {main_cpr} counts per main-shaft "
                                      "revolution in this file")
