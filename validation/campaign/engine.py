@@ -559,7 +559,7 @@ def _client(scheduler: str | Client, workers: int | None, n_runs: int, worker_lo
     if not dask_available():
         raise ConfigError(f"scheduler {scheduler!r} needs Dask, which is not installed",
                           where={"option": "--scheduler"},
-                          hint='pip install "rigval[parallel]", or use --scheduler none')
+                          hint='pip install "rigval[parallel]", or use --scheduler processes')
     from distributed import Client, LocalCluster
 
     if scheduler != "local":
