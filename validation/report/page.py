@@ -136,12 +136,10 @@ def figure_svg(fig: Figure, *, prefix: str = "figure") -> str:
     with rc_context({"svg.fonttype": "none", "svg.hashsalt": "rigval"}):
         fig.savefig(buffer, format="svg", metadata={"Date": None})
     text = buffer.getvalue()
-    text = _SVG_ID.sub(lambda m: f"{m[1]}{prefix}-", text[text.index("<svg"):])
+    text = text[text.index("<svg"):]
+    for start in (' id="', 'href="#', "url(#"):  # where matplotlib writes or refers to an id
+        text = text.replace(start, f"{start}{prefix}-")
     return text
-
-
-#: Where an SVG element id starts: in ``id="..."``, ``href="#..."`` and ``url(#...)``.
-_SVG_ID = re.compile(r'(\bid="|\bhref="#|\burl\(#)')
 
 
 def _slug(text: str, taken: set[str]) -> str:
