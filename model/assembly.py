@@ -608,19 +608,18 @@ class _Tracker:
             goal_d = theta_d1 if target >= 1.0 else theta_d0 + target * path_delta
             first, second = expansion
             linear, bend = first @ delta, 0.5 * (second @ delta) @ delta
-            if not _within_series_range(linear, bend):
-                size /= 2.0  # beyond the predictor's range: the branch would be a guess
-                continue
-            guess = current_u + linear + bend
-            found, ok, _gap, jac = self._newton(goal_d, guess)
-            moved = float(np.abs(found - guess).max())
-            expected = float(np.abs(guess - current_u).max())
-            if ok and moved <= max(0.25 * max(travel * (target - fraction), expected), 1e-6):
-                fraction, current_d, current_u = target, goal_d, found
-                if fraction < 1.0:
-                    expansion = self._expand(current_d, current_u, jac)
-                size = min(2 * size, 1.0)
-                continue
+            # beyond the predictor's range the branch would be a guess: no Newton there
+            if _within_series_range(linear, bend):
+                guess = current_u + linear + bend
+                found, ok, _gap, jac = self._newton(goal_d, guess)
+                moved = float(np.abs(found - guess).max())
+                expected = float(np.abs(guess - current_u).max())
+                if ok and moved <= max(0.25 * max(travel * (target - fraction), expected), 1e-6):
+                    fraction, current_d, current_u = target, goal_d, found
+                    if fraction < 1.0:
+                        expansion = self._expand(current_d, current_u, jac)
+                    size = min(2 * size, 1.0)
+                    continue
             size /= 2.0
             if size * travel < 1e-14 or size < 1e-12:
                 self.fail(index, current_d, current_u, theta_d1)
