@@ -1,10 +1,14 @@
 """CPU time of building one run report page, and of each of its figures.
 
 Validates the first shipped sample run once, builds its report page (``_build_page``: tables
-and every figure rendered to PNG) once to warm up and then REPEATS times, and prints the
-minimum and median CPU time per page (``time.process_time``, this process only), then the CPU
-time per figure (drawing the figure up to its ``Page.figure`` call, and rendering it there),
-averaged over the repeats.
+and every figure rendered as the report embeds it, inline SVG) once to warm up and then
+REPEATS times, and prints the minimum and median CPU time per page (``time.process_time``,
+this process only), then the CPU time per figure (drawing the figure up to its
+``Page.figure`` call, and rendering it there), averaged over the repeats.
+
+With ``--formats``, the page is built alternately with every figure embedded as PNG (96 dpi,
+as the report did before) and as inline SVG, REPEATS times each in one process, and the
+minimum and median CPU time per page and the size of the page of each are printed.
 
 With ``--against FILE``, FILE is another version of ``rigval/validation/report/plots.py`` (for
 instance ``git show 132f4c9:validation/report/plots.py > /tmp/old_plots.py``): the page is then
@@ -12,13 +16,15 @@ built alternately with it and with the installed module, REPEATS times each in o
 (the order swapped every round, so that a change in the machine's load hits both alike), and
 the minimum and median CPU time per page of each are printed.
 
-Usage: ``python benchmarks/bench_report_drawing.py [REPEATS] [--against FILE]`` (default 5).
+Usage: ``python benchmarks/bench_report_drawing.py [REPEATS] [--against FILE | --formats]``
+(default 5).
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
+import functools
 import importlib.util
 import statistics
 import time
@@ -90,13 +96,37 @@ def against(result: ValidationResult, repeats: int, other: Path) -> None:
               f"per page over {repeats} builds")
 
 
+def formats(result: ValidationResult, repeats: int) -> None:
+    """Print the CPU time and size of the page with PNG and with inline SVG figures."""
+    figure = page_module.Page.figure
+    times: dict[str, list[float]] = {"png": [], "svg": []}
+    sizes = {}
+    try:
+        for round_ in range(repeats + 1):  # round 0 warms up
+            for fmt in ("png", "svg") if round_ % 2 == 0 else ("svg", "png"):
+                page_module.Page.figure = functools.partialmethod(figure, fmt=fmt)  # type: ignore[method-assign,assignment]
+                start = time.process_time()
+                page = _build_page(result)
+                if round_:
+                    times[fmt].append(time.process_time() - start)
+                sizes[fmt] = len(page.render().encode())
+    finally:
+        page_module.Page.figure = figure  # type: ignore[method-assign]
+    for fmt, values in times.items():
+        print(f"{fmt}: CPU min {min(values):.3f} s, median {statistics.median(values):.3f} s "
+              f"per page over {repeats} builds; page {sizes[fmt] / 1e6:.2f} MB")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("repeats", type=int, nargs="?", default=5)
     parser.add_argument("--against", type=Path, help="another version of report/plots.py")
+    parser.add_argument("--formats", action="store_true", help="PNG against SVG figures")
     args = parser.parse_args()
     result = run_scene(shipped_runs()[0])
-    if args.against:
+    if args.formats:
+        formats(result, args.repeats)
+    elif args.against:
         against(result, args.repeats, args.against)
     else:
         _build_page(result)
