@@ -27,7 +27,7 @@ import numpy as np
 
 from rigval.acquisition.errors import DataFileError
 from rigval.acquisition.hashing import ThreadedSha256
-from rigval.acquisition.hugepages import mapped_empty, populate
+from rigval.acquisition.hugepages import mapped_empty, populate, use_huge_pages
 from rigval.acquisition.tdms_layout import (
     TOC_BIG_ENDIAN,
     TOC_DAQMX,
@@ -213,7 +213,8 @@ def read_plain(file: Path, layout: TdmsLayout, channels: Sequence[PlainChannel],
     DataFileError
         If the file cannot be read or ends before the values the scan found (it changed).
     """
-    out = {c.path: mapped_empty(c.stop - c.start, c.dtype) for c in channels}
+    huge = use_huge_pages(sum((c.stop - c.start) * c.dtype.itemsize for c in channels))
+    out = {c.path: mapped_empty(c.stop - c.start, c.dtype, huge) for c in channels}
     hasher = ThreadedSha256(layout.file_size) if checksum else None
     try:
         with open(file, "rb", buffering=_BUFFER_BYTES) as handle:

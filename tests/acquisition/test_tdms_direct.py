@@ -302,3 +302,23 @@ def test_cut_anywhere_both_routes_agree_and_the_digest_is_the_files(
         assert fast["task"].attrs["source_sha256"] == _sha(path), cut
         assert sorted(map(str, (w.message for w in fw))) == \
             sorted(map(str, (w.message for w in sw))), cut
+
+
+def test_huge_and_plain_pages_read_identical_arrays(write_tdms, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(7)
+    n = 1 << 19  # 4 MiB of float64 per channel per segment: mapped arrays
+    segments = [[ChannelObject("task", "a", rng.normal(size=n), PROPS),
+                 ChannelObject("task", "b", rng.integers(-9, 9, n).astype(np.int32), PROPS)]
+                for _ in range(3)]
+    path = write_tdms(tmp_path / "big.tdms", segments)
+    results = []
+    for huge in (True, False):
+        monkeypatch.setattr(direct, "use_huge_pages", lambda nbytes, huge=huge: huge)
+        results.append(read_stream(path))
+    on, off = results
+    assert on.attrs["source_sha256"] == off.attrs["source_sha256"] == _sha(path)
+    for name in ("a", "b"):
+        expected = np.concatenate([s[0 if name == "a" else 1].data for s in segments])
+        np.testing.assert_array_equal(on[name].values, expected)
+        np.testing.assert_array_equal(off[name].values, expected)
