@@ -13,7 +13,7 @@ import io
 import logging
 import os
 from collections.abc import Iterator, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -361,15 +361,21 @@ def iter_tdms(path: str | os.PathLike[str], *, group: str | None = None,
                 hint="pass group=... and/or channels=... to pick one")
         plan = plans[0]
         warn_about_plans(layout, plans)
-        sha = source_checksum(file, checksum)
-        tdms = _open_nptdms(handle, layout)
-        yield from _windows(tdms, layout, plan, chunk_samples, device, modules, sha)
+        # the SHA-256 runs in a second thread while nptdms opens the file and reads the first
+        # window; every window carries the digest (docs/formats.md), so the first one waits for it
+        with ThreadPoolExecutor(max_workers=1) as pool:
+            sha = pool.submit(source_checksum, file, checksum)
+            tdms = _open_nptdms(handle, layout)
+            yield from _windows(tdms, layout, plan, chunk_samples, device, modules, sha)
 
 
 def _windows(tdms: TdmsFile, layout: TdmsLayout, plan: TdmsStreamPlan, chunk_samples: int,
              device: str | None, modules: Mapping[str, str] | None,
-             sha: str) -> Iterator[xr.Dataset]:
-    """Accumulate nptdms data chunks into windows and yield them as stream Datasets."""
+             sha: Future[str]) -> Iterator[xr.Dataset]:
+    """Accumulate nptdms data chunks into windows and yield them as stream Datasets.
+
+    ``sha`` gives the file's ``source_sha256``; the first window waits for it.
+    """
     total = plan.timebase.length
     names = {object_path_parts(p)[:2]: n for n, p in plan.channels.items()}
     pending: dict[str, list[np.ndarray]] = {n: [] for n in plan.channels}
@@ -394,7 +400,7 @@ def _windows(tdms: TdmsFile, layout: TdmsLayout, plan: TdmsStreamPlan, chunk_sam
                 for n in plan.channels:
                     held[n] -= stop - start
                 yield _build(layout, plan, window, start, stop, device=device, modules=modules,
-                             sha=sha)
+                             sha=sha.result())
                 start = stop
     except DataFileError:
         raise

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 
 import numpy as np
@@ -173,6 +174,21 @@ def test_streaming_windows_join_to_the_full_read(write_tdms, tmp_path: Path) -> 
     for name in ("tor1", "opt2", "time", "segment"):
         np.testing.assert_array_equal(np.concatenate([w[name].values for w in windows]),
                                       full[name].values)
+
+
+
+def test_every_streamed_window_carries_the_files_digest(write_tdms, tmp_path: Path) -> None:
+    """The hash runs beside the first window's read; each window still carries the digest."""
+    dt = 1 / FS
+    path = write_tdms(tmp_path / "digest.tdms", [
+        [ChannelObject("task", "tor1", _raw(2500, k), _daqmx_props(T0, dt, 1e-7))]
+        for k in range(3)])
+    expected = hashlib.sha256(path.read_bytes()).hexdigest()
+    off = [w.attrs["source_sha256"] for w in iter_stream(path, chunk_samples=3000,
+                                                         checksum=False)]
+    assert off == ["not computed"] * 3
+    on = [w.attrs["source_sha256"] for w in iter_stream(path, chunk_samples=3000)]
+    assert on == [expected] * 3
 
 
 def test_truncated_contiguous_segment_is_cut_to_whole_samples(write_tdms, tmp_path: Path) -> None:
