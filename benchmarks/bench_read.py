@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import os
 import subprocess
 import sys
@@ -61,6 +62,22 @@ def hash_alone(size: int, repeat: int) -> dict[str, float]:
     return min(runs, key=lambda r: r["time_s"])
 
 
+def print_huge_page_decision(nbytes: int) -> None:
+    """Print whether a direct read of ``nbytes`` gets huge pages here, and why (its DEBUG log)."""
+    from rigval.acquisition.hugepages import use_huge_pages
+
+    log = logging.getLogger("rigval.acquisition.hugepages")
+    handler = logging.StreamHandler(sys.stdout)
+    handler.setFormatter(logging.Formatter("%(message)s"))
+    log.addHandler(handler)
+    log.setLevel(logging.DEBUG)
+    try:
+        use_huge_pages(nbytes)
+    finally:
+        log.removeHandler(handler)
+        log.setLevel(logging.NOTSET)
+
+
 def main() -> None:
     """Run the reading benchmark and print one line per method."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -94,6 +111,7 @@ def main() -> None:
         print(f"file {path.stat().st_size / 2**20:.0f} MiB, {len(channels)} channels, "
               f"channel data {data_bytes / 2**20:.0f} MiB; cpu cores {os.cpu_count()}, "
               f"load {os.getloadavg()[0]:.2f}; best of {args.repeat}")
+        print_huge_page_decision(data_bytes)
         results = {}
         for label in args.methods:
             results[label] = min((run_reader(label, path) for _ in range(args.repeat)),
