@@ -30,7 +30,7 @@ STANDIN = '''
 import sys, time, tomllib, warnings
 from pathlib import Path
 from rigval.acquisition.errors import DataWarning
-from rigval.validation.campaign import engine as campaign
+from rigval.validation.campaign import runs as campaign
 from rigval.validation.cli import main
 
 def standin(scene, run_dir):

@@ -20,6 +20,7 @@ import pytest
 import xarray as xr
 
 import rigval.validation.campaign.engine as campaign
+import rigval.validation.campaign.runs as runs
 from rigval.acquisition.errors import ConfigError, DataFileError
 from rigval.validation.campaign.engine import RunError, RunReport, plan_runs, run_campaign, run_one
 from rigval.validation.campaign.report import (
@@ -99,7 +100,7 @@ def test_campaign_reports_each_run_and_carries_the_error(tmp_path: Path,
     assert "standin_validate" in error.traceback
     assert isinstance(error.exception, DataFileError)
     assert broken.metrics == ()
-    assert not (tmp_path / "out" / "broken" / campaign.MANIFEST_NAME).exists()
+    assert not (tmp_path / "out" / "broken" / runs.MANIFEST_NAME).exists()
 
 
 def test_summary_files_list_every_run_metric_and_error(tmp_path: Path,
@@ -159,7 +160,7 @@ def test_up_to_date_runs_are_reused_and_changed_ones_recomputed(
     assert third[0].metrics[0]["value"] == pytest.approx(0.15)
 
     CALLS.clear()
-    monkeypatch.setattr(campaign, "_rigval_version", lambda: "99.0")
+    monkeypatch.setattr(runs, "_rigval_version", lambda: "99.0")
     run_campaign(scenes[:1], out, scheduler="none", validate=standin_validate)
     assert CALLS == ["slow"]
     CALLS.clear()
@@ -216,7 +217,7 @@ def test_unknown_scheduler_is_a_config_error(tmp_path: Path, scenes: list[Path])
 def test_cli_exit_code_says_the_worst_run(tmp_path: Path, scenes: list[Path], names: list[str],
                                          code: int, monkeypatch: pytest.MonkeyPatch,
                                          capsys: pytest.CaptureFixture[str]) -> None:
-    monkeypatch.setattr(campaign, "_validate_with_pipeline", standin_validate)
+    monkeypatch.setattr(runs, "_validate_with_pipeline", standin_validate)
     chosen = [s for s in scenes if s.stem in names]
     out = tmp_path / "out"
     assert main(["campaign", *map(str, chosen), "--out", str(out), "--scheduler", "none"]) == code
@@ -262,15 +263,15 @@ def test_progress_line_counts_runs_by_status(tmp_path: Path, scenes: list[Path])
 def test_unreadable_manifest_means_recompute(tmp_path: Path, scenes: list[Path],
                                             text: str) -> None:
     run_one(scenes[0], tmp_path / "run", validate=standin_validate)
-    (tmp_path / "run" / campaign.MANIFEST_NAME).write_text(text)
+    (tmp_path / "run" / runs.MANIFEST_NAME).write_text(text)
     outcome = run_one(scenes[0], tmp_path / "run", validate=standin_validate)
     assert (outcome.status, outcome.reused) == ("passed", False)
-    assert json.loads((tmp_path / "run" / campaign.MANIFEST_NAME).read_text())["result"]
+    assert json.loads((tmp_path / "run" / runs.MANIFEST_NAME).read_text())["result"]
 
 
 def test_runs_at_one_speed_are_not_joined_by_a_line(tmp_path: Path) -> None:
     rows = ({"comparison": "acc1", "metric": "nrmse", "value": 0.1},)
-    outcomes = [campaign.RunOutcome(name=f"day{i}", scene=tmp_path / f"day{i}.toml",
+    outcomes = [runs.RunOutcome(name=f"day{i}", scene=tmp_path / f"day{i}.toml",
                                     run_dir=tmp_path / f"day{i}", status="passed", metrics=rows,
                                     speed_rev_s=1.0) for i in range(2)]
     (line,) = plot_metrics_against_speed(metrics_table(outcomes)).axes[0].get_lines()[:1]

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 from rigval.acquisition.errors import DataFileError
-from rigval.validation.campaign import engine as campaign
+from rigval.validation.campaign import runs as campaign
 from rigval.validation.cli import main
 
 def standin(scene, run_dir):

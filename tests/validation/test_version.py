@@ -2,7 +2,7 @@ import subprocess
 import sys
 from importlib.metadata import version
 
-from rigval.validation.campaign import engine
+from rigval.validation.campaign import runs
 from rigval.validation.report import predict_report, run_report
 from rigval.validation.version import rigval_version
 
@@ -10,7 +10,7 @@ from rigval.validation.version import rigval_version
 def test_one_version_lookup_for_every_writer() -> None:
     assert rigval_version() == version("rigval")  # the editable install has metadata
     # the campaign manifest, both reports and the command line use this one function
-    assert engine._rigval_version is rigval_version
+    assert runs._rigval_version is rigval_version
     assert run_report.rigval_version is rigval_version
     assert predict_report.rigval_version is rigval_version
 

@@ -24,12 +24,12 @@ from multiprocessing.connection import Connection, wait
 from typing import TYPE_CHECKING
 
 from rigval.acquisition.threads import single_blas_thread
-from rigval.validation.campaign.engine import RunError, RunOutcome, run_one
+from rigval.validation.campaign.runs import RunError, RunOutcome, run_one
 
 if TYPE_CHECKING:
     from multiprocessing.process import BaseProcess
 
-    from rigval.validation.campaign.engine import ValidateFunction, _Run
+    from rigval.validation.campaign.runs import PlannedRun, ValidateFunction
 
 __all__ = ["PIPELINE_MODULES", "WORKER_DIED", "preload_pipeline", "run_in_processes"]
 
@@ -63,11 +63,11 @@ def preload_pipeline() -> None:
             importlib.import_module(name)
 
 
-def run_in_processes(runs: Sequence[_Run], validate: ValidateFunction | None, force: bool,
+def run_in_processes(runs: Sequence[PlannedRun], validate: ValidateFunction | None, force: bool,
                      workers: int) -> Generator[RunOutcome, None, None]:
     """Validate each run in a child process, ``workers`` at a time; yield outcomes as they end.
 
-    ``validate`` and ``force`` are passed on to :func:`~rigval.validation.campaign.engine.run_one`.
+    ``validate`` and ``force`` are passed on to :func:`~rigval.validation.campaign.runs.run_one`.
     Outcomes come in completion order; when the caller stops early (Ctrl-C), the children still
     running are killed.
     """
@@ -79,7 +79,7 @@ def run_in_processes(runs: Sequence[_Run], validate: ValidateFunction | None, fo
         context.set_forkserver_preload(["__main__", *PIPELINE_MODULES])
     logger.info("%d runs in up to %d child processes (%s)", len(runs), workers, method)
     waiting = list(reversed(runs))
-    running: dict[Connection, tuple[_Run, BaseProcess]] = {}
+    running: dict[Connection, tuple[PlannedRun, BaseProcess]] = {}
     try:
         while waiting or running:
             while waiting and len(running) < workers:
@@ -109,7 +109,7 @@ def run_in_processes(runs: Sequence[_Run], validate: ValidateFunction | None, fo
             receiver.close()
 
 
-def _child(sender: Connection, run: _Run, validate: ValidateFunction | None, force: bool
+def _child(sender: Connection, run: PlannedRun, validate: ValidateFunction | None, force: bool
            ) -> None:
     """Validate one run in the child process and send its outcome to the parent."""
     if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
@@ -126,7 +126,7 @@ def _child(sender: Connection, run: _Run, validate: ValidateFunction | None, for
             sender.send(_error(run, RunError.from_exception(error)))
 
 
-def _died(run: _Run, process: BaseProcess) -> RunError:
+def _died(run: PlannedRun, process: BaseProcess) -> RunError:
     """Describe a child that ended without sending its run's outcome."""
     code = process.exitcode or 0
     names = {-number: number.name for number in signal.Signals}  # exit code -N: signal N
@@ -140,7 +140,7 @@ def _died(run: _Run, process: BaseProcess) -> RunError:
                     hint=hint, traceback="")
 
 
-def _error(run: _Run, error: RunError) -> RunOutcome:
+def _error(run: PlannedRun, error: RunError) -> RunOutcome:
     """Return an error outcome of ``run``."""
     return RunOutcome(name=run.name, scene=run.scene, run_dir=run.run_dir, status="error",
                       error=error)

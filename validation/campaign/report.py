@@ -12,7 +12,7 @@ report folders:
 ``campaign_metrics.csv``
     The metrics of every run in long form (one row per run, comparison and metric).
 ``campaign.json``
-    Every :class:`~rigval.validation.campaign.engine.RunOutcome` as data (what :func:`open_campaign`
+    Every :class:`~rigval.validation.campaign.runs.RunOutcome` as data (what :func:`open_campaign`
     and scripts read back), each with its ``data_not_used`` rows.
 
 :func:`open_campaign` reads the runs' netCDF files back as one dataset with a ``run`` dimension.
