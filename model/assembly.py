@@ -14,9 +14,13 @@ The unknowns are the undriven body angles (positions follow linearly, see
    from the prediction than the predicted move explains (another branch).
 3. *Layers*, batched: steps every ``refine_spacings`` rad, each predicted from the nearest
    preceding solved step and corrected by Newton on a whole batch at once; steps beyond the
-   series' range of their start wait for a later batch to come closer.
-4. *Finish*, batched over all steps: the rest predicted from the finest layer, then Newton on every
-   step at once until the last update is below ``tol``; that iteration's factorisation of ``J_u``
+   series' range of their start wait for a later batch to come closer. When the drives' rates
+   interpolate the driven angles (quintic Hermite in time, as drive laws do), the finest layer is
+   ``interpolation_spacing`` apart instead.
+4. *Finish*, batched over all steps: the rest interpolated in time between the two solved steps
+   around them (with such rates: errors near the tolerance, so one iteration usually suffices)
+   or else predicted from the finest layer, then Newton on every step at once (and on the few
+   steps left) until the last update is below ``tol``; each step's last factorisation of ``J_u``
    is returned for the velocities, accelerations and multipliers.
 
 Steps that fail a batched stage (no convergence, or a solution farther from its prediction than
@@ -84,6 +88,18 @@ GUESS_TOL = 0.5
 #: 0.75 9 %, 1.0 2 % (docs/numerics.md, case 3).
 _SERIES_RATIO = 0.75
 
+#: Largest error of the quintic Hermite interpolation in time of the driven angles between the
+#: finest layer's steps, rad, at which the undriven angles are interpolated the same way (rates
+#: consistent with the angles, smooth in time); otherwise they are extrapolated from the earlier
+#: solved step (:func:`track`).
+_SMOOTH = 1e-10
+
+#: Largest first Newton update, rad, of a step converged by it whose factorisation of ``J_u`` (at
+#: the angles before that update) serves the velocities, accelerations and forces; steps with
+#: larger ones iterate once more, for factors at their solution (forces carry about the
+#: condition times the update, relative).
+_FRESH = 3e-13
+
 #: Largest ``cond(C_e)**2 * eps`` at which forces are still returned (see :data:`COND_MAX`).
 FORCE_TRUST = 1e-5
 #: Condition number of the column-equilibrated, reduced ``C_e`` past which the forces cannot be
@@ -121,6 +137,12 @@ class Tolerances:
     refine_spacings : tuple of float
         Driven-angle travel between the anchors of each batched layer, rad, coarse to fine;
         the remaining steps are predicted from the finest layer.
+    interpolation_spacing : float
+        Travel between the anchors of the finest layer, rad, when the drives' rates are given
+        and interpolate the driven angles (quintic Hermite in time between the layer's steps,
+        to :data:`_SMOOTH`): the steps between are then interpolated the same way, accurate to
+        about the tolerance at this spacing, not extrapolated. Never finer than the last of
+        ``refine_spacings``.
     max_iter : int
         Newton iterations per attempt.
     guess_tol : float
@@ -134,6 +156,7 @@ class Tolerances:
     cond_max: float = COND_MAX
     anchor_spacing: float = 3.0
     refine_spacings: tuple[float, ...] = (0.5, 0.02)
+    interpolation_spacing: float = 0.08
     max_iter: int = 12
     guess_tol: float = GUESS_TOL
 
@@ -170,15 +193,18 @@ def phasor(theta: np.ndarray) -> np.ndarray:
 
 def _rotate(z: np.ndarray, angle: np.ndarray) -> np.ndarray:
     """``z * exp(1j angle)``; cos and sin by their series (exact to rounding) for small angles."""
-    if angle.size and float(np.max(np.abs(angle))) <= 1e-3:
-        a2 = angle * angle
-        cos = 1.0 - a2 * (0.5 - a2 / 24.0)
-        sin = angle * (1.0 - a2 / 6.0 * (1.0 - a2 / 20.0))
-    else:
-        cos, sin = np.cos(angle), np.sin(angle)
+    largest = float(np.max(np.abs(angle))) if angle.size else 0.0
     turn = np.empty((*angle.shape, 2))
-    turn[..., 0] = cos
-    turn[..., 1] = sin
+    if largest <= 1e-8:  # the series round to 1 and the angle itself
+        turn[..., 0] = 1.0
+        turn[..., 1] = angle
+    elif largest <= 1e-3:
+        a2 = angle * angle
+        turn[..., 0] = 1.0 - a2 * (0.5 - a2 / 24.0)
+        turn[..., 1] = angle * (1.0 - a2 / 6.0 * (1.0 - a2 / 20.0))
+    else:
+        turn[..., 0] = np.cos(angle)
+        turn[..., 1] = np.sin(angle)
     return z * turn.view(complex)[..., 0]
 
 
@@ -223,6 +249,11 @@ def newton(system: LoopSystem, base: np.ndarray, theta_u: np.ndarray, tol: float
         (n,) largest loop gap before the last update, m.
     """
     n = theta_u.shape[0]
+    if n > _BLOCK:  # blocks of steps: each iteration's arrays stay in the processor's cache
+        blocks = [newton(system, base[start:start + _BLOCK], theta_u[start:start + _BLOCK], tol,
+                         max_iter, row_order) for start in range(0, n, _BLOCK)]
+        theta, z, ok, gap = (np.concatenate(parts) for parts in zip(*blocks, strict=True))
+        return theta, z, ok, gap
     w_u = system.loop_points[:, system.undriven]
     theta_out, z_out = theta_u.copy(), phasor(theta_u)
     converged = np.zeros(n, dtype=bool)
@@ -290,7 +321,8 @@ class Taylor:
         return guess
 
 
-def taylor(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> Taylor:
+def taylor(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray,
+           row_order: np.ndarray | None = None) -> Taylor:
     """Second-order Taylor coefficients of the undriven in the driven angles (batched).
 
     Differentiating ``Phi(theta) = 0`` once gives ``J_u T = -J_d``; twice, with the diagonal
@@ -303,6 +335,9 @@ def taylor(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> Tayl
         Reduced constraints.
     theta_d, theta_u : numpy.ndarray
         (n, n_d) and (n, n_u) assembled angles, rad.
+    row_order : numpy.ndarray, optional
+        Initial row order for :class:`~rigval.model.linalg.BatchLU` (the static pivot order:
+        far fewer matrices need row swaps than in the given order).
 
     Returns
     -------
@@ -315,28 +350,36 @@ def taylor(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray) -> Tayl
     # blocks of steps: the temporaries stay small and are reused instead of fresh memory
     for start in range(0, n, _BLOCK):
         part = slice(start, min(start + _BLOCK, n))
-        first[part], second[part] = _taylor_block(system, theta_d[part], theta_u[part])
+        first[part], second[part] = _taylor_block(system, theta_d[part], theta_u[part],
+                                                  row_order)
     return Taylor(theta_u, first, second)
 
 
-def _taylor_block(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def _taylor_block(system: LoopSystem, theta_d: np.ndarray, theta_u: np.ndarray,
+                  row_order: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """:func:`taylor`'s first and second derivatives for one block of steps."""
     z = phasor(full_angles(system, theta_d, theta_u))
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        lu = BatchLU(system.jacobian_stack(z[:, system.undriven]))
+        lu = BatchLU(system.jacobian_stack(z[:, system.undriven]), row_order)
         first = -lu.solve(system.jacobian(z, system.driven))
-        n_d = system.driven.size
-        velocity = np.zeros((*z.shape, n_d))
-        velocity[:, system.undriven] = first
-        velocity[:, system.driven] = np.eye(n_d)
-        pairs = (velocity[:, :, :, None] * velocity[:, :, None, :]).reshape(*z.shape, n_d * n_d)
-        # sum_m (d2 Phi / d theta_m2) v_mj v_mk with d2 Phi / d theta_m2 = -W_m z_m, as one
-        # two-dimensional product
-        weighted = np.swapaxes(z[:, :, None] * pairs, 1, 2).reshape(-1, z.shape[1])
-        bend = -(weighted @ system.loop_points.T).reshape(z.shape[0], n_d * n_d, -1)
-        bend = np.swapaxes(np.concatenate([bend.real, bend.imag], axis=2), 1, 2)
-        second = -lu.solve(np.ascontiguousarray(bend))
+        # sum_m (d2 Phi / d theta_m2) v_mj v_mk with d2 Phi / d theta_m2 = -W_m z_m and v the
+        # first derivatives (T for the undriven angles, the identity for the driven ones): one
+        # (n_loops, n_u) x (n_u, n) product per pair j <= k, batch last as the solve wants it
+        n_d, n_loops = system.driven.size, system.loop_points.shape[0]
+        w_u = system.loop_points[:, system.undriven]
+        z_t = np.ascontiguousarray(z.T)
+        z_u, first_t = z_t[system.undriven], np.moveaxis(first, 0, -1)
+        bend = np.empty((2 * n_loops, n_d * n_d, z.shape[0]))
+        for j in range(n_d):
+            for k in range(j, n_d):
+                block = w_u @ (z_u * (first_t[:, j] * first_t[:, k]))
+                if j == k:
+                    block += np.multiply.outer(system.loop_points[:, system.driven[j]],
+                                               z_t[system.driven[j]])
+                np.negative(block.real, out=bend[:n_loops, j * n_d + k])
+                np.negative(block.imag, out=bend[n_loops:, j * n_d + k])
+                bend[:, k * n_d + j] = bend[:, j * n_d + k]
+        second = -lu.solve(np.moveaxis(bend, -1, 0))
     return first, second
 
 
@@ -678,7 +721,8 @@ def _check_guesses(mechanism: Mechanism, system: LoopSystem, guess_u: np.ndarray
 
 
 def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: np.ndarray,
-          tolerances: Tolerances, guess_u: np.ndarray | None = None) -> Continuation:
+          tolerances: Tolerances, guess_u: np.ndarray | None = None,
+          rates: tuple[np.ndarray, np.ndarray] | None = None) -> Continuation:
     """Follow the assembly branch of the guess through every step (all but the last polish).
 
     Parameters
@@ -695,6 +739,10 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
         Undriven angles near the configuration at t = 0 of the file's drive laws (default: the
         bodies' guesses). The mechanism is assembled there and followed to the first step along
         the shortest change of the driven angles.
+    rates : tuple of numpy.ndarray, optional
+        (n, n_d) driven angular velocities (rad/s) and accelerations (rad/s2) at ``times``: the
+        steps between solved ones are then interpolated in time, not extrapolated, where the
+        driven angles agree (:meth:`Continuation._predict`).
 
     Returns
     -------
@@ -733,16 +781,23 @@ def track(mechanism: Mechanism, system: LoopSystem, times: np.ndarray, theta_d: 
                                     theta_d[nxt], int(nxt))
     solved = np.zeros(n, dtype=bool)
     solved[anchors] = True
-    for spacing in tolerances.refine_spacings:
+    spacings = tolerances.refine_spacings
+    if rates is not None and spacings:
+        finest = max(spacings[-1], tolerances.interpolation_spacing)
+        if _rates_interpolate(times, path, rates, _anchor_indices(travel, finest)):
+            spacings = (*spacings[:-1], finest)
+        else:  # rates inconsistent with the angles (measured drives): extrapolate
+            rates = None
+    for spacing in spacings:
         targets = _anchor_indices(travel, spacing)
         targets = targets[~solved[targets]]
         if targets.size:
             _refine(tracker, path, theta_d, theta_u, solved, targets, row_order)
-    return Continuation(tracker, path, theta_d, theta_u, solved, row_order)
+    return Continuation(tracker, path, theta_d, theta_u, solved, row_order, rates)
 
 
 def _predict(system: LoopSystem, path: np.ndarray, theta_d: np.ndarray, theta_u: np.ndarray,
-             known: np.ndarray, targets: np.ndarray
+             known: np.ndarray, targets: np.ndarray, row_order: np.ndarray | None = None
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Second-order predictions of ``targets`` from the nearest preceding solved step.
 
@@ -752,7 +807,7 @@ def _predict(system: LoopSystem, path: np.ndarray, theta_d: np.ndarray, theta_u:
     rows = np.searchsorted(known, targets, side="right") - 1
     base = known[rows]
     used, local = np.unique(rows, return_inverse=True)
-    expansion = taylor(system, theta_d[known[used]], theta_u[known[used]])
+    expansion = taylor(system, theta_d[known[used]], theta_u[known[used]], row_order)
     delta = path[targets] - path[base]
     linear = np.einsum("nij,nj->ni", expansion.first[local], delta)
     pairs = (delta[:, :, None] * delta[:, None, :]).reshape(delta.shape[0], -1)
@@ -769,6 +824,89 @@ def _plausible(found: np.ndarray, guess: np.ndarray, start: np.ndarray, delta: n
     return moved <= np.maximum(0.25 * np.maximum(row_max_abs(delta), expected), 1e-6)
 
 
+def _quintic(h: np.ndarray, start: tuple[np.ndarray, ...], end: tuple[np.ndarray, ...]
+             ) -> np.ndarray:
+    """Quintic Hermite polynomials on intervals, in powers of the fraction ``u`` of each.
+
+    ``h`` (m,) are the intervals' lengths; ``start`` and ``end`` the values and their first and
+    second derivatives at the intervals' ends, (m, k) each. Returns the coefficients
+    (m, 6, k) of ``u**0 ... u**5`` (evaluate with :func:`_horner`).
+    """
+    h = h[:, None]
+    step = end[0] - start[0]
+    d0, d1 = h * start[1], h * end[1]
+    a0, a1 = (h * h) * start[2], (h * h) * end[2]
+    coef = np.empty((step.shape[0], 6, step.shape[1]))
+    coef[:, 0] = start[0]
+    coef[:, 1] = d0
+    coef[:, 2] = 0.5 * a0
+    coef[:, 3] = 10.0 * step - 6.0 * d0 - 4.0 * d1 - 1.5 * a0 + 0.5 * a1
+    coef[:, 4] = -15.0 * step + 8.0 * d0 + 7.0 * d1 + 1.5 * a0 - a1
+    coef[:, 5] = 6.0 * step - 3.0 * (d0 + d1) - 0.5 * (a0 - a1)
+    return coef
+
+
+def _horner(coef: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Evaluate polynomials (n, degree + 1, k) in ascending powers at ``u`` (n,), (n, k)."""
+    u = u[:, None]
+    value = coef[:, -1] * u
+    for power in range(coef.shape[1] - 2, 0, -1):
+        value += coef[:, power]
+        value *= u
+    value += coef[:, 0]
+    return value
+
+
+def _sixth_order(times: np.ndarray, coef: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Add the sixth-order term to quintic Hermite polynomials between points, estimated.
+
+    The quintic's error is about ``c u**3 (u - 1)**3`` on each interval; ``c`` is estimated from
+    its misses at the neighbouring points (``values`` (m, k) at ``times`` (m,), the mean of both
+    sides where both exist). Returns the coefficients (m - 1, 7, k) of ``u**0 ... u**6``.
+    """
+    h = np.diff(times)
+    term = np.zeros((coef.shape[0], coef.shape[2]))
+    count = np.zeros(coef.shape[0])
+    if times.size > 2:
+        ahead = (times[2:] - times[:-2]) / h[:-1]  # the next point, in fractions of interval i
+        term[:-1] += (values[2:] - _horner(coef[:-1], ahead)) / (ahead**3 * (ahead - 1)**3)[:, None]
+        behind = (times[:-2] - times[1:-1]) / h[1:]  # the previous point, for interval i + 1
+        term[1:] += (values[:-2] - _horner(coef[1:], behind)) / (
+            behind**3 * (behind - 1)**3)[:, None]
+        count[:-1] += 1
+        count[1:] += 1
+    term /= np.maximum(count, 1)[:, None]
+    out = np.empty((coef.shape[0], 7, coef.shape[2]))
+    out[:, :6] = coef
+    out[:, 3] -= term  # u**3 (u - 1)**3 = u**6 - 3 u**5 + 3 u**4 - u**3
+    out[:, 4] += 3.0 * term
+    out[:, 5] -= 3.0 * term
+    out[:, 6] = term
+    return out
+
+
+def _rates_interpolate(times: np.ndarray, path: np.ndarray, rates: tuple[np.ndarray, np.ndarray],
+                       knots: np.ndarray) -> bool:
+    """Whether the drives' rates interpolate the driven angles between ``knots`` (steps).
+
+    Quintic Hermite polynomials in time between consecutive knots, from the angles, velocities
+    and accelerations there, must reproduce the driven angles to :data:`_SMOOTH` at the step
+    nearest the middle of every interval (where such errors peak): rates consistent with the
+    angles and motion smooth at the knots' spacing, as drive laws give.
+    """
+    middle = (knots[:-1] + knots[1:]) // 2
+    inside = np.flatnonzero(middle > knots[:-1])
+    if not inside.size:
+        return False
+    first, last, middle = knots[inside], knots[inside + 1], middle[inside]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        h = times[last] - times[first]
+        coef = _quintic(h, (path[first], *(r[first] for r in rates)),
+                        (path[last], *(r[last] for r in rates)))
+        error = row_max_abs(_horner(coef, (times[middle] - times[first]) / h) - path[middle])
+    return bool(np.all(error <= _SMOOTH))
+
+
 def _refine(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, theta_u: np.ndarray,
             solved: np.ndarray, targets: np.ndarray, row_order: np.ndarray | None) -> None:
     """Solve ``targets`` from the nearest preceding solved step, in place, and mark them solved.
@@ -780,7 +918,7 @@ def _refine(tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray, theta_u: n
     pending = targets
     while pending.size:
         guess, base, delta, near = _predict(system, path, theta_d, theta_u,
-                                            np.flatnonzero(solved), pending)
+                                            np.flatnonzero(solved), pending, row_order)
         if not np.any(near):  # steps longer than the series range: sequential halving
             _sequential(tracker, path, theta_d, theta_u, pending, base)
             solved[pending] = True
@@ -812,7 +950,8 @@ class Continuation:
     """
 
     def __init__(self, tracker: _Tracker, path: np.ndarray, theta_d: np.ndarray,
-                 theta_u: np.ndarray, solved: np.ndarray, row_order: np.ndarray | None) -> None:
+                 theta_u: np.ndarray, solved: np.ndarray, row_order: np.ndarray | None,
+                 rates: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         self.tracker = tracker
         self.path = path
         self.theta_d = theta_d
@@ -824,7 +963,33 @@ class Continuation:
                                                 side="right") - 1]
         self.expansion = None
         if not np.all(solved) and theta_u.shape[1]:
-            self.expansion = taylor(tracker.system, theta_d[self.known], theta_u[self.known])
+            self.expansion = taylor(tracker.system, theta_d[self.known], theta_u[self.known],
+                                    row_order)
+        # quintic Hermite polynomials in time between consecutive solved steps, of the driven
+        # and the undriven angles (from their first and second time derivatives), for
+        # :meth:`_predict`
+        self.interpolation = None
+        if self.expansion is not None and rates is not None and self.known.size > 1:
+            first, second = self.expansion.first, self.expansion.second
+            w, a = rates[0][self.known], rates[1][self.known]
+            n_d = w.shape[1]
+            speed = np.zeros(first.shape[:2])
+            turn = np.zeros(first.shape[:2])
+            start_t = tracker.times[self.known]
+            h = np.diff(start_t)
+            # rates that overflow give non-finite polynomials: their steps are extrapolated
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                for j in range(n_d):
+                    speed += first[:, :, j] * w[:, j, None]
+                    turn += first[:, :, j] * a[:, j, None]
+                    for k in range(n_d):
+                        turn += second[:, :, j * n_d + k] * (w[:, j, None] * w[:, k, None])
+                solved_u = theta_u[self.known]
+                self.interpolation = (
+                    start_t[:-1], 1.0 / h,
+                    _sixth_order(start_t, _quintic(h, (solved_u[:-1], speed[:-1], turn[:-1]),
+                                                   (solved_u[1:], speed[1:], turn[1:])),
+                                 solved_u))
 
     @property
     def size(self) -> int:
@@ -832,16 +997,49 @@ class Continuation:
         return self.theta_d.shape[0]
 
     def _predict(self, part: slice) -> np.ndarray:
-        """Angles of a chunk: solved steps as they are, the others predicted from their start."""
+        """Angles of a chunk: solved steps as they are, the others predicted from their start.
+
+        With rates that interpolate the driven angles (:func:`track`), a step between two solved
+        steps is interpolated in time (quintic Hermite from both ends' angles and first and
+        second time derivatives, plus a sixth-order term estimated from the neighbouring solved
+        steps: errors near rounding, so one Newton iteration usually meets the tolerance); the
+        other steps are extrapolated from their start (:class:`Taylor`).
+        """
         theta_u = self.theta_u[part].copy()
-        if self.expansion is not None:
-            rows = np.flatnonzero(~self.solved[part])
-            if rows.size:
-                steps = rows + (part.start or 0)
-                start = self.start[steps]
-                theta_u[rows] = self.expansion.predict(np.searchsorted(self.known, start),
-                                                       self.path[steps] - self.path[start])
+        if self.expansion is None:
+            return theta_u
+        rows = np.flatnonzero(~self.solved[part])
+        if not rows.size:
+            return theta_u
+        steps = rows + (part.start or 0)
+        start = self.start[steps]
+        index = np.searchsorted(self.known, start)
+        extrapolate = np.ones(rows.size, dtype=bool)
+        if self.interpolation is not None:
+            inner = np.flatnonzero(index + 1 < self.known.size)
+            if inner.size:
+                extrapolate[inner] = ~self._interpolate(theta_u, rows[inner], steps[inner],
+                                                        index[inner])
+        if np.any(extrapolate):
+            rows, steps, start = rows[extrapolate], steps[extrapolate], start[extrapolate]
+            theta_u[rows] = self.expansion.predict(index[extrapolate],
+                                                   self.path[steps] - self.path[start])
         return theta_u
+
+    def _interpolate(self, theta_u: np.ndarray, rows: np.ndarray, steps: np.ndarray,
+                     index: np.ndarray) -> np.ndarray:
+        """Interpolate chunk ``rows`` between the solved steps ``index`` and ``index + 1``.
+
+        In place where the interpolation is finite (second derivatives may overflow); returns
+        where it is.
+        """
+        start_t, inverse_h, coef = self.interpolation  # type: ignore[misc]
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            guess = _horner(coef[index], (self.tracker.times[steps] - start_t[index])
+                            * inverse_h[index])
+            finite = np.isfinite(row_max_abs(guess))
+        theta_u[rows[finite]] = guess[finite]
+        return finite
 
     def polish(self, part: slice, z_d: np.ndarray) -> tuple[np.ndarray, np.ndarray,
                                                             BatchLU | None]:
@@ -863,25 +1061,47 @@ class Continuation:
         offset = part.start or 0
         start = self.start[part]
         checked = False
+        # Rows still iterating: the whole chunk first, then only the rows not yet converged
+        # when they are few (interpolated steps), their factors replacing theirs in the chunk's:
+        # each row keeps the factors of its own last iteration.
+        active = np.arange(theta_u.shape[0])
+        settled = np.zeros(theta_u.shape[0], dtype=bool)
+        lu: BatchLU | None = None
         for attempt in range(tols.max_iter + 1):
-            lu = BatchLU(system.jacobian_stack(z_u), self.row_order)
-            phi = base_phi + z_u @ w_u.T
+            whole = lu is None or 2 * active.size > theta_u.shape[0]
+            if whole:
+                active = np.arange(theta_u.shape[0])
+            z_a = z_u if whole else z_u[active]
+            factors = BatchLU(system.jacobian_stack(z_a), self.row_order)
+            phi = (base_phi if whole else base_phi[active]) + z_a @ w_u.T
             phi = np.concatenate([phi.real, phi.imag], axis=1)
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                step = lu.solve(phi)
+                step = factors.solve(phi)
             size = row_max_abs(step)
             finite = np.isfinite(size)
-            if np.all(finite):
+            if whole and np.all(finite):
                 theta_u -= step
                 z_u = _rotate(z_u, -step)
             else:
-                theta_u[finite] -= step[finite]
-                z_u[finite] = _rotate(z_u[finite], -step[finite])
-            converged = size <= limit
+                rows = active[finite]
+                theta_u[rows] -= step[finite]
+                z_u[rows] = _rotate(z_a[finite], -step[finite])
+            if whole:
+                lu = factors
+            else:
+                lu.assign(active, factors)  # type: ignore[union-attr]
+            converged = size <= limit[active]
             if not np.all(converged):
                 # near a toggle the angles are only defined to rounding times the condition
                 converged |= row_max_abs(phi) <= 16 * _EPS * system.length_scale
-            if np.all(converged):
+            # Converged on the first iteration (from an interpolated guess) with an update above
+            # _FRESH: one more iteration, for factors at the solution (the forces' accuracy).
+            again = converged & ~settled[active] & (size > _FRESH) if attempt == 0 else \
+                np.zeros(active.size, dtype=bool)
+            converged |= settled[active]
+            settled[active[again]] = True
+            active = active[~converged | again]
+            if not active.size:
                 if not checked:
                     checked = True
                     delta = self.path[part] - self.path[start]
@@ -889,10 +1109,11 @@ class Continuation:
                                                        delta))
                     if wrong.size:
                         self._redo(theta_u, z_u, wrong, offset)
+                        active = wrong
                         continue
                 self.theta_u[part] = theta_u
-                return theta_u, z_u, lu
-            stuck = np.flatnonzero(~converged)
+                return theta_u, z_u, lu  # type: ignore[return-value]
+            stuck = active
             if attempt == tols.max_iter:
                 first = offset + int(stuck[0])
                 origin = int(self.start[first])

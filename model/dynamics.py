@@ -76,13 +76,16 @@ def multipliers(system: LoopSystem, z: np.ndarray, lu: BatchLU, force: np.ndarra
     """
     lam = force @ system.incidence_pinv
     conj_points = system.points.conj()
+    # the moments of the joint multipliers on the bodies, only of the columns each stage reads
     if system.undriven.size:
-        held = np.imag(z.conj() * (lam @ conj_points))
-        mu = lu.solve_transposed(moment[:, system.undriven] - held[:, system.undriven])
+        u = system.undriven
+        held = np.imag(z[:, u].conj() * (lam @ conj_points[:, u]))
+        mu = lu.solve_transposed(moment[:, u] - held)
         n_loops = system.loop_points.shape[0]
         lam = lam + (mu[:, :n_loops] + 1j * mu[:, n_loops:]) @ system.loop_basis
-    held = np.imag(z.conj() * (lam @ conj_points))
-    driver = moment[:, system.driven] - held[:, system.driven]
+    d = system.driven
+    held = np.imag(z[:, d].conj() * (lam @ conj_points[:, d]))
+    driver = moment[:, d] - held
     return lam, driver
 
 

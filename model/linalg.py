@@ -150,6 +150,27 @@ class BatchLU:
         self.lu[:, :, redo] = again
         self.perm[:, redo] = perm
 
+    def assign(self, steps: np.ndarray, other: BatchLU) -> None:
+        """Replace the matrices ``steps`` and their factors by those of ``other``, in place.
+
+        Parameters
+        ----------
+        steps : numpy.ndarray
+            (k,) indices of the matrices replaced.
+        other : BatchLU
+            Factors of the k new matrices (the same shape of matrix).
+        """
+        self.matrices[:, :, steps] = other.matrices  # the tall stack is a view of it
+        if not self.square:
+            self.normal[steps] = other.normal
+            return
+        self.lu[:, :, steps] = other.lu
+        if self.perm is None and other.perm is None and np.array_equal(self.order, other.order):
+            return
+        if self.perm is None:
+            self.perm = np.repeat(self.order[:, None], self.lu.shape[-1], axis=1)
+        self.perm[:, steps] = other.order[:, None] if other.perm is None else other.perm
+
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve ``J x = rhs`` for each matrix (least squares for a tall stack).
 

@@ -125,7 +125,8 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
     # only add synchronous compaction (measured in docs/performance.md).
     with single_blas_thread(), plain_pages():
         solution = _empty_solution(mech, times, motion, selection)
-        continuation = assembly.track(mech, system, times, motion.theta, tolerances)
+        continuation = assembly.track(mech, system, times, motion.theta, tolerances,
+                                      rates=(motion.omega, motion.alpha))
         with np.errstate(over="ignore", invalid="ignore"):  # overflow: check_finite names it
             for start in range(0, times.size, _CHUNK):
                 part = slice(start, min(start + _CHUNK, times.size))
