@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from rigval.acquisition.errors import ConfigError
@@ -15,6 +16,15 @@ def test_run_measured_reports_the_childs_own_usage() -> None:
     # a Python process importing rigval holds tens of MiB; its CPU time is its own, not ours
     assert 20.0 < usage.peak_mib < 4096.0 and usage.cpu_s > 0.0
     assert usage.wall_s >= usage.cpu_s / 2.0  # at most 2 cores busy
+
+
+def test_run_measured_peak_is_not_this_processs() -> None:
+    # Linux carries a process's memory high-water mark into the program it execs: a child's
+    # ru_maxrss would report at least this process's peak
+    held = np.ones(512 << 17)  # 512 MiB, touched
+    usage = run_measured(["info", str(runs_dir() / "run_0p8_wls1.tdms")])
+    assert usage.returncode == 0 and held[-1] == 1.0
+    assert 20.0 < usage.peak_mib < 256.0
 
 
 def test_run_measured_passes_on_the_exit_code() -> None:

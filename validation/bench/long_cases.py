@@ -1,9 +1,12 @@
 """Long records: ``rigval validate`` on virtual-rig runs of growing length (``bench --long``).
 
 For each record length the virtual rig writes a run (``rigval simulate-rig``) and ``rigval
-validate`` checks it, each in a fresh process whose wall time, CPU time (user + system) and
-peak resident memory are read from the operating system (:func:`os.wait4`), so the figures are
-those a user gets from the command line. The row's error is the validation's clock offset of
+validate`` checks it, each in a fresh process whose wall time and CPU time (user + system) are
+read from the operating system (:func:`os.wait4`) and whose peak resident memory the process
+reports itself as it ends (Linux's ``VmHWM``), so the figures are those a user gets from the
+command line. (The child's ``ru_maxrss`` would not do: Linux carries the high-water mark of the
+memory a process replaces at ``exec`` into it, so every child would report at least this
+process's own peak.) The row's error is the validation's clock offset of
 WLS #1 against the rig's truth (the run is validated, not only timed). Time and memory should
 grow linearly with the record; the rows give both per second of record.
 
@@ -48,8 +51,28 @@ class Usage:
     returncode: int
 
 
+#: Marks the line in which the measured command reports its peak memory (kB) on stderr.
+_PEAK_MARK = "rigval-bench-peak-kB:"
+#: The measured command: ``rigval ARGS``, then its own peak resident memory (``VmHWM`` of
+#: ``/proc/self/status``, a fresh memory map since ``exec``) on stderr.
+_MEASURED = f"""
+import sys
+from rigval.validation.cli import main
+try:
+    code = main(sys.argv[1:])
+finally:
+    try:
+        with open("/proc/self/status") as status:
+            peak = next(line.split()[1] for line in status if line.startswith("VmHWM:"))
+        sys.stderr.write("\\n{_PEAK_MARK}" + peak + "\\n")
+    except (OSError, StopIteration):  # not Linux: the parent falls back to ru_maxrss
+        pass
+sys.exit(code)
+"""
+
+
 def run_measured(args: Sequence[str]) -> Usage:
-    """Run ``python -m rigval.validation.cli ARGS`` in a fresh process and measure it.
+    """Run ``rigval ARGS`` in a fresh Python process and measure it.
 
     Parameters
     ----------
@@ -59,20 +82,24 @@ def run_measured(args: Sequence[str]) -> Usage:
     Returns
     -------
     Usage
-        Wall time, CPU time (user + system of the child) and its peak resident memory.
+        Wall time, CPU time (user + system of the child) and its peak resident memory (as the
+        child reports it; where it cannot, its ``ru_maxrss``, which may include this process's).
     """
-    command = [sys.executable, "-m", "rigval.validation.cli", *args]
+    command = [sys.executable, "-c", _MEASURED, *args]
     start = time.perf_counter()
-    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(process.pid, 0)
-    wall = time.perf_counter() - start
-    stderr = process.stderr.read().decode(errors="replace") if process.stderr else ""
+    with tempfile.TemporaryFile() as errors:  # a file: a pipe could fill up and block the child
+        process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=errors)
+        _, status, usage = os.wait4(process.pid, 0)
+        wall = time.perf_counter() - start
+        errors.seek(0)
+        stderr = errors.read().decode(errors="replace")
     process.returncode = os.waitstatus_to_exitcode(status)
     if process.returncode not in (0, 1):
         logger.warning("rigval %s exited with %d: %s", " ".join(args), process.returncode,
                        stderr.strip()[-500:])
-    return Usage(wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0,
-                 process.returncode)
+    reported = [line for line in stderr.splitlines() if line.startswith(_PEAK_MARK)]
+    peak_kib = int(reported[-1][len(_PEAK_MARK):]) if reported else usage.ru_maxrss
+    return Usage(wall, usage.ru_utime + usage.ru_stime, peak_kib / 1024.0, process.returncode)
 
 
 def _offset_error(out: Path, run: Path) -> float:
