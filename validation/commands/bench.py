@@ -42,8 +42,8 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--long", action="store_true",
                         help="instead of the sweeps: write and validate virtual-rig runs of "
                              "20, 200, 2000 and 3600 s (--quick: 20 and 200 s) and report "
-                             "each validation's wall and CPU time and peak memory (tens of "
-                             "minutes; docs/performance.md)")
+                             "each validation's wall and CPU time and peak memory (about "
+                             "4 minutes on an idle 2-core machine; docs/performance.md)")
     parser.add_argument("--durations", type=lambda text: [float(v) for v in text.split(",")],
                         metavar="S,S,...", help="with --long: these record lengths in s")
     parser.add_argument("--compare", type=Path, metavar="CSV",
@@ -54,6 +54,7 @@ def add_parser(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the sweeps, write the files and print the table; return the exit code."""
     from rigval.validation.bench.core import STAGES, machine_note, run_bench
+    from rigval.validation.bench.long_cases import DURATIONS_S, QUICK_DURATIONS_S, long_rows
     from rigval.validation.bench.report import (
         closing_line,
         compare_text,
@@ -63,18 +64,19 @@ def run(args: argparse.Namespace) -> int:
     )
 
     reference = read_csv(args.compare) if args.compare else None  # fail before the long run
-    if not getattr(args, "quiet", False):
-        print(f"rigval bench: running {', '.join(args.stages or STAGES)} "
-              f"({'well under a minute' if args.quick else 'a few minutes'}, one BLAS thread; the "
-              "model's full inverse dynamics also with the default BLAS threads)",
-              file=sys.stderr)
-    before = machine_note()
+    durations = args.durations or (QUICK_DURATIONS_S if args.quick else DURATIONS_S)
     if args.long:
-        from rigval.validation.bench.long_cases import DURATIONS_S, QUICK_DURATIONS_S, long_rows
-
-        rows = long_rows(args.durations or (QUICK_DURATIONS_S if args.quick else DURATIONS_S))
+        plan = (f"writing and validating virtual-rig runs of "
+                f"{', '.join(f'{d:g}' for d in durations)} s, each command in its own process "
+                "(an hour of record takes about 2.5 minutes on an idle 2-core machine)")
     else:
-        rows = run_bench(args.stages, quick=args.quick)
+        plan = (f"running {', '.join(args.stages or STAGES)} "
+                f"({'well under a minute' if args.quick else 'a few minutes'}, one BLAS thread; "
+                "the model's full inverse dynamics also with the default BLAS threads)")
+    if not getattr(args, "quiet", False):
+        print(f"rigval bench: {plan}", file=sys.stderr)
+    before = machine_note()
+    rows = long_rows(durations) if args.long else run_bench(args.stages, quick=args.quick)
     note = (("Quick run (small cases). " if args.quick else "") + "Machine: " + before
             + f"; load average {os.getloadavg()[0]:.2f} after the run")
     paths = write_outputs(rows, args.out, note)
