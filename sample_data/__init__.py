@@ -11,8 +11,9 @@ simulate_rig(out_dir, settings=None, *, truth=None) -> RunFiles
     Write one run folder.
 RigSettings(speed, duration, seed, imperfections, mechanism, truth_fs, preroll, index_reset)
     One run; ``Imperfections`` sets the imperfection levels (``Imperfections.none()``: ideal).
-load_truth(path) -> RunTruth
-    The truth of a run, true signals as one Dataset per stream.
+load_truth(path, *, signals=True) -> RunTruth
+    The truth of a run, true signals as one Dataset per stream (``signals=False``: parameters,
+    clocks and drive law only).
 shipped_runs() -> list of Path
     Scenes of the runs shipped with rigval.
 """

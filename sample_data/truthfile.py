@@ -106,18 +106,22 @@ def _drive(record: dict[str, Any]) -> DriveMotion:
                        tuple(SpeedWander(**w) for w in d["wander"]))
 
 
-def load_truth(path: str | Path) -> RunTruth:
+def load_truth(path: str | Path, *, signals: bool = True) -> RunTruth:
     """Load a run's truth from its ``*_truth.json`` (the ``.npz`` next to it is read as well).
 
     Parameters
     ----------
     path : str or Path
         The truth JSON.
+    signals : bool, default True
+        Build the true signals of every sample (``RunTruth.streams``). False reads the JSON
+        alone: parameters, clocks (:meth:`RunTruth.clock_on_reference`) and drive law, without
+        the whole record's arrays (an hour's truth needs about 2 GiB as signals).
 
     Returns
     -------
     RunTruth
-        Parameters and true signals.
+        Parameters and true signals (``streams`` empty when ``signals`` is False).
 
     Raises
     ------
@@ -127,11 +131,13 @@ def load_truth(path: str | Path) -> RunTruth:
     path = Path(path)
     try:
         record = json.loads(path.read_text(encoding="utf-8"))
-        arrays = np.load(path.parent / record["arrays"])
+        arrays = np.load(path.parent / record["arrays"]) if signals else None
     except (OSError, KeyError, ValueError) as exc:
         raise DataFileError(f"cannot read virtual-rig truth: {exc}", where={"file": str(path)},
                             hint="pass the *_truth.json of a run written by simulate-rig") from exc
     drive = _drive(record)
+    if arrays is None:
+        return RunTruth(record, drive, {})
     streams = {}
     with arrays:
         for name, info in record["streams"].items():

@@ -12,6 +12,7 @@ import pytest
 from nptdms import TdmsFile
 
 from rigval.acquisition import read
+from rigval.acquisition.errors import DataFileError
 from rigval.model import builtin_mechanism, solve
 from rigval.processing.accelerometer import acceleration_from_voltage, invert_highpass
 from rigval.processing.bridge import strain_from_ratio
@@ -152,6 +153,18 @@ def test_truth_equals_the_model_at_the_sample_times(rig_run):
             model = result[quantity].sel(driver=driver).to_numpy()
             total = sum(data[n].to_numpy()[::97].astype(np.float64) for n in names)
             np.testing.assert_allclose(total, model, rtol=0, atol=1e-5 * np.ptp(model))
+
+
+def test_truth_without_signals_has_the_same_clocks_and_needs_no_arrays(rig_run, tmp_path):
+    full = load_truth(rig_run.path("truth.json"))
+    light_json = tmp_path / rig_run.path("truth.json").name  # the JSON alone, no .npz beside it
+    light_json.write_bytes(rig_run.path("truth.json").read_bytes())
+    light = load_truth(light_json, signals=False)
+    assert light.streams == {} and light.record == full.record and light.drive == full.drive
+    for stream in ("wls1", "wls2"):
+        assert light.clock_on_reference(stream) == full.clock_on_reference(stream)
+    with pytest.raises(DataFileError, match="cannot read virtual-rig truth"):
+        load_truth(light_json)  # with signals the arrays file is needed
 
 
 def test_imperfect_run_pulses_and_gaps(rig_run):
