@@ -1,8 +1,9 @@
 """Read NI TDMS files into stream Datasets (one per time base).
 
 Plain little-endian numbers are read straight into the output arrays while the file is hashed
-in the same pass (:mod:`rigval.acquisition.tdms_direct`); nptdms reads and scales everything else
-(DAQmx raw data, interleaved and big-endian segments, linear/polynomial/strain scales). The
+in the same pass (:mod:`rigval.acquisition.tdms_direct`), and so are NI-DAQmx raw rows with
+linear or polynomial scales (:mod:`rigval.acquisition.tdms_daqmx`); nptdms reads and scales
+everything else (other DAQmx layouts and scales, interleaved and big-endian segments). The
 streams, their time axes and the fallbacks applied come from the file's metadata
 (:mod:`rigval.acquisition.tdms_plan`, on :mod:`rigval.acquisition.tdms_layout`).
 """
@@ -33,6 +34,7 @@ from rigval.acquisition.devices import DeviceProfile, get_device, module_attrs
 from rigval.acquisition.errors import DataFileError
 from rigval.acquisition.hugepages import plain_pages
 from rigval.acquisition.schema import Channel, stream_dataset
+from rigval.acquisition.tdms_daqmx import DaqmxSelection, daqmx_selection, read_daqmx
 from rigval.acquisition.tdms_direct import PlainChannel, plain_selection, read_plain
 from rigval.acquisition.tdms_layout import (
     TdmsLayout,
@@ -269,11 +271,13 @@ def read_tdms(path: str | os.PathLike[str], *, group: str | Sequence[str] | None
         warn_about_plans(layout, plans)
         windows = [(plan, *((0, plan.timebase.length) if time_range is None
                             else plan.timebase.index_range(*time_range))) for plan in plans]
-        plain = plain_selection(layout, {p: (start, stop) for plan, start, stop in windows
-                                         for p in plan.channels.values()})
-        if plain is not None:
+        ranges = {p: (start, stop) for plan, start, stop in windows
+                  for p in plan.channels.values()}
+        plain = plain_selection(layout, ranges)
+        daqmx = None if plain is not None else daqmx_selection(layout, ranges)
+        if plain is not None or daqmx is not None:
             with plain_pages():
-                values, sha = _read_plain_hashed(file, layout, plain, checksum)
+                values, sha = _read_direct_hashed(file, layout, plain, daqmx, checksum)
             return {plan.name: _build(layout, plan,
                                       {n: values[p] for n, p in plan.channels.items()},
                                       start, stop, device=device, modules=modules, sha=sha)
@@ -299,16 +303,24 @@ def read_tdms(path: str | os.PathLike[str], *, group: str | Sequence[str] | None
             for plan, data, start, stop in selections}
 
 
-def _read_plain_hashed(file: Path, layout: TdmsLayout, plain: list[PlainChannel],
-                       checksum: bool) -> tuple[dict[str, np.ndarray], str]:
-    """Read plain channels directly, hashing the file in the same pass unless its digest is known.
+def _read_direct_hashed(file: Path, layout: TdmsLayout, plain: list[PlainChannel] | None,
+                        daqmx: DaqmxSelection | None,
+                        checksum: bool) -> tuple[dict[str, np.ndarray], str]:
+    """Read plain (or else DAQmx) channels directly, hashing the file in the same pass.
+
+    The file is not hashed again when its digest is known.
 
     Returns the values per object path and ``source_sha256`` (:data:`NOT_COMPUTED` without
     ``checksum``); a digest computed here is remembered while the file stays unchanged.
     """
     key = checksum_key(file) if checksum else None
     known = cached_checksum(key) if key is not None else None
-    values, digest = read_plain(file, layout, plain, checksum=key is not None and known is None)
+    hash_it = key is not None and known is None
+    if plain is not None:
+        values, digest = read_plain(file, layout, plain, checksum=hash_it)
+    else:
+        assert daqmx is not None
+        values, digest = read_daqmx(file, layout, daqmx, checksum=hash_it)
     if digest is not None and checksum_key(file) == key:
         remember_checksum(key, digest)
     return values, known or digest or NOT_COMPUTED

@@ -9,9 +9,10 @@ preallocated output array (no chunk objects, no second copy), and every byte of 
 SHA-256 running in a second thread (:class:`~rigval.acquisition.hashing.ThreadedSha256`).
 The file is read once; the digest equals that of ``sha256sum``.
 
-:func:`plain_selection` decides whether a read qualifies; everything else (interleaved segments,
-DAQmx raw data, big-endian segments, channels nptdms scales, a channel whose type changes between
-segments) is left to nptdms by the caller.
+:func:`plain_selection` decides whether a read qualifies; DAQmx raw data is then tried by
+:mod:`rigval.acquisition.tdms_daqmx`, and everything else (interleaved segments, big-endian
+segments, channels nptdms scales, a channel whose type changes between segments) is left to
+nptdms by the caller.
 """
 
 from __future__ import annotations

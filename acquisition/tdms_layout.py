@@ -192,6 +192,10 @@ class _Index:
     byte_size: int  # bytes per chunk for this object (0 for DAQmx: see widths)
     widths: tuple[int, ...] = ()
     buffers: tuple[int, ...] = ()
+    #: DAQmx scalers: ``(DAQmx type code, raw buffer index, byte offset in the row, scale id)``
+    #: (the offset is in bits for digital line scalers).
+    scalers: tuple[tuple[int, int, int, int], ...] = ()
+    digital: bool = False  # digital line scalers (0x126A)
 
 
 @dataclass(frozen=True, slots=True)
@@ -288,14 +292,18 @@ def _read_index(buf: _Buffer, header: int) -> _Index:
         if dimension != 1 or n_scalers > 4096:
             raise _Damaged(f"DAQmx index with dimension {dimension}, {n_scalers} scalers")
         scaler_fmt = "IIIII" if header == DAQMX_FORMAT_CHANGING else "IIIBI"
-        buffers = tuple(int(buf.take(scaler_fmt)[1]) for _ in range(n_scalers))
+        scalers = tuple((int(kind), int(buffer), int(offset), int(scale_id))
+                        for kind, buffer, offset, _, scale_id in
+                        (buf.take(scaler_fmt) for _ in range(n_scalers)))
+        buffers = tuple(s[1] for s in scalers)
         n_widths = buf.u32()
         if n_widths > 4096:
             raise _Damaged(f"DAQmx index with {n_widths} raw data widths")
         widths = tuple(int(buf.u32()) for _ in range(n_widths))
         if any(b >= len(widths) for b in buffers):
             raise _Damaged("DAQmx scaler refers to a raw buffer that does not exist")
-        return _Index(data_type, int(n_values), 0, widths, buffers)
+        return _Index(data_type, int(n_values), 0, widths, buffers, scalers,
+                      header == DAQMX_DIGITAL_LINE)
     dimension, n_values = buf.take("IQ")
     if dimension != 1:
         raise _Damaged(f"raw data index with dimension {dimension}")
