@@ -100,7 +100,7 @@ def _json_value(value: Any) -> Any:
 
 
 def _scaling_text(props: Mapping[str, Any]) -> str:
-    """Describe the NI scaling nptdms applied to a channel."""
+    """Describe the NI scaling applied to a channel (by rigval's DAQmx reader or nptdms)."""
     count = props.get("NI_Number_Of_Scales")
     if not count or props.get("NI_Scaling_Status") == "scaled":
         return "none"
@@ -114,7 +114,9 @@ def _scaling_text(props: Mapping[str, Any]) -> str:
                          f" intercept {props.get(f'NI_Scale[{k}]_Linear_Y_Intercept')}")
         else:
             parts.append(f"NI_Scale[{k}] {kind}")
-    return ("DAQmx raw data scaled by nptdms: " + "; ".join(parts)) if parts else "none"
+    if not parts:
+        return "none"
+    return "DAQmx raw data scaled by the file's NI scales: " + "; ".join(parts)
 
 
 def _channel_attrs(layout: TdmsLayout, plan: TdmsStreamPlan, name: str,
