@@ -32,7 +32,7 @@ import numpy as np
 from rigval.acquisition.errors import DataFileError
 from rigval.acquisition.hashing import BY_REFERENCE_BYTES, ThreadedSha256
 from rigval.acquisition.hugepages import mapped_empty, populate, use_huge_pages
-from rigval.acquisition.tdms_direct import _raise_short, _read_exactly
+from rigval.acquisition.tdms_direct import raise_short, read_exactly
 from rigval.acquisition.tdms_layout import (
     DAQMX_TYPE,
     TOC_BIG_ENDIAN,
@@ -352,7 +352,7 @@ def read_daqmx(file: Path, layout: TdmsLayout, selection: DaqmxSelection,
                     if hasher is None:
                         handle.seek(start)
                     elif hasher.read_from(handle, start - position) < start - position:
-                        _raise_short(file, start)
+                        raise_short(file, start)
                     position = start
                 block.append(piece)
             if block:
@@ -386,7 +386,7 @@ def _flush(handle: Any, block: list[tuple[int, int, int, list[tuple[Any, ...]]]]
     size = last[0] + last[1] * last[2] - position
     buffer = scratch[:size]
     view = memoryview(buffer)
-    _read_exactly(handle, view, file, position)
+    read_exactly(handle, view, file, position)
     if hasher is not None:
         step = BY_REFERENCE_BYTES - 1
         for at in range(0, size, step):

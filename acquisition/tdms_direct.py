@@ -40,7 +40,7 @@ from rigval.acquisition.tdms_layout import (
 )
 from rigval.acquisition.tdms_log import captured_nptdms_messages
 
-__all__ = ["PlainChannel", "plain_selection", "read_plain"]
+__all__ = ["PlainChannel", "plain_selection", "raise_short", "read_exactly", "read_plain"]
 
 logger = logging.getLogger(__name__)
 
@@ -225,9 +225,9 @@ def read_plain(file: Path, layout: TdmsLayout, channels: Sequence[PlainChannel],
                     if hasher is None:
                         handle.seek(offset)
                     elif hasher.read_from(handle, offset - position) < offset - position:
-                        _raise_short(file, offset)
+                        raise_short(file, offset)
                     position = offset
-                _read_exactly(handle, destination, file, offset)
+                read_exactly(handle, destination, file, offset)
                 if hasher is not None:
                     hasher.feed(destination)
                 position += len(destination)
@@ -246,18 +246,18 @@ def read_plain(file: Path, layout: TdmsLayout, channels: Sequence[PlainChannel],
             hasher.close()
 
 
-def _read_exactly(handle: io.BufferedReader, destination: memoryview, file: Path,
+def read_exactly(handle: io.BufferedReader, destination: memoryview, file: Path,
                   offset: int) -> None:
     """Fill ``destination`` from ``handle``; a short read means the file shrank."""
     done = 0
     while done < len(destination):
         got = handle.readinto(destination[done:]) or 0
         if got == 0:
-            _raise_short(file, offset + done)
+            raise_short(file, offset + done)
         done += got
 
 
-def _raise_short(file: Path, offset: int) -> None:
+def raise_short(file: Path, offset: int) -> None:
     """Raise the error for a file that ends before bytes its scan found."""
     raise DataFileError(f"the file ends at byte {offset}, before data its metadata located "
                         f"(size now {os.stat(file).st_size} bytes)", where={"file": str(file)},
