@@ -22,7 +22,7 @@ change, counts that do not add up) returns None and the caller reads the file wi
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -277,8 +277,8 @@ def daqmx_selection(layout: TdmsLayout,
     return DaqmxSelection(channels, segments)
 
 
-def _pieces(selection: DaqmxSelection) -> list[tuple[int, int, int, list[tuple[Any, ...]]]]:
-    """Return ``(first byte, rows, width, copies)`` of every run of rows to read, in file order.
+def _pieces(selection: DaqmxSelection) -> Iterator[tuple[int, int, int, list[tuple[Any, ...]]]]:
+    """Yield ``(first byte, rows, width, copies)`` of every run of rows to read, in file order.
 
     Each copy is ``(scale id, path, first output index, first row in the run, rows, byte offset
     in the row, dtype)``; segments longer than a block are split into runs of whole rows.
@@ -286,7 +286,6 @@ def _pieces(selection: DaqmxSelection) -> list[tuple[int, int, int, list[tuple[A
     ranges = {c.path: (c.start, c.stop) for c in selection.channels}
     scalers = {c.path: c.scalers for c in selection.channels}
     seen = dict.fromkeys(ranges, 0)
-    pieces = []
     for data_start, rows, width, offsets in selection.segments:
         per_block = max(1, _BLOCK_BYTES // width)
         for first_row in range(0, rows, per_block):
@@ -300,10 +299,9 @@ def _pieces(selection: DaqmxSelection) -> list[tuple[int, int, int, list[tuple[A
                     copies.extend((scale_id, path, lo - start, lo - first, hi - lo, offset,
                                    scalers[path][scale_id]) for scale_id, offset in where.items())
             if copies:
-                pieces.append((data_start + first_row * width, n, width, copies))
+                yield data_start + first_row * width, n, width, copies
         for path in offsets:
             seen[path] += rows
-    return pieces
 
 
 def read_daqmx(file: Path, layout: TdmsLayout, selection: DaqmxSelection,
