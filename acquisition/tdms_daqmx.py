@@ -335,10 +335,7 @@ def read_daqmx(file: Path, layout: TdmsLayout, selection: DaqmxSelection,
     huge = use_huge_pages(sum(8 * (c.stop - c.start) for c in selection.channels))
     raw = {(sid, c.path): _raw_array(c, sid, huge) for c in selection.channels for sid in c.scalers}
     hasher = ThreadedSha256(layout.file_size) if checksum else None
-    # a gap of at most a block, then a run; a memory map of its own, not malloc's: freeing an
-    # 8 MiB malloc block would raise its threshold for memory maps to 8 MiB, and the arrays of
-    # the stages after the read would then stay in the heap
-    scratch = mapped_empty(2 * _BLOCK_BYTES, np.uint8)
+    scratch = np.empty(2 * _BLOCK_BYTES, np.uint8)  # a gap of at most a block, then a run
     try:
         with open(file, "rb", buffering=0) as handle:
             position = 0
