@@ -29,10 +29,9 @@ from typing import Any
 
 import numpy as np
 
-from rigval.acquisition.errors import DataFileError
 from rigval.acquisition.hashing import BY_REFERENCE_BYTES, ThreadedSha256
 from rigval.acquisition.hugepages import mapped_empty, populate, use_huge_pages
-from rigval.acquisition.tdms_direct import raise_short, read_exactly
+from rigval.acquisition.tdms_direct import direct_read, read_exactly, rest_digest, skip_to
 from rigval.acquisition.tdms_layout import (
     DAQMX_TYPE,
     TOC_BIG_ENDIAN,
@@ -334,41 +333,25 @@ def read_daqmx(file: Path, layout: TdmsLayout, selection: DaqmxSelection,
     """
     huge = use_huge_pages(sum(8 * (c.stop - c.start) for c in selection.channels))
     raw = {(sid, c.path): _raw_array(c, sid, huge) for c in selection.channels for sid in c.scalers}
-    hasher = ThreadedSha256(layout.file_size) if checksum else None
     scratch = np.empty(2 * _BLOCK_BYTES, np.uint8)  # a gap of at most a block, then a run
-    try:
-        with open(file, "rb", buffering=0) as handle:
-            position = 0
-            block: list[tuple[int, int, int, list[tuple[Any, ...]]]] = []
-            for piece in _pieces(selection):
-                start = piece[0]
-                end = start + piece[1] * piece[2]
-                if block and end - position > _BLOCK_BYTES:
-                    position = _flush(handle, block, position, raw, hasher, scratch, file)
-                    block = []
-                if not block and start - position > _BLOCK_BYTES:
-                    if hasher is None:
-                        handle.seek(start)
-                    elif hasher.read_from(handle, start - position) < start - position:
-                        raise_short(file, start)
-                    position = start
-                block.append(piece)
-            if block:
+    with direct_read(file, layout.file_size, checksum, 0) as (handle, hasher):
+        position = 0
+        block: list[tuple[int, int, int, list[tuple[Any, ...]]]] = []
+        for piece in _pieces(selection):
+            start = piece[0]
+            end = start + piece[1] * piece[2]
+            if block and end - position > _BLOCK_BYTES:
                 position = _flush(handle, block, position, raw, hasher, scratch, file)
-            values = {c.path: _scaled(c, raw) for c in selection.channels}
-            if hasher is None:
-                return values, None
-            hasher.read_from(handle, None)
-            logger.debug("%s: read %d DAQmx values directly, hashed %d bytes", file,
-                         sum(a.size for a in values.values()), hasher.fed)
-            return values, hasher.hexdigest()
-    except OSError as error:
-        raise DataFileError(f"cannot read the file: {error}", where={"file": str(file)},
-                            hint="check that the file is readable and not being replaced"
-                            ) from error
-    finally:
-        if hasher is not None:
-            hasher.close()
+                block = []
+            if not block and start - position > _BLOCK_BYTES:
+                position = skip_to(handle, hasher, position, start, file)
+            block.append(piece)
+        if block:
+            position = _flush(handle, block, position, raw, hasher, scratch, file)
+        values = {c.path: _scaled(c, raw) for c in selection.channels}
+        logger.debug("%s: read %d DAQmx values directly", file,
+                     sum(a.size for a in values.values()))
+        return values, rest_digest(handle, hasher)
 
 
 def _flush(handle: Any, block: list[tuple[int, int, int, list[tuple[Any, ...]]]],

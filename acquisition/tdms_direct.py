@@ -17,12 +17,13 @@ nptdms by the caller.
 
 from __future__ import annotations
 
-import io
 import logging
 import os
 from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
@@ -40,7 +41,8 @@ from rigval.acquisition.tdms_layout import (
 )
 from rigval.acquisition.tdms_log import captured_nptdms_messages
 
-__all__ = ["PlainChannel", "plain_selection", "raise_short", "read_exactly", "read_plain"]
+__all__ = ["PlainChannel", "direct_read", "plain_selection", "raise_short", "read_exactly",
+           "read_plain", "rest_digest", "skip_to"]
 
 logger = logging.getLogger(__name__)
 
@@ -216,27 +218,41 @@ def read_plain(file: Path, layout: TdmsLayout, channels: Sequence[PlainChannel],
     """
     huge = use_huge_pages(sum((c.stop - c.start) * c.dtype.itemsize for c in channels))
     out = {c.path: mapped_empty(c.stop - c.start, c.dtype, huge) for c in channels}
-    hasher = ThreadedSha256(layout.file_size) if checksum else None
+    with direct_read(file, layout.file_size, checksum, _BUFFER_BYTES) as (handle, hasher):
+        position = 0
+        for offset, destination in _targets(layout, channels, out):
+            if offset > position:
+                position = skip_to(handle, hasher, position, offset, file)
+            read_exactly(handle, destination, file, offset)
+            if hasher is not None:
+                hasher.feed(destination)
+            position += len(destination)
+        logger.debug("%s: read %d values directly", file, sum(a.size for a in out.values()))
+        return out, rest_digest(handle, hasher)
+
+
+@contextmanager
+def direct_read(file: Path, file_size: int, checksum: bool, buffering: int
+                ) -> Iterator[tuple[BinaryIO, ThreadedSha256 | None]]:
+    """Open ``file`` for a direct read, with the SHA-256 thread of its bytes when ``checksum``.
+
+    Errors reading the file become a DataFileError; the thread ends with the block.
+
+    Parameters
+    ----------
+    file : pathlib.Path
+        The file.
+    file_size : int
+        Its size in bytes as scanned (the hasher's total).
+    checksum : bool
+        Start the SHA-256 thread (None in its place otherwise).
+    buffering : int
+        ``open``'s buffer size in bytes (0: unbuffered).
+    """
+    hasher = ThreadedSha256(file_size) if checksum else None
     try:
-        with open(file, "rb", buffering=_BUFFER_BYTES) as handle:
-            position = 0
-            for offset, destination in _targets(layout, channels, out):
-                if offset > position:
-                    if hasher is None:
-                        handle.seek(offset)
-                    elif hasher.read_from(handle, offset - position) < offset - position:
-                        raise_short(file, offset)
-                    position = offset
-                read_exactly(handle, destination, file, offset)
-                if hasher is not None:
-                    hasher.feed(destination)
-                position += len(destination)
-            if hasher is None:
-                return out, None
-            hasher.read_from(handle, None)
-            logger.debug("%s: read %d values directly, hashed %d bytes", file,
-                         sum(a.size for a in out.values()), hasher.fed)
-            return out, hasher.hexdigest()
+        with open(file, "rb", buffering=buffering) as handle:
+            yield handle, hasher
     except OSError as error:
         raise DataFileError(f"cannot read the file: {error}", where={"file": str(file)},
                             hint="check that the file is readable and not being replaced"
@@ -246,8 +262,29 @@ def read_plain(file: Path, layout: TdmsLayout, channels: Sequence[PlainChannel],
             hasher.close()
 
 
-def read_exactly(handle: io.BufferedReader, destination: memoryview, file: Path,
-                  offset: int) -> None:
+def skip_to(handle: BinaryIO, hasher: ThreadedSha256 | None, position: int, offset: int,
+            file: Path) -> int:
+    """Move a direct read on from byte ``position`` to ``offset``, hashing the bytes between.
+
+    Returns ``offset``; raises the DataFileError of :func:`raise_short` if the file ends first.
+    """
+    if hasher is None:
+        handle.seek(offset)
+    elif hasher.read_from(handle, offset - position) < offset - position:
+        raise_short(file, offset)
+    return offset
+
+
+def rest_digest(handle: BinaryIO, hasher: ThreadedSha256 | None) -> str | None:
+    """Hash the file from the read's position to its end; return the digest (None: no hasher)."""
+    if hasher is None:
+        return None
+    hasher.read_from(handle, None)
+    logger.debug("hashed %d bytes", hasher.fed)
+    return hasher.hexdigest()
+
+
+def read_exactly(handle: BinaryIO, destination: memoryview, file: Path, offset: int) -> None:
     """Fill ``destination`` from ``handle``; a short read means the file shrank."""
     done = 0
     while done < len(destination):
