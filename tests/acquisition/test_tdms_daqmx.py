@@ -9,16 +9,14 @@ from __future__ import annotations
 
 import importlib.util
 import sys
-import warnings
 from pathlib import Path
 from types import ModuleType
 
 import numpy as np
 import pytest
 
-import rigval.acquisition.tdms as tdms_module
 import rigval.sample_data.tdms_writer as tdms_writer
-from rigval.acquisition import read, read_stream
+from rigval.acquisition import read_stream
 from rigval.acquisition.errors import DataFileError
 from rigval.acquisition.tdms_daqmx import daqmx_selection, read_daqmx
 from rigval.acquisition.tdms_layout import scan_tdms
@@ -51,25 +49,8 @@ def _fresh_digests(monkeypatch: pytest.MonkeyPatch) -> None:
 
 def _read_both(path: Path, monkeypatch: pytest.MonkeyPatch, **options: object) -> tuple:
     """Return (direct result, nptdms result, direct warnings, nptdms warnings, route used)."""
-    used = []
-    original = tdms_module.read_daqmx
-
-    def spy(*args: object, **kw: object) -> object:
-        used.append(True)
-        return original(*args, **kw)
-
-    with monkeypatch.context() as patch:
-        patch.setattr(tdms_module, "read_daqmx", spy)
-        with warnings.catch_warnings(record=True) as fast_warnings:
-            warnings.simplefilter("always")
-            fast = read(path, **options)
-    with monkeypatch.context() as patch:
-        patch.setattr(tdms_module, "daqmx_selection", lambda *a, **k: None)
-        patch.setattr("rigval.acquisition.detect._DIGESTS", {})
-        with warnings.catch_warnings(record=True) as slow_warnings:
-            warnings.simplefilter("always")
-            slow = read(path, **options)
-    return fast, slow, fast_warnings, slow_warnings, bool(used)
+    return _direct_tests()._read_both(path, monkeypatch, route=("read_daqmx", "daqmx_selection"),
+                                      **options)
 
 
 def _messages(caught: list) -> list[str]:

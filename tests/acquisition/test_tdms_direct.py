@@ -44,22 +44,29 @@ def _channels(k: int, n: int, props: dict | None = None) -> list[ChannelObject]:
             ChannelObject("task", "u32", rng.integers(0, 2**32 - 1, n).astype(np.uint32), p)]
 
 
-def _read_both(path: Path, monkeypatch: pytest.MonkeyPatch, **options: object) -> tuple:
-    """Return (direct result, nptdms result, direct warnings, nptdms warnings, route used)."""
+def _read_both(path: Path, monkeypatch: pytest.MonkeyPatch, *,
+               route: tuple[str, str] = ("read_plain", "plain_selection"),
+               **options: object) -> tuple:
+    """Return (direct result, nptdms result, direct warnings, nptdms warnings, route used).
+
+    ``route`` names the direct reader and its selection in ``rigval.acquisition.tdms`` (the
+    plain one by default); the nptdms result is read with that selection switched off.
+    """
     used = []
-    original = direct.read_plain
+    reader, selection = route
+    original = getattr(tdms_module, reader)
 
     def spy(*args: object, **kw: object) -> object:
         used.append(True)
         return original(*args, **kw)
 
     with monkeypatch.context() as patch:
-        patch.setattr(tdms_module, "read_plain", spy)
+        patch.setattr(tdms_module, reader, spy)
         with warnings.catch_warnings(record=True) as fast_warnings:
             warnings.simplefilter("always")
             fast = read(path, **options)
     with monkeypatch.context() as patch:
-        patch.setattr(tdms_module, "plain_selection", lambda *a, **k: None)
+        patch.setattr(tdms_module, selection, lambda *a, **k: None)
         patch.setattr("rigval.acquisition.detect._DIGESTS", {})
         with warnings.catch_warnings(record=True) as slow_warnings:
             warnings.simplefilter("always")
