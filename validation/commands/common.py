@@ -13,7 +13,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["add_command", "add_out_option", "add_scene_argument"]
+__all__ = ["add_command", "add_out_option", "add_scene_argument", "out_file", "out_folder"]
 
 
 def add_command(subparsers: Any, func: Callable[[argparse.Namespace], int], name: str, *,
@@ -53,7 +53,35 @@ def add_scene_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scene", type=Path, help="scene file (TOML, docs/scene.md)")
 
 
+def out_folder(text: str) -> Path:
+    """Return ``--out DIR`` as a path; refuse an existing file while the options are parsed.
+
+    Every command that writes a folder takes its ``--out`` through this type, so a file given
+    there ends the command with exit code 2 before any work, not with an internal error after
+    it (argparse turns the :class:`argparse.ArgumentTypeError` into a usage error).
+    """
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(
+            f"{text} is a file, and --out must be a folder: give a new folder (it is created) "
+            "or an existing one")
+    return path
+
+
+def out_file(text: str) -> Path:
+    """Return ``--out FILE`` as a path; refuse an existing folder.
+
+    The counterpart of :func:`out_folder` for a command that writes one file (``init``).
+    """
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(
+            f"{text} is a folder, and --out must be the file to write: give a file name, e.g. "
+            f"{path / 'scene.toml'}")
+    return path
+
+
 def add_out_option(parser: argparse.ArgumentParser, help: str = "output folder (created)",
                    ) -> None:
-    """Add the required ``--out DIR`` option (a path) to a command's parser."""
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help=help)
+    """Add the required ``--out DIR`` option (:func:`out_folder`) to a command's parser."""
+    parser.add_argument("--out", type=out_folder, required=True, metavar="DIR", help=help)

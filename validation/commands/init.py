@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rigval.validation.commands.common import add_command
+from rigval.validation.commands.common import add_command, out_file
 
 __all__ = ["add_parser", "run"]
 
@@ -30,7 +30,7 @@ def add_parser(subparsers: Any) -> None:
         exit_codes="0 written, 2 bad option or existing --out (use --force), 3 a file "
                    "cannot be read.")
     parser.add_argument("files", nargs="+", type=Path, metavar="FILE", help="data files")
-    parser.add_argument("--out", type=Path, required=True, help="scene file to write (TOML)")
+    parser.add_argument("--out", type=out_file, required=True, help="scene file to write (TOML)")
     parser.add_argument("--mechanism", metavar="M", default=None,
                         help="builtin:NAME or a mechanism file (default: TODO in the scene)")
     parser.add_argument("--force", action="store_true", help="overwrite --out")
