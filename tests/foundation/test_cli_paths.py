@@ -1,5 +1,9 @@
-"""``--out`` of every command: an existing file (a folder for ``init``) is refused with exit
-code 2 while the options are parsed, before any work, and is left as it was."""
+"""Paths on the command line, checked while the options are parsed, before any work.
+
+``--out`` of every command: an existing file (a folder for ``init``) is refused with exit code 2
+and left as it was. A missing input file exits 2 from every command, and a data file given as a
+scene is named as one, with the command that writes a scene for it.
+"""
 
 from __future__ import annotations
 
@@ -77,3 +81,35 @@ def _parser_without_work(no_work: Callable[[argparse.Namespace], int]
             command.set_defaults(func=no_work)
         return parser
     return build
+
+
+#: A command line per command that reads input files; ``{}`` stands for the input.
+READERS = {"validate": ["validate", "{}", "--out", "OUT"], "identify": ["identify", "{}", "--out",
+                                                                        "OUT"],
+           "campaign": ["campaign", "{}", "--out", "OUT"], "info": ["info", "{}"],
+           "init": ["init", "{}", "--out", "OUT/scene.toml"]}
+
+
+@pytest.mark.parametrize("name", sorted(READERS))
+def test_a_missing_input_exits_2_from_every_command(
+        name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    missing = tmp_path / "nope.tdms"
+    argv = [word.replace("{}", str(missing)).replace("OUT", str(tmp_path / "out"))
+            for word in READERS[name]]
+    assert main(argv) == EXIT_USAGE
+    err = capsys.readouterr().err
+    assert f"{missing} does not exist: check the path" in err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name", ["validate", "identify", "campaign"])
+@pytest.mark.parametrize("data", ["run_0p8_cdaq.tdms", "run_0p8_wls2.csv"])
+def test_a_data_file_given_as_a_scene_points_to_init(
+        name: str, data: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = shipped_runs()[0].parent / data
+    argv = [word.replace("{}", str(path)).replace("OUT", str(tmp_path / "out"))
+            for word in READERS[name]]
+    assert main(argv) == EXIT_USAGE
+    err = capsys.readouterr().err
+    assert "is a data file, not a scene" in err and f"rigval init {path} --out" in err
+    assert "codec" not in err and "decode" not in err
