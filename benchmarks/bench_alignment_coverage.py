@@ -10,7 +10,7 @@ Two tables:
    band-limited, first-order rises of 0.05-2 sample periods; 1.6-5 kHz; drive periods near and
    far from a whole number of samples; 6-400 pulses; noise), timed by
    :func:`~rigval.processing.pulses.time_edges`: coverage per edge class, and the half-widths
-   over the quantisation limit (:func:`~rigval.processing.align.quantisation_limit`).
+   over the quantisation limit (:func:`~rigval.processing.clock_fit.quantisation_limit`).
 
 Usage: ``python benchmarks/bench_alignment_coverage.py [RUNS] [SEED...]`` (default 1000 runs,
 seeds 1 2 3); ``--signals RUNS [SEED...]`` prints only the second table for RUNS signal runs.
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rigval.processing.align import estimate_clock, quantisation_limit
+from rigval.processing.clock_fit import estimate_clock, quantisation_limit
 from rigval.processing.pulses import detect_edges, time_edges
 from rigval.sample_data.edge_runs import STAMP_WINDOW_S, EdgeRun, edge_runs
 

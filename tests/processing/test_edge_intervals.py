@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rigval.processing.align import estimate_clock, quantisation_limit
+from rigval.processing.clock_fit import estimate_clock, quantisation_limit
 from rigval.processing.pulses import detect_edges, time_edges
 from rigval.sample_data.edge_runs import STAMP_WINDOW_S, edge_run
 
