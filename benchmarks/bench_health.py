@@ -4,7 +4,7 @@ For each seed, one clean run and one run with eight faults, each on its own chan
 from the clean run's own signals): tor2 clipped at 75 % of its peak, tor3 flat from 60 % of the
 record, 5 spikes of 30 % of str1's span, noise 10 times tor4's floor from 30 to 70 %, tor1's zero
 drifting by 10 % of its span, enc1 losing 40 counts at 50 %, a 25-count glitch on enc2 at 35 %,
-and opt2's pulses 30 % wider from 50 % on. Speeds 0.7-1.3 rev/s, 10 s records.
+and opt2's pulses 30 % wider from 50 % on. Speeds 0.7-1.3 rev/s, 20 s records (the rig's default).
 
 A fault counts as found when a finding of its kind on its channel gives its place:
 
@@ -112,12 +112,12 @@ def main(argv: list[str]) -> None:
     clean_alarms, other_alarms = [], []
     for seed in range(1, seeds + 1):
         speed = round(0.7 + 0.6 * np.random.default_rng(seed).uniform(), 2)
-        settings = RigSettings(speed=speed, duration=10.0, seed=seed)
+        settings = RigSettings(speed=speed, duration=20.0, seed=seed)
         files = simulate_rig(base / f"clean{seed}", settings)
         streams, clean = run_health(files.folder, files.stem)
         clean_alarms.append([f.line() for f in clean])
         faulted = simulate_rig(base / f"faults{seed}",
-                               RigSettings(speed=speed, duration=10.0, seed=seed,
+                               RigSettings(speed=speed, duration=20.0, seed=seed,
                                            faults=faults_for(streams)))
         _, findings = run_health(faulted.folder, faulted.stem)
         truth = json.loads(faulted.path("truth.json").read_text())["faults"]

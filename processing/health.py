@@ -163,27 +163,30 @@ def _fmt(value: float, unit: str) -> str:
 
 def _clipping(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, unit: str,
               limits: tuple[float, float] | None, q: float) -> list[Finding]:
-    out = []
     usable = x[ok]
-    for side, level in (("high", float(usable.max())), ("low", float(usable.min()))):
+    hits, levels = [], []
+    for level in (float(usable.max()), float(usable.min())):
         at = ok & (np.abs(x - level) <= 0.5 * q)
         starts, stops = runs_of(at)
         long = (stops - starts) >= _CLIP_RUN
         hit = np.concatenate([np.arange(a, b) for a, b in zip(starts[long], stops[long],
                                                                strict=True)] or [[]])
-        hit = hit.astype(np.int64)
-        if hit.size < _CLIP_MIN:
-            continue
-        limit = ""
-        if limits is not None and min(abs(level - lim) for lim in limits) <= 0.01 * (
-                limits[1] - limits[0]):
-            limit = " (the range limit)"
-        share = 100.0 * hit.size / max(int(ok.sum()), 1)
-        out.append(_finding(channel, "clipping",
-                            f"{share:.2g} % of samples clipped at {_fmt(level, unit)}{limit} "
-                            f"({side} side, {time[hit[0]]:.3f}-{time[hit[-1]]:.3f} s)",
-                            time, hit, level))
-    return out
+        if hit.size >= _CLIP_MIN:
+            hits.append(hit.astype(np.int64))
+            levels.append(level)
+    if not hits:
+        return []
+    hit = np.sort(np.concatenate(hits))
+    limit = ""
+    if limits is not None and all(min(abs(level - lim) for lim in limits) <= 0.01 * (
+            limits[1] - limits[0]) for level in levels):
+        limit = " (the range limit)"
+    where = " and ".join(_fmt(level, unit) for level in levels)
+    share = 100.0 * hit.size / max(int(ok.sum()), 1)
+    return [_finding(channel, "clipping",
+                     f"{share:.2g} % of samples clipped at {where}{limit}, "
+                     f"{time[hit[0]]:.3f}-{time[hit[-1]]:.3f} s", time, hit,
+                     max(levels, key=abs))]
 
 
 def _flat(x: FloatArray, ok: BoolArray, time: FloatArray, fs: float, channel: str, unit: str,

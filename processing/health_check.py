@@ -44,7 +44,8 @@ def _period_samples(stream: xr.Dataset, pulse: str | None, fs: float) -> float |
 
 def stream_health(stream: xr.Dataset, kinds: Mapping[str, ChannelKind], *, name: str = "",
                   modules: Mapping[str, str] | None = None,
-                  counts_per_rev: Mapping[str, float] | None = None) -> list[Finding]:
+                  counts_per_rev: Mapping[str, float] | None = None,
+                  period_channel: str | None = None) -> list[Finding]:
     """Return the health findings of the named channels of one stream.
 
     Parameters
@@ -60,6 +61,9 @@ def stream_health(stream: xr.Dataset, kinds: Mapping[str, ChannelKind], *, name:
         Module of each channel (its input range, when its attributes give none).
     counts_per_rev : mapping of str to float, optional
         Counts per revolution of each counter.
+    period_channel : str, optional
+        Pulse channel whose period gives the revolutions of the zero-drift check (default:
+        the first pulse channel of ``kinds``).
 
     Returns
     -------
@@ -70,7 +74,8 @@ def stream_health(stream: xr.Dataset, kinds: Mapping[str, ChannelKind], *, name:
     time = stream["time"].to_numpy()
     valid = stream["valid"].to_numpy()
     segment = stream["segment"].to_numpy()
-    pulse = next((c for c, k in kinds.items() if k == "pulse" and c in stream), None)
+    pulse = period_channel if period_channel in stream else next(
+        (c for c, k in kinds.items() if k == "pulse" and c in stream), None)
     period = _period_samples(stream, pulse, fs)
     findings: list[Finding] = []
     for channel, kind in kinds.items():

@@ -4,8 +4,9 @@
   step over 101 samples) by more than 8 counts and 10 robust sigmas of the steps, not undone by
   the next step (counts lost or gained: the angle is off from there on);
 - **count glitch**: such a step undone within 3 samples (an electrical glitch);
-- **pulse width**: the mark width over the period of the pulses, split where the medians before
-  and after differ most; reported when they differ by more than 5 % and 8 robust sigmas.
+- **pulse width**: the pulses' mark widths (less a pattern repeating every 1-4 pulses), split
+  where two constant widths fit best (least absolute deviations); reported when the medians
+  before and after differ by more than 5 % and 8 robust sigmas.
 
 Findings are :class:`~rigval.processing.health.Finding` records (docs/processing.md, "Sensor
 health").
@@ -183,10 +184,13 @@ def pulse_health(x: ArrayLike, time: ArrayLike, *, channel: str,
     if good.size < 2 * _WIDTH_SIDE + 1:
         return []
     d = _without_pattern(width[good], np.round(turns[good]).astype(np.int64))
+    # the change is where two constant widths fit best (least absolute deviations: a pulse
+    # put on the wrong side costs its whole difference; medians alone would not move)
     splits = np.arange(_WIDTH_SIDE, d.size - _WIDTH_SIDE + 1)
+    cost = [np.abs(d[:k] - np.median(d[:k])).sum() + np.abs(d[k:] - np.median(d[k:])).sum()
+            for k in splits]
+    best = int(np.argmin(cost))
     change = np.array([np.median(d[k:]) - np.median(d[:k]) for k in splits])
-    sizes = np.sqrt(splits * (d.size - splits) / d.size)
-    best = int(np.argmax(np.abs(change) * sizes))
     k = int(splits[best])
     before, after = d[:k], d[k:]
     sigma = 1.4826 * float(np.median(np.abs(np.concatenate(

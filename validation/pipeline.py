@@ -73,6 +73,7 @@ from rigval.processing.filters import zero_phase
 from rigval.processing.stream_alignment import AlignmentSettings, MainAngle, align_streams
 from rigval.validation.alignment import alignment_settings
 from rigval.validation.convert import convert_stream
+from rigval.validation.health import scene_health
 from rigval.validation.metrics.compare import baseline, check_thresholds, compare
 from rigval.validation.model_run import (
     FINE_FACTOR,
@@ -547,6 +548,8 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
             if scene.output.raw:
                 raw[name] = stream
             del stream
+    with watch.stage("health"):
+        health = scene_health(scene)
     with watch.stage("align"), encoder_scale_errors(scene):
         # the device clocks go into the output only with [output] aligned
         aligned, diagnostics, main = align_streams(settings, converted,
@@ -596,7 +599,7 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
     return ValidationResult(scene=scene, comparisons=results, alignment=diagnostics,
                             predictions=_predicted_outputs(scene, model), numerics=numerics,
                             speed_rev_s=grid.speed_rev_s, n_cycles=int(grid.turns.size),
-                            tree=tree)
+                            tree=tree, health=health)
 
 
 def _predicted_outputs(scene: Scene, model: xr.Dataset) -> xr.Dataset:

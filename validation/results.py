@@ -16,6 +16,7 @@ import numpy as np
 import xarray as xr
 
 from rigval.processing.alignment_summary import StreamAlignment
+from rigval.processing.health import Finding
 from rigval.validation.metrics.thresholds import ThresholdCheck
 from rigval.validation.scene_types import ComparisonSpec, Scene
 
@@ -137,6 +138,9 @@ class ValidationResult:
         ``/aligned/<stream>`` where the scene's ``[output]`` asks for them.
     outputs : list of pathlib.Path
         Files written (filled by :func:`rigval.validation.report.run_report.write_report`).
+    health : tuple of rigval.processing.health.Finding
+        Sensor health findings of the scene's channels (:func:`rigval.validation.health.
+        scene_health`).
     """
 
     scene: Scene
@@ -148,6 +152,7 @@ class ValidationResult:
     n_cycles: int
     tree: xr.DataTree
     outputs: list[Path] = field(default_factory=list)
+    health: tuple[Finding, ...] = ()
 
     @property
     def passed(self) -> bool:
