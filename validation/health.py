@@ -5,23 +5,25 @@ units), and runs the checks of :mod:`rigval.processing.health_check` on it: TDMS
 at a time with their stream's pulse channel (the revolutions of the zero-drift check), text
 files whole. :func:`comparison_health` picks the findings of a comparison's channels; their
 lines go on the comparison's verdict line (``"wls1.tor2: 3.1 % of samples clipped at 2e-05 V/V
-...; not trusted"``), into ``alignment.json`` and the netCDF file (docs/processing.md,
-"Sensor health").
+...; not trusted"``), into ``alignment.json`` and the netCDF group ``/health``
+(docs/processing.md, "Sensor health").
 """
 
 from __future__ import annotations
 
 import dataclasses
-import json
 import logging
 from types import MappingProxyType
+
+import numpy as np
+import xarray as xr
 
 from rigval.acquisition.channel_map import StreamSpec, load_stream
 from rigval.processing.health import Finding
 from rigval.processing.health_check import ChannelKind, stream_health
 from rigval.validation.scene_types import ComparisonSpec, Scene
 
-__all__ = ["comparison_health", "health_json", "scene_health"]
+__all__ = ["comparison_health", "health_dataset", "scene_health"]
 
 logger = logging.getLogger(__name__)
 
@@ -76,6 +78,22 @@ def comparison_health(comparison: ComparisonSpec, findings: tuple[Finding, ...]
     return tuple(f for f in findings if f.channel in channels)
 
 
-def health_json(findings: tuple[Finding, ...]) -> str:
-    """Return the findings as one JSON text (a netCDF attribute)."""
-    return json.dumps([f.record() for f in findings])
+def health_dataset(findings: tuple[Finding, ...]) -> xr.Dataset:
+    """Return the findings as a Dataset along ``finding`` (the netCDF group ``/health``).
+
+    Variables ``channel``, ``fault``, ``text`` (str), ``samples``, ``first_sample``,
+    ``last_sample`` (int64), ``first_s``, ``last_s``, ``value`` (float64) and ``trusted``
+    (int8: 1 when the finding cannot change a verdict); empty along ``finding`` when the
+    channels are healthy.
+    """
+    def column(name: str, dtype: str) -> np.ndarray:
+        return np.array([getattr(f, name) for f in findings], dtype=dtype)
+
+    data = {name: ("finding", column(name, "str" if name in ("channel", "fault", "text")
+                                     else "int64"))
+            for name in ("channel", "fault", "text", "samples", "first_sample", "last_sample")}
+    data.update({name: ("finding", column(name, "float64"), {"units": "s"} if name != "value"
+                        else {}) for name in ("first_s", "last_s", "value")})
+    data["trusted"] = ("finding", np.array([f.trusted for f in findings], dtype=np.int8))
+    return xr.Dataset(data, attrs={"description": "sensor health findings "
+                                                  "(docs/processing.md, Sensor health)"})

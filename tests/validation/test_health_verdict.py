@@ -55,6 +55,8 @@ def test_alignment_json_and_netcdf_carry_the_finding(validated):
         ("wls1.tor2", "clipping", False)]
     assert abs(health[0]["samples"] - truth["samples"]) <= 0.05 * truth["samples"]
     nc = next(Path(out).glob("*.nc"))
-    with xr.open_dataset(nc) as root:
-        stored = json.loads(root.attrs["sensor_health"])
-    assert stored == health
+    with xr.open_dataset(nc, group="health") as stored:
+        assert list(stored["channel"].values) == ["wls1.tor2"]
+        assert list(stored["fault"].values) == ["clipping"]
+        assert int(stored["samples"][0]) == health[0]["samples"]
+        assert int(stored["trusted"][0]) == 0 and stored["text"].values[0] == health[0]["text"]

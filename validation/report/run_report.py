@@ -30,7 +30,7 @@ import xarray as xr
 from rigval.acquisition.detect import source_checksum
 from rigval.acquisition.json_values import json_ready
 from rigval.acquisition.outputs import atomic_output, staged_folder, write_text_atomic
-from rigval.validation.health import health_json
+from rigval.validation.health import health_dataset
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
 from rigval.validation.note import read_note
@@ -117,6 +117,7 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
     tree = result.tree.copy()
     scene = result.scene
     inputs = [(p, source_checksum(p)) for p in scene.input_files]
+    tree["health"] = xr.DataTree(health_dataset(result.health))
     tree.dataset = root_summary(result, tree, inputs)  # what plain xr.open_dataset shows
     tree.attrs.update({
         "Conventions": "CF-1.13",
@@ -126,7 +127,6 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
         "scene_sha256": scene.sha256,
         "scene_file": str(scene.path),
         "validation_passed": int(result.passed),
-        "sensor_health": health_json(result.health),  # JSON list of Finding.record()
     })
     encoding = {node.path: _encoding(node.to_dataset(inherit=False))
                 for node in tree.subtree if node.has_data}
