@@ -4,9 +4,10 @@
   step over 101 samples) by more than 8 counts and 10 robust sigmas of the steps, not undone by
   the next step (counts lost or gained: the angle is off from there on);
 - **count glitch**: such a step undone within 3 samples (an electrical glitch);
-- **pulse width**: the pulses' mark widths (less a pattern repeating every 1-4 pulses), split
-  where two constant widths fit best (least absolute deviations); reported when the medians
-  before and after differ by more than 5 % and 8 robust sigmas.
+- **pulse width**: the pulses' mark widths (less a pattern repeating every 2, 3 or 4 pulses
+  when that leaves clearly less scatter), split where two constant widths fit best (least
+  absolute deviations); reported when the medians before and after differ by more than 5 % and
+  8 robust sigmas.
 
 Findings are :class:`~rigval.processing.health.Finding` records (docs/processing.md, "Sensor
 health").
@@ -21,7 +22,7 @@ from numpy.typing import ArrayLike
 from scipy.ndimage import median_filter
 
 from rigval.acquisition.errors import DataError
-from rigval.processing.arrays import FloatArray
+from rigval.processing.arrays import FloatArray, IntArray
 from rigval.processing.encoder import remove_index_resets, unwrap_counts
 from rigval.processing.health import Finding
 from rigval.processing.pulses import detect_edges
@@ -42,31 +43,43 @@ def _running_median(x: FloatArray, width: int) -> FloatArray:
     return median_filter(x, size=width, mode="nearest")
 
 
-def _without_pattern(width: FloatArray, turn: np.ndarray) -> FloatArray:
-    """Return widths over their median, less the pattern that repeats every 1-4 pulses.
+def _without_pattern(relative: FloatArray, turn: IntArray, repeat: int, split: int
+                     ) -> FloatArray:
+    """Return relative widths less the pattern that repeats every ``repeat`` turns.
 
     A shaft whose speed varies within the revolution of another (the lifting shaft turning
     twice per main revolution) gives pulse widths that alternate; each pulse's class is its
-    whole period count modulo the repeat; the repeat is the one whose differences between
-    pulses that many turns apart are clearly the smallest (a step changes only a few of them).
+    whole period count modulo the repeat (a missing pulse keeps the count). The pattern is the
+    median per class of the widths less the two levels either side of ``split`` (so that it
+    cannot absorb a step).
     """
-    relative = width / np.median(width)
-    position = {int(k): i for i, k in enumerate(turn)}
-    chosen, scatter = 1, np.inf
-    for repeat in range(1, 5):  # judged on differences to the pulse ``repeat`` turns earlier:
-        pairs = [(i, position[k - repeat]) for i, k in enumerate(turn)  # a step shows in few
-                 if k - repeat in position]
-        if len(pairs) < 3:
-            break
-        spread = float(np.median([abs(relative[i] - relative[j]) for i, j in pairs]))
-        if spread < 0.7 * scatter:  # a longer repeat must do clearly better
-            chosen, scatter = repeat, spread
-    less = relative - np.median(relative)
-    classes = turn % chosen
-    for c in range(chosen):
+    level = np.where(np.arange(relative.size) < split, np.median(relative[:split]),
+                     np.median(relative[split:]))
+    less = relative.copy()
+    classes = turn % repeat
+    for c in range(repeat):
         mine = classes == c
-        less[mine] = relative[mine] - np.median(relative[mine])
+        if mine.any():
+            less[mine] -= np.median(relative[mine] - level[mine])
     return less
+
+
+def _step(d: FloatArray) -> tuple[int, float, float]:
+    """Return where two constant levels fit ``d`` best, the step between them and its error.
+
+    The split minimises the absolute deviations from each side's median (a pulse put on the
+    wrong side costs its whole difference); the step is the difference of the medians, its
+    standard error from the robust scatter about them.
+    """
+    splits = np.arange(_WIDTH_SIDE, d.size - _WIDTH_SIDE + 1)
+    cost = [np.abs(d[:k] - np.median(d[:k])).sum() + np.abs(d[k:] - np.median(d[k:])).sum()
+            for k in splits]
+    k = int(splits[int(np.argmin(cost))])
+    before, after = d[:k], d[k:]
+    sigma = 1.4826 * float(np.median(np.abs(np.concatenate(
+        (before - np.median(before), after - np.median(after))))))
+    return k, float(np.median(after) - np.median(before)), sigma * np.sqrt(
+        1.0 / before.size + 1.0 / after.size)
 
 
 def counter_health(counts: ArrayLike, time: ArrayLike, *, channel: str,
@@ -178,25 +191,27 @@ def pulse_health(x: ArrayLike, time: ArrayLike, *, channel: str,
     # pulses off the grid of whole periods (spurious ones) are left out; a missing pulse
     # keeps the count of periods
     turns = (rises - rises[0]) / period
+    # the grid's phase is that of most pulses (the first one may be spurious)
+    angle = 2 * np.pi * turns
+    turns -= float(np.angle(np.mean(np.exp(1j * angle)))) / (2 * np.pi)
     on_grid = np.abs(turns - np.round(turns)) < 0.2
     width[(width <= 0) | (width >= 0.9 * period) | ~on_grid] = np.nan
     good = np.flatnonzero(np.isfinite(width))
     if good.size < 2 * _WIDTH_SIDE + 1:
         return []
-    d = _without_pattern(width[good], np.round(turns[good]).astype(np.int64))
-    # the change is where two constant widths fit best (least absolute deviations: a pulse
-    # put on the wrong side costs its whole difference; medians alone would not move)
-    splits = np.arange(_WIDTH_SIDE, d.size - _WIDTH_SIDE + 1)
-    cost = [np.abs(d[:k] - np.median(d[:k])).sum() + np.abs(d[k:] - np.median(d[k:])).sum()
-            for k in splits]
-    best = int(np.argmin(cost))
-    change = np.array([np.median(d[k:]) - np.median(d[:k]) for k in splits])
-    k = int(splits[best])
-    before, after = d[:k], d[k:]
-    sigma = 1.4826 * float(np.median(np.abs(np.concatenate(
-        (before - np.median(before), after - np.median(after))))))
-    jump = float(change[best])
-    se = sigma * np.sqrt(1.0 / before.size + 1.0 / after.size)
+    turn = np.round(turns[good]).astype(np.int64)
+    relative = width[good] / np.median(width[good])
+    split, _, _ = _step(relative)
+    # a pattern repeating every 2-4 pulses is taken out when it leaves clearly less scatter
+    chosen, scatter = relative, np.inf
+    for repeat in range(1, 5):
+        less = _without_pattern(relative, turn, repeat, split)
+        k, jump, _ = _step(less)
+        spread = float(np.median(np.abs(less - np.where(np.arange(less.size) < k, np.median(
+            less[:k]), np.median(less[k:])))))
+        if spread < 0.7 * scatter:
+            chosen, scatter = less, spread
+    k, jump, se = _step(chosen)
     if abs(jump) <= max(_WIDTH_SHARE, _WIDTH_SIGMAS * se):
         return []
     pulses = good[k:]
