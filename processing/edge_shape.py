@@ -19,7 +19,6 @@ how far the onset moves over every ``tau`` the edges as a whole allow.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 from dataclasses import dataclass
 
@@ -29,7 +28,7 @@ from scipy.special import erf, sici
 
 from rigval.processing.arrays import FloatArray
 
-__all__ = ["EdgeFit", "fit_edges"]
+__all__ = ["SYMMETRIC_BOUND", "EdgeFit", "fit_edges"]
 
 logger = logging.getLogger(__name__)
 
@@ -42,8 +41,17 @@ _WIDTHS = np.geomspace(0.01, 4.0, 36)
 _OFFSETS = np.linspace(-1.6, 1.6, 161)
 #: Edges the first scan looks at (evenly picked).
 _SCAN_EDGES = 60
-#: The first-order rise is chosen when its misfit is below this share of the symmetric edge's.
-_PREFER = 0.5
+#: Least noise rms (share of the step) the fit assumes: no sample is known better (a 16-bit
+#: converter's quantisation on a 4 V step is 2e-5 rms).
+_NOISE_FLOOR = 1e-4
+#: A shape is chosen when its misfit is below the others' by this many noise variances (the
+#: two fits share the data: 5 sigma of a chi-square difference); closer, the edges are
+#: ``"ambiguous"``.
+_DECIDE = 25.0
+#: Bound in samples of the correlated error of a symmetric (band-limited) edge's crossing: the
+#: windowed-sinc reconstruction's own error and the state levels' bias (run means up to 0.0016
+#: sample measured on band-limited steps, docs/processing.md "Edge shapes").
+SYMMETRIC_BOUND = 0.005
 #: A symmetric edge narrower than this (sigma, samples) is not resolved by the samples.
 _UNRESOLVED = 0.3
 #: Widths whose total misfit exceeds the best by less than this many noise variances stay
@@ -63,13 +71,14 @@ class EdgeFit:
     ----------
     shape : str
         ``"first-order"`` (times are onsets), ``"unresolved"`` (a symmetric edge narrower than
-        the samples resolve: the given crossings, bound half a sample) or ``"symmetric"`` (the
-        given crossings, unchanged).
+        the samples resolve: the given crossings, bound half a sample), ``"symmetric"`` (the
+        given crossings, bound :data:`SYMMETRIC_BOUND` sample) or ``"ambiguous"`` (a
+        first-order rise and a symmetric edge fit alike: times halfway between onset and
+        crossing, bounds covering both).
     times : numpy.ndarray
         Edge times in s.
     bounds_s : numpy.ndarray
-        Bound in s of each edge time's error that is not random from edge to edge (0 for the
-        symmetric shape: the caller's rule applies).
+        Bound in s of each edge time's error that is not random from edge to edge.
     width_samples : float
         Fitted tau (first-order) or sigma (symmetric) in sample periods.
     misfit_ratio : float
@@ -202,13 +211,15 @@ def fit_edges(x: ArrayLike, time: ArrayLike, edges: ArrayLike, *, fs: float, low
     -------
     EdgeFit
         First-order onsets with bounds; the given crossings with bound half a sample
-        (``"unresolved"``: a symmetric edge narrower than 0.3 sample) or 0 (``"symmetric"``);
-        ``"symmetric"`` also when fewer than 3 edges can be fitted.
+        (``"unresolved"``: a symmetric edge narrower than 0.3 sample) or
+        :data:`SYMMETRIC_BOUND` (``"symmetric"``, also when fewer than 3 edges can be fitted);
+        halfway between for ``"ambiguous"`` edges (the misfits differ by at most 25 noise
+        variances).
     """
     data = np.asarray(x, dtype=np.float64)
     t = np.asarray(time, dtype=np.float64)
     given = np.asarray(edges, dtype=np.float64)
-    unchanged = EdgeFit("symmetric", given, np.zeros(given.size), 0.0, 1.0)
+    unchanged = EdgeFit("symmetric", given, np.full(given.size, SYMMETRIC_BOUND / fs), 0.0, 1.0)
     samples, position, start, use = _windows(data, t, given, fs)
     if use.sum() < 3:
         return unchanged
@@ -220,14 +231,20 @@ def fit_edges(x: ArrayLike, time: ArrayLike, edges: ArrayLike, *, fs: float, low
     sigma, symmetric = _scan(y[pick], guess[pick], "symmetric")
     band, limited = _scan(y[pick], guess[pick], "band-limited")
     ratio = float(first / max(min(symmetric, limited), 1e-300))
-    if ratio >= _PREFER:
-        if symmetric < limited and sigma < _UNRESOLVED:
-            return EdgeFit("unresolved", given, np.full(given.size, 0.5 / fs), sigma, ratio)
-        return dataclasses.replace(unchanged, width_samples=sigma if symmetric < limited
-                                   else band, misfit_ratio=ratio)
+    # the shapes' misfits differ by more than the noise can make them differ: decided
+    noise_var = max((noise / (high - low)) ** 2, _NOISE_FLOOR**2)
+    excess = (min(symmetric, limited) - first) / noise_var
+    unresolved = symmetric < limited and sigma < _UNRESOLVED
+    width = sigma if symmetric < limited else band
+    crossing_bound = (0.5 if unresolved else SYMMETRIC_BOUND) / fs
+    if excess < -_DECIDE:
+        if unresolved:
+            return EdgeFit("unresolved", given, np.full(given.size, crossing_bound), sigma,
+                           ratio)
+        return EdgeFit("symmetric", given, np.full(given.size, crossing_bound), width, ratio)
     first = _total(y, guess, tau, "first-order")
     dof = max(y.size - guess.size - 1, 1)
-    variance = max((noise / (high - low)) ** 2, first / dof, 1e-12)
+    variance = max((noise / (high - low)) ** 2, first / dof, _NOISE_FLOOR**2)
     candidates, grid = _grid(y, guess, tau, "first-order")
     lo_best, hi_best = _span(candidates, grid, variance)
     best_time, _ = _refined(y, candidates, grid, tau, "first-order")
@@ -247,6 +264,15 @@ def fit_edges(x: ArrayLike, time: ArrayLike, edges: ArrayLike, *, fs: float, low
     bounds = np.full(given.size, 0.5 / fs)  # edges the fit could not see: half a sample
     times[use] = start[use] + centre / fs
     bounds[use] = (reach + step) / fs
+    if excess <= _DECIDE:
+        # either shape fits within the noise: the time lies between the onset and the
+        # crossing, bounded so that both hold
+        between = 0.5 * np.abs(times - given)
+        times, bounds = 0.5 * (times + given), between + np.maximum(bounds, crossing_bound)
+        logger.info("edges fit a first-order rise (tau %.3g samples) and a symmetric edge "
+                    "alike: times between onset and crossing, median bound %.3g samples", tau,
+                    float(np.median(bounds)) * fs)
+        return EdgeFit("ambiguous", times, bounds, tau, ratio)
     logger.info("first-order edges: tau %.3g samples (%d widths fit), misfit %.3g of the "
                 "symmetric edge's, median bound %.3g samples", tau, possible, ratio,
                 float(np.median(bounds[use])) * fs)

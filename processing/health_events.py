@@ -43,24 +43,32 @@ def _running_median(x: FloatArray, width: int) -> FloatArray:
     return median_filter(x, size=width, mode="nearest")
 
 
-def _without_pattern(relative: FloatArray, turn: IntArray, repeat: int, split: int
-                     ) -> FloatArray:
+def _without_pattern(relative: FloatArray, turn: IntArray, part: IntArray, repeat: int,
+                     split: int) -> FloatArray:
     """Return relative widths less the pattern that repeats every ``repeat`` turns.
 
     A shaft whose speed varies within the revolution of another (the lifting shaft turning
     twice per main revolution) gives pulse widths that alternate; each pulse's class is its
-    whole period count modulo the repeat (a missing pulse keeps the count). The pattern is the
-    median per class of the widths less the two levels either side of ``split`` (so that it
-    cannot absorb a step).
+    whole period count modulo the repeat (a missing pulse keeps the count) within its gap-free
+    ``part`` (a restart's new time stamp may not keep the count across a gap). A class's
+    pattern is its median's offset from the centre of its side of ``split`` (the mean of the
+    class medians there), averaged over both sides: a step at ``split`` is not absorbed, and a
+    wrong split makes no step.
     """
-    level = np.where(np.arange(relative.size) < split, np.median(relative[:split]),
-                     np.median(relative[split:]))
+    after = np.arange(relative.size) >= split
     less = relative.copy()
-    classes = turn % repeat
-    for c in range(repeat):
-        mine = classes == c
-        if mine.any():
-            less[mine] -= np.median(relative[mine] - level[mine])
+    classes = part * repeat + turn % repeat
+    sides = [side for side in (~after, after) if side.any()]
+    # each side's centre: the mean of its classes' medians (a median of alternating widths
+    # would jump between the two kinds)
+    medians = {(c, n): float(np.median(relative[(classes == c) & side]))
+               for c in np.unique(classes) for n, side in enumerate(sides)
+               if ((classes == c) & side).any()}
+    centre = [np.mean([m for (_, n), m in medians.items() if n == k]) for k in range(len(sides))]
+    for c in np.unique(classes):
+        # the class's offset from the centre of its side, averaged over the sides it is on
+        less[classes == c] -= np.mean([m - centre[n] for (k, n), m in medians.items()
+                                       if k == c])
     return less
 
 
@@ -200,12 +208,14 @@ def pulse_health(x: ArrayLike, time: ArrayLike, *, channel: str,
     if good.size < 2 * _WIDTH_SIDE + 1:
         return []
     turn = np.round(turns[good]).astype(np.int64)
+    part = (np.zeros(good.size, dtype=np.int64) if segment is None else np.asarray(segment)[
+        np.clip(np.searchsorted(t, rises[good]), 0, t.size - 1)].astype(np.int64))
     relative = width[good] / np.median(width[good])
     split, _, _ = _step(relative)
     # a pattern repeating every 2-4 pulses is taken out when it leaves clearly less scatter
     chosen, scatter = relative, np.inf
     for repeat in range(1, 5):
-        less = _without_pattern(relative, turn, repeat, split)
+        less = _without_pattern(relative, turn, part, repeat, split)
         k, jump, _ = _step(less)
         spread = float(np.median(np.abs(less - np.where(np.arange(less.size) < k, np.median(
             less[:k]), np.median(less[k:])))))

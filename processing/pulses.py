@@ -32,7 +32,7 @@ from scipy.special import i0
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError
 from rigval.processing.arrays import BoolArray, FloatArray, IntArray
 from rigval.processing.clock_fit import input_delay
-from rigval.processing.edge_shape import fit_edges
+from rigval.processing.edge_shape import SYMMETRIC_BOUND, fit_edges
 from rigval.processing.filters import contiguous_runs
 
 __all__ = [
@@ -52,10 +52,6 @@ logger = logging.getLogger(__name__)
 
 #: Samples looked at once by :func:`state_levels` (bounded memory).
 _LEVEL_CHUNK = 1 << 20
-#: Bound in samples of the correlated error of a symmetric (band-limited) edge's crossing: the
-#: windowed-sinc reconstruction's own error and the state levels' bias (run means up to 0.0016
-#: sample measured on band-limited steps, docs/processing.md "Edge shapes").
-SYMMETRIC_BOUND = 0.005
 #: Half-length in samples and Kaiser beta of the windowed-sinc edge reconstruction.
 _HALF_WINDOW = 32
 _KAISER_BETA = 8.0
@@ -422,10 +418,10 @@ class StreamPulses:
         for first-order edges; 0 for band-limited edges.
     bounds_s : numpy.ndarray, optional
         Bound in s of each edge's error that is not random from edge to edge (first-order
-        edges, :func:`time_edges`); None: ``timing_bound_s`` for every edge.
+        and ambiguous edges, :func:`time_edges`); None: ``timing_bound_s`` for every edge.
     shape : str, default ""
         Edge shape found by :func:`time_edges`: ``"switched"``, ``"first-order"`` (times are
-        the onsets) or ``"symmetric"``.
+        the onsets), ``"unresolved"``, ``"symmetric"`` or ``"ambiguous"``.
     """
 
     channel: str
@@ -516,7 +512,8 @@ def stream_pulses(stream: xr.Dataset, channel: str, *,
     return StreamPulses(channel, polarity, timing.times - delay, edge_segment.astype(np.int64),
                         spurious, np.concatenate(missing) - delay if missing else np.zeros(0),
                         delay, float(timing.bounds_s.max(initial=0.0)),
-                        timing.bounds_s if timing.shape == "first-order" else None,
+                        timing.bounds_s if timing.shape in ("first-order", "ambiguous")
+                        else None,
                         timing.shape)
 
 
@@ -531,7 +528,8 @@ class EdgeTiming:
     bounds_s : numpy.ndarray
         Bound in s of each time's error that is not random from edge to edge.
     shape : str
-        ``"switched"``, ``"first-order"``, ``"unresolved"`` or ``"symmetric"``.
+        ``"switched"``, ``"first-order"``, ``"unresolved"``, ``"symmetric"`` or
+        ``"ambiguous"`` (:class:`~rigval.processing.edge_shape.EdgeFit`).
     """
 
     times: FloatArray
@@ -587,8 +585,6 @@ def time_edges(x: ArrayLike, time: ArrayLike, edges: ArrayLike, *, fs: float,
     quiet = data[flat]
     noise = 1.4826 * float(np.median(np.abs(quiet - np.median(quiet)))) if quiet.size else 0.0
     fit = fit_edges(data, t, given, fs=fs, low=low, high=high, noise=noise)
-    if fit.shape == "symmetric":
-        return EdgeTiming(fit.times, np.full(given.size, SYMMETRIC_BOUND / fs), fit.shape)
     return EdgeTiming(fit.times, fit.bounds_s, fit.shape)
 
 
