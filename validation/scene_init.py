@@ -215,18 +215,18 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
             w.todo("source", "the pulse channel's name in the file")
             w.key("sensor", "reference_pulse")
             w.line()
-    _alignment(w, streams, reference, main_encoder, main_pulse, placeholders, notes)
+    _alignment_table(w, streams, reference, main_encoder, main_pulse, placeholders, notes)
     w.line("[angle]")
     w.key("points_per_revolution", 360, "comparison grid: 1 degree")
     w.key("interpolation", "cubic")
     w.key("min_cycles", 3)
     w.line()
-    _model(w, reference, mech, notes, main_pulse)
+    _model_table(w, reference, mech, notes, main_pulse)
     units_of = {(s.name, c.name): SENSOR_UNITS[c.sensor]({
         "units": c.output_units if c.sensor == "linear" else c.units, "youngs_modulus": TODO})
                 for s in streams for c in s.channels if c.role == "sensor"
                 and c.sensor in SENSOR_UNITS}
-    _comparisons(w, streams, units_of, mech)
+    _comparison_tables(w, streams, units_of, mech)
     return "\n".join(w.lines).rstrip() + "\n", notes
 
 
@@ -251,7 +251,7 @@ def _reference(streams: Sequence[StreamGuess]) -> StreamGuess | None:
     return streams[0] if streams else None
 
 
-def _alignment(w: _Writer, streams: Sequence[StreamGuess], reference: StreamGuess | None,
+def _alignment_table(w: _Writer, streams: Sequence[StreamGuess], reference: StreamGuess | None,
                encoder: ChannelGuess | None, pulse: ChannelGuess | None,
                placeholders: Mapping[str, str], notes: list[str]) -> None:
     w.line("[alignment]")
@@ -297,7 +297,7 @@ def _alignment(w: _Writer, streams: Sequence[StreamGuess], reference: StreamGues
         w.line()
 
 
-def _model(w: _Writer, reference: StreamGuess | None, mech: tuple[str, Any] | None,
+def _model_table(w: _Writer, reference: StreamGuess | None, mech: tuple[str, Any] | None,
            notes: list[str], main_pulse: ChannelGuess | None = None) -> None:
     w.line("[model]")
     encoders = reference.of_role("encoder") if reference else []
@@ -341,7 +341,47 @@ def _model(w: _Writer, reference: StreamGuess | None, mech: tuple[str, Any] | No
         w.line()
 
 
-def _comparisons(w: _Writer, streams: Sequence[StreamGuess],
+#: What the stated uncertainty ``u_measurement_rel`` of a comparison covers, by sensor kind.
+_UNCERTAINTY_COVERS = {
+    "charge_accelerometer": "the charge sensitivity and the amplifier gain (calibration "
+                            "certificates)",
+    "iepe_accelerometer": "the sensitivity (calibration certificate)",
+    "strain_bridge": "the gauge factor, Young's modulus and the cross-section",
+    "torsion_bridge": "the torsion bridge calibration (gauge factor, diameters, shear modulus)",
+    "load_cell": "the rated output and capacity (calibration certificate)",
+}
+
+#: Sensor kinds whose bridge is nulled before a run (``remove_offset`` comment).
+_NULLED_BRIDGES = ("strain_bridge", "torsion_bridge", "load_cell")
+
+
+def _uncertainty(w: _Writer, sensor: str, *, share: bool = False) -> None:
+    """Write the comparison's stated uncertainty as TODO, with what it must cover."""
+    covers = _UNCERTAINTY_COVERS.get(sensor, "the sensor's calibration")
+    if share:
+        covers += ("; and that of this shaft's share of the drive torque, in quadrature (1 % "
+                   "calibration and a share of 50 +- 3 %, i.e. 3.5 % of it: 0.036)")
+    w.todo("uncertainty.u_measurement_rel",
+           f"fraction (0.02 for 2 %), part of V&V 20 u_val: {covers}")
+
+
+def _offset(w: _Writer, sensor: str) -> None:
+    """Write ``remove_offset`` where the sensor's zero is not the model's zero."""
+    if sensor in ("charge_accelerometer", "iepe_accelerometer"):
+        w.key("remove_offset", True, "an accelerometer's zero is unknown")
+    elif sensor in _NULLED_BRIDGES:
+        w.key("remove_offset", True, "a bridge nulled with the machine at rest lost the load "
+                                     "at rest, which the model has; false only if it was "
+                                     "nulled unloaded")
+
+
+def _summed_torques(stream: StreamGuess) -> tuple[ChannelGuess, ChannelGuess] | None:
+    """Return the two torsion channels of a stream that carries exactly two (one drive)."""
+    shafts = [c for c in stream.of_role("sensor") if c.sensor == "torsion_bridge"]
+    return (shafts[0], shafts[1]) if len(shafts) == 2 else None
+
+
+def _comparison_tables(w: _Writer, streams: Sequence[StreamGuess],
                  units_of: Mapping[tuple[str, str], str], mech: tuple[str, Any] | None) -> None:
     names = {}
     if mech is not None:
@@ -355,6 +395,7 @@ def _comparisons(w: _Writer, streams: Sequence[StreamGuess],
             w.key("name", channel.name)
             w.key("measured", f"{stream.name}.{channel.name}")
             match = next((q for q in _QUANTITY_BY_UNIT if q[0] == units), None)
+            share = False
             if match is None:
                 w.todo("model.quantity", "point_acceleration, joint_force, driver_torque, ... "
                                          "(docs/scene.md)")
@@ -362,9 +403,9 @@ def _comparisons(w: _Writer, streams: Sequence[StreamGuess],
             else:
                 _, quantity, kind = match
                 w.key("model.quantity", quantity, f"guessed from the unit {units!r}")
-                listed = ", ".join(names.get(kind, ())) or f"the {kind}"
-                w.todo("model.item", f"one of: {listed}")
+                _item(w, kind, names)
                 if quantity == "driver_torque":
+                    share = True
                     w.todo("scale", "the share of the driver torque this shaft carries (0.5 "
                                     "for one of two equal shafts)")
                 else:
@@ -373,15 +414,41 @@ def _comparisons(w: _Writer, streams: Sequence[StreamGuess],
                     w.todo("scale", "-1/A (A the cross-section, m2) for stress; -1/(E A) for "
                                     "strain")
                     w.key("scale_units", "m-2" if units == "Pa" else "N-1")
-            if units == "m s-2":
-                w.key("remove_offset", True, "an accelerometer's zero is unknown")
-            w.key("uncertainty.u_measurement_rel", 0.02,
-                  "sensor calibration (fraction), part of V&V 20 u_val: state yours")
-            w.key('thresholds."vv20.curve.normalised_error"', "<= 2",
-                  "fails when a model error is detected (|E| > 2 u_val)")
-            w.line()
+            _offset(w, channel.sensor)
+            _uncertainty(w, channel.sensor, share=share)
+            _thresholds(w)
+        pair = _summed_torques(stream)
+        if pair is not None:
+            first, second = pair
+            w.line(f"# {first.name} and {second.name} are recorded by one device: if they are "
+                   "the two shafts of one drive,")
+            w.line("# their sum is the whole drive torque, whatever the split between them "
+                   "(delete this table if not).")
+            w.line("[[comparisons]]")
+            w.key("name", f"{first.name}_{second.name}_sum")
+            w.key("measured", [f"{stream.name}.{first.name}", f"{stream.name}.{second.name}"],
+                  "both shafts: the whole drive torque")
+            w.key("model.quantity", "driver_torque")
+            _item(w, "driver", names)
+            _offset(w, "torsion_bridge")
+            _uncertainty(w, "torsion_bridge")
+            _thresholds(w)
     if not any(s.of_role("sensor") for s in streams):
         w.line("# No channel to compare was found; add [[comparisons]] tables.")
+
+
+def _item(w: _Writer, kind: str, names: Mapping[str, Sequence[str]]) -> None:
+    """Write ``model.item`` as TODO, listing the mechanism's names of that kind when known."""
+    listed = names.get(kind)
+    w.todo("model.item", f"one of: {', '.join(listed)}" if listed else
+           f"the {kind}'s name in the mechanism file (rigval init --mechanism lists them)")
+
+
+def _thresholds(w: _Writer) -> None:
+    """Write the pass/fail threshold every comparison starts with, and end the table."""
+    w.key('thresholds."vv20.curve.normalised_error"', "<= 2",
+          "fails when a model error is detected (|E| > 2 u_val)")
+    w.line()
 
 
 def fill_todos(text: str, values: Mapping[str, Any]) -> str:
