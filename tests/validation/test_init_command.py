@@ -17,7 +17,7 @@ from rigval.acquisition.survey import classify_channel
 from rigval.sample_data import runs_dir
 from rigval.validation.cli import EXIT_OK, EXIT_USAGE, main
 from rigval.validation.errors import SceneError
-from rigval.validation.scene import load_scene, todo_keys
+from rigval.validation.scene import load_scene, todo_keys, todo_label
 from rigval.validation.scene_init import fill_todos
 
 SAMPLE = ("run_0p8_cdaq.tdms", "run_0p8_wls1.tdms", "run_0p8_wls2.csv")
@@ -97,7 +97,10 @@ def test_sample_skeleton_validates_once_filled(tmp_path: Path,
     assert "model.drivers.theta_H.angle_at_reference" in todo
     assert main(["validate", str(scene), "--out", str(tmp_path / "refused")]) == EXIT_USAGE
     err = capsys.readouterr().err
-    assert all(key in err for key in todo)
+    # one key a line, a comparison's key with the comparison's name
+    listed = [line.strip() for line in err.splitlines() if line.startswith("  ")]
+    assert listed == [todo_label(doc, key) for key in todo]
+    assert "comparisons[3] (str1).scale" in listed
     # every stated uncertainty is the newcomer's to state; the sums of both shafts proposed
     comparisons = {c["name"]: c for c in doc["comparisons"]}
     assert all(c["uncertainty"]["u_measurement_rel"] == "TODO" for c in comparisons.values())
