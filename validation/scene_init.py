@@ -25,6 +25,7 @@ from typing import Any
 
 from rigval.acquisition.devices import MODULES, rate_divider
 from rigval.acquisition.errors import ConfigError, UnitError
+from rigval.acquisition.start_time import start_time_text
 from rigval.acquisition.survey import (
     BRIDGE_UNITS,
     ChannelGuess,
@@ -187,7 +188,8 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
         w.line(f"[streams.{stream.name}]")
         w.key("file", Path(os.path.relpath(stream.file.resolve(), scene_dir)).as_posix(),
               f"{stream.format}, {stream.samples} samples at {stream.fs:.9g} S/s, "
-              f"start {stream.start_time}")
+              "start " + start_time_text(stream.start_time, zone_unknown=stream.timezone_missing,
+                                         timezone=stream.reader.get("timezone")))
         w.key("device", stream.device, f"guessed: {stream.device_reason}")
         for option, value in stream.reader.items():
             w.key(f"reader.{option}", value)
