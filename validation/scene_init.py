@@ -84,7 +84,7 @@ _SENSOR_TODO: Mapping[str, tuple[tuple[str, str], ...]] = {
 
 
 def _channel_table(w: _Writer, stream: StreamGuess, channel: ChannelGuess,
-                   main_cpr: int | None) -> None:
+                   main_cpr: int | None, main: bool = False) -> None:
     w.line(f"[streams.{stream.name}.channels.{channel.name}]")
     w.key("source", channel.source, f"unit in the file: {channel.units or '-'!r}, "
                                     f"{stream.fs:.9g} S/s")
@@ -98,9 +98,15 @@ def _channel_table(w: _Writer, stream: StreamGuess, channel: ChannelGuess,
             w.key("index_reset", True, f"the counts fall back to 0 every {channel.index_counts} "
                                        f"counts ({'at least' if tol < 0 else f'+- {tol}'}): the "
                                        "index pulse reloads the counter")
-        if main_cpr:
-            w.todo("counts_per_rev", f"after x4 decoding; {main_cpr} counts per main-shaft "
-                                     "revolution in this file")
+        if main_cpr and main:
+            w.todo("counts_per_rev", f"per turn of the encoder's shaft, after x4 decoding; "
+                                     f"{main_cpr} counts per main-shaft revolution in this file, "
+                                     "the main shaft's encoder: the value")
+        elif main_cpr:
+            w.todo("counts_per_rev", f"per turn of this encoder's own shaft, after x4 decoding; "
+                                     f"{main_cpr} counts per main-shaft revolution in this file "
+                                     "= the value x turns of its shaft per main-shaft revolution "
+                                     f"({main_cpr} if one, {main_cpr / 2:g} if two)")
         else:
             w.todo("counts_per_rev", "after x4 decoding (encoder datasheet)")
         return
@@ -204,7 +210,7 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
             cpr = (counts_per_pulse(reference, channel.name, main_pulse.name)
                    if stream is reference and main_pulse and channel.role == "encoder"
                    else None)
-            _channel_table(w, stream, channel, cpr)
+            _channel_table(w, stream, channel, cpr, main=channel is main_encoder)
             w.line()
             notes.append(f"  {channel.name}: {channel.units or '-'} -> {channel.sensor} "
                          f"({channel.reason})")

@@ -91,6 +91,12 @@ def test_sample_skeleton_validates_once_filled(tmp_path: Path,
     assert doc["alignment"]["pulses"]["wls2"]["per_revolution"] == 2
     assert "8192 counts per main-shaft revolution" in text
     assert "16384 counts per main-shaft revolution" in text  # the lifting shaft turns twice
+    # the value wanted is per turn of enc2's own shaft: the rig's 8192, which the hint names
+    shipped = tomllib.loads((runs_dir() / "run_0p8_scene.toml").read_text())
+    enc2 = shipped["streams"]["cdaq"]["channels"]["enc2"]["counts_per_rev"]
+    hint = next(line for line in text.split("[streams.cdaq.channels.enc2]")[1].splitlines()
+                if line.startswith("counts_per_rev"))
+    assert "per turn of this encoder's own shaft" in hint and f"{enc2} if two" in hint
     # refused while TODOs remain, each named
     todo = todo_keys(doc)
     assert "streams.cdaq.channels.str1.gauge_factor" in todo
