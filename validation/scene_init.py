@@ -19,12 +19,13 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from rigval.acquisition.devices import MODULES, rate_divider
-from rigval.acquisition.errors import ConfigError, UnitError
+from rigval.acquisition.errors import ConfigError, DataWarning, UnitError
 from rigval.acquisition.start_time import start_time_text
 from rigval.acquisition.survey import (
     BRIDGE_UNITS,
@@ -39,7 +40,10 @@ from rigval.model.drives import law_angles_at_reference
 from rigval.validation.scene import TODO
 from rigval.validation.scene_types import SCHEMA
 
-__all__ = ["fill_todos", "skeleton_text"]
+__all__ = ["MIN_CYCLES", "fill_todos", "skeleton_text"]
+
+#: ``[angle] min_cycles`` of a skeleton: the fewest revolutions a comparison needs.
+MIN_CYCLES = 3
 
 
 class _Writer:
@@ -227,7 +231,10 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
     w.line("[angle]")
     w.key("points_per_revolution", 360, "comparison grid: 1 degree")
     w.key("interpolation", "cubic")
-    w.key("min_cycles", 3)
+    w.key("min_cycles", MIN_CYCLES)
+    for problem in _record_problems(streams, reference, main_pulse):
+        warnings.warn(problem, DataWarning, stacklevel=2)
+        w.line(f"# WARNING: {problem}")
     w.line()
     _model_table(w, reference, mech, notes, main_pulse)
     units_of = {(s.name, c.name): SENSOR_UNITS[c.sensor]({
@@ -236,6 +243,24 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
                 and c.sensor in SENSOR_UNITS}
     _comparison_tables(w, streams, units_of, mech)
     return "\n".join(w.lines).rstrip() + "\n", notes
+
+
+def _record_problems(streams: Sequence[StreamGuess], reference: StreamGuess | None,
+                     main_pulse: ChannelGuess | None) -> list[str]:
+    """Return why these files can never validate: encoders that never move, too few turns."""
+    problems = [f"{stream.name}.{channel.name}: the counts never change in this file: the "
+                "encoder did not turn or is not connected, so no revolution can be compared"
+                for stream in streams for channel in stream.of_role("encoder")
+                if channel.counts_span == 0]
+    if reference is not None and main_pulse is not None:
+        turns = max(reference.pulse_times[main_pulse.name].size - 1, 0)
+        if turns < MIN_CYCLES:
+            problems.append(
+                f"{reference.name}.{main_pulse.name}: {turns} complete revolution(s) between "
+                f"the reference pulses in {reference.duration_s:.3g} s, fewer than [angle] "
+                f"min_cycles = {MIN_CYCLES}: rigval validate will refuse the record; record "
+                f"at least {MIN_CYCLES + 1} reference pulses")
+    return problems
 
 
 def _mechanism(mechanism: str | None, scene_dir: Path) -> tuple[str, Any] | None:
