@@ -14,7 +14,6 @@ import pytest
 from rigval.validation.cli import EXIT_OK, main
 from rigval.validation.scene_init import MIN_CYCLES
 
-
 #: The warnings are shown (the test configuration turns rigval's warnings into errors).
 SHOWN = pytest.mark.filterwarnings("default::rigval.acquisition.errors.DataWarning")
 
