@@ -200,7 +200,7 @@ def alignment_settings(scene: Scene) -> AlignmentSettings:
         reference=table.reference, encoder=scene.channel(table.main_encoder),
         reference_pulse=scene.channel(table.main_reference_pulse), streams=streams,
         direction=float(directions[0] if directions else 1), min_pulses=scene.angle.min_cycles,
-        key="alignment")
+        min_pulses_key="angle.min_cycles", key="alignment")
 
 
 # ---------------------------------------------------------------------------------------------
