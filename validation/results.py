@@ -142,8 +142,11 @@ class ValidationResult:
         The text of the scene's operator's note (None without one).
     input_digests : tuple of (pathlib.Path, str)
         Every file the validation read (data files, mechanism, note) with its SHA-256.
+    configuration : xarray.Dataset or None
+        The mechanism at t = 0 of its file's drive laws (``position``, ``point_position``), for
+        the report's sketch; None: the report solves it.
     outputs : tuple of pathlib.Path
-        Files written (:func:`rigval.validation.validate.validate_scene` returns them here;
+        Files written (:func:`rigval.validation.run.validate.validate_scene` returns them here;
         empty from :func:`rigval.validation.pipeline.run_scene`).
     """
 
@@ -158,6 +161,7 @@ class ValidationResult:
     mechanism: Mechanism
     note: str | None
     input_digests: tuple[tuple[Path, str], ...]
+    configuration: xr.Dataset | None = None
     outputs: tuple[Path, ...] = ()
 
     @property

@@ -327,7 +327,8 @@ def _mechanism_sketch(page: Page, result: ValidationResult) -> None:
     from rigval.validation.report.sketch import sketch_mechanism
 
     points = [str(p) for p in result.predictions.coords.get("point", xr.DataArray([])).values]
-    page.figure(sketch_mechanism(result.mechanism, highlight=points),
+    page.figure(sketch_mechanism(result.mechanism, highlight=points,
+                                 configuration=result.configuration),
                 caption="the mechanism at t = 0 of its file's drive laws: bodies (letters), "
                         "joints (open circles), ground pins (hatched: the supports), drives "
                         f"(red arrows); red: {', '.join(points) or 'no point'}")
@@ -389,7 +390,7 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
     -------
     list of pathlib.Path
         ``report.html``, ``metrics.csv``, ``metrics.json``, ``alignment.json`` and the netCDF
-        file (:func:`rigval.validation.validate.validate_scene` returns them in the result's
+        file (:func:`rigval.validation.run.validate.validate_scene` returns them in the result's
         ``outputs``).
     """
     out = Path(out_dir)
