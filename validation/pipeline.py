@@ -58,6 +58,7 @@ import xarray as xr
 from rigval.acquisition.detect import source_checksum
 from rigval.acquisition.errors import DataError
 from rigval.model.balance import energy_residual
+from rigval.model.drives import law_angles_at_reference
 from rigval.model.mechanism import load_mechanism
 from rigval.model.mechanism_types import Mechanism
 from rigval.model.output_values import model_values
@@ -523,7 +524,8 @@ def _result(scene: Scene, watch: _Stopwatch, measured: _Measured, numerics: _Num
         predictions=_predicted_outputs(scene, model.chosen), numerics=summary,
         speed_rev_s=grid.speed_rev_s, n_cycles=int(grid.turns.size), tree=tree,
         mechanism=model.mechanism, note=measured.inputs.note,
-        input_digests=measured.inputs.digests, configuration=model.configuration)
+        input_digests=measured.inputs.digests, configuration=model.configuration,
+        drive_law_angles=law_angles_at_reference(model.mechanism))
 
 
 def _predicted_outputs(scene: Scene, model: xr.Dataset) -> xr.Dataset:

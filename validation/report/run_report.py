@@ -176,10 +176,7 @@ def _revolutions_text(result: ValidationResult) -> str:
 def _drives_text(result: ValidationResult) -> str:
     """How the model's drives were excited, with the law's speed for analytic drives."""
     if result.scene.model.drives == "measured":
-        from rigval.model.drives import law_angles_at_reference
-        from rigval.model.mechanism import load_mechanism
-
-        law = law_angles_at_reference(load_mechanism(result.scene.mechanism))
+        law = result.drive_law_angles
         names = ", ".join(
             f"{d.name} <- {d.encoder} (angle at the reference pulse {d.angle_at_reference:.5g} "
             f"rad; the drive law gives {law.get(d.name, float('nan')):.5g} rad)"
