@@ -222,7 +222,7 @@ def test_lvm_in_g_becomes_a_linear_scale_to_m_s2(realdata_dir: Path, tmp_path: P
     (stream,) = doc["streams"].values()
     assert stream["channels"]["ax"]["slope"] == 9.80665
     from rigval.acquisition.channel_map import load_stream, parse_stream
-    from rigval.validation.convert import convert_stream
+    from rigval.validation.stage_settings import convert_stream
 
     assert stream["reader"]["timezone"] == "TODO"  # LVM header times carry no zone
     table = {**stream, "reader": {"timezone": "UTC"}, "channels": {"ay": stream["channels"]["ay"]}}
