@@ -41,7 +41,8 @@ for(const dd of document.querySelectorAll('dd')){
     if(tops.size>1)broken.push(m[0]);}}
 const p=document.createElement('pre');p.id='probe';
 p.textContent=JSON.stringify({result:box(result),failures,scrolls,broken,
-  pageWidth:document.documentElement.scrollWidth,viewport:window.innerWidth});
+  pageWidth:document.documentElement.scrollWidth,viewport:window.innerWidth,
+  height:window.innerHeight});
 document.body.appendChild(p);});</script>"""
 
 #: Thresholds no torque comparison of the shipped run meets (its NRMSE is 1e-4 to 2e-2).
@@ -81,6 +82,8 @@ def test_failed_report_shows_why_without_scrolling(failing_report: Path, tmp_pat
             failure["text"])
         assert failure["right"] <= viewport + 0.5 and not failure["clipped"], failure
     assert seen["pageWidth"] <= viewport  # the page itself never scrolls sideways
+    # the verdict and the first reason are on the first screen, without scrolling down either
+    assert seen["result"]["bottom"] <= seen["height"] and failures[0]["bottom"] <= seen["height"]
     summary_and_alignment = [s for s in seen["scrolls"] if s["caption"] in (
         "comparisons", "reference pulses and segments per stream")
         or s["caption"].startswith("clock model per stream")]
