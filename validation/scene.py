@@ -654,7 +654,15 @@ def load_scene(path: str | Path, *, check_mechanism: bool = True) -> Scene:
                          hint="check the path") from None
     scene = parse_scene(text, path)
     if check_mechanism:
-        check_mechanism_names(scene, mechanism_names(scene.mechanism))
+        try:
+            names = mechanism_names(scene.mechanism)
+        except MechanismError as error:
+            if error.where.get("key"):
+                raise
+            # the file as a whole (unreadable, not TOML): the scene's key that names it
+            raise SceneError(error.message, where={"key": "mechanism", **error.where},
+                             hint=error.hint) from None
+        check_mechanism_names(scene, names)
         if scene.model.drives == "analytic":  # the laws the model runs: a main drive that turns
             from rigval.model.drives import cycle_period
             from rigval.model.mechanism import load_mechanism

@@ -196,7 +196,10 @@ def variants(count: int, seed: int) -> Iterator[Variant]:
             yield Variant("mechanism", scene.name, key_text(path), kind, _strings(value, new),
                           scene_doc, _edit(mechanism_doc, path, new))
         else:
-            path, value = rng.choice(list(_leaves(scene_doc)))
+            leaves = list(_leaves(scene_doc))
+            if k % 8 == 0:  # paths are a few leaves among hundreds: edit one every 8th variant
+                leaves = [(p, v) for p, v in leaves if isinstance(v, str) and p[-1] in PATH_KEYS]
+            path, value = rng.choice(leaves)
             kind, new = rng.choice(_replacements(path, value, rng))
             yield Variant("scene", scene.name, key_text(path), kind, _strings(value, new),
                           _edit(scene_doc, path, new), None)
