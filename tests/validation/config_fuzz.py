@@ -17,8 +17,10 @@ Invariants checked for every variant (a failure is a *violation*):
    edited one or is referred to by it: what the error is about, not a bystander;
 4. a number that no key can take (not finite, or 1e30 and more in magnitude) is refused.
 
-Usage: ``python tests/validation/config_fuzz.py [--variants N] [--seed S]``; prints the outcomes
-and the violations. ``tests/validation/test_config_fuzz.py`` runs a few hundred variants.
+Usage: ``python tests/validation/config_fuzz.py [--variants N] [--seed S] [--runs R]``; prints
+the outcomes and the violations; ``--runs R`` also runs the first R variants that load with
+:func:`rigval.validation.pipeline.run_scene` (a result, or a rigval error naming a key).
+``tests/validation/test_config_fuzz.py`` runs a few hundred variants.
 """
 
 from __future__ import annotations
@@ -233,8 +235,11 @@ def _names(key: str) -> list[str]:
     return [p for p in key.replace("[", ".").replace("]", "").split(".")[1:] if p]
 
 
-def run_variant(variant: Variant, folder: Path) -> Result:
-    """Write one variant beside links to its run's data files and load it."""
+def run_variant(variant: Variant, folder: Path, run: bool = False) -> Result:
+    """Write one variant beside links to its run's data files and load it (``run``: and run it).
+
+    A loaded variant that is run must give a result or a rigval error naming a key.
+    """
     for item in folder.iterdir():
         item.unlink()
     stem = variant.scene.removesuffix("_scene.toml")
@@ -263,14 +268,34 @@ def run_variant(variant: Variant, folder: Path) -> Result:
         return Result(variant, "violation", None, f"internal {type(error).__name__}: {error}")
     if variant.kind in MUST_REFUSE:
         return Result(variant, "violation", None, f"a {variant.kind} value was accepted")
+    if run:
+        from rigval.validation.pipeline import run_scene
+
+        try:
+            run_scene(path)
+        except RigvalError as error:
+            key = error.where.get("key")
+            return Result(variant, "failed run" if key else "violation", key,
+                          f"run: {error}" if key else f"run error naming no key: {error}")
+        except Exception as error:
+            return Result(variant, "violation", None, f"run: internal {type(error).__name__}: "
+                          f"{error}")
+        return Result(variant, "ran", None, "")
     return Result(variant, "loaded", None, "")
 
 
-def fuzz(count: int, seed: int) -> list[Result]:
-    """Run ``count`` variants in a temporary folder; return every result."""
+def fuzz(count: int, seed: int, runs: int = 0) -> list[Result]:
+    """Load ``count`` variants in a temporary folder, running the first ``runs`` that load."""
     folder = Path(tempfile.mkdtemp(prefix="rigval_config_fuzz_"))
+    results: list[Result] = []
     try:
-        return [run_variant(v, folder) for v in variants(count, seed)]
+        for variant in variants(count, seed):
+            result = run_variant(variant, folder)
+            if result.outcome == "loaded" and runs > 0:
+                runs -= 1
+                result = run_variant(variant, folder, run=True)
+            results.append(result)
+        return results
     finally:
         shutil.rmtree(folder, ignore_errors=True)
 
@@ -280,13 +305,16 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--variants", type=int, default=300)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--runs", type=int, default=0,
+                        help="run the first N variants that load (about 20 s each)")
     args = parser.parse_args(argv)
-    results = fuzz(args.variants, args.seed)
+    results = fuzz(args.variants, args.seed, args.runs)
     print(Counter(r.outcome for r in results))
     print(Counter((r.variant.source, r.variant.kind, r.outcome) for r in results))
     for r in results:
-        if r.outcome == "violation":
-            print(f"{r.variant.source} {r.variant.key} ({r.variant.kind}): {r.message[:300]}")
+        if r.outcome in ("violation", "ran", "failed run"):
+            print(f"{r.outcome}: {r.variant.source} {r.variant.key} ({r.variant.kind}): "
+                  f"{r.message[:300]}")
     return 1 if any(r.outcome == "violation" for r in results) else 0
 
 
