@@ -363,8 +363,51 @@ def parse_stream(table: Mapping[str, Any], key: str,
     if doubled:
         raise _TABLES.fail(f"{key}.channels", f"file channel {doubled[0]!r} is mapped twice",
                            hint="map each file channel to one scene channel")
-    return StreamSpec(key.rsplit(".", 1)[-1], path, device, MappingProxyType(dict(reader)),
+    spec = StreamSpec(key.rsplit(".", 1)[-1], path, device, MappingProxyType(dict(reader)),
                       MappingProxyType(channels), key)
+    _check_tdms_sources(spec)
+    return spec
+
+
+def _not_in_file(spec: StreamSpec, error: ChannelNotFoundError) -> ChannelMapError:
+    """Return the error naming the key of a group or mapped channel the file does not hold."""
+    available = [str(a) for a in error.extra.get("available", [])]
+    if error.message.startswith("group "):
+        key = f"{spec.key}.reader.group"
+        hint = "groups in the file: " + ", ".join(available)
+    else:
+        missing = [c for c in spec.channels.values() if c.source not in available]
+        key = f"{missing[0].key}.source" if missing else spec.key
+        hint = "channels in the file: " + ", ".join(available)
+    return ChannelMapError(f"{key}: {error.message}", where={**error.where, "key": key},
+                           hint=hint)
+
+
+def _check_tdms_sources(spec: StreamSpec) -> None:
+    """Check from a TDMS file's metadata alone that its group and mapped channels are there.
+
+    Before any sample is read, so that a scene naming a channel the file lacks is refused when
+    it is loaded. Other formats, absent or damaged files and reader options of the wrong type
+    are left to the read, which reports them.
+    """
+    from rigval.acquisition.detect import detect_format
+    from rigval.acquisition.errors import RigvalError
+    from rigval.acquisition.tdms_layout import scan_tdms
+    from rigval.acquisition.tdms_plan import plan_tdms
+
+    group = spec.reader.get("group")
+    if not spec.channels or not (group is None or isinstance(group, str)) \
+            or not spec.file.is_file():
+        return
+    try:
+        if detect_format(spec.file) != "tdms":
+            return
+        plan_tdms(scan_tdms(spec.file), group=group,
+                  channels=[c.source for c in spec.channels.values()])
+    except ChannelNotFoundError as error:
+        raise _not_in_file(spec, error) from None
+    except RigvalError:
+        return  # a damaged file: reported, with what can be recovered, when it is read
 
 
 def parse_streams(table: Mapping[str, Any], key: str = "streams",
@@ -435,11 +478,7 @@ def load_stream(spec: StreamSpec, *, time_range: tuple[float | None, float | Non
         ds = read_stream(spec.file, device=spec.device, channels=sources, time_range=time_range,
                          checksum=checksum, **options)
     except ChannelNotFoundError as error:
-        available = [str(a) for a in error.extra.get("available", [])]
-        missing = [c for c in spec.channels.values() if c.source not in available]
-        key = f"{missing[0].key}.source" if missing else spec.key
-        raise ChannelMapError(f"{key}: {error.message}", where={**error.where, "key": key},
-                         hint="channels in the file: " + ", ".join(available)) from None
+        raise _not_in_file(spec, error) from None
     except ChannelMapError:
         raise
     except ConfigError as error:

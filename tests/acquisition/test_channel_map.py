@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import tomllib
 from pathlib import Path
@@ -109,10 +110,15 @@ def test_load_stream_renames_sources_and_attaches_sensors(tmp_path: Path) -> Non
     assert attrs["source_channel"] == "/'WLS task'/'ai1'"
     assert attrs["input_delay_s"] == pytest.approx((40 + 5 / 512) * 0.00062 + 4.5e-6)
     assert ds.attrs["stream"] == "wls1"
-    missing = parse_stream({"file": "wls1.tdms", "channels": {"x": {"sensor": "voltage"}}},
-                           "streams.wls1", base_dir=tmp_path)
     with pytest.raises(ChannelMapError, match="channels in the file: ai0, ai1") as error:
-        load_stream(missing)
+        # refused when parsed, from the file's metadata, before any sample is read
+        parse_stream({"file": "wls1.tdms", "channels": {"x": {"sensor": "voltage"}}},
+                     "streams.wls1", base_dir=tmp_path)
+    assert error.value.where["key"] == "streams.wls1.channels.x.source"
+    late = dataclasses.replace(spec, channels={"x": dataclasses.replace(
+        spec.channels["tor1"], name="x", source="x", key="streams.wls1.channels.x")})
+    with pytest.raises(ChannelMapError, match="channels in the file: ai0, ai1") as error:
+        load_stream(late)  # and when read (a spec built in code)
     assert error.value.where["key"] == "streams.wls1.channels.x.source"
     with pytest.raises(ChannelMapError, match="the tdms reader has no such option") as error:
         parse_stream({"file": "wls1.tdms", "reader": {"grop": "x"}}, "streams.wls1",

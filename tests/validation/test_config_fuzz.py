@@ -147,6 +147,11 @@ DEFECTS = {
                                     "streams.cdaq.reader.grop"),
     "TDMS file as a CSV stream's file": (
         _scene_edit(("streams", "wls2", "file"), "run_0p8_wls1.tdms"), "streams.wls2.file"),
+    "channel absent from its TDMS file": (_scene_edit((*CH, "enc2", "source"), "enc9"),
+                                          "streams.cdaq.channels.enc2.source"),
+    "reader group absent from the TDMS file": (
+        _scene_edit(("streams", "cdaq", "reader", "group"), "cDAQ9 task"),
+        "streams.cdaq.reader.group"),
     "min_cycles 2**62": (_scene_edit(("angle", "min_cycles"), 2**62), "angle.min_cycles"),
     "angle_at_reference inf": (_scene_edit(("model", "drivers", "theta_F", "angle_at_reference"),
                                            math.inf),
