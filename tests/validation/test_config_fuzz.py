@@ -9,30 +9,17 @@ their own below, each with the key its error must name.
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import sys
 import tomllib
 from collections import Counter
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 import pytest
 
-ENGINE = Path(__file__).resolve().with_name("config_fuzz.py")
-
-
-def _engine() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("config_fuzz", ENGINE)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("config_fuzz", module)  # dataclasses look their module up there
-    spec.loader.exec_module(sys.modules["config_fuzz"])
-    return sys.modules["config_fuzz"]
-
-
-fuzz = _engine()
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the engine beside this file
+import config_fuzz as fuzz
 
 
 def _base(scene: str = "run_0p8_scene.toml", mechanism: str | None = "pendulum"
@@ -90,22 +77,22 @@ def test_fuzz_finds_an_internal_error_it_is_shown() -> None:
     assert result.outcome == "violation" and "internal TypeError: boom" in result.message
 
 
-def _scene_edit(path: tuple[Any, ...], value: Any):
+def _set(which: int, path: tuple[Any, ...], value: Any):
+    """An edit setting ``path`` of the scene (``which`` 0) or the mechanism (1) to ``value``."""
     def edit(scene_doc: dict[str, Any], mechanism_doc: dict[str, Any]) -> None:
-        parent = scene_doc
+        parent = (scene_doc, mechanism_doc)[which]
         for part in path[:-1]:
             parent = parent[part]
         parent[path[-1]] = value
     return edit
+
+
+def _scene_edit(path: tuple[Any, ...], value: Any):
+    return _set(0, path, value)
 
 
 def _mechanism_edit(path: tuple[Any, ...], value: Any):
-    def edit(scene_doc: dict[str, Any], mechanism_doc: dict[str, Any]) -> None:
-        parent = mechanism_doc
-        for part in path[:-1]:
-            parent = parent[part]
-        parent[path[-1]] = value
-    return edit
+    return _set(1, path, value)
 
 
 def _analytic_still(scene_doc: dict[str, Any], mechanism_doc: dict[str, Any]) -> None:
