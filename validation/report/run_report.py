@@ -250,10 +250,18 @@ def _summary(page: Page, result: ValidationResult, status: str) -> None:
         "revolutions compared": _revolutions_text(result),
         "mean main-shaft speed [rev/s]": result.speed_rev_s,
     })
-    if scene.note is not None and result.note is not None:
-        page.paragraph(f"Operator's note, from {scene.note}:")
-        page.preformatted(result.note)
+    note = _note_block(scene.note, result.note)
+    if note is not None:
+        page.paragraph(note[0])
+        page.preformatted(note[1])
     page.table(_summary_rows(result), caption="comparisons")
+
+
+def _note_block(path: Path | None, text: str | None) -> tuple[str, str] | None:
+    """Return the operator's note as (caption naming its file, text), or None without one."""
+    if path is None or text is None:
+        return None
+    return f"Operator's note, from {path}:", text
 
 
 def _comparisons(page: Page, result: ValidationResult) -> None:
