@@ -20,7 +20,7 @@ from rigval.processing.health import Finding, analog_health, channel_range
 from rigval.processing.health_events import counter_health, pulse_health
 from rigval.processing.pulses import detect_edges
 
-__all__ = ["ChannelKind", "stream_health"]
+__all__ = ["ChannelKind", "period_samples", "stream_health"]
 
 logger = logging.getLogger(__name__)
 
@@ -28,10 +28,11 @@ logger = logging.getLogger(__name__)
 ChannelKind = Literal["analog", "counter", "pulse"]
 
 
-def _period_samples(stream: xr.Dataset, pulse: str | None, fs: float) -> float | None:
-    """Return the samples per revolution from a pulse channel's median rising-edge interval."""
-    if pulse is None:
-        return None
+def period_samples(stream: xr.Dataset, pulse: str) -> float | None:
+    """Return the samples per revolution from a pulse channel's median rising-edge interval.
+
+    None when the channel has fewer than 3 edges or no two levels.
+    """
     try:
         rises = detect_edges(stream[pulse].to_numpy(), stream["time"].to_numpy(),
                              valid=stream["valid"].to_numpy(),
@@ -39,13 +40,14 @@ def _period_samples(stream: xr.Dataset, pulse: str | None, fs: float) -> float |
     except DataError as error:  # no two levels: no pulses, no drift check
         logger.info("no revolution period from %s: %s", pulse, error)
         return None
+    fs = float(stream.attrs["fs_nominal"])
     return float(np.median(np.diff(rises))) * fs if rises.size > 2 else None
 
 
 def stream_health(stream: xr.Dataset, kinds: Mapping[str, ChannelKind], *, name: str = "",
                   modules: Mapping[str, str] | None = None,
                   counts_per_rev: Mapping[str, float] | None = None,
-                  period_channel: str | None = None) -> list[Finding]:
+                  period: float | None = None) -> list[Finding]:
     """Return the health findings of the named channels of one stream.
 
     Parameters
@@ -61,9 +63,9 @@ def stream_health(stream: xr.Dataset, kinds: Mapping[str, ChannelKind], *, name:
         Module of each channel (its input range, when its attributes give none).
     counts_per_rev : mapping of str to float, optional
         Counts per revolution of each counter.
-    period_channel : str, optional
-        Pulse channel whose period gives the revolutions of the zero-drift check (default:
-        the first pulse channel of ``kinds``).
+    period : float, optional
+        Samples per revolution for the zero-drift check (default: from the first pulse channel
+        of ``kinds``, :func:`period_samples`; no drift check without either).
 
     Returns
     -------
@@ -74,9 +76,9 @@ def stream_health(stream: xr.Dataset, kinds: Mapping[str, ChannelKind], *, name:
     time = stream["time"].to_numpy()
     valid = stream["valid"].to_numpy()
     segment = stream["segment"].to_numpy()
-    pulse = period_channel if period_channel in stream else next(
-        (c for c, k in kinds.items() if k == "pulse" and c in stream), None)
-    period = _period_samples(stream, pulse, fs)
+    pulse = next((c for c, k in kinds.items() if k == "pulse" and c in stream), None)
+    if period is None and pulse is not None:
+        period = period_samples(stream, pulse)
     findings: list[Finding] = []
     for channel, kind in kinds.items():
         if channel not in stream:

@@ -1,29 +1,27 @@
 """Sensor health of a scene's channels, and what it says about each comparison.
 
-:func:`scene_health` reads each mapped channel of each stream once more, as recorded (file
-units), and runs the checks of :mod:`rigval.processing.health_check` on it: TDMS channels one
-at a time with their stream's pulse channel (the revolutions of the zero-drift check), text
-files whole. :func:`comparison_health` picks the findings of a comparison's channels; their
-lines go on the comparison's verdict line (``"wls1.tor2: 3.1 % of samples clipped at 2e-05 V/V
-...; not trusted"``), into ``alignment.json`` and the netCDF group ``/health``
-(docs/processing.md, "Sensor health").
+:class:`HealthLog` checks each channel when the read plan reads it (as recorded, file units;
+:mod:`rigval.validation.read_plan` reads every channel once): the first channels of each stream
+(pulses, encoders; a text file's compared channels) and, later, each compared TDMS channel,
+with the checks of :mod:`rigval.processing.health_check`; the zero drift is judged over
+revolutions of the stream's pulse channel. :func:`comparison_health` picks the findings of a
+comparison's channels; their lines go on the comparison's verdict line (``"wls1.tor2: 3.1 % of
+samples clipped at 2e-05 V/V ...; not trusted"``), into ``alignment.json`` and the netCDF group
+``/health`` (docs/processing.md, "Sensor health").
 """
 
 from __future__ import annotations
 
-import dataclasses
 import logging
-from types import MappingProxyType
 
 import numpy as np
 import xarray as xr
 
-from rigval.acquisition.channel_map import StreamSpec, load_stream
 from rigval.processing.health import Finding
-from rigval.processing.health_check import ChannelKind, stream_health
+from rigval.processing.health_check import ChannelKind, period_samples, stream_health
 from rigval.validation.scene_types import ComparisonSpec, Scene
 
-__all__ = ["comparison_health", "health_dataset", "scene_health"]
+__all__ = ["HealthLog", "comparison_health", "health_dataset"]
 
 logger = logging.getLogger(__name__)
 
@@ -36,39 +34,37 @@ def _kind(sensor: str) -> ChannelKind:
     return "analog"
 
 
-def _part(spec: StreamSpec, names: list[str]) -> StreamSpec:
-    return dataclasses.replace(spec, channels=MappingProxyType(
-        {name: channel for name, channel in spec.channels.items() if name in names}))
-
-
-def scene_health(scene: Scene) -> tuple[Finding, ...]:
-    """Return the health findings of every mapped channel of the scene's streams.
+class HealthLog:
+    """The health findings of a run's channels, gathered as the channels are read.
 
     Parameters
     ----------
     scene : Scene
-        The scene.
-
-    Returns
-    -------
-    tuple of Finding
-        Channels named ``"<stream>.<channel>"``.
+        The scene (each channel's sensor, module and counts per revolution).
     """
-    findings: list[Finding] = []
-    for name, spec in scene.streams.items():
-        kinds = {ch: _kind(c.sensor) for ch, c in spec.channels.items()}
-        modules = {ch: c.module for ch, c in spec.channels.items() if c.module}
-        cpr = {ch: float(c.params["counts_per_rev"]) for ch, c in spec.channels.items()
-               if "counts_per_rev" in c.params}
+
+    def __init__(self, scene: Scene) -> None:
+        self.scene = scene
+        self.findings: list[Finding] = []
+        self._period: dict[str, float | None] = {}
+
+    def check(self, name: str, stream: xr.Dataset) -> None:
+        """Check the mapped channels of stream ``name`` that ``stream`` (as read) holds.
+
+        The stream's revolution period is taken from its pulse channel the first time that
+        channel comes (with the first channels, which the alignment needs).
+        """
+        spec = self.scene.streams[name]
+        kinds = {ch: _kind(c.sensor) for ch, c in spec.channels.items() if ch in stream}
         pulse = next((ch for ch, kind in kinds.items() if kind == "pulse"), None)
-        groups = ([list(kinds)] if spec.file.suffix.lower() != ".tdms"
-                  else [[ch] if pulse in (None, ch) else [ch, pulse] for ch in kinds])
-        for names in groups:
-            stream = load_stream(_part(spec, names), checksum=False)
-            checked = {ch: kinds[ch] for ch in names if ch == names[0] or len(groups) == 1}
-            findings += stream_health(stream, checked, name=name, modules=modules,
-                                      counts_per_rev=cpr, period_channel=pulse)
-    return tuple(findings)
+        if pulse is not None and self._period.get(name) is None:
+            self._period[name] = period_samples(stream, pulse)
+        self.findings += stream_health(
+            stream, kinds, name=name,
+            modules={ch: c.module for ch, c in spec.channels.items() if c.module},
+            counts_per_rev={ch: float(c.params["counts_per_rev"])
+                            for ch, c in spec.channels.items() if "counts_per_rev" in c.params},
+            period=self._period.get(name))
 
 
 def comparison_health(comparison: ComparisonSpec, findings: tuple[Finding, ...]
