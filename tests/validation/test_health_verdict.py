@@ -15,7 +15,7 @@ import xarray as xr
 
 from rigval.sample_data import RigSettings, simulate_rig
 from rigval.sample_data.faults import Fault
-from rigval.validation.report.validate import validate_scene
+from rigval.validation.run.validate import validate_scene
 from rigval.validation.verdict import run_verdict
 
 pytestmark = pytest.mark.slow

@@ -29,8 +29,8 @@ import xarray as xr
 
 from rigval.acquisition.json_values import json_ready
 from rigval.acquisition.outputs import atomic_output, staged_folder, write_text_atomic
-from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.health import health_dataset
+from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
 from rigval.validation.report import plots
 from rigval.validation.report.page import Page
