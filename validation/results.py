@@ -155,7 +155,7 @@ class ValidationResult:
         empty from :func:`rigval.validation.pipeline.run_scene`).
     health : tuple of rigval.processing.health.Finding
         Sensor health findings of the channels the run read
-        (:func:`rigval.validation.health.channel_health`).
+        (:class:`rigval.validation.health.HealthLog`).
     """
 
     scene: Scene
