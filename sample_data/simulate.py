@@ -331,6 +331,8 @@ def simulate_rig(out_dir: str | Path, settings: RigSettings | None = None, *,
     record = _truth_record(settings, draw, streams, pulses, files, references)
     if settings.faults:
         record["faults"] = injector.records()
+    else:  # a run without faults writes the truth it wrote before faults existed
+        record["settings"].pop("faults", None)
     write_json(files.path("truth.json"), record)
     write_text_atomic(files.path("scene.toml"), scene_text(settings, draw, files, references))
     write_text_atomic(files.path("note.txt"), note_text(settings, draw, streams, files))
