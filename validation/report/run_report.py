@@ -27,18 +27,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import xarray as xr
 
-from rigval.acquisition.detect import source_checksum
 from rigval.acquisition.json_values import json_ready
 from rigval.acquisition.outputs import atomic_output, staged_folder, write_text_atomic
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
-from rigval.validation.note import read_note
 from rigval.validation.report import plots
 from rigval.validation.report.drawing import FigureGroup, draw_svgs
 from rigval.validation.report.page import Page
 from rigval.validation.results import ComparisonResult, ValidationResult
-from rigval.validation.scene_types import Scene
-from rigval.validation.verdict import run_verdict
+from rigval.validation.verdict import failure_reasons, run_verdict
 from rigval.validation.version import rigval_version
 
 if TYPE_CHECKING:
@@ -92,7 +89,7 @@ def write_alignment(result: ValidationResult, out_dir: Path) -> Path:
 
 
 def _encoding(ds: xr.Dataset) -> dict[str, dict[str, Any]]:
-    """Return the encoding: zlib level 4 with shuffle for numeric variables (design 3.4)."""
+    """Return the encoding: zlib level 4 with shuffle for numeric variables (docs/formats.md)."""
     return {name: {"zlib": True, "complevel": 4, "shuffle": True}
             for name, var in ds.variables.items()
             if var.dtype.kind in "fiub" and var.ndim > 0}
@@ -115,8 +112,8 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
     """
     tree = result.tree.copy()
     scene = result.scene
-    inputs = [(p, source_checksum(p)) for p in scene.input_files]
-    tree.dataset = root_summary(result, tree, inputs)  # what plain xr.open_dataset shows
+    # what plain xr.open_dataset shows
+    tree.dataset = root_summary(result, tree, result.input_digests)
     tree.attrs.update({
         "Conventions": "CF-1.13",
         "title": scene.title,
@@ -158,30 +155,35 @@ def _metric_table(comparison: ComparisonResult, *, everything: bool = False
 
 
 def _summary_rows(result: ValidationResult) -> list[dict[str, Any]]:
-    rows = []
-    for c in result.comparisons:
-        failed = [ch.metric for ch in c.checks if not ch.passed]
-        rows.append({
-            "comparison": c.name, "measured": c.spec.measured_text, "model": str(c.spec.model),
-            "scale": c.spec.scale, "unit": c.units,
-            "V&V 20": "detected" if c.scores.get("vv20.curve.detected") else "not detected",
-            "E": c.scores.get("vv20.curve.error"), "u_val": c.scores.get("vv20.curve.u_val"),
-            "ISO rating": c.scores.get("iso18571_periodic.rating"),
-            "grade": c.scores.get("iso18571_periodic.grade"),
-            "NRMSE": c.scores.get("nrmse"), "r": c.scores.get("pearson_r"),
-            "status": "pass" if c.passed else "fail",
-            "failed thresholds": ", ".join(failed),
-        })
-    return rows
+    """One row per comparison, the status first: narrow enough for a 1024 px window.
+
+    Why a comparison failed is listed above the table (:func:`failure_reasons`).
+    """
+    return [{
+        "comparison": c.name, "status": "pass" if c.passed else "fail",
+        "V&V 20": "detected" if c.scores.get("vv20.curve.detected") else "not detected",
+        "E": c.scores.get("vv20.curve.error"), "u_val": c.scores.get("vv20.curve.u_val"),
+        "unit": c.units, "ISO rating": c.scores.get("iso18571_periodic.rating"),
+        "grade": c.scores.get("iso18571_periodic.grade"),
+        "NRMSE": c.scores.get("nrmse"), "r": c.scores.get("pearson_r"),
+        "revolutions": int(c.cycles.shape[0]),
+    } for c in result.comparisons]
+
+
+def _revolutions_text(result: ValidationResult) -> str:
+    """Return the revolutions recorded, and those each comparison used where fewer were valid."""
+    used = sorted({int(c.cycles.shape[0]) for c in result.comparisons})
+    if used in ([], [result.n_cycles]):
+        return f"{result.n_cycles}"
+    span = f"{used[0]}" if len(used) == 1 else f"{used[0]}-{used[-1]}"
+    return (f"{result.n_cycles} of the main shaft; {span} by comparison (column 'revolutions': "
+            "revolutions with a gap in a stream are left out of its comparisons)")
 
 
 def _drives_text(result: ValidationResult) -> str:
     """How the model's drives were excited, with the law's speed for analytic drives."""
     if result.scene.model.drives == "measured":
-        from rigval.model.drives import law_angles_at_reference
-        from rigval.model.mechanism import load_mechanism
-
-        law = law_angles_at_reference(load_mechanism(result.scene.mechanism))
+        law = result.drive_law_angles
         names = ", ".join(
             f"{d.name} <- {d.encoder} (angle at the reference pulse {d.angle_at_reference:.5g} "
             f"rad; the drive law gives {law.get(d.name, float('nan')):.5g} rad)"
@@ -192,13 +194,20 @@ def _drives_text(result: ValidationResult) -> str:
 
 
 def _alignment_rows(result: ValidationResult) -> list[dict[str, Any]]:
+    """Return the clock model of each stream (the first of the two alignment tables)."""
     return [{"stream": name, "device": a.device, "offset [s]": f"{a.offset_s:.6f}",
-             "drift [ppm]": a.drift_ppm, "residual rms [µs]": a.residual_rms_s * 1e6,
-             "pulses matched": a.events_matched, "missing": a.events_missing,
-             "spurious": a.events_spurious, "input delay [ms]": a.input_delay_s * 1e3,
-             "segments": a.segments, "gaps": len(a.gaps),
-             "offset ±95 % [µs]": a.offset_u95_s * 1e6, "drift ±95 % [ppm]": a.drift_u95_ppm,
+             "offset ±95 % [µs]": a.offset_u95_s * 1e6, "drift [ppm]": a.drift_ppm,
+             "drift ±95 % [ppm]": a.drift_u95_ppm, "residual rms [µs]": a.residual_rms_s * 1e6,
+             "input delay [ms]": a.input_delay_s * 1e3}
+            for name, a in result.alignment.items()]
+
+
+def _pulse_rows(result: ValidationResult) -> list[dict[str, Any]]:
+    """Return each stream's reference pulses and segments (the second alignment table)."""
+    return [{"stream": name, "pulses matched": a.events_matched, "missing": a.events_missing,
+             "spurious": a.events_spurious,
              "periods decided by": a.periods_decided_by or "reference",
+             "segments": a.segments, "gaps": len(a.gaps),
              "samples dropped": sum(int(r["samples_dropped"]) for r in a.segment_table)}
             for name, a in result.alignment.items()]
 
@@ -234,26 +243,32 @@ def _summary(page: Page, result: ValidationResult, status: str) -> None:
     page.paragraph(f"ASME V&V 20: {verdict['statement']}",
                    css_class="bad" if verdict["detected"] else "ok")
     page.paragraph(f"Result: {status}", css_class="ok" if result.passed else "bad")
+    failed = [c for c in result.comparisons if not c.passed]
+    if failed:
+        page.paragraph(f"{len(failed)} of {len(result.comparisons)} comparisons failed a "
+                       "threshold:")
+        page.items([f"{c.name}: {'; '.join(failure_reasons(c))}" for c in failed],
+                   css_class="failures")
     page.facts({
         "scene": scene.path, "scene sha256": scene.sha256, "mechanism": scene.mechanism,
         "drives": _drives_text(result),
         "angle grid": f"{scene.angle.points_per_revolution} points per revolution, "
                       f"{scene.angle.interpolation} interpolation",
-        "revolutions compared": result.n_cycles,
+        "revolutions compared": _revolutions_text(result),
         "mean main-shaft speed [rev/s]": result.speed_rev_s,
     })
-    note = _note_block(scene)
+    note = _note_block(scene.note, result.note)
     if note is not None:
         page.paragraph(note[0])
         page.preformatted(note[1])
     page.table(_summary_rows(result), caption="comparisons")
 
 
-def _note_block(scene: Scene) -> tuple[str, str] | None:
-    """Return the note's source line and text, or None without a note."""
-    if scene.note is None:
+def _note_block(path: Path | None, text: str | None) -> tuple[str, str] | None:
+    """Return the operator's note as (caption naming its file, text), or None without one."""
+    if path is None or text is None:
         return None
-    return f"Operator's note, from {scene.note}:", read_note(scene.note)
+    return f"Operator's note, from {path}:", text
 
 
 def _comparisons(page: Page, result: ValidationResult, figures: _Figures) -> None:
@@ -284,6 +299,7 @@ def _alignment(page: Page, result: ValidationResult, figures: _Figures) -> None:
     page.table(_alignment_rows(result),
                caption="clock model per stream: t_ref = offset + (1 + drift) t_device per "
                        "gap-free segment, fitted on the reference pulses")
+    page.table(_pulse_rows(result), caption="reference pulses and segments per stream")
     dropped = _dropped_rows(result)
     if dropped:
         page.table(dropped, caption="samples that could not be aligned (marked invalid, left "
@@ -305,11 +321,10 @@ def _predictions(page: Page, result: ValidationResult, figures: _Figures) -> Non
     page.paragraph("What the model says about quantities that were not measured, for the drive "
                    "motion of this run (the paper's figs. 15 to 17).")
     points = _points(result)
-    for sketch in figures["sketch"]:
-        page.figure(sketch,
-                    caption="the mechanism at t = 0 of its file's drive laws: bodies (letters), "
-                            "joints (open circles), ground pins (hatched: the supports), drives "
-                            f"(red arrows); red: {', '.join(points) or 'no point'}")
+    page.figure(figures["sketch"][0],
+                caption="the mechanism at t = 0 of its file's drive laws: bodies (letters), "
+                        "joints (open circles), ground pins (hatched: the supports), drives "
+                        f"(red arrows); red: {', '.join(points) or 'no point'}")
     for point, figure in zip(points, figures["points"], strict=True):
         page.figure(figure, caption=f"{point}: vertical position, absolute speed and acceleration")
     if "support_force" in result.predictions:
@@ -324,16 +339,11 @@ def _points(result: ValidationResult) -> list[str]:
 
 
 def _mechanism_sketch(result: ValidationResult) -> list[Figure]:
-    """Return the sketch of the mechanism, the report's points in red (none if unread)."""
-    from rigval.model import load_mechanism
+    """Return the sketch of the run's mechanism, the report's points in red."""
     from rigval.validation.report.sketch import sketch_mechanism
 
-    try:
-        mechanism = load_mechanism(result.scene.mechanism)
-    except (OSError, ValueError) as error:  # the report goes on without the sketch
-        logger.warning("no mechanism sketch in the report: %s", error)
-        return []
-    return [sketch_mechanism(mechanism, highlight=_points(result))]
+    return [sketch_mechanism(result.mechanism, highlight=_points(result),
+                             configuration=result.configuration)]
 
 
 def _draw_figures(result: ValidationResult) -> _Figures:
@@ -382,7 +392,7 @@ def _reproduction(page: Page, result: ValidationResult) -> None:
                 "reference signal of the metrics": "the measured mean over the revolutions",
                 "ISO/TS 18571 parameters": ", ".join(
                     f"{k} {v}" for k, v in dataclasses.asdict(IsoParameters()).items())})
-    page.table([{"file": str(p), "sha256": source_checksum(p)} for p in scene.input_files],
+    page.table([{"file": str(p), "sha256": digest} for p, digest in result.input_digests],
                caption="input files")
     page.preformatted(scene.text)
 
@@ -417,7 +427,8 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
     -------
     list of pathlib.Path
         ``report.html``, ``metrics.csv``, ``metrics.json``, ``alignment.json`` and the netCDF
-        file; also stored in ``result.outputs``.
+        file (:func:`rigval.validation.run.validate.validate_scene` returns them in the result's
+        ``outputs``).
     """
     out = Path(out_dir)
     page = _build_page(result)  # everything that can fail before the first file is written
@@ -428,7 +439,6 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
         staged.append(write_netcdf(result, stage / f"{result.scene.path.stem}.nc"))
         staged.insert(0, page.write(stage / "report.html"))
     written = [out / path.name for path in staged]
-    result.outputs[:] = written
     logger.info("report written to %s", out)
     return written
 
