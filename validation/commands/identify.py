@@ -86,8 +86,7 @@ def write_identification(identification: Any, out_dir: Path) -> list[Path]:
     nominal_report = beside(lambda: write_report(nominal, out_dir / "nominal"))
     identified = run_scene(dataclasses.replace(scene, mechanism=mechanism_path.resolve()))
     identified_files = write_report(identified, out_dir / "identified")
-    nominal.outputs[:] = nominal_report.result()
-    written = [json_path, mechanism_path, *nominal.outputs, *identified_files]
+    written = [json_path, mechanism_path, *nominal_report.result(), *identified_files]
     written.insert(0, _page(identification, identified).write(out_dir / "report.html"))
     return written
 
