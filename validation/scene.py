@@ -60,27 +60,7 @@ from rigval.validation.scene_types import (
     Scene,
 )
 
-__all__ = [
-    "MODEL_QUANTITIES",
-    "SCHEMA",
-    "TODO",
-    "AlignmentSpec",
-    "AngleSpec",
-    "ChannelRef",
-    "ComparisonSpec",
-    "DriverSpec",
-    "ModelSpec",
-    "OutputSpec",
-    "PredictionSpec",
-    "PulseSpec",
-    "Scene",
-    "channel_map_as_scene",
-    "check_mechanism_names",
-    "load_scene",
-    "parse_scene",
-    "todo_keys",
-    "todo_label",
-]
+__all__ = ["TODO", "channel_map_as_scene", "load_scene", "parse_scene", "todo_keys", "todo_label"]
 
 logger = logging.getLogger(__name__)
 
