@@ -1,4 +1,4 @@
-"""A clipped torque channel changes its comparison's verdict line, alignment.json and run.nc.
+"""A clipped torque channel changes its comparison's verdict line, alignment.json, run.nc, report.
 
 A 12 s virtual-rig run (seed 7, 1 rev/s) whose tor2 the rig clips at 6e-5 V/V (its range set
 too small); the truth of what was clipped comes from truth.json.
@@ -48,8 +48,10 @@ def test_the_clipped_comparisons_say_so_on_their_verdict_line(validated):
     assert "tor2: wls1.tor2: " in run_verdict(result)["statement"]
 
 
-def test_alignment_json_and_netcdf_carry_the_finding(validated):
+def test_alignment_json_netcdf_and_report_carry_the_finding(validated):
     _, out, truth = validated
+    page = (out / "report.html").read_text()
+    assert "Sensor health: 1 finding" in page and "wls1.tor2: " in page
     health = json.loads((out / "alignment.json").read_text())["wls1"]["health"]
     assert [(h["channel"], h["fault"], h["trusted"]) for h in health] == [
         ("wls1.tor2", "clipping", False)]
