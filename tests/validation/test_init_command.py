@@ -1,5 +1,6 @@
-"""``rigval init``: a skeleton from the sample files validates once its TODOs are filled with the
-rig's values; a skeleton from real NI-DAQmx files parses once filled."""
+"""``rigval init``: a skeleton from the sample files passes once its TODOs are filled from the
+rig's calibration; a skeleton from real NI-DAQmx files without a pulse channel is filled and then
+refused naming the pulse channel they lack."""
 
 from __future__ import annotations
 
@@ -145,7 +146,8 @@ def test_fill_todos_names_a_key_that_is_no_todo() -> None:
 
 # the example files' counters never counted: init warns that they cannot validate
 @pytest.mark.filterwarnings("default::rigval.acquisition.errors.DataWarning")
-def test_real_daqmx_skeleton_parses_once_filled(realdata_dir: Path, tmp_path: Path) -> None:
+def test_real_daqmx_skeleton_is_refused_only_for_the_pulse_the_files_lack(
+        realdata_dir: Path, tmp_path: Path) -> None:
     folder = realdata_dir / "nidaqmx-python"
     files = [folder / f"data_{n}.tdms" for n in ("ai", "ci1", "ci2")]
     scene = tmp_path / "scene.toml"
@@ -175,13 +177,20 @@ def test_real_daqmx_skeleton_parses_once_filled(realdata_dir: Path, tmp_path: Pa
         values[key] = {
             "slope": 20.0, "units": "N m", "counts_per_rev": 4096, "per_revolution": 1,
             "angle": 0.0, "item": "theta_F", "scale": 0.5, "u_measurement_rel": 0.02,
-            "source": f"PFI{len(values)}"}[leaf]
+            "source": "PFI0"}[leaf]
     scene.write_text(fill_todos(text, values))
-    parsed = load_scene(scene)
-    assert parsed.streams["ai"].channels["Torque01"].params["slope"] == 20.0
-    assert parsed.alignment.reference == "ci1"
-    assert parsed.alignment.pulses["ai"].method == "stamps"
-    assert parsed.units(parsed.comparisons[0].measured) == "N m"
+    # these example files hold no pulse channel, so the one named cannot be in the file: the
+    # scene is refused naming that key and the channels the file has (checked when loaded)
+    with pytest.raises(SceneError, match="channel 'PFI0' not in the file") as info:
+        load_scene(scene)
+    assert info.value.where["key"] == "streams.ci1.channels.reference_pulse.source"
+    assert "Rotations01" in str(info.value)
+    filled = tomllib.loads(scene.read_text())
+    assert not todo_keys(filled)
+    torque = filled["streams"]["ai"]["channels"]["Torque01"]
+    assert torque["slope"] == 20.0 and torque["units"] == "N m"
+    assert filled["alignment"]["reference"] == "ci1"
+    assert filled["alignment"]["pulses"]["ai"] == {"method": "stamps"}
 
 
 def _classify(name: str, values: np.ndarray, units: str):
