@@ -1,6 +1,5 @@
 """``rigval init``: a skeleton from the sample files passes once its TODOs are filled from the
-rig's calibration; a skeleton from real NI-DAQmx files without a pulse channel is filled and then
-refused naming the pulse channel they lack."""
+rig's calibration; a skeleton from real NI-DAQmx files parses once filled."""
 
 from __future__ import annotations
 
@@ -146,10 +145,11 @@ def test_fill_todos_names_a_key_that_is_no_todo() -> None:
 
 # the example files' counters never counted: init warns that they cannot validate
 @pytest.mark.filterwarnings("default::rigval.acquisition.errors.DataWarning")
-def test_real_daqmx_skeleton_is_refused_only_for_the_pulse_the_files_lack(
-        realdata_dir: Path, tmp_path: Path) -> None:
-    folder = realdata_dir / "nidaqmx-python"
-    files = [folder / f"data_{n}.tdms" for n in ("ai", "ci1", "ci2")]
+def test_real_daqmx_skeleton_parses_once_filled(realdata_dir: Path, tmp_path: Path) -> None:
+    files = []
+    for n in ("ai", "ci1", "ci2"):  # copies: the lab's pulse channel is added to ci1 below
+        files.append(tmp_path / f"data_{n}.tdms")
+        files[-1].write_bytes((realdata_dir / "nidaqmx-python" / f"data_{n}.tdms").read_bytes())
     scene = tmp_path / "scene.toml"
     assert main(["init", *map(str, files), "--out", str(scene),
                  "--mechanism", "builtin:pendulum"]) == EXIT_OK
@@ -179,18 +179,26 @@ def test_real_daqmx_skeleton_is_refused_only_for_the_pulse_the_files_lack(
             "angle": 0.0, "item": "theta_F", "scale": 0.5, "u_measurement_rel": 0.02,
             "source": "PFI0"}[leaf]
     scene.write_text(fill_todos(text, values))
-    # these example files hold no pulse channel, so the one named cannot be in the file: the
-    # scene is refused naming that key and the channels the file has (checked when loaded)
-    with pytest.raises(SceneError, match="channel 'PFI0' not in the file") as info:
-        load_scene(scene)
+    with pytest.raises(SceneError, match="channels in the file: Rotations01") as info:
+        load_scene(scene)  # PFI0 is not in data_ci1.tdms: refused when loaded, from its metadata
     assert info.value.where["key"] == "streams.ci1.channels.reference_pulse.source"
-    assert "Rotations01" in str(info.value)
-    filled = tomllib.loads(scene.read_text())
-    assert not todo_keys(filled)
-    torque = filled["streams"]["ai"]["channels"]["Torque01"]
-    assert torque["slope"] == 20.0 and torque["units"] == "N m"
-    assert filled["alignment"]["reference"] == "ci1"
-    assert filled["alignment"]["pulses"]["ai"] == {"method": "stamps"}
+    _add_channel(files[1], "PFI0")  # the lab's pulse channel, recorded beside the counter
+    parsed = load_scene(scene)
+    assert parsed.streams["ai"].channels["Torque01"].params["slope"] == 20.0
+    assert parsed.alignment.reference == "ci1"
+    assert parsed.alignment.pulses["ai"].method == "stamps"
+    assert parsed.units(parsed.comparisons[0].measured) == "N m"
+
+
+def _add_channel(path: Path, name: str) -> None:
+    """Append a channel on the time base of the file's first channel (a new segment)."""
+    from nptdms import ChannelObject, TdmsFile, TdmsWriter
+
+    first = next(c for g in TdmsFile.read(path).groups() for c in g.channels())
+    marks = {k: v for k, v in first.properties.items() if k.startswith("wf_")}
+    with TdmsWriter(path, mode="a") as writer:
+        writer.write_segment([ChannelObject(first.group_name, name, np.zeros(len(first)),
+                                            properties=marks)])
 
 
 def _classify(name: str, values: np.ndarray, units: str):
