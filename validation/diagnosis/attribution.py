@@ -21,7 +21,9 @@ causes leave ``chi^2`` above its degrees of freedom, every standard uncertainty 
 square root of that ratio (the Birge ratio) and the evidence between candidates is taken on the
 same widened scale (quasi-likelihood weights). Two causes whose whitened signatures are
 nearly parallel cannot be told apart; :attr:`Attribution.confusable` names the runner-up and
-their correlation. docs/diagnosis.md describes the method and its limits.
+their correlation. The small dense factorisations run with one BLAS thread
+(:func:`rigval.acquisition.threads.single_blas_thread`: with the cores busy, threads wait for each
+other). docs/diagnosis.md describes the method and its limits.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ import scipy.linalg
 import scipy.stats
 
 from rigval.acquisition.errors import DataError
+from rigval.acquisition.threads import single_blas_thread
 
 __all__ = ["ALPHA", "KINDS", "MAX_CAUSES", "Attribution", "Block", "Cause", "Evidence", "Found",
            "Nuisance", "attribute", "order_coefficients"]
@@ -69,6 +72,11 @@ class Block:
     floor : float
         White standard uncertainty per sample added to the scatter (grid, absolute
         calibration, stated model inputs), signal units.
+    accepted : bool
+        The verdict found no model error here: whatever of its misfit the scatter and the
+        nuisances do not explain is taken as noise of that size (its variances are widened by
+        its own ``chi^2`` per row when above 1), so that a cause is judged by whether it would
+        have shown here, not made to explain an agreement the verdict accepts.
     """
 
     name: str
@@ -76,6 +84,7 @@ class Block:
     orders: int
     with_offset: bool = False
     floor: float = 0.0
+    accepted: bool = False
 
     @property
     def residual(self) -> np.ndarray:
@@ -245,6 +254,7 @@ def order_coefficients(values: np.ndarray, orders: int, with_offset: bool) -> np
     return stacked
 
 
+@single_blas_thread()
 def attribute(blocks: Sequence[Block], causes: Sequence[Cause],
               nuisances: Sequence[Nuisance] = (), *, max_causes: int = MAX_CAUSES
               ) -> Attribution:
@@ -276,28 +286,17 @@ def attribute(blocks: Sequence[Block], causes: Sequence[Cause],
         else np.zeros((rows.size, 0))
     noise = (np.column_stack([_stack_effect(n.effect, blocks) for n in nuisances]) if nuisances
              else np.zeros((rows.size, 0)))
+    variance = _widen(blocks, rows, variance, noise, design, [], accepted_only=True)
+    chosen, gains, first = _select(rows, variance, noise, design, max_causes)
+    if chosen:
+        # each comparison's own misfit left by the chosen causes widens its variances (quasi-
+        # likelihood per comparison), and the choice is made again on that scale
+        variance = _widen(blocks, rows, variance, noise, design, chosen, accepted_only=False)
+        chosen, gains, first = _select(rows, variance, noise, design, max_causes)
     whiten = _whitener(variance, noise)
     y, x = whiten(rows), whiten(design)
-    usable = [j for j in range(len(causes)) if np.any(x[:, j] != 0.0)]
     chi2_none = float(y @ y)
-    chosen: list[int] = []
-    chi2 = chi2_none
-    gains: list[float] = []
-    first: dict[int, float] = {}
-    for _ in range(max_causes):
-        trial = {j: _chi2(y, x[:, [*chosen, j]]) for j in usable if j not in chosen}
-        if not trial:
-            break
-        if not chosen:
-            first = trial
-        best = min(trial, key=trial.__getitem__)
-        scale = max(1.0, trial[best] / max(y.size - len(chosen) - 1, 1))
-        penalty = max(math.log(y.size), float(scipy.stats.chi2.isf(ALPHA / len(trial), 1)))
-        if (chi2 - trial[best]) / scale <= penalty:
-            break
-        gains.append(chi2 - trial[best])
-        chosen.append(best)
-        chi2 = trial[best]
+    chi2 = _chi2(y, x[:, chosen]) if chosen else chi2_none
     dof = max(y.size - len(chosen), 1)
     birge = max(1.0, math.sqrt(chi2 / dof))
     found = _found(causes, chosen, y, x, birge, gains, names)
@@ -342,6 +341,57 @@ def _stack_effect(effect: Mapping[str, np.ndarray], blocks: Sequence[Block]) -> 
                      else order_coefficients(np.asarray(values, dtype=float), block.orders,
                                              block.with_offset))
     return np.concatenate(parts)
+
+
+def _select(rows: np.ndarray, variance: np.ndarray, noise: np.ndarray, design: np.ndarray,
+            max_causes: int) -> tuple[list[int], list[float], dict[int, float]]:
+    """Forward selection: the causes chosen, their drops of ``chi^2``, and the first step's."""
+    whiten = _whitener(variance, noise)
+    y, x = whiten(rows), whiten(design)
+    usable = [j for j in range(design.shape[1]) if np.any(x[:, j] != 0.0)]
+    chosen: list[int] = []
+    gains: list[float] = []
+    first: dict[int, float] = {}
+    chi2 = float(y @ y)
+    for _ in range(max_causes):
+        trial = {j: _chi2(y, x[:, [*chosen, j]]) for j in usable if j not in chosen}
+        if not trial:
+            break
+        if not chosen:
+            first = trial
+        best = min(trial, key=trial.__getitem__)
+        scale = max(1.0, trial[best] / max(y.size - len(chosen) - 1, 1))
+        penalty = max(math.log(y.size), float(scipy.stats.chi2.isf(ALPHA / len(trial), 1)))
+        if (chi2 - trial[best]) / scale <= penalty:
+            break
+        gains.append(chi2 - trial[best])
+        chosen.append(best)
+        chi2 = trial[best]
+    return chosen, gains, first
+
+
+def _widen(blocks: Sequence[Block], rows: np.ndarray, variance: np.ndarray, noise: np.ndarray,
+           design: np.ndarray, chosen: list[int], *, accepted_only: bool) -> np.ndarray:
+    """Widen blocks' variances by their own ``chi^2`` per row (>= 1) after the chosen causes.
+
+    With ``accepted_only`` only the blocks the verdict accepts, under "no cause".
+    """
+    out = variance.copy()
+    start = 0
+    for block in blocks:
+        size = 2 * block.orders + int(block.with_offset)
+        part = slice(start, start + size)
+        start += size
+        if accepted_only and not block.accepted:
+            continue
+        whiten = _whitener(variance[part], noise[part])
+        y = whiten(rows[part])
+        columns = [j for j in chosen if np.any(design[part, j] != 0.0)]
+        rest = _chi2(y, whiten(design[part][:, columns])) if columns else float(y @ y)
+        factor = max(1.0, rest / max(size - len(columns), 1))
+        out[part] *= factor
+        logger.debug("%s: variances widened %.3g times", block.name, factor)
+    return out
 
 
 def _whitener(variance: np.ndarray, noise: np.ndarray):  # noqa: ANN202 (a closure)
