@@ -7,7 +7,7 @@ this adapter only looks the scene's channel references up (docs/scene.md, ``[ali
 from __future__ import annotations
 
 from rigval.processing.alignment import AlignmentSettings, ClockSettings
-from rigval.validation.scene import Scene
+from rigval.validation.scene_types import Scene
 
 __all__ = ["alignment_settings"]
 

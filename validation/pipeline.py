@@ -82,8 +82,9 @@ from rigval.validation.model_run import (
     run_model,
 )
 from rigval.validation.results import ComparisonResult, NumericsSummary, ValidationResult
-from rigval.validation.scene import ComparisonSpec, Scene, load_scene
+from rigval.validation.scene import load_scene
 from rigval.validation.scene_rates import check_sample_rates, encoder_scale_errors
+from rigval.validation.scene_types import ComparisonSpec, Scene
 from rigval.validation.verdict import carried_uncertainty, with_common_gain
 
 __all__ = ["read_streams", "run_scene"]

@@ -35,7 +35,8 @@ from rigval.acquisition.survey import (
 from rigval.acquisition.tables import toml_value
 from rigval.acquisition.units import dimension
 from rigval.model.drives import law_angles_at_reference
-from rigval.validation.scene import SCHEMA, TODO
+from rigval.validation.scene import TODO
+from rigval.validation.scene_types import SCHEMA
 
 __all__ = ["fill_todos", "skeleton_text"]
 

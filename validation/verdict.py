@@ -22,7 +22,7 @@ from rigval.processing.alignment_summary import StreamAlignment
 from rigval.validation.metrics.thresholds import ThresholdCheck
 from rigval.validation.metrics.vv20 import CURVE_PARTS, common_gain, error_ratio
 from rigval.validation.results import ComparisonResult, ValidationResult
-from rigval.validation.scene import Scene
+from rigval.validation.scene_types import Scene
 
 __all__ = ["COMMON_GAIN_SCORE", "carried_uncertainty", "comparison_verdict", "run_verdict",
            "with_common_gain"]

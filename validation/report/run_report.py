@@ -36,7 +36,7 @@ from rigval.validation.note import read_note
 from rigval.validation.report import plots
 from rigval.validation.report.page import Page
 from rigval.validation.results import ComparisonResult, ValidationResult
-from rigval.validation.scene import Scene
+from rigval.validation.scene_types import Scene
 from rigval.validation.verdict import run_verdict
 from rigval.validation.version import rigval_version
 
