@@ -174,8 +174,12 @@ class Evidence:
 
     Attributes
     ----------
-    name, kind : str
+    name, kind, unit, meaning : str
         The cause.
+    value, std : float
+        Its size fitted alone and the standard uncertainty (Birge-widened); NaN for "no cause".
+    relative, relative_std : float
+        Relative to the cause's nominal value (NaN without one).
     chi2 : float
         ``chi^2`` of the residual with this cause alone.
     weight : float
@@ -185,6 +189,12 @@ class Evidence:
 
     name: str
     kind: str
+    unit: str
+    meaning: str
+    value: float
+    std: float
+    relative: float
+    relative_std: float
     chi2: float
     weight: float
 
@@ -300,7 +310,7 @@ def attribute(blocks: Sequence[Block], causes: Sequence[Cause],
     dof = max(y.size - len(chosen), 1)
     birge = max(1.0, math.sqrt(chi2 / dof))
     found = _found(causes, chosen, y, x, birge, gains, names)
-    candidates = _evidence(causes, first, chi2_none, birge)
+    candidates = _evidence(causes, first, chi2_none, birge, y, x)
     confusable = _confusable(causes, chosen, first, x)
     by_comparison = _by_comparison(blocks, causes, chosen, found)
     logger.info("attribution: chi2 %.4g -> %.4g over %d rows (Birge %.3g): %s", chi2_none, chi2,
@@ -332,7 +342,7 @@ def _stack_blocks(blocks: Sequence[Block]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _stack_effect(effect: Mapping[str, np.ndarray], blocks: Sequence[Block]) -> np.ndarray:
-    """A cause's or nuisance's effect as stacked order coefficients (0 where it does not act)."""
+    """Return a cause's or nuisance's effect as stacked order coefficients (0 where absent)."""
     parts = []
     for block in blocks:
         values = effect.get(block.name)
@@ -394,7 +404,7 @@ def _widen(blocks: Sequence[Block], rows: np.ndarray, variance: np.ndarray, nois
     return out
 
 
-def _whitener(variance: np.ndarray, noise: np.ndarray):  # noqa: ANN202 (a closure)
+def _whitener(variance: np.ndarray, noise: np.ndarray):
     """Return ``v -> L^-1 v`` for ``C = diag(variance) + noise noise^T = L L^T``."""
     if noise.shape[1] == 0:
         scale = 1.0 / np.sqrt(variance)
@@ -432,15 +442,25 @@ def _found(causes: Sequence[Cause], chosen: list[int], y: np.ndarray, x: np.ndar
 
 
 def _evidence(causes: Sequence[Cause], first: Mapping[int, float], chi2_none: float,
-              birge: float) -> tuple[Evidence, ...]:
-    entries = [("no cause", "none", chi2_none)] + [(causes[j].name, causes[j].kind, value)
-                                                  for j, value in first.items()]
-    low = min(value for _, _, value in entries)
-    raw = [math.exp(-(value - low) / (2.0 * birge**2)) for _, _, value in entries]
+              birge: float, y: np.ndarray, x: np.ndarray) -> tuple[Evidence, ...]:
+    entries = [(None, chi2_none), *first.items()]
+    low = min(value for _, value in entries)
+    raw = [math.exp(-(value - low) / (2.0 * birge**2)) for _, value in entries]
     total = sum(raw)
-    ranked = sorted(zip(entries, raw, strict=True), key=lambda item: item[0][2])
-    return tuple(Evidence(name, kind, value, weight / total)
-                 for (name, kind, value), weight in ranked)
+    out = []
+    for (j, value), weight in zip(entries, raw, strict=True):
+        if j is None:
+            out.append(Evidence("no cause", "none", "", "", math.nan, math.nan, math.nan,
+                                math.nan, value, weight / total))
+            continue
+        cause, column = causes[j], x[:, j]
+        power = float(column @ column)
+        size, std = float(column @ y) / power, birge / math.sqrt(power)
+        nominal = cause.nominal
+        out.append(Evidence(cause.name, cause.kind, cause.unit, cause.meaning, size, std,
+                            size / nominal if nominal else math.nan,
+                            std / abs(nominal) if nominal else math.nan, value, weight / total))
+    return tuple(sorted(out, key=lambda e: e.chi2))
 
 
 def _confusable(causes: Sequence[Cause], chosen: list[int], first: Mapping[int, float],

@@ -35,7 +35,7 @@ import numpy as np
 from rigval.model.identify import nominal_parameters, regressor
 from rigval.model.mechanism import load_mechanism
 from rigval.validation.diagnosis.attribution import Block, Cause, Nuisance
-from rigval.validation.identify import _mean_drives  # noqa: PLC2701 (one definition)
+from rigval.validation.identify import _mean_drives
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.verdict import carried_uncertainty, comparison_verdict
 
@@ -132,7 +132,7 @@ def detected(comparison: ComparisonResult) -> bool:
 
 
 def _meaning(result: ValidationResult, comparison: ComparisonResult) -> str:
-    """What a gain of this comparison stands for."""
+    """Return what a gain of this comparison stands for."""
     channels = _channels(comparison)
     shared = any(channels < _channels(other) for other in result.comparisons)
     return "calibration or the pair's split" if shared else "calibration"

@@ -63,8 +63,8 @@ class PairShares(Scores):
         lag)`` fitted to first order on the mean curves.
     u_lag : float
         Its standard uncertainty from the per-revolution lags' scatter, rad.
-    lag_s : float
-        ``lag`` over the main-shaft speed, s (NaN without a speed).
+    lag_s, u_lag_s : float
+        ``lag`` and ``u_lag`` over the main-shaft speed, s (NaN without a speed).
     n_cycles : int
         Revolutions used.
     """
@@ -81,6 +81,7 @@ class PairShares(Scores):
     lag: float
     u_lag: float
     lag_s: float
+    u_lag_s: float
     n_cycles: int
 
 
@@ -135,7 +136,7 @@ def _centred(first: np.ndarray, second: np.ndarray, what: str
 
 
 def _calibration(u_first: float, u_second: float, u_common: float) -> float:
-    """Standard uncertainty of the gain of one channel against the other (1)."""
+    """Return the standard uncertainty of the gain of one channel against the other (1)."""
     return math.sqrt(max(u_first**2 + u_second**2 - 2.0 * u_common**2, 0.0))
 
 
@@ -190,7 +191,8 @@ def pair_shares(first: np.ndarray, second: np.ndarray, *, u_first: float, u_seco
                         u_calibration=u_calibration, k=k, lower=share - k * u_share,
                         upper=share + k * u_share, nominal=nominal,
                         asymmetric=bool(abs(share - nominal) > k * u_share), lag=lag, u_lag=u_lag,
-                        lag_s=lag / speed if speed > 0.0 else math.nan, n_cycles=n)
+                        lag_s=lag / speed if speed > 0.0 else math.nan,
+                        u_lag_s=u_lag / speed if speed > 0.0 else math.nan, n_cycles=n)
     logger.debug("%s: share %.4f +- %.4f (scatter %.2g, calibration %.2g), lag %.3g rad",
                  what, share, u_share, u_scatter, u_calibration, lag)
     return result
