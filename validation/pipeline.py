@@ -73,6 +73,7 @@ from rigval.processing.encoder import compact_counts
 from rigval.processing.filters import zero_phase
 from rigval.validation.alignment import alignment_settings
 from rigval.validation.convert import convert_stream
+from rigval.validation.diagnosis.explain import attach_diagnosis
 from rigval.validation.metrics.compare import baseline, check_thresholds, compare
 from rigval.validation.model_run import (
     FINE_FACTOR,
@@ -593,10 +594,10 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
     numerics = NumericsSummary(dict(watch.seconds), residuals, errors, grid.fine_angle.size)
     logger.info("validated %s in %.2f s: %s", scene.path.name, sum(watch.seconds.values()),
                 "passed" if passed else "failed")
-    return ValidationResult(scene=scene, comparisons=results, alignment=diagnostics,
-                            predictions=_predictions(scene, model), numerics=numerics,
-                            speed_rev_s=grid.speed_rev_s, n_cycles=int(grid.turns.size),
-                            tree=tree)
+    return attach_diagnosis(ValidationResult(
+        scene=scene, comparisons=results, alignment=diagnostics,
+        predictions=_predictions(scene, model), numerics=numerics,
+        speed_rev_s=grid.speed_rev_s, n_cycles=int(grid.turns.size), tree=tree))
 
 
 def _predictions(scene: Scene, model: xr.Dataset) -> xr.Dataset:

@@ -137,6 +137,9 @@ class ValidationResult:
         ``/aligned/<stream>`` where the scene's ``[output]`` asks for them.
     outputs : list of pathlib.Path
         Files written (filled by :func:`rigval.validation.report.run_report.write_report`).
+    diagnosis : rigval.validation.diagnosis.explain.Diagnosis or None
+        Why the model disagrees: each comparison's most likely cause and the symmetry pairs
+        (filled by :func:`rigval.validation.diagnosis.explain.attach_diagnosis`).
     """
 
     scene: Scene
@@ -148,6 +151,7 @@ class ValidationResult:
     n_cycles: int
     tree: xr.DataTree
     outputs: list[Path] = field(default_factory=list)
+    diagnosis: Any = None
 
     @property
     def passed(self) -> bool:

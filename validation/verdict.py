@@ -211,8 +211,10 @@ def run_verdict(result: ValidationResult) -> dict[str, Any]:
     dict
         ``detected`` (bool: a model error is detected on at least one comparison),
         ``statement`` (the headline, one line), ``detected_on`` (comparison names),
-        ``worst`` (the comparison with the largest ``E / (k u_val)``) and ``comparisons`` (one
-        :func:`comparison_verdict` each, comparisons without ``vv20.curve`` scores left out).
+        ``worst`` (the comparison with the largest ``E / (k u_val)``), ``comparisons`` (one
+        :func:`comparison_verdict` each, comparisons without ``vv20.curve`` scores left out)
+        and ``why`` (per comparison with a detected error, its most likely cause in words
+        from ``result.diagnosis``; the worst one's ends the statement).
         The ISO rating is the similarity score beside it.
     """
     rows = [comparison_verdict(c) for c in result.comparisons
@@ -222,9 +224,15 @@ def run_verdict(result: ValidationResult) -> dict[str, Any]:
                 "detected_on": [], "worst": None, "comparisons": []}
     detected = [row for row in rows if row["detected"]]
     worst = max(rows, key=lambda row: row["ratio"])
-    return {"detected": bool(detected), "statement": _statement(rows, detected, worst),
+    causes = result.diagnosis.causes if result.diagnosis is not None else {}
+    why = {row["comparison"]: causes[row["comparison"]].explanation for row in detected
+           if row["comparison"] in causes}
+    statement = _statement(rows, detected, worst)
+    if worst["comparison"] in why:
+        statement += f"; why {worst['comparison']}: {why[worst['comparison']]}"
+    return {"detected": bool(detected), "statement": statement,
             "detected_on": [row["comparison"] for row in detected], "worst": worst["comparison"],
-            "comparisons": rows}
+            "comparisons": rows, "why": why}
 
 
 def _statement(rows: list[Mapping[str, Any]], detected: list[Mapping[str, Any]],

@@ -13,12 +13,14 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import time
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
+from rigval.acquisition.json_values import json_ready
 from rigval.validation.diagnosis.attribution import Attribution, Evidence, Found, attribute
 from rigval.validation.diagnosis.causes import (
     attribution_problem,
@@ -35,7 +37,7 @@ from rigval.validation.diagnosis.symmetry import (
 from rigval.validation.results import ValidationResult
 from rigval.validation.scene_types import SymmetrySpec
 
-__all__ = ["CauseStatement", "Diagnosis", "PairStatement", "diagnose"]
+__all__ = ["CauseStatement", "Diagnosis", "PairStatement", "attach_diagnosis", "diagnose"]
 
 logger = logging.getLogger(__name__)
 
@@ -108,23 +110,29 @@ class CauseStatement:
         return f"{self.cause} {v:+.3g} +- {s:.2g} {self.unit}, a mechanism parameter"
 
     @property
-    def sentence(self) -> str:
-        """The verdict's sentence for this comparison."""
-        if not self.detected:
-            return f"{self.comparison}: no model error detected"
+    def explanation(self) -> str:
+        """The most likely cause in words, e.g. ``"most likely A.mass +8.0 +- 0.2 % ..."``."""
         if not self.cause:
-            return f"{self.comparison}: error detected; no candidate cause acts on it"
-        other = "a parameter" if self.kind != "parameter" else "a measurement error"
-        contrast = (f", not {other} (best: {self.alternative}, weight "
-                    f"{self.alternative_weight:.2f})" if self.alternative else "")
+            return "no candidate cause acts on it"
         if not self.significant:
-            return (f"{self.comparison}: error detected; no single cause stands out (closest: "
-                    f"{self.phrase}, weight {self.weight:.2f})")
-        text = f"{self.comparison}: error detected; most likely {self.phrase}{contrast}"
+            return (f"no single cause stands out (closest: {self.phrase}, weight "
+                    f"{self.weight:.2f})")
+        other = "a parameter" if self.kind != "parameter" else "a measurement error"
+        text = f"most likely {self.phrase}"
+        if self.alternative:
+            text += (f", not {other} (best: {self.alternative}, weight "
+                     f"{self.alternative_weight:.2f})")
         if self.confusable_with:
             text += (f"; cannot be told from {self.confusable_with} here (correlation "
                      f"{self.correlation:.2f})")
         return text
+
+    @property
+    def sentence(self) -> str:
+        """The verdict's sentence for this comparison."""
+        if not self.detected:
+            return f"{self.comparison}: no model error detected"
+        return f"{self.comparison}: error detected; {self.explanation}"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -179,22 +187,27 @@ class Diagnosis:
         The scene's symmetry pairs.
     attributions : mapping of str to Attribution
         The attribution of each set of comparisons, keyed by its names joined with ``+``.
+    explained : mapping of str to numpy.ndarray
+        Per comparison, what the chosen causes add to its residual over phi_F, ``(n,)``
+        (zeros without a chosen cause), signal units.
     """
 
     causes: Mapping[str, CauseStatement]
     pairs: tuple[PairStatement, ...]
     attributions: Mapping[str, Attribution]
+    explained: Mapping[str, np.ndarray]
 
     def as_dict(self) -> dict[str, Any]:
-        """Return the diagnosis as JSON-ready values (metrics.json's ``diagnosis``)."""
-        return {
-            "attribution": {name: {**_plain(dataclasses.asdict(c)), "sentence": c.sentence}
+        """Return the diagnosis as JSON-ready values (metrics.json's ``diagnosis``; NaN as None)."""
+        return json_ready({
+            "attribution": {name: {**dataclasses.asdict(c), "sentence": c.sentence}
                             for name, c in self.causes.items()},
             "symmetry": [{"name": p.spec.name, "kind": p.spec.kind,
                           "comparisons": list(p.spec.comparisons),
                           "u_measurement_rel": p.spec.u_measurement_rel,
-                          **_plain((p.shares or p.bending).as_dict()),  # type: ignore[union-attr]
-                          "sentence": p.sentence} for p in self.pairs]}
+                          "u_measurement_rel_common": p.spec.u_measurement_rel_common,
+                          **(p.shares or p.bending).as_dict(),  # type: ignore[union-attr]
+                          "sentence": p.sentence} for p in self.pairs]})
 
     def dataset(self) -> xr.Dataset:
         """Return the diagnosis as typed variables (the netCDF group ``/diagnosis``)."""
@@ -208,6 +221,9 @@ class Diagnosis:
                 "units": _unit(field.name), "long_name": f"attribution: {field.name}"})
         ds["cause_sentence"] = ("comparison", np.array([self.causes[n].sentence for n in names],
                                                        dtype=object), {"long_name": "verdict"})
+        ds["explained"] = (("comparison", "angle"), np.array([self.explained[n] for n in names]),
+                           {"long_name": "residual the chosen causes explain (measured minus "
+                                         "model), in each comparison's unit"})
         for kind, rows in (("shares", [p for p in self.pairs if p.shares is not None]),
                            ("faces", [p for p in self.pairs if p.bending is not None])):
             if not rows:
@@ -222,9 +238,11 @@ class Diagnosis:
 
 
 def _typed(values: Sequence[Any]) -> np.ndarray:
-    """Values as a typed array: bool as int8 (netCDF), numbers as float64, text as str."""
+    """Values as a typed array: bool as int8 (netCDF), int32, float64, text as str."""
     if all(isinstance(v, bool) for v in values):
         return np.array(values, dtype=np.int8)
+    if all(isinstance(v, int) for v in values):
+        return np.array(values, dtype=np.int32)
     if all(isinstance(v, int | float) for v in values):
         return np.array(values, dtype=np.float64)
     return np.array([str(v) for v in values], dtype=object)
@@ -233,12 +251,6 @@ def _typed(values: Sequence[Any]) -> np.ndarray:
 def _unit(name: str) -> str:
     return "1" if name in ("relative", "relative_std", "weight", "alternative_weight",
                            "correlation", "detected", "significant") else ""
-
-
-def _plain(values: Mapping[str, Any]) -> dict[str, Any]:
-    """JSON has no NaN: non-finite floats become None."""
-    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-            for k, v in values.items()}
 
 
 def diagnose(result: ValidationResult,
@@ -260,18 +272,47 @@ def diagnose(result: ValidationResult,
     sets = independent_sets(result)
     attributions: dict[str, Attribution] = {}
     causes: dict[str, CauseStatement] = {}
+    explained: dict[str, np.ndarray] = {}
     for comparison in result.comparisons:
         names = sets[comparison.name]
         key = "+".join(names)
         part = subset(problem, names)
         if key not in attributions:
             attributions[key] = attribute(*part)
-        touching = {c.name for c in part[1] if comparison.name in c.effect}
+        touching = {c.name: c for c in part[1] if comparison.name in c.effect}
         kinds = {c.name: c.kind for c in part[1]}
         causes[comparison.name] = _statement(comparison.name, detected(comparison),
-                                             attributions[key], touching, kinds)
+                                             attributions[key], set(touching), kinds)
+        explained[comparison.name] = sum(
+            (f.value * touching[f.name].effect[comparison.name]
+             for f in attributions[key].found if f.name in touching),
+            np.zeros(comparison.angle.size))
     pairs = tuple(_pair(result, spec) for spec in result.scene.symmetry)
-    return Diagnosis(causes, pairs, attributions)
+    return Diagnosis(causes, pairs, attributions, explained)
+
+
+def attach_diagnosis(result: ValidationResult,
+                     modes: Mapping[str, Sequence[tuple[float, float]]] | None = None
+                     ) -> ValidationResult:
+    """Diagnose a run and keep the diagnosis in it: ``result.diagnosis`` and ``/diagnosis``.
+
+    Parameters
+    ----------
+    result : ValidationResult
+        The validated run (changed in place).
+    modes : mapping, optional
+        As for :func:`diagnose`.
+
+    Returns
+    -------
+    ValidationResult
+        The same object.
+    """
+    start = time.perf_counter()
+    result.diagnosis = diagnose(result, modes)
+    result.tree["/diagnosis"] = xr.DataTree(result.diagnosis.dataset())
+    logger.info("diagnosis: %.3f s", time.perf_counter() - start)
+    return result
 
 
 def _statement(name: str, is_detected: bool, attribution: Attribution, touching: set[str],

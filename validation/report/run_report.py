@@ -35,6 +35,7 @@ from rigval.validation.nc_summary import root_summary
 from rigval.validation.note import read_note
 from rigval.validation.report import plots
 from rigval.validation.report.page import Page
+from rigval.validation.report.why import why_section
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.scene_types import Scene
 from rigval.validation.verdict import run_verdict
@@ -71,6 +72,7 @@ def write_metrics(result: ValidationResult, out_dir: Path) -> list[Path]:
         "scene": str(result.scene.path), "scene_sha256": result.scene.sha256,
         "passed": result.passed, "speed_rev_s": result.speed_rev_s, "cycles": result.n_cycles,
         "rows": [{k: json_ready(v) for k, v in row.items()} for row in rows],
+        "diagnosis": result.diagnosis.as_dict() if result.diagnosis is not None else None,
     }
     write_text_atomic(json_path, json.dumps(document, indent=2) + "\n")
     return [csv_path, json_path]
@@ -365,7 +367,8 @@ def _build_page(result: ValidationResult) -> Page:
                          f"{result.n_cycles} revolutions at {result.speed_rev_s:.3f} rev/s",
                 figure_format="svg")
     _summary(page, result, status)
-    for section in (_comparisons, _alignment, _predictions, _numerics, _reproduction):
+    for section in (why_section, _comparisons, _alignment, _predictions, _numerics,
+                    _reproduction):
         section(page, result)
     return page
 
