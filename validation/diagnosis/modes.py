@@ -212,7 +212,8 @@ def fit_resonance(spectrum: Spectrum, guess_hz: float, speed_rev_s: float,
         return None
     null = minimize(window.nll, np.zeros(2), method="Nelder-Mead")
     i = int(np.argmin(np.abs(window.f - guess_hz)))
-    height = max(float(window.p[i] / (window.scale * np.exp(null.x[0]))) - 1.0, 0.5)
+    height = max(float(window.p[i] / window.model(null.x)[i]) - 1.0, 0.5) * float(
+        window.model(null.x)[i] / window.scale)
     start = np.array([*null.x, np.log(guess_hz), np.log(_half_power_damping(window, i)),
                       np.log(height)])
     best = minimize(window.nll, start, method="Nelder-Mead",
