@@ -22,6 +22,7 @@ from rigval.acquisition.errors import ConfigError, DataError, NumericsWarning
 from rigval.acquisition.hugepages import plain_pages
 from rigval.acquisition.threads import single_blas_thread
 from rigval.model import assembly
+from rigval.model.continuation import Continuation, track
 from rigval.model.drives import DriveSamples, SampledDrive, cycle_period, drive_motion
 from rigval.model.dynamics import applied_forces, minimum_norm_multipliers, multipliers
 from rigval.model.errors import SingularityError
@@ -126,7 +127,7 @@ def solve(mechanism: Mechanism | str | Path, t: np.ndarray, *,
     # only add synchronous compaction (measured in docs/performance.md).
     with single_blas_thread(), plain_pages():
         solution = _empty_solution(mech, times, motion, selection)
-        continuation = assembly.track(mech, system, times, motion.theta, tolerances,
+        continuation = track(mech, system, times, motion.theta, tolerances,
                                       rates=(motion.omega, motion.alpha))
         with np.errstate(over="ignore", invalid="ignore"):  # overflow: check_finite names it
             for start in range(0, times.size, _CHUNK):
@@ -180,7 +181,7 @@ def _empty_solution(mechanism: Mechanism, times: np.ndarray, motion: DriveSample
     return solution
 
 
-def _solve_chunk(mechanism: Mechanism, system: LoopSystem, continuation: assembly.Continuation,
+def _solve_chunk(mechanism: Mechanism, system: LoopSystem, continuation: Continuation,
                  motion: DriveSamples, selection: Selection, solution: Solution, part: slice,
                  exact: bool) -> None:
     """Finish the positions of one chunk of steps and compute what the selection needs.

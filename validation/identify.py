@@ -27,7 +27,8 @@ from rigval.model.identify_design import Curve, build_design, revolution_problem
 from rigval.model.identify_fit import Design, ParameterFit, fit, identifiable
 from rigval.model.mechanism import Mechanism, load_mechanism
 from rigval.validation.results import ComparisonResult, ValidationResult
-from rigval.validation.scene import Scene, load_scene
+from rigval.validation.scene import load_scene
+from rigval.validation.scene_types import Scene
 
 __all__ = ["Identification", "identify"]
 

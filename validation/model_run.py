@@ -20,7 +20,7 @@ from rigval.model.mechanism import Mechanism
 from rigval.model.output_values import coarse_grid_error, model_values, with_axial_forces
 from rigval.model.solver import solve, solve_cycle
 from rigval.processing.excitation import mean_drive_cycle
-from rigval.validation.scene import Scene
+from rigval.validation.scene_types import Scene
 
 __all__ = ["FINE_FACTOR", "grid_error", "model_request", "model_values", "run_model"]
 

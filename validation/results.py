@@ -17,7 +17,7 @@ import xarray as xr
 
 from rigval.processing.alignment_summary import StreamAlignment
 from rigval.validation.metrics.thresholds import ThresholdCheck
-from rigval.validation.scene import ComparisonSpec, Scene
+from rigval.validation.scene_types import ComparisonSpec, Scene
 
 __all__ = [
     "ComparisonResult",

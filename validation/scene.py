@@ -19,367 +19,74 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import hashlib
 import logging
 import math
 import re
 import tomllib
+import typing
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Literal
+from typing import Any
 
 from rigval.acquisition.channel_map import ChannelSpec, StreamSpec, parse_streams
 from rigval.acquisition.errors import ChannelMapError, ConfigError, UnitError
-from rigval.acquisition.tables import TableReader
+from rigval.acquisition.tables import REQUIRED, TableReader
 from rigval.acquisition.units import dimension, multiply, parse_unit
 from rigval.model.errors import MechanismError
 from rigval.model.mechanism import BUILTIN_PREFIX, mechanism_file
 from rigval.model.mechanism_names import MechanismNames, mechanism_names
 from rigval.model.output_values import ModelOutput
-from rigval.model.results import COMPARABLE, QUANTITIES
 from rigval.processing.sensors import channel_units
 from rigval.validation.errors import SceneError
-from rigval.validation.metrics.compare import DEFAULT_METRICS, METRICS, score_names
+from rigval.validation.metrics.compare import METRICS, score_names
 from rigval.validation.metrics.thresholds import parse_threshold
 from rigval.validation.note import read_note
+from rigval.validation.scene_check import check_mechanism_names
+from rigval.validation.scene_types import (
+    MODEL_QUANTITIES,
+    SCHEMA,
+    AlignmentSpec,
+    AngleSpec,
+    ChannelRef,
+    ComparisonSpec,
+    DriverSpec,
+    ModelSpec,
+    OutputSpec,
+    PredictionSpec,
+    PulseSpec,
+    Scene,
+)
 
 __all__ = [
     "MODEL_QUANTITIES",
     "SCHEMA",
+    "TODO",
     "AlignmentSpec",
     "AngleSpec",
     "ChannelRef",
     "ComparisonSpec",
     "DriverSpec",
-    "MechanismNames",
-    "ModelOutput",
     "ModelSpec",
     "OutputSpec",
     "PredictionSpec",
     "PulseSpec",
     "Scene",
     "channel_map_as_scene",
-    "channel_units",
     "check_mechanism_names",
     "load_scene",
-    "mechanism_names",
     "parse_scene",
     "todo_keys",
 ]
 
 logger = logging.getLogger(__name__)
 
-SCHEMA = "rigval-scene/1"
-
 
 #: Sensor kinds a comparison may measure (encoders and reference pulses serve the alignment).
 _MEASURED_SENSORS = ("charge_accelerometer", "strain_bridge", "torsion_bridge", "physical",
                      "voltage", "linear", "iepe_accelerometer", "load_cell")
-
-
-#: Model quantities a comparison may name (docs/model.md, *Result contract*; the table is
-#: :data:`rigval.model.results.QUANTITIES`): item kind, axes, unit per axis.
-MODEL_QUANTITIES: Mapping[str, tuple[str, tuple[str, ...] | None, Mapping[str, str]]] = (
-    MappingProxyType({name: (str(QUANTITIES[name].item), QUANTITIES[name].axes,
-                             QUANTITIES[name].units) for name in COMPARABLE}))
-
-
-@dataclass(frozen=True)
-class ChannelRef:
-    """A ``"stream.channel"`` reference.
-
-    Parameters
-    ----------
-    stream : str
-        Stream name (a ``[streams.X]`` table).
-    channel : str
-        Channel name within it.
-    """
-
-    stream: str
-    channel: str
-
-    def __str__(self) -> str:
-        return f"{self.stream}.{self.channel}"
-
-
-@dataclass(frozen=True)
-class PulseSpec:
-    """A non-reference stream's reference pulse channel.
-
-    Parameters
-    ----------
-    channel : ChannelRef or None
-        The pulse channel (None with ``method = "stamps"``).
-    per_revolution : int
-        Pulses per main-shaft revolution (2 for a lifting shaft turning twice as fast).
-    angle : float
-        phi_F in rad at which the sensor fires (its mounting position; 0 at the reference).
-    method : str, default "pulses"
-        ``"pulses"``: the clock is fitted on the pulse channel; ``"stamps"``: the stream's clock
-        is synchronised with the reference's (same chassis, NTP/PTP) and its start stamp is
-        used as it is, with ``start_time_uncertainty_s`` carried into the results.
-    coarse_offset_s : float or None
-        ``t_ref - t_stream`` in s to search around instead of the start stamps' difference (for
-        a stream whose stamp is known to be wrong).
-    start_time_uncertainty_s : float or None
-        Bound in s of the error of the stream's start stamp relative to the reference's (or of
-        ``coarse_offset_s``); None: the sum of both device profiles' bounds.
-    """
-
-    channel: ChannelRef | None
-    per_revolution: int
-    angle: float = 0.0
-    method: str = "pulses"
-    coarse_offset_s: float | None = None
-    start_time_uncertainty_s: float | None = None
-
-
-@dataclass(frozen=True)
-class AlignmentSpec:
-    """How the streams' clocks are brought onto the reference stream's timeline.
-
-    Parameters
-    ----------
-    reference : str
-        Stream whose clock is the timeline.
-    main_encoder : ChannelRef
-        Main-shaft encoder: phi_F(t).
-    main_reference_pulse : ChannelRef
-        Once-per-revolution pulse on the reference stream: phi_F = 0 at its rising edge.
-    pulses : mapping of str to PulseSpec
-        Per other stream, its pulse channel.
-    """
-
-    reference: str
-    main_encoder: ChannelRef
-    main_reference_pulse: ChannelRef
-    pulses: Mapping[str, PulseSpec]
-
-
-@dataclass(frozen=True)
-class AngleSpec:
-    """The uniform phi_F grid on which measurement and model are compared.
-
-    Parameters
-    ----------
-    points_per_revolution : int
-        Grid points per revolution (360 is 1 degree).
-    interpolation : {"linear", "cubic"}
-        Interpolation of amplitudes when resampling onto the grid.
-    min_cycles : int
-        Fewest whole revolutions a run must contain.
-    """
-
-    points_per_revolution: int = 360
-    interpolation: Literal["linear", "cubic"] = "cubic"
-    min_cycles: int = 3
-
-
-@dataclass(frozen=True)
-class DriverSpec:
-    """How a model driver follows a measured encoder (``drives = "measured"``).
-
-    Parameters
-    ----------
-    name : str
-        Driver name in the mechanism file.
-    encoder : ChannelRef
-        Encoder channel measuring the driven shaft.
-    angle_at_reference : float
-        Driver angle in rad when the main reference pulse fires (phi_F = 0).
-    direction : {1, -1}
-        +1 when the driver angle grows with the encoder count.
-    """
-
-    name: str
-    encoder: ChannelRef
-    angle_at_reference: float
-    direction: int = 1
-
-
-@dataclass(frozen=True)
-class ModelSpec:
-    """The model side: which mechanism and how its drives are excited.
-
-    Parameters
-    ----------
-    drives : {"measured", "analytic"}
-        ``"measured"``: drive angles identified from the encoders; ``"analytic"``: the mechanism
-        file's drive laws.
-    drivers : mapping of str to DriverSpec
-        Per driver (``drives = "measured"`` only).
-    """
-
-    drives: Literal["measured", "analytic"]
-    drivers: Mapping[str, DriverSpec]
-
-
-@dataclass(frozen=True)
-class ComparisonSpec:
-    """One measured channel against one model quantity.
-
-    Parameters
-    ----------
-    name : str
-        Unique name; titles the report section.
-    measured : ChannelRef
-        The measured channel, in its converted unit.
-    model : rigval.model.output_values.ModelOutput
-        The model quantity.
-    scale : float
-        The model value times ``scale`` is compared (sign, share of a torque, 1/area).
-    scale_units : str
-        Unit of ``scale`` (``"1"`` unless it changes the unit, e.g. ``"m-2"``).
-    lowpass_hz : float or None
-        Zero-phase low-pass cut-off for the measured signal in Hz (None: unfiltered).
-    remove_offset : bool
-        Add the difference of the measured mean's and the model's averages over a revolution to
-        the model (sensors with an unknown zero, such as AC-coupled accelerometers); reported.
-    metrics : tuple of str
-        Metrics to compute (names of :data:`rigval.validation.metrics.compare.METRICS`); ASME V&V 20
-        on the peak and RMS features always runs in addition.
-    uncertainty : mapping of str to float
-        Systematic uncertainties for V&V 20 (``u_input``, ``u_measurement`` in the signal's
-        unit, ``u_measurement_rel`` as a fraction, coverage factor ``k``); the random part comes
-        from the cycles and ``u_num`` from the angle-grid error.
-    nrmse_normaliser : {"range", "rms", "peak"}
-        Normaliser of the NRMSE.
-    thresholds : mapping of str to str
-        Pass/fail criteria: score name to threshold text (``">= 0.8"``, ``"abs <= 0.1"``).
-    key : str
-        Key path, e.g. ``comparisons[0]``.
-    summed : tuple of ChannelRef
-        Further channels of the same stream and unit added to ``measured`` before comparing
-        (``measured = ["wls1.tor1", "wls1.tor2"]``: both shafts' torques against the whole drive
-        torque); empty for one channel.
-    """
-
-    name: str
-    measured: ChannelRef
-    model: ModelOutput
-    scale: float
-    scale_units: str
-    lowpass_hz: float | None
-    remove_offset: bool
-    metrics: tuple[str, ...]
-    uncertainty: Mapping[str, float]
-    nrmse_normaliser: str
-    thresholds: Mapping[str, str]
-    key: str
-    summed: tuple[ChannelRef, ...] = ()
-    signs: tuple[float, ...] = ()
-
-    @property
-    def terms(self) -> tuple[tuple[float, ChannelRef], ...]:
-        """The measured signal as (sign, channel) terms: ``measured`` first, then ``summed``."""
-        signs = self.signs or (1.0,) * len(self.summed)
-        return ((1.0, self.measured), *zip(signs, self.summed, strict=True))
-
-    @property
-    def measured_text(self) -> str:
-        """The measured signal as written: ``wls1.tor1 + wls1.tor2``."""
-        text = str(self.measured)
-        for sign, ref in self.terms[1:]:
-            text += f" {'-' if sign < 0 else '+'} {ref}"
-        return text
-
-
-@dataclass(frozen=True)
-class PredictionSpec:
-    """Model outputs reported without a measured counterpart (the paper's figs. 15-17).
-
-    Parameters
-    ----------
-    points : tuple of str
-        Points whose position, speed and acceleration are shown.
-    supports : tuple of str or None
-        Ground joints whose support force (force on the frame) is shown; None: every ground pin.
-    """
-
-    points: tuple[str, ...] = ()
-    supports: tuple[str, ...] | None = None
-
-
-@dataclass(frozen=True)
-class OutputSpec:
-    """What the run's netCDF file keeps besides the angle domain, the model and the verdicts.
-
-    Parameters
-    ----------
-    raw : bool, default False
-        Keep every stream as read (``/raw/<stream>``, float32): about 4 bytes per sample.
-    aligned : bool, default False
-        Keep every stream converted and on the reference timeline (``/aligned/<stream>``).
-    """
-
-    raw: bool = False
-    aligned: bool = False
-
-
-@dataclass(frozen=True)
-class Scene:
-    """A parsed, checked scene.
-
-    Parameters
-    ----------
-    path : pathlib.Path
-        The scene file.
-    text : str
-        Its text as read (copied into the netCDF file and the report).
-    sha256 : str
-        SHA-256 of the text (UTF-8).
-    title : str
-        Human-readable title.
-    mechanism : pathlib.Path
-        The mechanism file (``builtin:NAME`` resolved).
-    note : pathlib.Path or None
-        The operator's note for the run.
-    streams : mapping of str to StreamSpec
-        Streams by name.
-    alignment : AlignmentSpec
-        Clock alignment.
-    angle : AngleSpec
-        The comparison grid.
-    model : ModelSpec
-        Drive excitation.
-    comparisons : tuple of ComparisonSpec
-        What is compared.
-    predictions : PredictionSpec
-        What is predicted beyond the comparisons.
-    output : OutputSpec
-        What the netCDF file keeps besides the angle domain (``[output]``).
-    """
-
-    path: Path
-    text: str = field(repr=False)
-    sha256: str
-    title: str
-    mechanism: Path
-    note: Path | None
-    streams: Mapping[str, StreamSpec]
-    alignment: AlignmentSpec
-    angle: AngleSpec
-    model: ModelSpec
-    comparisons: tuple[ComparisonSpec, ...]
-    predictions: PredictionSpec
-    output: OutputSpec = OutputSpec()
-
-    @property
-    def input_files(self) -> tuple[Path, ...]:
-        """Every file the validation reads: data files, mechanism, note."""
-        files = [spec.file for spec in self.streams.values()] + [self.mechanism]
-        return tuple(files + ([self.note] if self.note else []))
-
-    def channel(self, ref: ChannelRef) -> ChannelSpec:
-        """Return the channel a reference names."""
-        return self.streams[ref.stream].channels[ref.channel]
-
-    def units(self, ref: ChannelRef) -> str:
-        """Return the unit of a channel after conversion."""
-        return channel_units(self.channel(ref))
 
 
 
@@ -392,6 +99,41 @@ _error = _TABLES.fail
 _table = _TABLES.table
 _check_keys = _TABLES.check_keys
 _get = _TABLES.get
+
+
+@functools.cache
+def _fields(spec: type) -> Mapping[str, dataclasses.Field[Any]]:
+    """Return the fields of a spec dataclass that are keys of its TOML table, by name."""
+    return MappingProxyType({f.name: f for f in dataclasses.fields(spec)
+                             if f.metadata.get("toml", True)})
+
+
+def _keys(spec: type) -> set[str]:
+    """Return the keys a spec's TOML table allows: its fields (see ``scene_types``)."""
+    return set(_fields(spec))
+
+
+def _default(spec: type, name: str) -> Any:
+    """Return the default of a spec's key: its field's default, or :data:`REQUIRED` without one."""
+    found = _fields(spec)[name]
+    if found.default is not dataclasses.MISSING:
+        return found.default
+    if found.default_factory is not dataclasses.MISSING:
+        return found.default_factory()
+    return REQUIRED
+
+
+@functools.cache
+def _choices(spec: type, name: str) -> tuple[Any, ...] | None:
+    """Return the values a key allows when its field is a ``Literal``, else None."""
+    kind = typing.get_type_hints(spec)[name]
+    return typing.get_args(kind) if typing.get_origin(kind) is typing.Literal else None
+
+
+def _setting(table: Mapping[str, Any], spec: type, name: str, key: str,
+             kind: type | tuple[type, ...]) -> Any:
+    """Return a spec's key from its table, with the field's default and allowed values."""
+    return _get(table, name, key, kind, _default(spec, name), _choices(spec, name))
 
 
 def _file(scene_dir: Path, value: str, key: str) -> Path:
@@ -484,10 +226,10 @@ def _streams(doc: Mapping[str, Any], scene_dir: Path) -> dict[str, StreamSpec]:
             for name, spec in streams.items()}
 
 
-def _alignment(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> AlignmentSpec:
+def _alignment_spec(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> AlignmentSpec:
     key = "alignment"
     table = _table(_get(doc, key, "", dict), key)
-    _check_keys(table, key, {"reference", "main_encoder", "main_reference_pulse", "pulses"})
+    _check_keys(table, key, _keys(AlignmentSpec))
     reference = _get(table, "reference", key, str, choices=tuple(streams))
     encoder = _ref(_get(table, "main_encoder", key, str), f"{key}.main_encoder", streams,
                    ("encoder",))
@@ -505,72 +247,77 @@ def _alignment(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> Ali
             raise _error(pkey, f"expected a non-reference stream, got {stream!r}",
                          hint=f"streams: {', '.join(streams)}; reference: {reference}")
         entry = _table(raw, pkey)
-        _check_keys(entry, pkey, {"channel", "per_revolution", "angle", "method",
-                                  "coarse_offset_s", "start_time_uncertainty_s"})
-        method = _get(entry, "method", pkey, str, "pulses", choices=("pulses", "stamps"))
+        _check_keys(entry, pkey, _keys(PulseSpec))
+        method = _setting(entry, PulseSpec, "method", pkey, str)
         channel = None
         if method == "pulses" or "channel" in entry:
             channel = _ref(f"{stream}.{_get(entry, 'channel', pkey, str)}", f"{pkey}.channel",
                            streams, ("reference_pulse",))
-        per_rev = _get(entry, "per_revolution", pkey, int, 1)
+        per_rev = _setting(entry, PulseSpec, "per_revolution", pkey, int)
         if per_rev < 1:
             raise _error(f"{pkey}.per_revolution", f"must be at least 1, got {per_rev}",
                          hint="count the pulses the sensor gives per main-shaft revolution")
-        uncertainty = _get(entry, "start_time_uncertainty_s", pkey, float, None)
+        uncertainty = _setting(entry, PulseSpec, "start_time_uncertainty_s", pkey, float)
         if uncertainty is not None and not 0.0 < uncertainty < float("inf"):
             raise _error(f"{pkey}.start_time_uncertainty_s",
                          f"must be a positive number of seconds, got {uncertainty}")
-        coarse = _get(entry, "coarse_offset_s", pkey, float, None)
+        coarse = _setting(entry, PulseSpec, "coarse_offset_s", pkey, float)
         if coarse is not None and not abs(coarse) < float("inf"):
             raise _error(f"{pkey}.coarse_offset_s", f"must be finite, got {coarse}")
-        pulses[stream] = PulseSpec(channel, per_rev, _get(entry, "angle", pkey, float, 0.0),
-                                   method, coarse, uncertainty)
+        pulses[stream] = PulseSpec(
+            channel=channel, per_revolution=per_rev,
+            angle=_setting(entry, PulseSpec, "angle", pkey, float), method=method,
+            coarse_offset_s=coarse, start_time_uncertainty_s=uncertainty)
     missing = [s for s in streams if s != reference and s not in pulses]
     if missing:
         raise _error(f"{key}.pulses.{missing[0]}", "missing: every stream other than the "
                      "reference needs a reference pulse channel to be aligned",
                      hint=f'add {missing[0]} = {{ channel = "...", per_revolution = 1 }}')
-    return AlignmentSpec(reference, encoder, pulse, MappingProxyType(pulses))
+    return AlignmentSpec(reference=reference, main_encoder=encoder, main_reference_pulse=pulse,
+                         pulses=MappingProxyType(pulses))
 
 
-def _angle(doc: Mapping[str, Any]) -> AngleSpec:
+def _angle_spec(doc: Mapping[str, Any]) -> AngleSpec:
     key = "angle"
     table = _table(_get(doc, key, "", dict, {}), key)
-    _check_keys(table, key, {"points_per_revolution", "interpolation", "min_cycles"})
-    points = _get(table, "points_per_revolution", key, int, 360)
+    _check_keys(table, key, _keys(AngleSpec))
+    points = _setting(table, AngleSpec, "points_per_revolution", key, int)
     if not 8 <= points <= 1_000_000:
         raise _error(f"{key}.points_per_revolution", f"expected 8 to 1000000, got {points}")
-    cycles = _get(table, "min_cycles", key, int, 3)
+    cycles = _setting(table, AngleSpec, "min_cycles", key, int)
     if cycles < 1:
         raise _error(f"{key}.min_cycles", f"must be at least 1, got {cycles}")
-    return AngleSpec(points, _get(table, "interpolation", key, str, "cubic",
-                                  ("linear", "cubic")), cycles)
+    return AngleSpec(points_per_revolution=points,
+                     interpolation=_setting(table, AngleSpec, "interpolation", key, str),
+                     min_cycles=cycles)
 
 
-def _model(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec], reference: str
+def _model_spec(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec], reference: str
            ) -> ModelSpec:
     key = "model"
     table = _table(_get(doc, key, "", dict, {}), key)
-    _check_keys(table, key, {"drives", "drivers"})
-    drives = _get(table, "drives", key, str, "analytic", ("measured", "analytic"))
-    drivers_table = _table(_get(table, "drivers", key, dict, {}), f"{key}.drivers")
+    _check_keys(table, key, _keys(ModelSpec))
+    drives = _setting(table, ModelSpec, "drives", key, str)
+    drivers_table = _table(_setting(table, ModelSpec, "drivers", key, dict), f"{key}.drivers")
     drivers = {}
     for name, raw in drivers_table.items():
         dkey = f"{key}.drivers.{name}"
         entry = _table(raw, dkey)
-        _check_keys(entry, dkey, {"encoder", "angle_at_reference", "direction"})
-        direction = _get(entry, "direction", dkey, int, 1, (1, -1))
+        _check_keys(entry, dkey, _keys(DriverSpec))
+        direction = _setting(entry, DriverSpec, "direction", dkey, int)
         encoder = _ref(_get(entry, "encoder", dkey, str), f"{dkey}.encoder", streams,
                        ("encoder",))
         if encoder.stream != reference:
             raise _error(f"{dkey}.encoder", f"must be on the reference stream {reference!r}, "
                          f"got {encoder}", hint="drive encoders share the reference clock")
-        drivers[name] = DriverSpec(name, encoder, _get(entry, "angle_at_reference", dkey, float),
-                                   direction)
+        drivers[name] = DriverSpec(
+            name=name, encoder=encoder,
+            angle_at_reference=_setting(entry, DriverSpec, "angle_at_reference", dkey, float),
+            direction=direction)
     if drives == "analytic" and drivers:
         raise _error(f"{key}.drivers", 'driver tables apply only to drives = "measured"',
                      hint='remove them or set drives = "measured"')
-    return ModelSpec(drives, MappingProxyType(drivers))
+    return ModelSpec(drives=drives, drivers=MappingProxyType(drivers))
 
 
 def _thresholds(table: Mapping[str, Any], metrics: tuple[str, ...], key: str
@@ -604,7 +351,7 @@ def _uncertainty(table: Mapping[str, Any], key: str) -> Mapping[str, float]:
 
 def _model_output(value: Any, key: str) -> ModelOutput:
     table = _table(value, key)
-    _check_keys(table, key, {"quantity", "item", "axis", "body", "toward"})
+    _check_keys(table, key, _keys(ModelOutput))
     quantity = _get(table, "quantity", key, str, choices=tuple(MODEL_QUANTITIES))
     item = _get(table, "item", key, str)
     _, axes, _ = MODEL_QUANTITIES[quantity]
@@ -624,7 +371,7 @@ def _model_output(value: Any, key: str) -> ModelOutput:
     return ModelOutput(quantity, item, _get(table, "axis", key, str, choices=axes))
 
 
-def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
+def _comparison_specs(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
                  ) -> tuple[ComparisonSpec, ...]:
     items = _get(doc, "comparisons", "", list)
     if not items:
@@ -633,32 +380,31 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
     for index, raw in enumerate(items):
         key = f"comparisons[{index}]"
         table = _table(raw, key)
-        _check_keys(table, key, {"name", "measured", "model", "scale", "scale_units",
-                                 "lowpass_hz", "remove_offset", "metrics", "nrmse_normaliser",
-                                 "uncertainty", "thresholds"})
+        _check_keys(table, key, _keys(ComparisonSpec))
         name = _get(table, "name", key, str)
         if name in {s.name for s in specs}:
             raise _error(f"{key}.name", f"duplicate comparison name {name!r}")
         measured, summed, signs = _measured(table, key, streams)
         output = _model_output(_get(table, "model", key, dict), f"{key}.model")
-        scale = _get(table, "scale", key, float, 1.0)
+        scale = _setting(table, ComparisonSpec, "scale", key, float)
         if not math.isfinite(scale) or scale == 0:
             raise _error(f"{key}.scale", f"must be finite and non-zero, got {scale}")
-        scale_units = _get(table, "scale_units", key, str, "1")
-        lowpass = _get(table, "lowpass_hz", key, float, None)
+        scale_units = _setting(table, ComparisonSpec, "scale_units", key, str)
+        lowpass = _setting(table, ComparisonSpec, "lowpass_hz", key, float)
         if lowpass is not None and not lowpass > 0:
             raise _error(f"{key}.lowpass_hz", f"must be positive, got {lowpass}")
-        metrics = tuple(_get(table, "metrics", key, list, list(DEFAULT_METRICS)))
+        metrics = tuple(_setting(table, ComparisonSpec, "metrics", key, list))
         for i, metric in enumerate(metrics):
             if metric not in METRICS or metric == "vv20":
                 raise _error(f"{key}.metrics[{i}]", f"unknown metric {metric!r}",
                              hint=f"metrics: {', '.join(m for m in METRICS if m != 'vv20')} "
                                   "(V&V 20 always runs; give its inputs in uncertainty)")
-        uncertainty = _uncertainty(_table(_get(table, "uncertainty", key, dict, {}),
-                                          f"{key}.uncertainty"), f"{key}.uncertainty")
-        thresholds = _thresholds(_table(_get(table, "thresholds", key, dict, {}),
-                                        f"{key}.thresholds"), (*metrics, "vv20"),
-                                 f"{key}.thresholds")
+        uncertainty = _uncertainty(
+            _table(_setting(table, ComparisonSpec, "uncertainty", key, dict),
+                   f"{key}.uncertainty"), f"{key}.uncertainty")
+        thresholds = _thresholds(
+            _table(_setting(table, ComparisonSpec, "thresholds", key, dict), f"{key}.thresholds"),
+            (*metrics, "vv20"), f"{key}.thresholds")
         measured_units = channel_units(streams[measured.stream].channels[measured.channel])
         try:
             model_dim = multiply(output.units, scale_units)
@@ -671,10 +417,12 @@ def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
                 hint="compare like with like, or set scale and scale_units to convert the model "
                      "quantity (e.g. scale = -1/A, scale_units = 'm-2' turns N into Pa)")
         specs.append(ComparisonSpec(
-            name, measured, output, scale, scale_units, lowpass,
-            _get(table, "remove_offset", key, bool, False), metrics, uncertainty,
-            _get(table, "nrmse_normaliser", key, str, "range", ("range", "rms", "peak")),
-            thresholds, key, summed, signs))
+            name=name, measured=measured, model=output, key=key, scale=scale,
+            scale_units=scale_units, lowpass_hz=lowpass,
+            remove_offset=_setting(table, ComparisonSpec, "remove_offset", key, bool),
+            metrics=metrics, uncertainty=uncertainty,
+            nrmse_normaliser=_setting(table, ComparisonSpec, "nrmse_normaliser", key, str),
+            thresholds=thresholds, summed=summed, signs=signs))
     return tuple(specs)
 
 
@@ -733,28 +481,29 @@ def _measured(table: Mapping[str, Any], key: str, streams: Mapping[str, StreamSp
     return refs[0], tuple(refs[1:]), tuple(signs[1:]) if min(signs) < 0 else ()
 
 
-def _predictions(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...]
+def _prediction_spec(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...]
                  ) -> PredictionSpec:
     key = "predictions"
     table = _table(_get(doc, key, "", dict, {}), key)
-    _check_keys(table, key, {"points", "supports"})
+    _check_keys(table, key, _keys(PredictionSpec))
     default_points = tuple(dict.fromkeys(c.model.item for c in comparisons
                                          if c.model.quantity.startswith("point_")))
     points = _get(table, "points", key, list, list(default_points))
-    supports = _get(table, "supports", key, list, None)
+    supports = _setting(table, PredictionSpec, "supports", key, list)
     for name, values in (("points", points), ("supports", supports or [])):
         for i, value in enumerate(values):
             if not isinstance(value, str):
                 raise _error(f"{key}.{name}[{i}]", f"expected a name, got {value!r}")
-    return PredictionSpec(tuple(points), None if supports is None else tuple(supports))
+    return PredictionSpec(points=tuple(points),
+                          supports=None if supports is None else tuple(supports))
 
 
-def _output(doc: Mapping[str, Any]) -> OutputSpec:
+def _output_spec(doc: Mapping[str, Any]) -> OutputSpec:
     key = "output"
     table = _table(_get(doc, key, "", dict, {}), key)
-    _check_keys(table, key, {"raw", "aligned"})
-    return OutputSpec(raw=_get(table, "raw", key, bool, False),
-                      aligned=_get(table, "aligned", key, bool, False))
+    _check_keys(table, key, _keys(OutputSpec))
+    return OutputSpec(raw=_setting(table, OutputSpec, "raw", key, bool),
+                      aligned=_setting(table, OutputSpec, "aligned", key, bool))
 
 
 #: The marker ``rigval init`` writes for a value the files cannot tell.
@@ -785,68 +534,6 @@ def todo_keys(doc: Mapping[str, Any], key: str = "") -> list[str]:
 
     visit(doc, key)
     return found
-
-
-def check_mechanism_names(scene: Scene, names: MechanismNames) -> None:
-    """Check the scene's model references against a mechanism's names.
-
-    Parameters
-    ----------
-    scene : Scene
-        The parsed scene.
-    names : MechanismNames
-        What the mechanism defines.
-
-    Raises
-    ------
-    SceneError
-        Naming the key of the first unknown item, driver or ground joint.
-    """
-    for comparison in scene.comparisons:
-        kind = MODEL_QUANTITIES[comparison.model.quantity][0]
-        known = names.of_kind(kind)
-        if comparison.model.item not in known:
-            raise _error(f"{comparison.key}.model.item",
-                         f"unknown {kind} {comparison.model.item!r} for "
-                         f"{comparison.model.quantity} in {scene.mechanism.name}",
-                         hint=f"{kind}s are {', '.join(known)}")
-        if comparison.model.body is not None and names.joint_bodies:
-            _check_axial(comparison.model, comparison.key, names)
-    if scene.model.drives == "measured":
-        for name in scene.model.drivers:
-            if name not in names.drivers:
-                raise _error(f"model.drivers.{name}", f"unknown driver {name!r}",
-                             hint=f"drivers are {', '.join(names.drivers)}")
-        missing = [d for d in names.drivers if d not in scene.model.drivers]
-        if missing:
-            raise _error(f"model.drivers.{missing[0]}", "missing: with drives = \"measured\" "
-                         "every driver needs an encoder", hint="add the table or set drives = "
-                         '"analytic"')
-    for i, point in enumerate(scene.predictions.points):
-        if point not in names.points:
-            raise _error(f"predictions.points[{i}]", f"unknown point {point!r}",
-                         hint=f"points are {', '.join(names.points)}")
-    for i, joint in enumerate(scene.predictions.supports or ()):
-        if joint not in names.ground_joints:
-            raise _error(f"predictions.supports[{i}]", f"{joint!r} is not a ground joint",
-                         hint=f"ground joints are {', '.join(names.ground_joints)}")
-
-
-def _check_axial(output: ModelOutput, key: str, names: MechanismNames) -> None:
-    """Check the body and toward point of a ``joint_axial_force`` against the mechanism."""
-    bodies = names.joint_bodies[output.item]
-    if output.body not in bodies:
-        raise _error(f"{key}.model.body", f"joint {output.item!r} does not connect body "
-                     f"{output.body!r}", hint=f"it connects {', '.join(bodies)}")
-    others = [p for p in names.body_points[output.body or ""] if p != output.item]
-    if output.toward is None and len(others) != 1:
-        raise _error(f"{key}.model.toward", f"body {output.body!r} has {len(others)} points "
-                     f"besides {output.item!r}: name the one that gives its axis",
-                     hint=f"points: {', '.join(others)}")
-    if output.toward is not None and output.toward not in others:
-        raise _error(f"{key}.model.toward", f"{output.toward!r} is not a point of body "
-                     f"{output.body!r} other than {output.item!r}",
-                     hint=f"points: {', '.join(others)}")
 
 
 def parse_scene(text: str, path: str | Path, *, names: MechanismNames | None = None) -> Scene:
@@ -884,25 +571,24 @@ def parse_scene(text: str, path: str | Path, *, names: MechanismNames | None = N
             where={"key": todo[0], "file": str(path)}, keys=todo,
             hint="fill each value (the comment next to it in the skeleton written by rigval "
                  "init says what it is); docs/scene.md describes every key")
-    _check_keys(doc, "", {"schema", "title", "mechanism", "note", "streams", "alignment", "angle",
-                          "model", "comparisons", "predictions", "output"})
+    _check_keys(doc, "", _keys(Scene) | {"schema"})
     schema = _get(doc, "schema", "", str)
     if schema != SCHEMA:
         raise _error("schema", f"expected {SCHEMA!r}, got {schema!r}")
     scene_dir = path.parent
     streams = _streams(doc, scene_dir)
-    comparisons = _comparisons(doc, streams)
+    comparisons = _comparison_specs(doc, streams)
     note = _get(doc, "note", "", str, None)
-    alignment = _alignment(doc, streams)
+    alignment = _alignment_spec(doc, streams)
     scene = Scene(
         path=path, text=text, sha256=hashlib.sha256(text.encode()).hexdigest(),
         title=_get(doc, "title", "", str, path.stem),
         mechanism=_mechanism_path(scene_dir, _get(doc, "mechanism", "", str), "mechanism"),
         note=_note(scene_dir, note) if note is not None else None,
         streams=MappingProxyType(streams), alignment=alignment,
-        angle=_angle(doc), model=_model(doc, streams, alignment.reference),
+        angle=_angle_spec(doc), model=_model_spec(doc, streams, alignment.reference),
         comparisons=comparisons,
-        predictions=_predictions(doc, comparisons), output=_output(doc))
+        predictions=_prediction_spec(doc, comparisons), output=_output_spec(doc))
     if names is not None:
         check_mechanism_names(scene, names)
     return scene

@@ -23,7 +23,7 @@ import xarray as xr
 
 from rigval.acquisition.errors import ConfigError
 from rigval.validation.errors import SceneError
-from rigval.validation.scene import Scene
+from rigval.validation.scene_types import Scene
 
 __all__ = ["LOWPASS_FRACTION", "check_sample_rates", "encoder_scale_errors"]
 

@@ -16,7 +16,7 @@ import pytest
 import xarray as xr
 
 import rigval.model as rm
-from rigval.model.assembly import _horner, _quintic
+from rigval.model.continuation import _horner, _quintic
 from rigval.model.drives import drive_motion
 from rigval.model.linalg import BatchLU
 

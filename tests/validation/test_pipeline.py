@@ -209,7 +209,7 @@ def test_block_processing_equals_the_whole_record(scene_path: Path,
                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     """Smoothing the encoders piece by piece, sampling the drives at the grid times and the
     uniform-sample spline give the revolutions and scores of whole-record processing: one piece
-    per run and scipy's not-a-knot spline over whole runs (docs/performance.md, long
+    per run and scipy's not-a-knot spline over whole runs (docs/bench/history-long-records.md, long
     records)."""
     from rigval.processing import angle, excitation
     monkeypatch.setattr(excitation, "_PIECE", 7_000)              # 12 s at 5 kHz: 9 pieces

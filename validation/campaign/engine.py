@@ -71,9 +71,9 @@ __all__ = [
 #: each: its workers do not sample the stack of the running task for the dashboard's profile
 #: (every 10 ms by default), and the event-loop tick (20 ms), memory monitors (100 ms) and
 #: system monitor (500 ms) wake up less often. Each wake-up takes the GIL from the run: a fixed
-#: task took 17 % less CPU in its worker with these intervals (docs/performance.md, Demo). The
-#: tick still reports an event loop blocked for 3 s, and a worker over its memory limit is still
-#: stopped, within a second.
+#: task took 17 % less CPU in its worker with these intervals
+#: (docs/bench/history-speed-as-installed.md, demo). The tick still reports an event loop
+#: blocked for 3 s, and a worker over its memory limit is still stopped, within a second.
 EMBEDDED_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False,
                            "distributed.admin.tick.interval": "1s",
                            "distributed.worker.memory.monitor-interval": "1s",
