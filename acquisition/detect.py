@@ -36,7 +36,7 @@ def checked_path(path: str | os.PathLike[str]) -> Path:
     path = Path(path)
     if not path.exists():
         raise DataFileError("file not found", where={"file": str(path)},
-                            hint="check the path (relative paths in a scene are relative to it)")
+                            hint="check the path (a path in a scene is relative to its folder)")
     if not path.is_file():
         raise DataFileError("not a regular file", where={"file": str(path)})
     if path.stat().st_size == 0:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rigval.processing.align import estimate_clock
+from rigval.processing.clock_fit import estimate_clock
 
 _TEST = Path(__file__).resolve().parents[1] / "tests" / "validation" / "test_alignment_coverage.py"
 

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from rigval.processing import align, angle, encoder, excitation, filters, pulses
+from rigval.processing import angle, clock_fit, encoder, excitation, filters, pulses
 
 FS = 5000.0
 W = 2 * np.pi
@@ -64,7 +64,7 @@ def bench_alignment() -> None:
                 kinds.append((pulses.classify_pulses(ref).good,
                               pulses.classify_pulses(dev).good - rig.delay))
             for label, use in (("rising", kinds[:1]), ("rising+falling", kinds)):
-                clock = align.estimate_clock([k[0] for k in use], [k[1] for k in use],
+                clock = clock_fit.estimate_clock([k[0] for k in use], [k[1] for k in use],
                                              coarse_offset_s=0.0)
                 rows.setdefault(f"{refine}, {label}", []).append(
                     ((clock.offsets_s[0] - rig.offset) * 1e6, (clock.drift - rig.drift) * 1e6))
@@ -84,10 +84,10 @@ def _opt3_errors(rig: Any) -> tuple[float, float]:
     smooth = excitation.drive_angle(rig.t_ref, theta, fs=FS, step_rad=step)
     opt1 = pulses.classify_pulses(pulses.detect_edges(rig.opt1, rig.t_ref, refine="sinc")).good
     zero, _ = angle.zero_at_reference(rig.t_ref, smooth.angle, opt1)
-    events = align.reference_event_times(rig.t_ref, smooth.angle - zero, event_angle=0.3,
+    events = clock_fit.reference_event_times(rig.t_ref, smooth.angle - zero, event_angle=0.3,
                                          events_per_rev=2)
     dev = pulses.detect_edges(rig.opt3, rig.t_dev, refine="sinc") - rig.delay
-    clock = align.estimate_clock(events, dev, coarse_offset_s=1.2)
+    clock = clock_fit.estimate_clock(events, dev, coarse_offset_s=1.2)
     return (clock.offsets_s[0] - rig.offset) * 1e6, (clock.drift - rig.drift) * 1e6
 
 

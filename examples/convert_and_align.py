@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rigval.processing.align import channel_time
-from rigval.processing.alignment import align_streams
+from rigval.processing.clock_fit import channel_time
+from rigval.processing.stream_alignment import align_streams
 from rigval.sample_data import shipped_runs
 from rigval.validation.alignment import alignment_settings
 from rigval.validation.convert import convert_stream

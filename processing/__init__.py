@@ -8,14 +8,16 @@ that keep the channel metadata and append a ``history`` line):
   equations, rosette torque, stress, the charge chain, and their exact forward models;
 - :mod:`~rigval.processing.transducers`: linear scales, IEPE accelerometers, load cells;
 - :mod:`~rigval.processing.encoder`: counts to angle, quadrature decoding, revolution checks;
-- :mod:`~rigval.processing.convert`: the Dataset-level sensor conversions;
+- :mod:`~rigval.processing.conversions`: the Dataset-level sensor conversions;
   :mod:`~rigval.processing.sensors`: a stream's channel map applied with them;
 - :mod:`~rigval.processing.pulses`: reference edges, missing and spurious pulses;
-- :mod:`~rigval.processing.align`: clock models and aligned streams;
+- :mod:`~rigval.processing.clock_fit`: the clock fit of one device (its clock model) and its
+  aligned stream;
   :mod:`~rigval.processing.event_match`: device events paired with reference events, strays;
 - :mod:`~rigval.processing.stamps`: start stamps to a coarse offset and its window, clock groups;
-- :mod:`~rigval.processing.alignment`: every stream of a set on the reference timeline, from
-  plain settings; :mod:`~rigval.processing.alignment_summary`: its per-stream diagnostics;
+- :mod:`~rigval.processing.stream_alignment`: the orchestration, every stream of a set on the
+  reference timeline, from plain settings; :mod:`~rigval.processing.alignment_summary`: its
+  per-stream diagnostics;
 - :mod:`~rigval.processing.timeline`: all aligned streams on one uniform time grid;
 - :mod:`~rigval.processing.selection`: which channels of aligned streams the timeline and the
   angle domain use;
@@ -31,14 +33,14 @@ that keep the channel metadata and append a ``history`` line):
 
 from rigval.acquisition.lazy import lazy_exports
 
-#: The public modules, each imported on first use (``rigval.processing.align``).
+#: The public modules, each imported on first use (``rigval.processing.clock_fit``).
 _LAZY = {name: name for name in (
-    "accelerometer", "align", "alignment", "angle", "bridge", "convert", "cycles", "dtw",
-    "encoder", "errors", "excitation", "filters", "pulses", "sensors", "stamps", "stress",
-    "timeline", "torsion", "transducers")}
+    "accelerometer", "angle", "bridge", "clock_fit", "conversions", "cycles", "dtw", "encoder",
+    "errors", "excitation", "filters", "pulses", "sensors", "stamps", "stream_alignment",
+    "stress", "timeline", "torsion", "transducers")}
 
-__all__ = ["accelerometer", "align", "alignment", "angle", "bridge", "convert", "cycles", "dtw",
-           "encoder", "errors", "excitation", "filters", "pulses", "sensors", "stamps", "stress",
-           "timeline", "torsion", "transducers"]
+__all__ = ["accelerometer", "angle", "bridge", "clock_fit", "conversions", "cycles", "dtw",
+           "encoder", "errors", "excitation", "filters", "pulses", "sensors", "stamps",
+           "stream_alignment", "stress", "timeline", "torsion", "transducers"]
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())

@@ -2,8 +2,8 @@
 
 :class:`StreamAlignment` is the record per stream (clock, events, gaps, a raw-pulse window) that
 the report's alignment section and ``alignment.json`` show; the functions here fill it from a
-fitted :class:`~rigval.processing.align.ClockModel` and the stream's pulse edges
-(:func:`rigval.processing.alignment.align_streams` calls them).
+fitted :class:`~rigval.processing.clock_fit.ClockModel` and the stream's pulse edges
+(:func:`rigval.processing.stream_alignment.align_streams` calls them).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.schema import invalid_counts, stream_gaps
-from rigval.processing.align import ClockModel, channel_time
+from rigval.processing.clock_fit import ClockModel, channel_time
 from rigval.processing.event_match import robust_inliers
 from rigval.processing.pulses import StreamPulses
 
@@ -87,7 +87,7 @@ class StreamAlignment:
     periods_decided_by : str
         What decided the whole pulse periods (``stamps``, ``data``, ``neighbour``).
     method : str
-        ``pulses`` or ``stamps`` (:class:`~rigval.processing.alignment.ClockSettings`).
+        ``pulses`` or ``stamps`` (:class:`~rigval.processing.stream_alignment.ClockSettings`).
     start_time_uncertainty_s : float
         Half-width in s of the window the offset was searched in.
     coarse_offset_s : float

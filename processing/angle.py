@@ -30,8 +30,8 @@ from scipy.ndimage import map_coordinates, spline_filter1d
 
 from rigval.acquisition.errors import ConfigError, DataError
 from rigval.acquisition.schema import append_history
-from rigval.processing.align import channel_time
 from rigval.processing.arrays import FloatArray, IntArray
+from rigval.processing.clock_fit import channel_time
 from rigval.processing.encoder import (
     increasing_angle,
     remove_index_resets,
@@ -380,7 +380,7 @@ def angle_domain(aligned: Mapping[str, xr.Dataset], angle_time: ArrayLike, angle
     Parameters
     ----------
     aligned : mapping of str to xarray.Dataset
-        Aligned streams by name (:func:`~rigval.processing.align.align_stream`).
+        Aligned streams by name (:func:`~rigval.processing.clock_fit.align_stream`).
     angle_time, angle : array_like
         phi_F(t) on the reference clock: times in s and increasing angle in rad, zero at the
         optical reference (:func:`zero_at_reference`).

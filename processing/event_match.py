@@ -1,6 +1,6 @@
 """Pairing a device's events with reference events: candidate offsets, whole periods, strays.
 
-Step 2 of the clock alignment (:mod:`rigval.processing.align`, docs/processing.md "Clock
+Step 2 of the clock alignment (:mod:`rigval.processing.clock_fit`, docs/processing.md "Clock
 alignment"): for one gap-free device segment, candidate offsets come from pairing its first
 events with every reference event within ``coarse_offset_s +- max_offset_error_s``; the stamps
 decide the whole periods when that window is narrower than a period, else the data must (one
@@ -131,7 +131,7 @@ class Match:
         The winning candidate offset ``t_ref - t_dev`` in s.
     decided_by : str
         ``"stamps"``, ``"data"`` or ``"neighbour"`` (see
-        :attr:`~rigval.processing.align.ClockModel.periods_decided_by`).
+        :attr:`~rigval.processing.clock_fit.ClockModel.periods_decided_by`).
     """
 
     ref_index: IntArray

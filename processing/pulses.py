@@ -30,8 +30,8 @@ from numpy.typing import ArrayLike
 from scipy.special import i0
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError
-from rigval.processing.align import input_delay
 from rigval.processing.arrays import BoolArray, FloatArray, IntArray
+from rigval.processing.clock_fit import input_delay
 from rigval.processing.filters import contiguous_runs
 
 __all__ = ["PulseTrain", "StreamPulses", "classify_pulses", "detect_edges", "state_levels",

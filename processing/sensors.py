@@ -1,7 +1,7 @@
 """A stream's channel map applied: raw channels to physical units, one sensor kind each.
 
 Each channel's ``sensor`` (:data:`rigval.acquisition.channel_map.SENSORS`, docs/scene.md) picks
-a dataset-level conversion of :mod:`rigval.processing.convert`: charge amplifier volts to m s-2,
+a dataset-level conversion of :mod:`rigval.processing.conversions`: charge amplifier volts to m s-2,
 bridge ratios to strain or stress, rosette ratios to shaft torque, linear scales, IEPE
 accelerometers, load cells. Encoders (counts) and reference pulses stay as read; the alignment
 turns them into angles and events. A channel whose unit in the file does not fit its declared
@@ -21,7 +21,7 @@ import xarray as xr
 from rigval.acquisition.channel_map import ChannelSpec, StreamSpec
 from rigval.acquisition.errors import ChannelMapError, ConfigError, UnitError
 from rigval.acquisition.units import same_unit
-from rigval.processing import convert
+from rigval.processing import conversions
 
 __all__ = ["NULL_WINDOW_S", "SENSOR_UNITS", "channel_units", "convert_stream"]
 
@@ -58,19 +58,19 @@ def _bridge(ds: xr.Dataset, channel: ChannelSpec, null: tuple[float, float] | No
     """Strain (or stress with E) of a strain bridge, or the torque of a torsion rosette."""
     p = channel.params
     if channel.sensor == "torsion_bridge":
-        return convert.torque_channel(
+        return conversions.torque_channel(
             ds, channel.name, rosette=p["bridge"], gauge_factor=p["gauge_factor"],
             shear_modulus=p["shear_modulus"], outer_diameter=p["outer_diameter"],
             inner_diameter=p["inner_diameter"], excitation_voltage=p.get("excitation"),
             unstrained=null, name=_CONVERTED)
-    out = convert.strain_channel(
+    out = conversions.strain_channel(
         ds, channel.name, bridge_type=p["bridge"].lower(), gauge_factor=p["gauge_factor"],
         poisson=p["poisson"], gauge_resistance=p["gauge_resistance"],
         lead_resistance=p["lead_resistance"], excitation_voltage=p.get("excitation"),
         unstrained=null, name=_CONVERTED)
     if p.get("youngs_modulus") is None:
         return out
-    out = convert.axial_stress_channel(out, _CONVERTED, youngs_modulus=p["youngs_modulus"],
+    out = conversions.axial_stress_channel(out, _CONVERTED, youngs_modulus=p["youngs_modulus"],
                                        name=f"{_CONVERTED}_stress")
     return out.drop_vars(_CONVERTED).rename({f"{_CONVERTED}_stress": _CONVERTED})
 
@@ -81,7 +81,7 @@ def _convert_channel(ds: xr.Dataset, channel: ChannelSpec) -> xr.Dataset:
     name = channel.name
     null = NULL_WINDOW_S if p.get("null_offset") == "first_second" else None
     if channel.sensor == "charge_accelerometer":
-        return convert.acceleration_channel(
+        return conversions.acceleration_channel(
             ds, name, charge_sensitivity=p["charge_sensitivity"],
             amplifier_gain=p["amplifier_gain"] * 1e3,  # map: V/pC; processing: mV/pC
             highpass_hz=p.get("highpass_hz") if p.get("correct_highpass") else None,
@@ -90,7 +90,7 @@ def _convert_channel(ds: xr.Dataset, channel: ChannelSpec) -> xr.Dataset:
         return _bridge(ds, channel, null)
     if channel.sensor == "linear":
         try:
-            return convert.linear_channel(ds, name, slope=p["slope"], offset=p["offset"],
+            return conversions.linear_channel(ds, name, slope=p["slope"], offset=p["offset"],
                                           units=p["units"], input_units=p["input_units"],
                                           name=_CONVERTED)
         except UnitError as error:
@@ -98,11 +98,11 @@ def _convert_channel(ds: xr.Dataset, channel: ChannelSpec) -> xr.Dataset:
                                   where={"key": f"{channel.key}.input_units"},
                                   hint=error.hint) from None
     if channel.sensor == "iepe_accelerometer":
-        return convert.iepe_acceleration_channel(ds, name, sensitivity=p["sensitivity"],
+        return conversions.iepe_acceleration_channel(ds, name, sensitivity=p["sensitivity"],
                                                  name=_CONVERTED)
     if channel.sensor == "load_cell":
         try:
-            return convert.load_cell_channel(
+            return conversions.load_cell_channel(
                 ds, name, sensitivity=p["sensitivity"], capacity=p["capacity"],
                 excitation_voltage=p.get("excitation"), unstrained=null, name=_CONVERTED)
         except ConfigError as error:

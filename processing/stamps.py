@@ -3,7 +3,7 @@
 A stream's ``start_time`` is a software stamp of its host (off by ms to seconds); the device
 profile says how far (``start_time_uncertainty_s``) and how fast its oscillator may run off
 (``clock_tolerance_ppm``, docs/formats.md). :func:`coarse_offset` turns the stamps of two
-streams into the window :func:`rigval.processing.align.estimate_clock` searches;
+streams into the window :func:`rigval.processing.clock_fit.estimate_clock` searches;
 :func:`clock_groups` tells which gaps the device clock ran through; :func:`stamps_clock` is the
 clock of a stream aligned by its stamps alone.
 """
@@ -19,7 +19,7 @@ import xarray as xr
 from rigval.acquisition.devices import get_device
 from rigval.acquisition.errors import ChannelNotFoundError
 from rigval.acquisition.schema import parse_start_time, stream_gaps
-from rigval.processing.align import ClockModel
+from rigval.processing.clock_fit import ClockModel
 
 __all__ = [
     "RUNNING_CLOCK_SAMPLES",
@@ -55,7 +55,7 @@ class CoarseOffset:
         Rough ``t_ref - t_dev`` in s.
     window_s : float
         How far in s the guess may be wrong (``max_offset_error_s`` of
-        :func:`~rigval.processing.align.estimate_clock`).
+        :func:`~rigval.processing.clock_fit.estimate_clock`).
     source : str
         Where the guess came from: ``"start stamps"``, ``"given offset"`` or
         ``"no start time"``.

@@ -1,8 +1,8 @@
 """All aligned streams on one uniform reference-clock time grid (the ``/aligned`` group).
 
-:func:`~rigval.processing.align.align_stream` keeps every stream's own samples; plots, exports and
-time-domain comparisons want one ``time`` axis. :func:`common_timeline` evaluates every channel at
-the grid times with an interpolating spline, after removing its module input delay, per gap-free
+:func:`~rigval.processing.clock_fit.align_stream` keeps every stream's own samples; plots, exports
+and time-domain comparisons want one ``time`` axis. :func:`common_timeline` evaluates every channel
+at the grid times with an interpolating spline, after removing its module input delay, per gap-free
 run (grid points in another stream's gap are NaN, never filled), low-passing first at 0.45 of the
 grid rate when a stream is sampled faster than the grid.
 """
@@ -17,8 +17,8 @@ import xarray as xr
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError
 from rigval.acquisition.schema import append_history
-from rigval.processing.align import channel_time
 from rigval.processing.angle import interpolate_runs
+from rigval.processing.clock_fit import channel_time
 from rigval.processing.filters import zero_phase
 from rigval.processing.selection import merged_history, selected_channels
 

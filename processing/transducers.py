@@ -7,7 +7,7 @@ Closed forms (numpy arrays in, numpy arrays out; units in brackets):
   (an IEPE sensor's output is AC-coupled by the DAQ; its mean is the sensor's bias, not motion);
 - load cell (strain-gauge bridge with a rated output): ``F [N] = Vr [V/V] / (S [mV/V] / 1000)
   F_rated [N]``, with ``Vr = V_out / V_ex`` the offset-nulled bridge ratio
-  (:func:`rigval.processing.convert.bridge_ratio_values`).
+  (:func:`rigval.processing.conversions.bridge_ratio_values`).
 """
 
 from __future__ import annotations

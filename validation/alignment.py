@@ -1,12 +1,13 @@
 """A scene's ``[alignment]`` table as the plain settings the alignment in processing takes.
 
-The work (phi_F, clock fits, diagnostics) is :func:`rigval.processing.alignment.align_streams`;
-this adapter only looks the scene's channel references up (docs/scene.md, ``[alignment]``).
+The work (phi_F, clock fits, diagnostics) is
+:func:`rigval.processing.stream_alignment.align_streams`; this adapter only looks the scene's
+channel references up (docs/scene.md, ``[alignment]``).
 """
 
 from __future__ import annotations
 
-from rigval.processing.alignment import AlignmentSettings, ClockSettings
+from rigval.processing.stream_alignment import AlignmentSettings, ClockSettings
 from rigval.validation.scene_types import Scene
 
 __all__ = ["alignment_settings"]

@@ -18,7 +18,7 @@ convert
 align
     phi_F(t) from the main encoder (smoothed, never differenced raw), zero at the reference
     pulse; each other stream's clock fitted on its reference pulses against the events the
-    encoder angle predicts (:mod:`rigval.processing.alignment`), module input delays removed.
+    encoder angle predicts (:mod:`rigval.processing.stream_alignment`), module input delays removed.
 model
     Before the angle stage, so that the encoders can be dropped. Only the outputs the
     comparisons and predictions name, on the phi_F grid: with measured drives, each driver's
@@ -59,8 +59,6 @@ from rigval.acquisition.channel_map import StreamSpec, load_stream
 from rigval.acquisition.errors import DataError
 from rigval.model.balance import energy_residual
 from rigval.model.mechanism import load_mechanism
-from rigval.processing.align import input_delay
-from rigval.processing.alignment import AlignmentSettings, MainAngle, align_streams
 from rigval.processing.alignment_summary import StreamAlignment
 from rigval.processing.angle import (
     AngleGrid,
@@ -69,8 +67,10 @@ from rigval.processing.angle import (
     cycle_grid,
     resample_to_angle,
 )
+from rigval.processing.clock_fit import input_delay
 from rigval.processing.encoder import compact_counts
 from rigval.processing.filters import zero_phase
+from rigval.processing.stream_alignment import AlignmentSettings, MainAngle, align_streams
 from rigval.validation.alignment import alignment_settings
 from rigval.validation.convert import convert_stream
 from rigval.validation.diagnosis.explain import attach_diagnosis
@@ -198,7 +198,7 @@ def _add_channels(scene: Scene, name: str, aligned: xr.Dataset, channels: list[s
 
     The samples are those of the alignment's read of the same file, so they take its
     reference times; each channel's module delay is scaled by the stream's clock drift as
-    :func:`rigval.processing.align.align_stream` does.
+    :func:`rigval.processing.clock_fit.align_stream` does.
 
     Raises
     ------
@@ -596,11 +596,11 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
                 "passed" if passed else "failed")
     return attach_diagnosis(ValidationResult(
         scene=scene, comparisons=results, alignment=diagnostics,
-        predictions=_predictions(scene, model), numerics=numerics,
+        predictions=_predicted_outputs(scene, model), numerics=numerics,
         speed_rev_s=grid.speed_rev_s, n_cycles=int(grid.turns.size), tree=tree))
 
 
-def _predictions(scene: Scene, model: xr.Dataset) -> xr.Dataset:
+def _predicted_outputs(scene: Scene, model: xr.Dataset) -> xr.Dataset:
     """Support forces and point kinematics on the phi_F grid (what was not measured)."""
     variables = {}
     if "support_force" in model:

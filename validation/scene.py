@@ -228,7 +228,7 @@ def _streams(doc: Mapping[str, Any], scene_dir: Path) -> dict[str, StreamSpec]:
             for name, spec in streams.items()}
 
 
-def _alignment(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> AlignmentSpec:
+def _alignment_spec(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> AlignmentSpec:
     key = "alignment"
     table = _table(_get(doc, key, "", dict), key)
     _check_keys(table, key, _keys(AlignmentSpec))
@@ -279,7 +279,7 @@ def _alignment(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -> Ali
                          pulses=MappingProxyType(pulses))
 
 
-def _angle(doc: Mapping[str, Any]) -> AngleSpec:
+def _angle_spec(doc: Mapping[str, Any]) -> AngleSpec:
     key = "angle"
     table = _table(_get(doc, key, "", dict, {}), key)
     _check_keys(table, key, _keys(AngleSpec))
@@ -294,7 +294,7 @@ def _angle(doc: Mapping[str, Any]) -> AngleSpec:
                      min_cycles=cycles)
 
 
-def _model(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec], reference: str
+def _model_spec(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec], reference: str
            ) -> ModelSpec:
     key = "model"
     table = _table(_get(doc, key, "", dict, {}), key)
@@ -373,7 +373,7 @@ def _model_output(value: Any, key: str) -> ModelOutput:
     return ModelOutput(quantity, item, _get(table, "axis", key, str, choices=axes))
 
 
-def _comparisons(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
+def _comparison_specs(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
                  ) -> tuple[ComparisonSpec, ...]:
     items = _get(doc, "comparisons", "", list)
     if not items:
@@ -483,7 +483,7 @@ def _measured(table: Mapping[str, Any], key: str, streams: Mapping[str, StreamSp
     return refs[0], tuple(refs[1:]), tuple(signs[1:]) if min(signs) < 0 else ()
 
 
-def _predictions(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...]
+def _prediction_spec(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...]
                  ) -> PredictionSpec:
     key = "predictions"
     table = _table(_get(doc, key, "", dict, {}), key)
@@ -500,7 +500,7 @@ def _predictions(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...]
                           supports=None if supports is None else tuple(supports))
 
 
-def _symmetry(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...],
+def _symmetry_specs(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...],
               streams: Mapping[str, StreamSpec]) -> tuple[SymmetrySpec, ...]:
     """Return the ``[[symmetry]]`` pairs: two comparisons of one unit, calibration stated."""
     tables = _get(doc, "symmetry", "", list, [])
@@ -547,7 +547,7 @@ def _symmetry(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...],
     return tuple(out)
 
 
-def _output(doc: Mapping[str, Any]) -> OutputSpec:
+def _output_spec(doc: Mapping[str, Any]) -> OutputSpec:
     key = "output"
     table = _table(_get(doc, key, "", dict, {}), key)
     _check_keys(table, key, _keys(OutputSpec))
@@ -626,19 +626,19 @@ def parse_scene(text: str, path: str | Path, *, names: MechanismNames | None = N
         raise _error("schema", f"expected {SCHEMA!r}, got {schema!r}")
     scene_dir = path.parent
     streams = _streams(doc, scene_dir)
-    comparisons = _comparisons(doc, streams)
+    comparisons = _comparison_specs(doc, streams)
     note = _get(doc, "note", "", str, None)
-    alignment = _alignment(doc, streams)
+    alignment = _alignment_spec(doc, streams)
     scene = Scene(
         path=path, text=text, sha256=hashlib.sha256(text.encode()).hexdigest(),
         title=_get(doc, "title", "", str, path.stem),
         mechanism=_mechanism_path(scene_dir, _get(doc, "mechanism", "", str), "mechanism"),
         note=_note(scene_dir, note) if note is not None else None,
         streams=MappingProxyType(streams), alignment=alignment,
-        angle=_angle(doc), model=_model(doc, streams, alignment.reference),
+        angle=_angle_spec(doc), model=_model_spec(doc, streams, alignment.reference),
         comparisons=comparisons,
-        predictions=_predictions(doc, comparisons), output=_output(doc),
-        symmetry=_symmetry(doc, comparisons, streams))
+        predictions=_prediction_spec(doc, comparisons), output=_output_spec(doc),
+        symmetry=_symmetry_specs(doc, comparisons, streams))
     if names is not None:
         check_mechanism_names(scene, names)
     return scene

@@ -215,18 +215,18 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
             w.todo("source", "the pulse channel's name in the file")
             w.key("sensor", "reference_pulse")
             w.line()
-    _alignment(w, streams, reference, main_encoder, main_pulse, placeholders, notes)
+    _alignment_table(w, streams, reference, main_encoder, main_pulse, placeholders, notes)
     w.line("[angle]")
     w.key("points_per_revolution", 360, "comparison grid: 1 degree")
     w.key("interpolation", "cubic")
     w.key("min_cycles", 3)
     w.line()
-    _model(w, reference, mech, notes, main_pulse)
+    _model_table(w, reference, mech, notes, main_pulse)
     units_of = {(s.name, c.name): SENSOR_UNITS[c.sensor]({
         "units": c.output_units if c.sensor == "linear" else c.units, "youngs_modulus": TODO})
                 for s in streams for c in s.channels if c.role == "sensor"
                 and c.sensor in SENSOR_UNITS}
-    _comparisons(w, streams, units_of, mech)
+    _comparison_tables(w, streams, units_of, mech)
     return "\n".join(w.lines).rstrip() + "\n", notes
 
 
@@ -251,7 +251,7 @@ def _reference(streams: Sequence[StreamGuess]) -> StreamGuess | None:
     return streams[0] if streams else None
 
 
-def _alignment(w: _Writer, streams: Sequence[StreamGuess], reference: StreamGuess | None,
+def _alignment_table(w: _Writer, streams: Sequence[StreamGuess], reference: StreamGuess | None,
                encoder: ChannelGuess | None, pulse: ChannelGuess | None,
                placeholders: Mapping[str, str], notes: list[str]) -> None:
     w.line("[alignment]")
@@ -297,7 +297,7 @@ def _alignment(w: _Writer, streams: Sequence[StreamGuess], reference: StreamGues
         w.line()
 
 
-def _model(w: _Writer, reference: StreamGuess | None, mech: tuple[str, Any] | None,
+def _model_table(w: _Writer, reference: StreamGuess | None, mech: tuple[str, Any] | None,
            notes: list[str], main_pulse: ChannelGuess | None = None) -> None:
     w.line("[model]")
     encoders = reference.of_role("encoder") if reference else []
@@ -341,7 +341,7 @@ def _model(w: _Writer, reference: StreamGuess | None, mech: tuple[str, Any] | No
         w.line()
 
 
-def _comparisons(w: _Writer, streams: Sequence[StreamGuess],
+def _comparison_tables(w: _Writer, streams: Sequence[StreamGuess],
                  units_of: Mapping[tuple[str, str], str], mech: tuple[str, Any] | None) -> None:
     names = {}
     if mech is not None:

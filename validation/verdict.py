@@ -24,8 +24,8 @@ from rigval.validation.metrics.vv20 import CURVE_PARTS, common_gain, error_ratio
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.scene_types import Scene
 
-__all__ = ["COMMON_GAIN_SCORE", "carried_uncertainty", "comparison_verdict", "run_verdict",
-           "with_common_gain"]
+__all__ = ["COMMON_GAIN_SCORE", "carried_uncertainty", "comparison_verdict", "failure_reasons",
+           "run_verdict", "with_common_gain"]
 
 #: The score of the common-gain statement that gets a threshold check, ``|E| / u_val <= k``.
 COMMON_GAIN_SCORE = "vv20.common_gain.normalised_error"
@@ -158,6 +158,16 @@ def _check_group(kind: str, members: Sequence[ComparisonResult]) -> None:
                                   "are not independent", where={"key": key},
                                   hint="state u_measurement_rel_common on comparisons with "
                                        "disjoint channels (e.g. the summed drive torques only)")
+
+
+def failure_reasons(comparison: ComparisonResult) -> list[str]:
+    """Return one text per failed threshold check: the score, its value and what it needs.
+
+    E.g. ``"nrmse 0.01503 (needs <= 0.01)"``; empty when every check passed. The console
+    summary and the report's list of failures print these.
+    """
+    return [f"{check.metric} {check.value:.4g} (needs {check.threshold})"
+            for check in comparison.checks if not check.passed]
 
 
 def comparison_verdict(comparison: ComparisonResult) -> dict[str, Any]:

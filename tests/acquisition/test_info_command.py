@@ -39,12 +39,16 @@ def test_info_reports_unreadable_files_and_goes_on(tmp_path: Path, realdata_dir:
     pointer = tmp_path / "run.tdms"
     pointer.write_text("version https://git-lfs.github.com/spec/v1\n")
     good = realdata_dir / "npTDMS/raw1.tdms"
-    assert main(["info", str(pointer), str(tmp_path / "nope.tdms"), str(good)]) == 3
+    assert main(["info", str(pointer), str(good)]) == 3
     captured = capsys.readouterr()
     assert "Git-LFS pointer" in captured.err
-    assert "file not found" in captured.err
     assert "'Seventh Cha': 2000 samples" in captured.out
     assert "Traceback" not in captured.err
+    # a missing file is a usage error (2) of every command, found before any file is read
+    assert main(["info", str(good), str(tmp_path / "nope.tdms")]) == 2
+    captured = capsys.readouterr()
+    assert "nope.tdms does not exist: check the path" in captured.err
+    assert captured.out == "" and "scene" not in captured.err
 
 
 def test_info_reads_tdms_metadata_only_and_shows_restart_gaps(

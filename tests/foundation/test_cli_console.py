@@ -45,7 +45,7 @@ def test_quiet_prints_nothing_but_errors(tmp_path: Path) -> None:
     quiet = rigval("info", "-q", str(CSV), cwd=tmp_path)
     assert quiet.returncode == 0 and quiet.stdout == "" and quiet.stderr == ""
     missing = rigval("info", "-q", str(tmp_path / "nope.tdms"), cwd=tmp_path)
-    assert missing.returncode == 3 and "nope.tdms" in missing.stderr and missing.stdout == ""
+    assert missing.returncode == 2 and "nope.tdms" in missing.stderr and missing.stdout == ""
 
 
 def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:

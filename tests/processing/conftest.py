@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy.special import sici
 
-from rigval.processing.align import ni9237_input_delay
+from rigval.processing.clock_fit import ni9237_input_delay
 
 FS_REF = 5000.0
 FS_DEV = 50000.0 / 31.0

@@ -13,7 +13,7 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.schema import Channel, stream_dataset
-from rigval.processing import align, timeline
+from rigval.processing import clock_fit, timeline
 
 FS, LAG = 100.0, 2.5
 REF_START, DEV_START = "2026-11-21T06:00:00.125Z", "2026-11-21T06:00:02.625Z"
@@ -34,8 +34,9 @@ def _decoded(ds: xr.Dataset, path: Path) -> xr.Dataset:
 
 def test_aligned_time_decodes_to_the_wall_clock_of_each_sample(tmp_path: Path) -> None:
     ref, dev = _stream(REF_START, "ref"), _stream(DEV_START, "dev")
-    clock = align.ClockModel((0,), (LAG,), 0.0, 0.0, 10, 10)
-    aligned = align.align_stream(dev, clock, name="dev", reference_start=ref.attrs["start_time"])
+    clock = clock_fit.ClockModel((0,), (LAG,), 0.0, 0.0, 10, 10)
+    aligned = clock_fit.align_stream(dev, clock, name="dev",
+                                     reference_start=ref.attrs["start_time"])
     assert aligned["time"].attrs["units"] == "seconds since 2026-11-21 06:00:00.125000000"
     np.testing.assert_allclose(aligned["time"].to_numpy(), LAG + dev["time"].to_numpy())
     decoded = _decoded(aligned, tmp_path / "a.nc")
@@ -50,9 +51,10 @@ def test_aligned_time_decodes_to_the_wall_clock_of_each_sample(tmp_path: Path) -
 
 def test_reference_stream_and_common_timeline_use_the_reference_origin(tmp_path: Path) -> None:
     ref, dev = _stream(REF_START, "ref"), _stream(DEV_START, "dev")
-    aligned = {"ref": align.align_stream(ref, align.identity_clock()),
-               "dev": align.align_stream(dev, align.ClockModel((0,), (LAG,), 0.0, 0.0, 10, 10),
-                                         reference_start=ref.attrs["start_time"])}
+    aligned = {"ref": clock_fit.align_stream(ref, clock_fit.identity_clock()),
+               "dev": clock_fit.align_stream(
+                   dev, clock_fit.ClockModel((0,), (LAG,), 0.0, 0.0, 10, 10),
+                   reference_start=ref.attrs["start_time"])}
     assert aligned["ref"]["time"].attrs["units"] == aligned["dev"]["time"].attrs["units"]
     common = timeline.common_timeline(aligned, "ref", channels={"ref": ["x"], "dev": ["x"]})
     assert list(common.attrs["streams"]) == ["ref", "dev"]

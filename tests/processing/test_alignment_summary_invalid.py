@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from rigval.acquisition.schema import Channel, stream_dataset
-from rigval.processing import align
+from rigval.processing import clock_fit
 from rigval.processing.alignment_summary import stream_summary
 
 
@@ -17,8 +17,8 @@ def test_summary_counts_invalid_samples_by_reason() -> None:
                             device="dev", start_time="2026-11-21T06:00:00Z",
                             source_file="x.csv", source_sha256="0" * 64, fs_nominal=100.0,
                             valid=valid, invalid_counts={"empty cells": 3})
-    aligned = align.align_stream(stream, align.identity_clock())
-    summary = stream_summary("dev", aligned, align.identity_clock(), is_reference=True,
+    aligned = clock_fit.align_stream(stream, clock_fit.identity_clock())
+    summary = stream_summary("dev", aligned, clock_fit.identity_clock(), is_reference=True,
                              residual_time=np.zeros(0), residual=np.zeros(0), matched=0,
                              missing=0, spurious=0).summary()
     assert summary["invalid_samples"] == {"empty cells": int((~valid).sum())}

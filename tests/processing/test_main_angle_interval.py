@@ -8,7 +8,7 @@ from scipy.stats import t as student_t
 
 from rigval.acquisition.channel_map import ChannelSpec
 from rigval.acquisition.schema import Channel, stream_dataset
-from rigval.processing import alignment
+from rigval.processing import stream_alignment
 
 
 def test_zero_interval_is_the_student_t_interval_of_the_pulse_jitter(synth) -> None:
@@ -27,12 +27,12 @@ def test_zero_interval_is_the_student_t_interval_of_the_pulse_jitter(synth) -> N
                "opt": Channel(opt, "V", "opt", "opt")},
         device="cDAQ-9172", start_time="2026-03-02T10:00:00Z", source_file="ref.tdms",
         source_sha256="0" * 64, fs_nominal=fs)
-    settings = alignment.AlignmentSettings(
+    settings = stream_alignment.AlignmentSettings(
         reference="ref",
         encoder=ChannelSpec("enc", "enc", "encoder", {"counts_per_rev": cpr}, None, "", "enc"),
         reference_pulse=ChannelSpec("opt", "opt", "optical", {"threshold": 0.5}, None, "",
                                     "opt"))
-    main, found = alignment._main_angle(settings, stream)
+    main, found = stream_alignment._main_angle(settings, stream)
     n = found.good.size
     assert n == revs.size and found.timing_bound_s == 0.0
     expected = float(student_t.ppf(0.975, n - 1)) * jitter / np.sqrt(n)

@@ -9,10 +9,10 @@ from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, UnitErr
 from rigval.acquisition.schema import Channel, stream_dataset
 from rigval.processing import (
     accelerometer,
-    align,
     angle,
     bridge,
-    convert,
+    clock_fit,
+    conversions,
     cycles,
     excitation,
     pulses,
@@ -58,13 +58,13 @@ def test_streams_to_cycle_statistics_recover_the_true_torque(make_rig, synth) ->
     assert phi.attrs["reference_scatter_rad"] < 1e-4
     assert phi.attrs["suspect_cycles"].dtype == np.int64 and phi.attrs["suspect_cycles"].size == 0
     dev_pulses = pulses.stream_pulses(wls, "opt2")
-    assert dev_pulses.delay_s == pytest.approx(align.ni9237_input_delay(synth.FS_DEV))
-    clock = align.estimate_clock(ref_pulses.good, dev_pulses.good, dev_pulses.good_segment,
+    assert dev_pulses.delay_s == pytest.approx(clock_fit.ni9237_input_delay(synth.FS_DEV))
+    clock = clock_fit.estimate_clock(ref_pulses.good, dev_pulses.good, dev_pulses.good_segment,
                                  coarse_offset_s=stamps.coarse_offset(cdaq, wls).offset_s,
                                  where={"stream": "wls"})
-    torque = convert.torque_channel(wls, "tor1", rosette="full", gauge_factor=2.05, **SHAFT)
-    aligned = {"cdaq": align.align_stream(cdaq, align.identity_clock()),
-               "wls": align.align_stream(torque, clock, name="wls")}
+    torque = conversions.torque_channel(wls, "tor1", rosette="full", gauge_factor=2.05, **SHAFT)
+    aligned = {"cdaq": clock_fit.align_stream(cdaq, clock_fit.identity_clock()),
+               "wls": clock_fit.align_stream(torque, clock, name="wls")}
     assert aligned["wls"].attrs["clock_offset_s"] == pytest.approx(rig.offset, abs=10e-6)
     assert aligned["wls"].attrs["pulses_matched"] >= 15
     assert "align_stream" in aligned["wls"].attrs["history"]
@@ -98,21 +98,21 @@ def test_strain_conversion_from_volts_with_offset_window() -> None:
                                        lead_resistance=0.4) + 1.2e-4)  # bridge offset
     ds = _stream(t, {"str1": Channel(volts, "V", "rod B strain", "/'ai'/'str1'")}, "cDAQ-9172",
                  "2026-03-02T10:00:00Z", 1000.0)
-    out = convert.strain_channel(ds, "str1", bridge_type="half_i", gauge_factor=2.1,
+    out = conversions.strain_channel(ds, "str1", bridge_type="half_i", gauge_factor=2.1,
                                  poisson=0.29, lead_resistance=0.4, excitation_voltage=2.5,
                                  unstrained=(0.0, 0.4))
     np.testing.assert_allclose(out["str1_strain"], eps, atol=5e-9)
     assert out["str1_strain"].attrs["units"] == "1"
     assert out["str1_strain"].attrs["source_channel"] == "/'ai'/'str1'"
     assert "half_i" in out.attrs["history"]
-    stress = convert.axial_stress_channel(out, "str1_strain", youngs_modulus=210e9)
+    stress = conversions.axial_stress_channel(out, "str1_strain", youngs_modulus=210e9)
     np.testing.assert_allclose(stress["str1_strain_stress"], eps * 210e9, atol=2e-3)
     with pytest.raises(ConfigError, match="excitation"):
-        convert.strain_channel(ds, "str1", bridge_type="half_i", gauge_factor=2.1)
+        conversions.strain_channel(ds, "str1", bridge_type="half_i", gauge_factor=2.1)
     with pytest.raises(UnitError):
-        convert.axial_stress_channel(ds, "str1", youngs_modulus=210e9)
+        conversions.axial_stress_channel(ds, "str1", youngs_modulus=210e9)
     with pytest.raises(ChannelNotFoundError, match="str1"):
-        convert.strain_channel(ds, "str9", bridge_type="half_i", gauge_factor=2.1)
+        conversions.strain_channel(ds, "str9", bridge_type="half_i", gauge_factor=2.1)
 
 
 def test_axial_and_bending_parts_of_two_opposite_gauges() -> None:
@@ -123,14 +123,14 @@ def test_axial_and_bending_parts_of_two_opposite_gauges() -> None:
                      "bottom": Channel(axial - bending, "1", "bottom gauge", "/'s'/'bot'")},
                  "cDAQ-9172", "2026-03-02T10:00:00Z", 1000.0)
     w = 1e-5
-    out = convert.axial_bending_channels(ds, "top", "bottom", name="rod", youngs_modulus=210e9,
+    out = conversions.axial_bending_channels(ds, "top", "bottom", name="rod", youngs_modulus=210e9,
                                          section_modulus=w)
     np.testing.assert_allclose(out["rod_axial_strain"], axial, rtol=1e-12, atol=1e-20)
     np.testing.assert_allclose(out["rod_bending_moment"], 210e9 * w * bending, rtol=1e-12,
                                atol=1e-9)
     assert out["rod_axial_stress"].attrs["units"] == "Pa"
     with pytest.raises(UnitError):
-        convert.axial_bending_channels(out, "top", "rod_axial_stress", name="x")
+        conversions.axial_bending_channels(out, "top", "rod_axial_stress", name="x")
 
 
 def test_acceleration_channel_corrects_the_highpass_per_run() -> None:
@@ -142,9 +142,10 @@ def test_acceleration_channel_corrects_the_highpass_per_run() -> None:
     t, acc, volts = lead_in[lead_in >= 0], acc_all[lead_in >= 0], volts[lead_in >= 0]
     ds = _stream(t, {"acc1": Channel(volts * 1e3, "mV", "tip", "/'ai'/'acc1'")}, "cDAQ-9172",
                  "2026-03-02T10:00:00Z", fs)
-    kept = convert.acceleration_channel(ds, "acc1", charge_sensitivity=10.0, amplifier_gain=10.0)
-    fixed = convert.acceleration_channel(ds, "acc1", charge_sensitivity=10.0, amplifier_gain=10.0,
-                                         highpass_hz=0.1)
+    kept = conversions.acceleration_channel(ds, "acc1", charge_sensitivity=10.0,
+                                            amplifier_gain=10.0)
+    fixed = conversions.acceleration_channel(ds, "acc1", charge_sensitivity=10.0,
+                                             amplifier_gain=10.0, highpass_hz=0.1)
     whole = t < 8.0 - 1 / fs                               # 8 whole periods: mean of truth is 0
     err_fixed = fixed["acc1_acceleration"].to_numpy() - acc
     err_fixed -= err_fixed[whole].mean()                   # a charge amplifier carries no DC

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from rigval.acquisition.schema import invalid_counts
-from rigval.processing import align, angle, encoder, excitation, pulses
+from rigval.processing import angle, clock_fit, encoder, excitation, pulses
 from rigval.processing.errors import AlignmentError
 
 
@@ -58,7 +58,7 @@ def test_clock_offset_and_drift_from_a_two_second_coarse_error(make_rig, seed: i
     """Done-when: 20 s at ~1 rev/s, 10 % missing, spurious pulses, start times 2 s off."""
     rig = make_rig(seed, missing=0.1, spurious=2)
     kinds = [_edges(rig, p) for p in ("rising", "falling")]
-    clock = align.estimate_clock([k[0] for k in kinds], [k[1] for k in kinds],
+    clock = clock_fit.estimate_clock([k[0] for k in kinds], [k[1] for k in kinds],
                                  coarse_offset_s=0.0, max_offset_error_s=5.0)
     assert abs(clock.offsets_s[0] - rig.offset) < 5e-6
     assert abs(clock.drift - rig.drift) * 1e6 < 0.05
@@ -74,31 +74,31 @@ def test_pulses_twice_per_revolution_align_on_encoder_crossings(make_rig, synth)
     opt1 = pulses.classify_pulses(pulses.detect_edges(rig.opt1, rig.t_ref, refine="sinc")).good
     zero, scatter = angle.zero_at_reference(rig.t_ref, smooth.angle, opt1)
     assert scatter < 1e-4
-    ref_events = align.reference_event_times(rig.t_ref, smooth.angle - zero, event_angle=0.3,
+    ref_events = clock_fit.reference_event_times(rig.t_ref, smooth.angle - zero, event_angle=0.3,
                                              events_per_rev=2)
     dev = pulses.detect_edges(rig.opt3, rig.t_dev, refine="sinc") - rig.delay
-    clock = align.estimate_clock(ref_events, dev, coarse_offset_s=1.2)
+    clock = clock_fit.estimate_clock(ref_events, dev, coarse_offset_s=1.2)
     assert abs(clock.offsets_s[0] - rig.offset) < 5e-6
     assert abs(clock.drift - rig.drift) * 1e6 < 0.15
     with pytest.raises(AlignmentError, match="inconsistent periods"):
-        align.estimate_clock(opt1, dev, coarse_offset_s=1.2)
+        clock_fit.estimate_clock(opt1, dev, coarse_offset_s=1.2)
 
 
 def test_perfectly_regular_pulses_with_a_large_coarse_error_are_ambiguous() -> None:
     ref = np.arange(0.0, 30.0, 1.0)
     dev = np.arange(0.3, 20.0, 1.0)
     with pytest.raises(AlignmentError, match="ambiguity"):
-        align.estimate_clock(ref, dev, coarse_offset_s=0.0, max_offset_error_s=3.0)
-    clock = align.estimate_clock(ref, dev, coarse_offset_s=2.6, max_offset_error_s=0.4)
+        clock_fit.estimate_clock(ref, dev, coarse_offset_s=0.0, max_offset_error_s=3.0)
+    clock = clock_fit.estimate_clock(ref, dev, coarse_offset_s=2.6, max_offset_error_s=0.4)
     assert clock.offsets_s[0] == pytest.approx(2.7, abs=1e-9)
 
 
 def test_no_overlap_and_too_few_events_are_reported() -> None:
     ref = np.arange(0.0, 20.0, 1.0)
     with pytest.raises(AlignmentError, match="no overlap"):
-        align.estimate_clock(ref, np.arange(0.0, 10.0, 1.0), coarse_offset_s=100.0)
+        clock_fit.estimate_clock(ref, np.arange(0.0, 10.0, 1.0), coarse_offset_s=100.0)
     with pytest.raises(AlignmentError, match="too few"):
-        align.estimate_clock(ref, np.array([1.0, 2.0]))
+        clock_fit.estimate_clock(ref, np.array([1.0, 2.0]))
 
 
 def test_restarted_segments_get_their_own_offsets(make_rig) -> None:
@@ -108,7 +108,7 @@ def test_restarted_segments_get_their_own_offsets(make_rig) -> None:
     segment = (edges > 10.0).astype(np.int64)
     shifted = edges + 0.4 * segment
     ref = pulses.detect_edges(rig.opt1, rig.t_ref, refine="sinc")
-    clock = align.estimate_clock(ref, shifted, segment, coarse_offset_s=2.0)
+    clock = clock_fit.estimate_clock(ref, shifted, segment, coarse_offset_s=2.0)
     assert clock.segments == (0, 1)
     assert clock.offsets_s[0] == pytest.approx(rig.offset, abs=5e-6)
     assert clock.offsets_s[1] == pytest.approx(rig.offset - 0.4 * (1 + rig.drift), abs=5e-6)
@@ -118,11 +118,12 @@ def test_restarted_segments_get_their_own_offsets(make_rig) -> None:
 
 def test_ni9237_delay_values(synth) -> None:
     FS_DEV = synth.FS_DEV
-    assert align.ni9237_input_delay(5000.0) == pytest.approx(8.0065e-3, abs=1e-7)
-    assert align.ni9237_input_delay(FS_DEV) == pytest.approx(24.81e-3, abs=1e-5)
-    assert align.input_delay({"module": "NI 9237"}, 5000.0) == align.ni9237_input_delay(5000.0)
-    assert align.input_delay({"module": "NI 9411"}, 5000.0) == 0.0
-    assert align.input_delay({"input_delay_s": 1e-3, "module": "NI 9237"}, 5000.0) == 1e-3
+    assert clock_fit.ni9237_input_delay(5000.0) == pytest.approx(8.0065e-3, abs=1e-7)
+    assert clock_fit.ni9237_input_delay(FS_DEV) == pytest.approx(24.81e-3, abs=1e-5)
+    assert (clock_fit.input_delay({"module": "NI 9237"}, 5000.0)
+            == clock_fit.ni9237_input_delay(5000.0))
+    assert clock_fit.input_delay({"module": "NI 9411"}, 5000.0) == 0.0
+    assert clock_fit.input_delay({"input_delay_s": 1e-3, "module": "NI 9237"}, 5000.0) == 1e-3
 
 
 def test_a_segment_without_enough_pulses_is_marked_invalid_not_guessed(make_rig, synth) -> None:
@@ -138,10 +139,10 @@ def test_a_segment_without_enough_pulses_is_marked_invalid_not_guessed(make_rig,
                          segment=segment)
     dev = pulses.stream_pulses(wls, "opt2")
     ref = pulses.detect_edges(rig.opt1, rig.t_ref, refine="sinc")
-    clock = align.estimate_clock(ref, dev.good, dev.good_segment, coarse_offset_s=2.0)
+    clock = clock_fit.estimate_clock(ref, dev.good, dev.good_segment, coarse_offset_s=2.0)
     assert clock.segments == (0,) and clock.unaligned_segments == (1,)
     with pytest.warns(DataWarning, match="could not be aligned"):
-        aligned = align.align_stream(wls, clock)
+        aligned = clock_fit.align_stream(wls, clock)
     assert not aligned["valid"].to_numpy()[segment == 1].any()
     assert aligned["valid"].to_numpy()[segment == 0].all()
     assert np.all(np.diff(aligned["time"].to_numpy()) > 0)
@@ -154,7 +155,7 @@ def test_exactly_periodic_events_are_ambiguous_too() -> None:
     ref = np.arange(0.0, 64.0, 0.5)                       # exact binary fractions: zero residual
     dev = np.arange(0.25, 40.0, 0.5)
     with pytest.raises(AlignmentError, match="ambiguity"):
-        align.estimate_clock(ref, dev, coarse_offset_s=1.0, max_offset_error_s=2.0)
+        clock_fit.estimate_clock(ref, dev, coarse_offset_s=1.0, max_offset_error_s=2.0)
 
 
 def test_two_hours_of_events_at_100_ppm_drift_all_match(synth) -> None:
@@ -163,7 +164,7 @@ def test_two_hours_of_events_at_100_ppm_drift_all_match(synth) -> None:
     drift, offset = 100e-6, 3.217
     dev = (ref - offset) / (1 + drift) + 1e-6 * rng.standard_normal(ref.size)
     dev = dev[(dev > 0) & (dev < 7000)]
-    clock = align.estimate_clock(ref, np.delete(dev, np.arange(0, dev.size, 7)),
+    clock = clock_fit.estimate_clock(ref, np.delete(dev, np.arange(0, dev.size, 7)),
                                  coarse_offset_s=offset - 1.5)
     assert clock.pulses_matched == dev.size - dev[::7].size
     assert abs(clock.drift - drift) * 1e6 < 1e-3

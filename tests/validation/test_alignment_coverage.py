@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rigval.processing.align import estimate_clock
+from rigval.processing.clock_fit import estimate_clock
 
 FS_DEV = 50000.0 / 31.0
 STAMP_RMS_S = 0.02

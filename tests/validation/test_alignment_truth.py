@@ -41,8 +41,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from rigval.processing.alignment import MainAngle, align_streams
 from rigval.processing.alignment_summary import StreamAlignment
+from rigval.processing.stream_alignment import MainAngle, align_streams
 from rigval.sample_data import Imperfections, RigSettings, load_truth, simulate_rig
 from rigval.validation.alignment import alignment_settings
 from rigval.validation.convert import convert_stream

@@ -167,11 +167,12 @@ def test_comparison_title_sits_above_its_key_row() -> None:
     renderer = _renderer(fig)
     top = fig.axes[0]
     title = top._left_title.get_window_extent(renderer)
-    # the key row: three coloured texts above the panel, left to right, none overlapping
+    # the key row: five coloured texts above the panel, left to right, none overlapping
     row = sorted((t.get_window_extent(renderer) for t in top.texts), key=lambda box: box.x0)
     assert [t.get_text() for t in sorted(top.texts, key=lambda t: t.get_window_extent(
         renderer).x0)] == ["band: measured P5-P95 (2 cycles)", "measured mean",
-                           "model +3.21 m s-2 (dashed)"]
+                           "model +3.21 m s-2 (dashed)", "\u25cf peak of the mean",
+                           "\u00d7 model peak"]
     assert all(left.x1 < right.x0 for left, right in itertools.pairwise(row))
     assert row[-1].x1 == pytest.approx(top.bbox.x1, abs=1.0)  # ends at the panel's right edge
     for box in row:
@@ -183,3 +184,61 @@ def test_comparison_title_sits_above_its_key_row() -> None:
     assert "+" not in multiplier.get_text()
     if multiplier.get_text():
         assert not multiplier.get_window_extent(renderer).overlaps(title)
+
+
+def _stress_comparison() -> object:
+    """A strain comparison in Pa, peaks of 7 MPa, model 2 % high, as str1 of the shipped run."""
+    from types import SimpleNamespace
+
+    from rigval.validation.results import ComparisonResult
+
+    angle = np.arange(180) * 2 * np.pi / 180
+    shape = 7.0e6 * np.sin(angle) + 1.0e6 * np.sin(2 * angle + 0.3)
+    return ComparisonResult(
+        spec=SimpleNamespace(name="str1", model="joint_force[P5].x"), units="Pa",
+        long_name="str1", angle=angle, cycles=np.vstack([shape * 0.999, shape * 1.001]),
+        model=1.02 * shape, offset=0.0, scores={}, baseline={}, checks=())
+
+
+def test_stress_is_drawn_in_mpa_with_its_values_scaled() -> None:
+    from rigval.validation.report.plots import display_units, plot_comparison
+
+    assert display_units("Pa", 7.2e6) == (1e-6, "MPa")
+    assert display_units("Pa", 3.0e4) == (1e-3, "kPa")
+    assert display_units("Pa", 12.0) == (1.0, "Pa")
+    assert display_units("N m", 3.0e3) == (1.0, "N m")  # torques stay as the scene gives them
+    comparison = _stress_comparison()
+    fig = plot_comparison(comparison)
+    top, bottom, spectrum = fig.axes
+    _renderer(fig)
+    assert top.get_ylabel() == "str1 [MPa]" and bottom.get_ylabel() == "residual [MPa]"
+    assert spectrum.get_ylabel() == "amplitude [MPa]"
+    mean = next(line for line in top.get_lines() if line.get_label() == "measured mean")
+    # the curve is the mean in MPa: 1e-6 of the Pa values (closed over 360 deg: one more point)
+    np.testing.assert_allclose(mean.get_ydata()[:-1], comparison.mean * 1e-6, rtol=1e-12)
+    labels = [t.get_text() for t in top.get_yticklabels() if t.get_text()]
+    assert labels and all(abs(float(s.replace("\u2212", "-"))) <= 10 for s in labels)
+    assert top.yaxis.get_offset_text().get_text() == ""  # no "1e7" above the axis
+
+
+def test_lower_keys_stand_above_their_panels_and_peaks_are_keyed() -> None:
+    from matplotlib.colors import to_hex
+
+    from rigval.validation.report.plots import PEAK_GLYPHS, plot_comparison
+
+    fig = plot_comparison(_stress_comparison())
+    renderer = _renderer(fig)
+    top, bottom, spectrum = fig.axes
+    for ax, count in ((bottom, 2), (spectrum, 2)):
+        boxes = [t.get_window_extent(renderer) for t in ax.texts]
+        assert len(boxes) == count
+        assert all(box.y0 >= ax.bbox.y1 for box in boxes)  # never over a curve or a bar
+    # the spectrum's key clears the residual panel's x label above it
+    xlabel = bottom.xaxis.label.get_window_extent(renderer)
+    assert all(not xlabel.overlaps(t.get_window_extent(renderer)) for t in spectrum.texts)
+    # each peak marker has a key entry that shows its glyph in the marker's colour
+    keyed = {t.get_text()[0]: to_hex(t.get_color()) for t in top.texts}
+    markers = [line for line in top.get_lines() if line.get_marker() in PEAK_GLYPHS]
+    assert len(markers) == 2
+    for line in markers:
+        assert keyed[PEAK_GLYPHS[line.get_marker()]] == to_hex(line.get_color())

@@ -13,7 +13,7 @@ missing. Pulse quality:
 - ``digital line``: the pulse sampled as a 0/1 logic level by each device's sample clock.
 
 Each choice runs :func:`rigval.processing.pulses.detect_edges` on both devices and
-:func:`rigval.processing.align.estimate_clock`; the error is the rms over several random runs of
+:func:`rigval.processing.clock_fit.estimate_clock`; the error is the rms over several random runs of
 the fitted offset (at the second device's first sample) and drift minus the truth; the time is
 the median over the runs (edge detection on both devices plus the fit). The limit
 column is the least-squares error that the per-edge timing error alone leaves:
@@ -34,7 +34,7 @@ from typing import Literal
 
 import numpy as np
 
-from rigval.processing import align, pulses
+from rigval.processing import clock_fit, pulses
 from rigval.sample_data.synthetic_signals import (
     FS_DEV,
     FS_REF,
@@ -52,10 +52,10 @@ logger = logging.getLogger(__name__)
 BASELINE = "no alignment: start times, no drift"
 
 
-def _fit(run: TwoClockRun, refine: Literal["linear", "sinc"]) -> align.ClockModel:
+def _fit(run: TwoClockRun, refine: Literal["linear", "sinc"]) -> clock_fit.ClockModel:
     ref = pulses.detect_edges(run.x_ref, run.t_ref, refine=refine, holdoff_s=0.3)
     dev = pulses.detect_edges(run.x_dev, run.t_dev, refine=refine, holdoff_s=0.3)
-    return align.estimate_clock(ref, dev, coarse_offset_s=run.coarse_offset_s,
+    return clock_fit.estimate_clock(ref, dev, coarse_offset_s=run.coarse_offset_s,
                                 max_offset_error_s=0.2)
 
 

@@ -13,7 +13,7 @@ import sys
 import time
 from typing import TYPE_CHECKING, Any, TextIO
 
-from rigval.validation.commands.common import add_command, add_out_option
+from rigval.validation.commands.common import add_command, add_out_option, scene_file
 
 if TYPE_CHECKING:
     from rigval.validation.campaign.engine import RunOutcome
@@ -32,7 +32,8 @@ def add_parser(subparsers: Any) -> None:
         exit_codes="0 all passed, 1 some run failed its thresholds, 2 usage error, "
                    "3 some run could not be validated (the others still complete).",
     )
-    parser.add_argument("scenes", nargs="+", metavar="SCENE", help="scene files, one per run")
+    parser.add_argument("scenes", nargs="+", type=scene_file, metavar="SCENE",
+                        help="scene files, one per run")
     add_out_option(parser, "campaign folder")
     parser.add_argument("--workers", type=_positive_int, metavar="N",
                         help="runs at a time: worker processes of the embedded Dask cluster or "

@@ -23,7 +23,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from rigval.validation.commands.common import add_command
+from rigval.validation.commands.common import add_command, add_out_option
 
 if TYPE_CHECKING:
     from rigval.validation.campaign.engine import RunOutcome, RunReport
@@ -43,7 +43,7 @@ def add_parser(subparsers: Any) -> None:
         description="Validate the sample runs shipped with rigval (virtual-rig data at several "
                     "speeds) and write one report folder per run plus an index page.",
         exit_codes="0 all runs met their thresholds, 1 a threshold failed, 3 data error.")
-    parser.add_argument("--out", type=Path, required=True, help="output folder (created)")
+    add_out_option(parser)
     parser.add_argument("--workers", type=int, default=None,
                         help="parallel runs (default: one per core, at most one per run; 1: "
                              "one after the other in this process)")

@@ -12,7 +12,7 @@ import json
 import sys
 from typing import Any
 
-from rigval.validation.commands.common import add_command
+from rigval.validation.commands.common import add_command, input_file
 
 __all__ = ["add_parser", "run"]
 
@@ -24,7 +24,7 @@ def add_parser(subparsers: Any) -> None:
         help="describe TDMS, LVM and CSV files (streams, channels, rates, gaps)",
         description="Describe data files: groups, channels, rates, lengths, units, start times "
                     "and gaps. TDMS files are described from their metadata only.")
-    parser.add_argument("files", nargs="+", metavar="FILE", help="data files")
+    parser.add_argument("files", nargs="+", type=input_file, metavar="FILE", help="data files")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.add_argument("--all-groups", action="store_true",
                         help="include SignalExpress decimated groups")
@@ -82,7 +82,10 @@ def _reader_options(path: str, timezone: str | None) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Describe each file; return 0, or 3 if any file could not be read."""
+    """Describe each file; return 0, or 3 if any file could not be read.
+
+    A missing file ends the command with code 2 before any file is read (:func:`input_file`).
+    """
     from rigval.acquisition.errors import RigvalError
     from rigval.acquisition.summary import describe
 

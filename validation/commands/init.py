@@ -10,10 +10,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 from typing import Any
 
-from rigval.validation.commands.common import add_command
+from rigval.validation.commands.common import add_command, input_file, out_file
 
 __all__ = ["add_parser", "run"]
 
@@ -27,10 +26,10 @@ def add_parser(subparsers: Any) -> None:
                     "with units and rates, guessed device profiles and sensor kinds, the "
                     "alignment and comparison blocks. What the files cannot tell is marked "
                     "TODO; rigval validate refuses the scene until each TODO is filled.",
-        exit_codes="0 written, 2 bad option or existing --out (use --force), 3 a file "
+        exit_codes="0 written, 2 bad option, missing FILE or existing --out (use --force), 3 a file "
                    "cannot be read.")
-    parser.add_argument("files", nargs="+", type=Path, metavar="FILE", help="data files")
-    parser.add_argument("--out", type=Path, required=True, help="scene file to write (TOML)")
+    parser.add_argument("files", nargs="+", type=input_file, metavar="FILE", help="data files")
+    parser.add_argument("--out", type=out_file, required=True, help="scene file to write (TOML)")
     parser.add_argument("--mechanism", metavar="M", default=None,
                         help="builtin:NAME or a mechanism file (default: TODO in the scene)")
     parser.add_argument("--force", action="store_true", help="overwrite --out")

@@ -12,7 +12,7 @@ import shlex
 from pathlib import Path
 from typing import Any
 
-from rigval.validation.commands.common import add_command
+from rigval.validation.commands.common import add_command, out_folder
 
 __all__ = ["add_parser", "run"]
 
@@ -37,8 +37,8 @@ def add_parser(subparsers: Any) -> None:
                          exit_codes="0 ok, 2 usage or configuration error, 3 data or model error.")
     parser.add_argument("mechanism", metavar="MECHANISM",
                         help="mechanism TOML file, or builtin:NAME (e.g. builtin:pendulum)")
-    parser.add_argument("--out", metavar="DIR", help="report folder (required unless "
-                                                       "--list-drivers)")
+    parser.add_argument("--out", type=out_folder, metavar="DIR",
+                        help="report folder (required unless --list-drivers)")
     parser.add_argument("--list-drivers", action="store_true",
                         help="print the mechanism's drivers and their laws from the file, "
                              "then stop")

@@ -42,7 +42,7 @@ def print_summary(result: Any, out_dir: Path, stream: TextIO | None = None) -> N
     stream : file, optional
         Where to print; default standard output.
     """
-    from rigval.validation.verdict import run_verdict
+    from rigval.validation.verdict import failure_reasons, run_verdict
 
     stream = stream or sys.stdout
     print(run_verdict(result)["statement"], file=stream)
@@ -53,9 +53,8 @@ def print_summary(result: Any, out_dir: Path, stream: TextIO | None = None) -> N
         scores = comparison.scores
         rating = scores.get("iso18571_periodic.rating", float("nan"))
         grade = scores.get("iso18571_periodic.grade", "")
-        failed = [f"{c.metric} {c.value:.4g} (needs {c.threshold})" for c in comparison.checks
-                  if not c.passed]
-        verdict = "pass" if comparison.passed else "FAIL: " + "; ".join(failed)
+        verdict = ("pass" if comparison.passed
+                   else "FAIL: " + "; ".join(failure_reasons(comparison)))
         vv20 = ("error detected" if scores.get("vv20.curve.detected") else
                 "not detected" if "vv20.curve.detected" in scores else "not computed")
         ratio = scores.get("vv20.curve.normalised_error", float("nan")) / scores.get(

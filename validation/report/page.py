@@ -193,6 +193,12 @@ class Page:
         attr = f' class="{escape(css_class)}"' if css_class else ""
         self._parts.append(f"<p{attr}>{escape(text)}</p>")
 
+    def items(self, texts: Iterable[str], *, css_class: str | None = None) -> None:
+        """Add a bulleted list of plain (escaped) texts, optionally with a CSS class."""
+        attr = f' class="{escape(css_class)}"' if css_class else ""
+        self._parts.append(f"<ul{attr}>" + "".join(f"<li>{escape(text)}</li>" for text in texts)
+                           + "</ul>")
+
     def facts(self, items: Mapping[str, Any]) -> None:
         """Add a key-value list (a ``<dl>``), values formatted by :func:`format_value`."""
         rows = "".join(f"<dt>{escape(k)}</dt><dd>{escape(format_value(v))}</dd>"

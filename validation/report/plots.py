@@ -23,6 +23,7 @@ from matplotlib.transforms import ScaledTranslation
 from rigval.validation.results import ComparisonResult, StreamAlignment
 
 __all__ = [
+    "display_units",
     "honest_ylim",
     "plot_clock_residuals",
     "plot_comparison",
@@ -51,10 +52,39 @@ TITLE_PAD = 15.0
 #: Distance of an x label's top under its axes, points: tick length 3.5, pad 3.5, a line of
 #: 10 pt tick labels and the label pad 4 (matplotlib's defaults, as it would place it).
 XLABEL_DROP = 21.0
-#: Line spacing of a panel key (:func:`_key`), points (font size 8 plus the white box around).
-KEY_LINE = 11.0
 #: Space between the entries of a key row (:func:`_key_row`), points.
 KEY_GAP = 14.0
+#: The text that stands for a peak marker in a key, by matplotlib marker.
+PEAK_GLYPHS = {"o": "\u25cf", "x": "\u00d7"}
+#: SI prefixes a figure may put before a unit it shows (:func:`display_units`).
+_PREFIXES = ((1e9, "G"), (1e6, "M"), (1e3, "k"))
+#: Units shown with a prefix when the values reach a thousand (stresses: MPa, not 1e7 Pa).
+PREFIXED_UNITS = frozenset({"Pa"})
+
+
+def display_units(units: str, largest: float) -> tuple[float, str]:
+    """Return the factor and the unit a figure shows values of ``units`` in.
+
+    Stresses in Pa read as MPa (or kPa, GPa): axis labels of 2.5e7 with an offset are hard to
+    read. Other units are shown as they are.
+
+    Parameters
+    ----------
+    units : str
+        The values' unit, e.g. ``"Pa"``.
+    largest : float
+        The largest absolute value to be shown, in ``units``.
+
+    Returns
+    -------
+    tuple of (float, str)
+        Multiply the values by the factor to show them in the returned unit.
+    """
+    if units in PREFIXED_UNITS and np.isfinite(largest):
+        for size, prefix in _PREFIXES:
+            if largest >= size:
+                return 1.0 / size, prefix + units
+    return 1.0, units
 
 
 def _figure(width: float, height: float) -> Figure:
@@ -206,9 +236,10 @@ class _ComparisonFigure:
         self.spectrum.set_xticks(order)
         _xlabel(self.spectrum, "order (harmonic of the shaft speed)")
         self.spectrum.grid(True, axis="y", lw=0.4, alpha=0.6)
-        _key(self.bottom, (("model - measured mean", MODEL),
-                           ("band: measured P5-P95 about the mean", MEASURED)))
-        _key(self.spectrum, (("measured mean", MEASURED), ("model", MODEL)))
+        # the keys of the lower panels stand above them, never over a curve or a bar
+        _key_row(self.bottom, (("band: measured P5-P95 about the mean", MEASURED),
+                               ("model - measured mean", MODEL)))
+        _key_row(self.spectrum, (("measured mean", MEASURED), ("model", MODEL)))
         self.drawn: list[object] = []
 
     def _clear(self) -> None:
@@ -223,10 +254,11 @@ class _ComparisonFigure:
         """Draw one comparison (see :func:`plot_comparison`) and return the figure."""
         self._clear()
         top, bottom, spectrum, orders = self.top, self.bottom, self.spectrum, self.orders
-        low, high = result.band
-        mean = result.mean
-        x, cycles, mean_c, low_c, high_c, model_c = _closed(result.angle, result.cycles, mean,
-                                                            low, high, result.model)
+        factor, units = display_units(result.units, float(np.max(np.abs(result.cycles))))
+        low, high = (factor * band for band in result.band)
+        mean, model = factor * result.mean, factor * result.model
+        x, cycles, mean_c, low_c, high_c, model_c = _closed(result.angle, factor * result.cycles,
+                                                            mean, low, high, model)
         drawn = self.drawn
         drawn.append(top.add_collection(LineCollection(
             [np.column_stack([x, c]) for c in cycles], colors=CYCLES, linewidths=0.5,
@@ -235,12 +267,12 @@ class _ComparisonFigure:
                                       label=f"measured P5-P95 ({result.cycles.shape[0]} cycles)"))
         drawn += top.plot(x, mean_c, color=MEASURED, lw=1.8, label="measured mean")
         model_label = ("model" if result.offset == 0
-                       else f"model {result.offset:+.3g} {result.units}")
+                       else f"model {factor * result.offset:+.3g} {units}")
         drawn += top.plot(x, model_c, color=MODEL, lw=1.6, ls="--", label=model_label)
-        for values, color, marker in ((mean, MEASURED, "o"), (result.model, MODEL, "x")):
+        for values, color, marker in ((mean, MEASURED, "o"), (model, MODEL, "x")):
             peak = int(np.argmax(np.abs(values)))
             drawn += top.plot(x[peak], values[peak], marker, color=color, ms=7, mew=2)
-        top.set_ylabel(f"{result.name} [{result.units}]")
+        top.set_ylabel(f"{result.name} [{units}]")
         top.set_title(f"{result.name} against {result.spec.model}", loc="left", fontsize=10,
                       y=1.0, pad=TITLE_PAD)
         for ax in (top, bottom, spectrum):
@@ -249,20 +281,21 @@ class _ComparisonFigure:
                 formatter.set_useOffset(False)
         drawn += _key_row(top, ((f"band: measured P5-P95 ({result.cycles.shape[0]} cycles)",
                                  MEASURED), ("measured mean", MEASURED),
-                                (f"{model_label} (dashed)", MODEL)))
+                                (f"{model_label} (dashed)", MODEL),
+                                (f"{PEAK_GLYPHS['o']} peak of the mean", MEASURED),
+                                (f"{PEAK_GLYPHS['x']} model peak", MODEL)))
         drawn.append(bottom.fill_between(x, low_c - mean_c, high_c - mean_c, color=BAND,
                                          alpha=0.6, lw=0,
                                          label="measured P5-P95 about the mean"))
         drawn += bottom.plot(x, model_c - mean_c, color=MODEL, lw=1.2,
                              label="model - measured mean")
         drawn.append(bottom.axhline(0.0, color="black", lw=0.6))
-        bottom.set_ylabel(f"residual [{result.units}]")
+        bottom.set_ylabel(f"residual [{units}]")
         order = np.arange(1, orders + 1)
         drawn.append(_bars(spectrum, order - 0.4, _harmonics(mean, orders), 0.4, MEASURED,
                            "measured mean"))
-        drawn.append(_bars(spectrum, order, _harmonics(result.model, orders), 0.4, MODEL,
-                           "model"))
-        spectrum.set_ylabel(f"amplitude [{result.units}]")
+        drawn.append(_bars(spectrum, order, _harmonics(model, orders), 0.4, MODEL, "model"))
+        spectrum.set_ylabel(f"amplitude [{units}]")
         return self.fig
 
 
@@ -329,21 +362,6 @@ def _key_row(ax: Axes, entries: Sequence[tuple[str, str]]) -> list[object]:
         texts.append(ax.annotate(text, **where, textcoords="offset points", ha="right",
                                  va="bottom", fontsize=8, color=color))
     return texts
-
-
-def _key(ax: Axes, entries: Sequence[tuple[str, str]]) -> list[object]:
-    """Write a key into the panel's upper right corner: one line per entry, in its colour.
-
-    A stack of coloured texts draws in a fraction of the time of a :meth:`Axes.legend`, whose
-    boxes are measured several times per draw. ``ax`` and ``entries`` (text and colour, here
-    top to bottom) are those of :func:`_key_row`; returns the text artists, top to bottom.
-    """
-    return [ax.annotate(text, (0.99, 0.96), xycoords="axes fraction",
-                        xytext=(0.0, -KEY_LINE * row), textcoords="offset points", ha="right",
-                        va="top", fontsize=8, color=color,
-                        bbox={"boxstyle": "square,pad=0.15", "fc": "white", "ec": "none",
-                              "alpha": 0.85})
-            for row, (text, color) in enumerate(entries)]
 
 
 def plot_pulse_edges(alignment: Mapping[str, StreamAlignment], *, width: float = 9.0) -> Figure:

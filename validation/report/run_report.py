@@ -38,7 +38,7 @@ from rigval.validation.report.page import Page
 from rigval.validation.report.why import why_section
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.scene_types import Scene
-from rigval.validation.verdict import run_verdict
+from rigval.validation.verdict import failure_reasons, run_verdict
 from rigval.validation.version import rigval_version
 
 __all__ = ["write_metrics", "write_netcdf", "write_report"]
@@ -153,21 +153,29 @@ def _metric_table(comparison: ComparisonResult, *, everything: bool = False
 
 
 def _summary_rows(result: ValidationResult) -> list[dict[str, Any]]:
-    rows = []
-    for c in result.comparisons:
-        failed = [ch.metric for ch in c.checks if not ch.passed]
-        rows.append({
-            "comparison": c.name, "measured": c.spec.measured_text, "model": str(c.spec.model),
-            "scale": c.spec.scale, "unit": c.units,
-            "V&V 20": "detected" if c.scores.get("vv20.curve.detected") else "not detected",
-            "E": c.scores.get("vv20.curve.error"), "u_val": c.scores.get("vv20.curve.u_val"),
-            "ISO rating": c.scores.get("iso18571_periodic.rating"),
-            "grade": c.scores.get("iso18571_periodic.grade"),
-            "NRMSE": c.scores.get("nrmse"), "r": c.scores.get("pearson_r"),
-            "status": "pass" if c.passed else "fail",
-            "failed thresholds": ", ".join(failed),
-        })
-    return rows
+    """One row per comparison, the status first: narrow enough for a 1024 px window.
+
+    Why a comparison failed is listed above the table (:func:`failure_reasons`).
+    """
+    return [{
+        "comparison": c.name, "status": "pass" if c.passed else "fail",
+        "V&V 20": "detected" if c.scores.get("vv20.curve.detected") else "not detected",
+        "E": c.scores.get("vv20.curve.error"), "u_val": c.scores.get("vv20.curve.u_val"),
+        "unit": c.units, "ISO rating": c.scores.get("iso18571_periodic.rating"),
+        "grade": c.scores.get("iso18571_periodic.grade"),
+        "NRMSE": c.scores.get("nrmse"), "r": c.scores.get("pearson_r"),
+        "revolutions": int(c.cycles.shape[0]),
+    } for c in result.comparisons]
+
+
+def _revolutions_text(result: ValidationResult) -> str:
+    """Return the revolutions recorded, and those each comparison used where fewer were valid."""
+    used = sorted({int(c.cycles.shape[0]) for c in result.comparisons})
+    if used in ([], [result.n_cycles]):
+        return f"{result.n_cycles}"
+    span = f"{used[0]}" if len(used) == 1 else f"{used[0]}-{used[-1]}"
+    return (f"{result.n_cycles} of the main shaft; {span} by comparison (column 'revolutions': "
+            "revolutions with a gap in a stream are left out of its comparisons)")
 
 
 def _drives_text(result: ValidationResult) -> str:
@@ -187,13 +195,20 @@ def _drives_text(result: ValidationResult) -> str:
 
 
 def _alignment_rows(result: ValidationResult) -> list[dict[str, Any]]:
+    """Return the clock model of each stream (the first of the two alignment tables)."""
     return [{"stream": name, "device": a.device, "offset [s]": f"{a.offset_s:.6f}",
-             "drift [ppm]": a.drift_ppm, "residual rms [µs]": a.residual_rms_s * 1e6,
-             "pulses matched": a.events_matched, "missing": a.events_missing,
-             "spurious": a.events_spurious, "input delay [ms]": a.input_delay_s * 1e3,
-             "segments": a.segments, "gaps": len(a.gaps),
-             "offset ±95 % [µs]": a.offset_u95_s * 1e6, "drift ±95 % [ppm]": a.drift_u95_ppm,
+             "offset ±95 % [µs]": a.offset_u95_s * 1e6, "drift [ppm]": a.drift_ppm,
+             "drift ±95 % [ppm]": a.drift_u95_ppm, "residual rms [µs]": a.residual_rms_s * 1e6,
+             "input delay [ms]": a.input_delay_s * 1e3}
+            for name, a in result.alignment.items()]
+
+
+def _pulse_rows(result: ValidationResult) -> list[dict[str, Any]]:
+    """Return each stream's reference pulses and segments (the second alignment table)."""
+    return [{"stream": name, "pulses matched": a.events_matched, "missing": a.events_missing,
+             "spurious": a.events_spurious,
              "periods decided by": a.periods_decided_by or "reference",
+             "segments": a.segments, "gaps": len(a.gaps),
              "samples dropped": sum(int(r["samples_dropped"]) for r in a.segment_table)}
             for name, a in result.alignment.items()]
 
@@ -229,12 +244,18 @@ def _summary(page: Page, result: ValidationResult, status: str) -> None:
     page.paragraph(f"ASME V&V 20: {verdict['statement']}",
                    css_class="bad" if verdict["detected"] else "ok")
     page.paragraph(f"Result: {status}", css_class="ok" if result.passed else "bad")
+    failed = [c for c in result.comparisons if not c.passed]
+    if failed:
+        page.paragraph(f"{len(failed)} of {len(result.comparisons)} comparisons failed a "
+                       "threshold:")
+        page.items([f"{c.name}: {'; '.join(failure_reasons(c))}" for c in failed],
+                   css_class="failures")
     page.facts({
         "scene": scene.path, "scene sha256": scene.sha256, "mechanism": scene.mechanism,
         "drives": _drives_text(result),
         "angle grid": f"{scene.angle.points_per_revolution} points per revolution, "
                       f"{scene.angle.interpolation} interpolation",
-        "revolutions compared": result.n_cycles,
+        "revolutions compared": _revolutions_text(result),
         "mean main-shaft speed [rev/s]": result.speed_rev_s,
     })
     note = _note_block(scene)
@@ -281,6 +302,7 @@ def _alignment(page: Page, result: ValidationResult) -> None:
     page.table(_alignment_rows(result),
                caption="clock model per stream: t_ref = offset + (1 + drift) t_device per "
                        "gap-free segment, fitted on the reference pulses")
+    page.table(_pulse_rows(result), caption="reference pulses and segments per stream")
     dropped = _dropped_rows(result)
     if dropped:
         page.table(dropped, caption="samples that could not be aligned (marked invalid, left "

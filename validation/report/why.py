@@ -38,7 +38,8 @@ def _attribution_rows(diagnosis: Diagnosis) -> list[dict[str, Any]]:
     return [{"comparison": name, "verdict": "detected" if s.detected else "not detected",
              "most likely cause": s.cause or "-", "chosen": "yes" if s.significant else "no",
              "size": _size(s), "weight": round(s.weight, 3),
-             "other class's best": s.alternative or "-", "its weight": round(s.alternative_weight, 3),
+             "other class's best": s.alternative or "-",
+             "its weight": round(s.alternative_weight, 3),
              "cannot be told from": s.confusable_with or "-"}
             for name, s in diagnosis.causes.items()]
 

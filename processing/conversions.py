@@ -118,7 +118,7 @@ def _with_variable(ds: xr.Dataset, name: str, values: NDArray[np.float64], sourc
              **{f"conversion_{k}": v for k, v in parameters.items() if v is not None}}
     out = ds.copy()
     out[name] = ("time", values, attrs)
-    append_history(out, f"processing.convert {source_name} -> {name}: {conversion}")
+    append_history(out, f"processing.conversions {source_name} -> {name}: {conversion}")
     return out
 
 

@@ -4,7 +4,7 @@
 main-shaft encoder (smoothed, never differenced raw, :func:`rigval.processing.angle.phi_f`) is
 zero at the main reference pulse; each other stream's clock (offset and drift per gap-free
 segment) is fitted on its reference pulses against the events the encoder angle predicts
-(:func:`rigval.processing.align.estimate_clock`), with module input delays removed, within the
+(:func:`rigval.processing.clock_fit.estimate_clock`), with module input delays removed, within the
 window its start stamps allow (:func:`rigval.processing.stamps.coarse_offset`); segments a
 dropout did not restart keep one offset, and every offset's 95 % interval includes the
 uncertainty of phi_F = 0. The inputs are plain settings (:class:`AlignmentSettings`, which a
@@ -29,8 +29,8 @@ from scipy.stats import t as student_t
 from rigval.acquisition.channel_map import ChannelSpec
 from rigval.acquisition.devices import get_module
 from rigval.acquisition.errors import ChannelNotFoundError, DataError
-from rigval.processing import align
 from rigval.processing import alignment_summary as diagnose
+from rigval.processing import clock_fit
 from rigval.processing.alignment_summary import StreamAlignment
 from rigval.processing.angle import phi_f
 from rigval.processing.encoder import increasing_angle
@@ -176,7 +176,7 @@ def _main_angle(settings: AlignmentSettings, ref: xr.Dataset) -> tuple[MainAngle
                   index_reset=bool(encoder.params.get("index_reset", False)), derivatives=False)
     # a counter has no input delay: its times are the time axis itself, not a copy (memory)
     delayed = float(ref[encoder.name].attrs.get("input_delay_s", 0.0)) != 0.0
-    time = align.channel_time(ref, encoder.name) if delayed else ref["time"].to_numpy()
+    time = clock_fit.channel_time(ref, encoder.name) if delayed else ref["time"].to_numpy()
     try:  # the finite samples, copied only when some are not
         t, phi = increasing_angle(time, angle["phi_F"].to_numpy(), use="(phi_F)")
     except DataError:
@@ -196,7 +196,7 @@ def _main_angle(settings: AlignmentSettings, ref: xr.Dataset) -> tuple[MainAngle
 
 def _fit_clock(events: np.ndarray, found: StreamPulses, coarse: CoarseOffset,
                groups: Mapping[int, int], clock: ClockSettings, name: str,
-               where: Mapping[str, Any]) -> align.ClockModel:
+               where: Mapping[str, Any]) -> clock_fit.ClockModel:
     """Fit the stream's clock on its pulses; segments grouped by a running clock first."""
     edges, segments = found.times[~found.spurious], found.segment[~found.spurious]
     key = clock.key or name
@@ -208,11 +208,11 @@ def _fit_clock(events: np.ndarray, found: StreamPulses, coarse: CoarseOffset,
               "settle_keys": (f"{key}.coarse_offset_s", f"{key}.start_time_uncertainty_s")}
     if len(set(groups.values())) < len(groups):
         try:
-            return align.estimate_clock(events, edges, segments, clock_groups=groups, **kwargs)
+            return clock_fit.estimate_clock(events, edges, segments, clock_groups=groups, **kwargs)
         except AlignmentError as error:
             logger.info("%s: one clock across the dropouts does not fit (%s); a clock per "
                         "segment", name, error)
-    return align.estimate_clock(events, edges, segments, **kwargs)
+    return clock_fit.estimate_clock(events, edges, segments, **kwargs)
 
 
 def _reference(settings: AlignmentSettings, ref: xr.Dataset
@@ -226,7 +226,7 @@ def _reference(settings: AlignmentSettings, ref: xr.Dataset
                                                      math.floor(main.phi[-1] / (2 * np.pi)) + 1))
     residual, matched = diagnose.event_residuals(pulses, expected, period)
     summary = diagnose.stream_summary(
-        settings.reference, ref, align.identity_clock(), is_reference=True,
+        settings.reference, ref, clock_fit.identity_clock(), is_reference=True,
         residual_time=pulses, residual=residual[matched], matched=int(matched.sum()),
         missing=max(expected.size - int(matched.sum()), 0),
         spurious=int(ref_pulses.spurious.sum()))
@@ -247,13 +247,13 @@ def _align_by_pulses(name: str, stream: xr.Dataset, clock: ClockSettings, coarse
                              hint='name its pulse channel or use method = "stamps"')
     found = _pulses(stream, clock.pulse)
     edges, segments = found.times[~found.spurious], found.segment[~found.spurious]
-    events = align.reference_event_times(main.time, main.phi, event_angle=clock.angle,
+    events = clock_fit.reference_event_times(main.time, main.phi, event_angle=clock.angle,
                                          events_per_rev=clock.per_revolution)
     where = {"stream": name, "channel": clock.pulse.name}
     model = _fit_clock(events, found, coarse, clock_groups(stream), clock, name, where)
     model = dataclasses.replace(model, offsets_u95_s=tuple(
         float(np.hypot(u, main.zero_u95_s)) for u in model.offsets_u95_s))
-    aligned = align.align_stream(stream, model, name=name, reference_start=reference_start,
+    aligned = clock_fit.align_stream(stream, model, name=name, reference_start=reference_start,
                                  device_time=device_time)
     mapped = model.to_reference(edges, segments)
     mapped = mapped[np.isfinite(mapped)]
@@ -285,7 +285,7 @@ def align_streams(settings: AlignmentSettings, converted: Mapping[str, xr.Datase
         stream named in ``settings`` must be there.
     device_time : bool, default True
         Keep each stream's ``device_time`` coordinate
-        (:func:`~rigval.processing.align.align_stream`); False: memory for callers that never
+        (:func:`~rigval.processing.clock_fit.align_stream`); False: memory for callers that never
         read it.
 
     Returns
@@ -305,9 +305,9 @@ def align_streams(settings: AlignmentSettings, converted: Mapping[str, xr.Datase
         When the reference stream has too few pulses or its encoder angle does not increase.
     """
     reference = settings.reference
-    ref = align.align_stream(converted[reference],
-                             align.identity_clock(converted[reference]["segment"]), name=reference,
-                             device_time=device_time)
+    ref = clock_fit.align_stream(converted[reference],
+                                 clock_fit.identity_clock(converted[reference]["segment"]),
+                                 name=reference, device_time=device_time)
     main, ref_summary, pulses, period = _reference(settings, ref)
     aligned = {reference: ref}
     diagnostics = {reference: ref_summary}
@@ -318,7 +318,7 @@ def align_streams(settings: AlignmentSettings, converted: Mapping[str, xr.Datase
                                uncertainty_s=clock.start_time_uncertainty_s)
         if clock.method == "stamps":
             model = stamps_clock(stream, ref, coarse)
-            aligned[name] = align.align_stream(stream, model, name=name,
+            aligned[name] = clock_fit.align_stream(stream, model, name=name,
                                                reference_start=ref.attrs["start_time"],
                                                device_time=device_time)
             diagnostics[name] = dataclasses.replace(diagnose.stream_summary(
