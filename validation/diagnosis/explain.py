@@ -28,6 +28,7 @@ from rigval.validation.diagnosis.causes import (
     independent_sets,
     subset,
 )
+from rigval.validation.diagnosis.rigidity import run_rigidity
 from rigval.validation.diagnosis.symmetry import (
     AxialBending,
     PairShares,
@@ -301,7 +302,9 @@ def attach_diagnosis(result: ValidationResult,
     result : ValidationResult
         The validated run (changed in place).
     modes : mapping, optional
-        As for :func:`diagnose`.
+        As for :func:`diagnose`; default: the resonances
+        :func:`rigval.validation.diagnosis.rigidity.run_rigidity` finds in each comparison
+        whose aligned stream the run kept (none otherwise).
 
     Returns
     -------
@@ -309,6 +312,9 @@ def attach_diagnosis(result: ValidationResult,
         The same object.
     """
     start = time.perf_counter()
+    if modes is None:
+        modes = {name: [(r.frequency_hz, r.damping) for r in evidence.resonances]
+                 for name, evidence in run_rigidity(result).items()}
     result.diagnosis = diagnose(result, modes)
     result.tree["/diagnosis"] = xr.DataTree(result.diagnosis.dataset())
     logger.info("diagnosis: %.3f s", time.perf_counter() - start)
