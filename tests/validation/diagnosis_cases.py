@@ -59,7 +59,9 @@ def run_case(case: str, seed: int, folder: Path, *, duration: float = 20.0) -> d
     Returns
     -------
     dict
-        ``case``, ``seed``, ``detected`` (comparison names the verdict detects), ``causes``
+        ``case``, ``seed``, ``detected`` (comparison names the verdict detects), ``ratios``
+        (comparison -> ``|E| / (k u_val)``, the larger of the curve's and the common gain's),
+        ``causes``
         (comparison -> the statement as a dict), ``pair`` (the symmetry pair's scores or None)
         and ``truth`` (the departures' record).
     """
@@ -77,6 +79,7 @@ def run_case(case: str, seed: int, folder: Path, *, duration: float = 20.0) -> d
     return {"case": case, "seed": seed,
             "detected": [c.name for c in result.comparisons
                          if comparison_verdict(c)["detected"]],
+            "ratios": {c.name: comparison_verdict(c)["ratio"] for c in result.comparisons},
             "causes": {name: {**dataclasses.asdict(s), "sentence": s.sentence}
                        for name, s in diagnosis.causes.items()},
             "pair": None if pair is None else pair.as_dict(),
