@@ -18,7 +18,7 @@ from rigval.sample_data import RigSettings, simulate_rig
 from rigval.sample_data.departures import Departures
 from rigval.validation.diagnosis.explain import diagnose
 from rigval.validation.pipeline import run_scene
-from rigval.validation.verdict import comparison_verdict
+from rigval.validation.verdict import comparison_verdict, run_verdict
 
 #: The symmetry pair of the main drive's shafts as the rig's scene states their calibration:
 #: 1 %, 0.98 % of it common to the shafts (one gauge lot, one steel, one drawing).
@@ -61,6 +61,7 @@ def run_case(case: str, seed: int, folder: Path, *, duration: float = 20.0) -> d
     dict
         ``case``, ``seed``, ``detected`` (comparison names the verdict detects), ``ratios``
         (comparison -> ``|E| / (k u_val)``, the larger of the curve's and the common gain's),
+        ``family`` (the run's statements together, :func:`rigval.validation.verdict.run_verdict`),
         ``causes``
         (comparison -> the statement as a dict), ``pair`` (the symmetry pair's scores or None)
         and ``truth`` (the departures' record).
@@ -80,6 +81,7 @@ def run_case(case: str, seed: int, folder: Path, *, duration: float = 20.0) -> d
             "detected": [c.name for c in result.comparisons
                          if comparison_verdict(c)["detected"]],
             "ratios": {c.name: comparison_verdict(c)["ratio"] for c in result.comparisons},
+            "family": run_verdict(result)["family"],
             "causes": {name: {**dataclasses.asdict(s), "sentence": s.sentence}
                        for name, s in diagnosis.causes.items()},
             "pair": None if pair is None else pair.as_dict(),
