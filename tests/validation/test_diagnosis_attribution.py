@@ -121,3 +121,14 @@ def test_collinear_causes_are_reported_as_confusable() -> None:
     out = attribute([Block("c", _cycles(0.03 * MODEL, 13), 8)], causes)
     assert out.confusable
     assert {out.confusable[0][0], out.confusable[0][1]} == {"gain c", "B.inertia"}
+
+
+def test_mode_effect_is_the_amplification_minus_one_per_order() -> None:
+    from rigval.validation.diagnosis.causes import mode_effect
+
+    speed, fn, zeta = 2.0, 17.0, 0.03
+    load = 5.0 * np.cos(3.0 * PHI + 0.2)   # order 3 at 6 Hz
+    r = 3.0 * speed / fn
+    h = 1.0 / (1.0 - r**2 + 2j * zeta * r)
+    expect = np.real(5.0 * np.exp(0.2j) * (h - 1.0) * np.exp(3j * PHI))
+    np.testing.assert_allclose(mode_effect(load, speed, fn, zeta), expect, atol=1e-12)

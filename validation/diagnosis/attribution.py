@@ -41,7 +41,7 @@ from rigval.acquisition.errors import DataError
 from rigval.acquisition.threads import single_blas_thread
 
 __all__ = ["ALPHA", "KINDS", "MAX_CAUSES", "Attribution", "Block", "Cause", "Evidence", "Found",
-           "Nuisance", "attribute", "order_coefficients"]
+           "Nuisance", "Sized", "attribute", "order_coefficients"]
 
 logger = logging.getLogger(__name__)
 
@@ -139,62 +139,58 @@ class Nuisance:
 
 
 @dataclasses.dataclass(frozen=True)
-class Found:
-    """A chosen cause and its fitted size.
+class Sized:
+    """A cause and its fitted size.
 
     Attributes
     ----------
     name, kind, unit, meaning : str
-        As the :class:`Cause`.
+        As the :class:`Cause` (``"no cause"``, kind ``"none"``: none).
     value, std : float
         Fitted coefficient and its standard uncertainty (Birge-widened), in ``unit``.
     relative, relative_std : float
         ``value / nominal`` and its uncertainty (NaN without a nominal).
+    """
+
+    name: str
+    kind: str
+    unit: str
+    meaning: str
+    value: float
+    std: float
+    relative: float
+    relative_std: float
+
+
+@dataclasses.dataclass(frozen=True)
+class Found(Sized):
+    """A chosen cause, its size fitted with the other chosen causes.
+
+    Attributes
+    ----------
     delta_chi2 : float
         How much adding it lowered ``chi^2``.
     comparisons : tuple of str
         The comparisons it touches.
     """
 
-    name: str
-    kind: str
-    unit: str
-    meaning: str
-    value: float
-    std: float
-    relative: float
-    relative_std: float
     delta_chi2: float
     comparisons: tuple[str, ...]
 
 
 @dataclasses.dataclass(frozen=True)
-class Evidence:
-    """One candidate of the first selection step, alone.
+class Evidence(Sized):
+    """One candidate of the first selection step, its size fitted alone (NaN for "no cause").
 
     Attributes
     ----------
-    name, kind, unit, meaning : str
-        The cause.
-    value, std : float
-        Its size fitted alone and the standard uncertainty (Birge-widened); NaN for "no cause".
-    relative, relative_std : float
-        Relative to the cause's nominal value (NaN without one).
     chi2 : float
         ``chi^2`` of the residual with this cause alone.
     weight : float
         Its share of the evidence among all single causes and "no cause" (quasi-likelihood
-        weights ``exp(-(chi2 - chi2_min) / (2 B))``, ``B`` the Birge ratio, normalised).
+        weights ``exp(-(chi2 - chi2_min) / (2 B^2))``, ``B`` the Birge ratio, normalised).
     """
 
-    name: str
-    kind: str
-    unit: str
-    meaning: str
-    value: float
-    std: float
-    relative: float
-    relative_std: float
     chi2: float
     weight: float
 
