@@ -97,3 +97,24 @@ def test_bad_symmetry_pair_is_refused(rig_scene: Path, table: str, message: str)
     with pytest.raises(ConfigError, match=message) as caught:
         parse_scene(text, rig_scene)
     assert caught.value.where["key"].startswith("symmetry[0]")
+
+
+@pytest.mark.slow
+def test_face_pair_bending_scales_with_the_rigs_bending(tmp_path: Path) -> None:
+    """Half the rig's bending, half the bending part; the axial part stays (the rig's truth)."""
+    from rigval.sample_data.departures import Departures
+    from rigval.validation.pipeline import run_scene
+
+    faces = ('\n[[symmetry]]\nname = "rod B faces"\ncomparisons = ["str2", "str3"]\n'
+             'kind = "faces"\nu_measurement_rel = 0.02\n')
+    parts = {}
+    for level in (1.0, 0.5):
+        files = simulate_rig(tmp_path / str(level), RigSettings(
+            duration=10.0, seed=2, departures=Departures(rod_bending=level)))
+        scene = files.path("scene.toml")
+        scene.write_text(scene.read_text(encoding="utf-8") + faces, encoding="utf-8")
+        parts[level] = run_scene(scene).diagnosis.pairs[0].bending
+    assert parts[1.0].bending and parts[0.5].bending
+    # gauge noise over 8 revolutions: the ratio within 5 %
+    assert abs(parts[0.5].bending_rms / parts[1.0].bending_rms - 0.5) < 0.025
+    assert abs(parts[0.5].axial_rms / parts[1.0].axial_rms - 1.0) < 0.02
