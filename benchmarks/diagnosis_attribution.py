@@ -30,6 +30,8 @@ import warnings
 from pathlib import Path
 from typing import Any
 
+from rigval.acquisition.errors import RigvalError
+
 _CASES = Path(__file__).resolve().parents[1] / "tests" / "validation" / "diagnosis_cases.py"
 
 
@@ -78,7 +80,11 @@ def summary(path: Path) -> None:
     """Print, per case, how often its figure held."""
     rows = [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line]
     by_case: dict[str, list[dict[str, Any]]] = {}
+    failed: dict[str, list[int]] = {}
     for row in rows:
+        if "error" in row:
+            failed.setdefault(row["case"], []).append(row["seed"])
+            continue
         by_case.setdefault(row["case"], []).append(row)
     print(f"{'case':<24} {'seeds':>5} {'figure':<30} {'held':>7}  detected at k = 2 (most often)")
     for case, group in by_case.items():
@@ -93,6 +99,9 @@ def summary(path: Path) -> None:
         for row, (_, ok, detail) in zip(group, judged, strict=True):
             if not ok:
                 print(f"{'':<24} seed {row['seed']:>3}: {detail}")
+        if case in failed:
+            print(f"{'':<24} runs that failed before the diagnosis (not counted), seeds "
+                  f"{failed[case]}")
 
 
 def main(argv: list[str]) -> None:
@@ -113,8 +122,16 @@ def main(argv: list[str]) -> None:
                 continue
             start = time.perf_counter()
             with tempfile.TemporaryDirectory() as folder:
-                row = module.run_case(case, seed, Path(folder))
+                try:
+                    row = module.run_case(case, seed, Path(folder))
+                except RigvalError as error:  # the run itself failed (e.g. its alignment)
+                    row = {"case": case, "seed": seed, "error": str(error)}
             row["seconds"] = time.perf_counter() - start
+            if "error" in row:
+                print(f"{case} seed {seed}: run failed: {row['error']}", flush=True)
+                with out.open("a", encoding="utf-8") as handle:
+                    handle.write(json.dumps(row) + "\n")
+                continue
             with out.open("a", encoding="utf-8") as handle:
                 handle.write(json.dumps(row, default=str) + "\n")
             print(f"{case} seed {seed}: {_right(row)} ({row['seconds']:.1f} s)", flush=True)

@@ -295,12 +295,12 @@ def diagnose(result: ValidationResult,
 def attach_diagnosis(result: ValidationResult,
                      modes: Mapping[str, Sequence[tuple[float, float]]] | None = None
                      ) -> ValidationResult:
-    """Diagnose a run and keep the diagnosis in it: ``result.diagnosis`` and ``/diagnosis``.
+    """Diagnose a run: the result with ``diagnosis`` and its tree with ``/diagnosis``.
 
     Parameters
     ----------
     result : ValidationResult
-        The validated run (changed in place).
+        The validated run (its tree gains the group ``/diagnosis``).
     modes : mapping, optional
         As for :func:`diagnose`; default: the resonances
         :func:`rigval.validation.diagnosis.rigidity.run_rigidity` finds in each comparison
@@ -309,16 +309,16 @@ def attach_diagnosis(result: ValidationResult,
     Returns
     -------
     ValidationResult
-        The same object.
+        The result with its ``diagnosis``.
     """
     start = time.perf_counter()
     if modes is None:
         modes = {name: [(r.frequency_hz, r.damping) for r in evidence.resonances]
                  for name, evidence in run_rigidity(result).items()}
-    result.diagnosis = diagnose(result, modes)
-    result.tree["/diagnosis"] = xr.DataTree(result.diagnosis.dataset())
+    diagnosis = diagnose(result, modes)
+    result.tree["/diagnosis"] = xr.DataTree(diagnosis.dataset())
     logger.info("diagnosis: %.3f s", time.perf_counter() - start)
-    return result
+    return dataclasses.replace(result, diagnosis=diagnosis)
 
 
 def _statement(name: str, is_detected: bool, attribution: Attribution, touching: set[str],
