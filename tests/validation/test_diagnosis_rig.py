@@ -17,6 +17,7 @@ import xarray as xr
 
 from rigval.acquisition.errors import ConfigError
 from rigval.sample_data import RigSettings, simulate_rig
+from rigval.validation.diagnosis.explain import attach_diagnosis
 from rigval.validation.report.page import Page
 from rigval.validation.report.run_report import write_metrics, write_netcdf
 from rigval.validation.report.why import why_section
@@ -61,7 +62,7 @@ def rig_scene(tmp_path_factory) -> Path:
 def test_outputs_carry_the_diagnosis(rig_scene: Path, tmp_path: Path) -> None:
     from rigval.validation.pipeline import run_scene
 
-    result = run_scene(rig_scene)
+    result = attach_diagnosis(run_scene(rig_scene))
     write_metrics(result, tmp_path)
     write_netcdf(result, tmp_path / "run.nc")
     document = json.loads((tmp_path / "metrics.json").read_text(encoding="utf-8"))
@@ -113,7 +114,7 @@ def test_face_pair_bending_scales_with_the_rigs_bending(tmp_path: Path) -> None:
             duration=10.0, seed=2, departures=Departures(rod_bending=level)))
         scene = files.path("scene.toml")
         scene.write_text(scene.read_text(encoding="utf-8") + faces, encoding="utf-8")
-        parts[level] = run_scene(scene).diagnosis.pairs[0].bending
+        parts[level] = attach_diagnosis(run_scene(scene)).diagnosis.pairs[0].bending
     assert parts[1.0].bending and parts[0.5].bending
     # gauge noise over 8 revolutions: the ratio within 5 %
     assert abs(parts[0.5].bending_rms / parts[1.0].bending_rms - 0.5) < 0.025

@@ -91,7 +91,7 @@ def write_identification(identification: Any, out_dir: Path) -> list[Path]:
 
 def _page(identification: Any, identified: Any) -> Any:
     """Build the side-by-side page: verdicts, parameters, ratings per comparison."""
-    from rigval.validation.report.page import Page
+    from rigval.validation.report.page import Link, Page
     from rigval.validation.verdict import run_verdict
 
     nominal = identification.nominal_result
@@ -128,7 +128,11 @@ def _page(identification: Any, identified: Any) -> Any:
                      "ISO rating nominal": a.scores.get("iso18571_periodic.rating"),
                      "ISO rating identified": b.scores.get("iso18571_periodic.rating")})
     page.table(rows, digits=3)
-    page.paragraph("Full reports: nominal/report.html and identified/report.html.")
+    page.table([{"report": Link(f"{which}/report.html", f"{which}/report.html"),
+                 "the run validated with": what}
+                for which, what in (("nominal", "the mechanism file's values"),
+                                    ("identified", "the identified values"))],
+               caption="full reports")
     return page
 
 

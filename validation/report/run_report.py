@@ -178,10 +178,7 @@ def _revolutions_text(result: ValidationResult) -> str:
 def _drives_text(result: ValidationResult) -> str:
     """How the model's drives were excited, with the law's speed for analytic drives."""
     if result.scene.model.drives == "measured":
-        from rigval.model.drives import law_angles_at_reference
-        from rigval.model.mechanism import load_mechanism
-
-        law = law_angles_at_reference(load_mechanism(result.scene.mechanism))
+        law = result.drive_law_angles
         names = ", ".join(
             f"{d.name} <- {d.encoder} (angle at the reference pulse {d.angle_at_reference:.5g} "
             f"rad; the drive law gives {law.get(d.name, float('nan')):.5g} rad)"
@@ -255,10 +252,18 @@ def _summary(page: Page, result: ValidationResult, status: str) -> None:
         "revolutions compared": _revolutions_text(result),
         "mean main-shaft speed [rev/s]": result.speed_rev_s,
     })
-    if scene.note is not None and result.note is not None:
-        page.paragraph(f"Operator's note, from {scene.note}:")
-        page.preformatted(result.note)
+    note = _note_block(scene.note, result.note)
+    if note is not None:
+        page.paragraph(note[0])
+        page.preformatted(note[1])
     page.table(_summary_rows(result), caption="comparisons")
+
+
+def _note_block(path: Path | None, text: str | None) -> tuple[str, str] | None:
+    """Return the operator's note as (caption naming its file, text), or None without one."""
+    if path is None or text is None:
+        return None
+    return f"Operator's note, from {path}:", text
 
 
 def _comparisons(page: Page, result: ValidationResult) -> None:
@@ -329,7 +334,8 @@ def _mechanism_sketch(page: Page, result: ValidationResult) -> None:
     from rigval.validation.report.sketch import sketch_mechanism
 
     points = [str(p) for p in result.predictions.coords.get("point", xr.DataArray([])).values]
-    page.figure(sketch_mechanism(result.mechanism, highlight=points),
+    page.figure(sketch_mechanism(result.mechanism, highlight=points,
+                                 configuration=result.configuration),
                 caption="the mechanism at t = 0 of its file's drive laws: bodies (letters), "
                         "joints (open circles), ground pins (hatched: the supports), drives "
                         f"(red arrows); red: {', '.join(points) or 'no point'}")
@@ -392,7 +398,7 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
     -------
     list of pathlib.Path
         ``report.html``, ``metrics.csv``, ``metrics.json``, ``alignment.json`` and the netCDF
-        file (:func:`rigval.validation.validate.validate_scene` returns them in the result's
+        file (:func:`rigval.validation.run.validate.validate_scene` returns them in the result's
         ``outputs``).
     """
     out = Path(out_dir)
