@@ -64,7 +64,7 @@ def diagnosis_rows(quick: bool) -> list[BenchRow]:
         for choice, change, run in ((BASELINE, found, attribution),
                                     ("rigval identify A.mass, A.inertia (cause given)",
                                      values["A.mass"] - 400.0, fitted)):
-            error = abs(change - TRUTH_KG) / TRUTH_KG
+            error = float(abs(change - TRUTH_KG) / TRUTH_KG)
             logger.info("%s: error %.3g in %.2f s", choice, error, run.time_s)
             rows.append(BenchRow(stage="diagnosis", case=case, choice=choice, metric=METRIC,
                                  unit="1", error=error, bound=0.1, time_s=run.time_s,
