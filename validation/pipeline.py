@@ -73,6 +73,7 @@ from rigval.processing.filters import zero_phase
 from rigval.processing.stream_alignment import AlignmentSettings, MainAngle, align_streams
 from rigval.validation.alignment import alignment_settings
 from rigval.validation.convert import convert_stream
+from rigval.validation.diagnosis.decimate import diagnosis_signal
 from rigval.validation.metrics.compare import baseline, check_thresholds, compare
 from rigval.validation.model_run import (
     FINE_FACTOR,
@@ -227,14 +228,16 @@ def _add_channels(scene: Scene, name: str, aligned: xr.Dataset, channels: list[s
 
 
 def _resample_channel(scene: Scene, comparison: ComparisonSpec, aligned: dict[str, xr.Dataset],
-                      grid: AngleGrid, done: list[str]) -> tuple[np.ndarray, float | None]:
+                      grid: AngleGrid, done: list[str], diagnosis: dict[str, xr.Dataset]
+                      ) -> tuple[np.ndarray, float | None]:
     """Resample a measured channel onto the phi_F grid, (n_cycle, n_angle); NaN at gaps.
 
     The comparison's ``lowpass_hz`` (zero phase, within gap-free runs) comes first; the
     anti-alias low-pass of :func:`rigval.processing.angle.resample_to_angle` follows.
     The channels ``done`` are dropped from the stream in ``aligned`` once their samples are
     taken, so that each filter's input is freed as its output is made (memory).
-    Returns the resampled cycles and the low-pass corner applied in Hz (None: none).
+    Returns the resampled cycles and the low-pass corner applied in Hz (None: none); puts the
+    signal before any low-pass, decimated, into ``diagnosis`` (docs/diagnosis.md).
     """
     stream, name = comparison.measured.stream, comparison.measured.channel
     ds = aligned[stream]
@@ -248,6 +251,8 @@ def _resample_channel(scene: Scene, comparison: ComparisonSpec, aligned: dict[st
     if done:
         aligned[stream] = ds.drop_vars(done)
     del ds
+    diagnosis[comparison.name] = diagnosis_signal(time_axis.to_numpy() - delay, values, segment,
+                                                  valid, fs)
     corner = comparison.lowpass_hz
     if corner is not None and corner < 0.45 * fs:
         values = zero_phase(values, fs, corner, segment=segment, valid=valid)
@@ -456,8 +461,8 @@ def _drop_served(scene: Scene, aligned: dict[str, xr.Dataset], *, model_done: bo
             errors="ignore")
 
 
-def _angle_domain(scene: Scene, aligned: dict[str, xr.Dataset], grid: AngleGrid, *,
-                  keep: bool
+def _angle_domain(scene: Scene, aligned: dict[str, xr.Dataset], grid: AngleGrid,
+                  diagnosis: dict[str, xr.Dataset], *, keep: bool
                   ) -> tuple[dict[str, np.ndarray], dict[str, float | None], dict[str, str]]:
     """Resample every comparison's measured signal onto the phi_F grid, stream by stream.
 
@@ -465,7 +470,7 @@ def _angle_domain(scene: Scene, aligned: dict[str, xr.Dataset], grid: AngleGrid,
     as no later comparison of its stream needs it, so that memory holds about one compared
     channel at a time (``keep``: every channel was read and stays, the streams go into the
     output). Returns the resampled cycles, the low-pass corners and the channels' long
-    names, by comparison.
+    names, by comparison; ``diagnosis`` receives each signal for the residual spectra.
     """
     by_stream: dict[str, list[ComparisonSpec]] = {}
     for comparison in scene.comparisons:
@@ -483,7 +488,7 @@ def _angle_domain(scene: Scene, aligned: dict[str, xr.Dataset], grid: AngleGrid,
             later = {ref.channel for c in comparisons[i + 1:] for _, ref in c.terms}
             done = [] if keep else [name for name in dict.fromkeys(names) if name not in later]
             measured[comparison.name], corners[comparison.name] = _resample_channel(
-                scene, comparison, aligned, grid, done)
+                scene, comparison, aligned, grid, done, diagnosis)
     return measured, corners, long_names
 
 
@@ -572,7 +577,9 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         if not whole:
             _drop_served(scene, aligned, model_done=True)
     with watch.stage("angle"):
-        measured, corners, long_names = _angle_domain(scene, aligned, angle_times, keep=whole)
+        diagnosis: dict[str, xr.Dataset] = {}
+        measured, corners, long_names = _angle_domain(scene, aligned, angle_times, diagnosis,
+                                                      keep=whole)
     with watch.stage("numerics"):
         errors = grid_error(scene, fine)
     with watch.stage("compare"):
@@ -590,6 +597,8 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
     for name, corner in corners.items():  # absent: not low-passed
         if corner is not None:
             tree["/angle"][name].attrs["lowpass_hz"] = float(corner)
+    for name, signal in diagnosis.items():  # the residual spectra's input (docs/diagnosis.md)
+        tree[f"/diagnosis/{name}"] = xr.DataTree(signal)
     numerics = NumericsSummary(dict(watch.seconds), residuals, errors, grid.fine_angle.size)
     logger.info("validated %s in %.2f s: %s", scene.path.name, sum(watch.seconds.values()),
                 "passed" if passed else "failed")

@@ -14,18 +14,15 @@ import logging
 from dataclasses import dataclass
 
 from rigval.acquisition.errors import DataError
+from rigval.validation.diagnosis.decimate import UPPER_HZ
 from rigval.validation.diagnosis.modes import Resonance, default_band, find_resonances
 from rigval.validation.diagnosis.residual import ResidualSeries, residual_series
 from rigval.validation.diagnosis.spectra import ResidualSpectra, residual_spectra
 from rigval.validation.results import ValidationResult
 
-__all__ = ["UPPER_HZ", "RigidityEvidence", "rigidity_evidence", "run_rigidity"]
+__all__ = ["RigidityEvidence", "rigidity_evidence", "run_rigidity"]
 
 logger = logging.getLogger(__name__)
-
-#: Upper end of the band analysed by default (Hz): covers the first modes of a machine of
-#: this size (docs/diagnosis.md).
-UPPER_HZ = 40.0
 
 
 @dataclass(frozen=True)
@@ -66,8 +63,8 @@ class RigidityEvidence:
                 f"variance below {self.spectra.upper_hz:g} Hz")
         if not self.resonances:
             return (f"{head}; no resonance stands above the residual's floor between "
-                    f"{self.band[0]:g} and {self.band[1]:g} Hz")
-        parts = [f"{100.0 * self.share(r):.1f} % is a structural mode at "
+                    f"{self.band[0]:.3g} and {self.band[1]:.3g} Hz")
+        parts = [f"{100.0 * self.share(r):.2g} % is a structural mode at "
                  f"{r.frequency_hz:.1f} +- {max(r.u_frequency_hz, 0.05):.1f} Hz (damping about "
                  f"{100.0 * r.damping:.1g} %)" for r in self.resonances]
         return f"{head}; " + "; ".join(parts)

@@ -19,14 +19,14 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import decimate, welch
+from scipy.signal import welch
 
 from rigval.acquisition.errors import DataError
 from rigval.processing.arrays import FloatArray
+from rigval.validation.diagnosis.decimate import decimated_runs
 from rigval.validation.diagnosis.residual import ResidualSeries
 
-__all__ = ["OrderSpectrum", "ResidualSpectra", "Spectrum", "decimated_runs", "residual_spectra",
-           "welch_runs"]
+__all__ = ["OrderSpectrum", "ResidualSpectra", "Spectrum", "residual_spectra", "welch_runs"]
 
 logger = logging.getLogger(__name__)
 
@@ -125,29 +125,6 @@ class ResidualSpectra:
         return 1.0 - self.variance_residual / self.variance_measured
 
 
-def decimated_runs(values: FloatArray, run: np.ndarray, q: int) -> tuple[FloatArray, np.ndarray,
-                                                                          np.ndarray]:
-    """Decimate a signal by ``q`` stretch by stretch (zero-phase FIR), as one array.
-
-    Returns the decimated values, their stretch index and the index of the original sample
-    each decimated sample sits at (stretches too short to filter are dropped).
-    """
-    out, runs, index = [], [], []
-    for k in np.unique(run):
-        where = np.flatnonzero(run == k)
-        if where.size < 64 * q:
-            continue
-        x = values[where]
-        y = decimate(x, q, ftype="fir", zero_phase=True) if q > 1 else x
-        out.append(y)
-        runs.append(np.full(y.size, k))
-        index.append(where[::q][:y.size])
-    if not out:
-        raise DataError("no gap-free stretch is long enough for the residual spectra",
-                        hint="record longer or with fewer gaps")
-    return np.concatenate(out), np.concatenate(runs), np.concatenate(index)
-
-
 def welch_runs(values: FloatArray, run: np.ndarray, fs: float,
                segment_s: float = SEGMENT_S) -> Spectrum:
     """Return the Welch PSD of a signal averaged over its gap-free stretches.
@@ -222,14 +199,14 @@ def residual_spectra(series: ResidualSeries, upper_hz: float = 40.0) -> Residual
     series : ResidualSeries
         The comparison's residual in time.
     upper_hz : float, default 40
-        Upper end of the band analysed (Hz); at most the aligned stream's ``0.2 fs``.
+        Upper end of the band analysed (Hz); at most ``0.25 fs``.
 
     Returns
     -------
     ResidualSpectra
         The parts and their spectra.
     """
-    upper_hz = min(upper_hz, 0.2 * series.fs)
+    upper_hz = min(upper_hz, 0.25 * series.fs)
     q = max(int(series.fs // (4.0 * upper_hz)), 1)
     fs_a = series.fs / q
     residual, run, index = decimated_runs(series.residual, series.run, q)
