@@ -35,7 +35,7 @@ SMOKE: dict[str, tuple[list[str], tuple[int, ...], list[str]]] = {
     "predict": (["builtin:fourbar", "--out", "{work}/predict", "--points", "36"], (0,),
                 ["predict/report.html", "predict/prediction.nc"]),
     "campaign": (["{scene}", "--out", "{work}/campaign", "--no-progress"], (0, 1),
-                 ["campaign/campaign.html", "campaign/campaign.json"]),
+                 ["campaign/index.html", "campaign/campaign.json"]),
     "bench": (["--quick", "--stage", "model", "--out", "{work}/bench"], (0,),
               ["bench/bench.csv"]),
     "identify": (["{scene}", "--out", "{work}/identify"], (0, 1), []),

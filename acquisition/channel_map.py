@@ -272,7 +272,7 @@ def _known(table: Mapping[str, Any], name: str, key: str,
 
 def _check_reader_options(reader: Mapping[str, Any], path: Path, key: str) -> None:
     """Refuse reader options no reader knows (the file's format's reader when it exists)."""
-    from rigval.acquisition.detect import detect_format
+    from rigval.acquisition.detect import FORMATS, detect_format
     from rigval.acquisition.errors import DataFileError
     from rigval.acquisition.reader import reader_options
 
@@ -284,10 +284,22 @@ def _check_reader_options(reader: Mapping[str, Any], path: Path, key: str) -> No
             kind = None  # reported when the stream is read
     known = reader_options(kind)
     unknown = sorted(set(reader) - known)
-    if unknown:
-        what = f"the {kind} reader" if kind else "no reader"
-        raise _TABLES.fail(f"{key}.{unknown[0]}", f"{what} has this option",
+    if not unknown:
+        return
+    if kind is None:
+        raise _TABLES.fail(f"{key}.{unknown[0]}", "no reader has this option",
                            hint="options: " + ", ".join(sorted(known)))
+    others = [other for other in FORMATS
+              if other != kind and set(unknown) <= reader_options(other)]
+    if others:  # options of another format's reader: the file is likely the wrong one
+        stream_key = key.rsplit(".", 1)[0]
+        raise _TABLES.fail(f"{stream_key}.file",
+                           f"{path.name} is a {kind.upper()} file, but the reader options "
+                           f"{', '.join(unknown)} are those of the {' or '.join(others)} reader",
+                           hint=f"check that {stream_key}.file names the intended file, or "
+                                f"give {kind} reader options: {', '.join(sorted(known))}")
+    raise _TABLES.fail(f"{key}.{unknown[0]}", f"the {kind} reader has no such option",
+                       hint="options: " + ", ".join(sorted(known)))
 
 
 def parse_stream(table: Mapping[str, Any], key: str,

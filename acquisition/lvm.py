@@ -557,7 +557,9 @@ def _stream(parts: list[list[_Column]], lvm: LvmFile, file: Path, fs: float | No
             warn_data(
                 f"segment {cols[0].segment}: fewer rows than its header's Samples "
                 f"(recovered, expected): {short}", where={"file": str(file)},
-                hint="the file was cut short or edited", stacklevel=4)
+                hint="the rows present are read; if the file was copied while LabVIEW was "
+                     "still writing it, copy it again after the acquisition has stopped, else "
+                     "read the original file (this copy lost rows)", stacklevel=4)
         times.append(t)
     time = np.concatenate(times)
     t0 = time[0]

@@ -153,10 +153,12 @@ class TableReader:
         return value
 
     def number(self, value: Any, key: str, *, minimum: float | None = None,
-               why_minimum: str | None = None) -> float:
-        """Return a finite number (an int is accepted) that is at least ``minimum``.
+               why_minimum: str | None = None, largest: float | None = None,
+               why_largest: str | None = None) -> float:
+        """Return a finite number (an int is accepted) in the range asked for.
 
-        ``why_minimum`` is the hint given when the value is below ``minimum``.
+        The number is at least ``minimum`` and at most ``largest`` in magnitude; ``why_minimum``
+        and ``why_largest`` are the hints given when it is outside.
         """
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.fail(key, f"expected a number, got {value!r}",
@@ -168,6 +170,9 @@ class TableReader:
                             hint="write a finite number (TOML's nan and inf are not values here)")
         if minimum is not None and number < minimum:
             raise self.fail(key, f"expected a value >= {minimum}, got {number}", hint=why_minimum)
+        if largest is not None and abs(number) > largest:
+            raise self.fail(key, f"expected a magnitude of at most {largest:g}, got {number:g}",
+                            hint=why_largest)
         return number
 
     def text(self, value: Any, key: str) -> str:

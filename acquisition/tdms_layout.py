@@ -466,6 +466,7 @@ def _read_segment(file: BinaryIO, position: int, layout: TdmsLayout,
             expected = _values_in_data(current, declared_end - data_start, interleaved)
     else:
         expected = counts
+    _note_zero_counts(current, counts, end - data_start, position, layout)
     if layout._objects is None:
         layout._objects = tuple(current)
     layout.data_segments.append(DataSegment(data_start, end, toc, layout._objects))
@@ -474,6 +475,26 @@ def _read_segment(file: BinaryIO, position: int, layout: TdmsLayout,
         channel.counts.append(n)
         channel.expected.append(expected.get(obj_path, n))
     return end
+
+
+def _note_zero_counts(objects: list[tuple[str, _Index | None]], counts: dict[str, int],
+                      data_bytes: int, position: int, layout: TdmsLayout) -> None:
+    """Note a channel whose data index announces 0 values in a segment that holds data.
+
+    Writers mark a channel without data in a segment by leaving its index out; an index that
+    announces 0 values beside raw data contradicts the bytes (a damaged value count): the data
+    are read as the index says, as nptdms reads them, and the note gives the counts.
+    """
+    zero = ["/".join(object_path_parts(p)) for p, index in objects
+            if index is not None and index.n_values == 0]
+    if not zero or data_bytes <= 0:
+        return
+    read = ", ".join(f"{'/'.join(object_path_parts(p))}: {n} values" for p, n in counts.items())
+    layout.notes.append(
+        f"segment at byte {position}: the data index of {', '.join(zero)} announces 0 values "
+        f"but the segment holds {data_bytes} data bytes; read as the indexes say (as nptdms "
+        f"does): {read or 'no values'}; values of {', '.join(zero)} in this segment, if any, "
+        "are not recovered and may have been read as another channel's")
 
 
 def _read_metadata(raw: bytes, endian: str, toc: int, layout: TdmsLayout,

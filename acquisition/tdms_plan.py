@@ -44,6 +44,10 @@ __all__ = ["TdmsStreamPlan", "plan_tdms", "raise_empty", "warn_about_plans"]
 logger = logging.getLogger(__name__)
 
 _NUMERIC_TYPES = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 0x19, 0x1A, 0xFFFFFFFF}
+#: Names of the TDMS value types rigval does not read as waveforms (type code -> name).
+_UNREAD_TYPES = {0: "void", 11: "extended float", 0x1B: "extended float with unit",
+                 0x20: "text", 0x21: "boolean", 0x44: "timestamp", 0x08000C: "complex64",
+                 0x10000D: "complex128"}
 _SUPPORTED_SCALES = {"Linear", "Polynomial", "RTD", "Strain", "Table", "Thermistor",
                      "Thermocouple", "Add", "Subtract", "AdvancedAPI"}
 _EPOCH_1904 = TdmsStamp(0, 0)
@@ -250,6 +254,8 @@ def _match_channels(layout: TdmsLayout, groups: list[str],
     """Return the object paths of the numeric channels to read."""
     candidates = [p for p in layout.channels if object_path_parts(p)[0] in groups]
     if channels is None:
+        _warn_unread(layout, [p for p in candidates
+                              if layout.channels[p].data_type not in _NUMERIC_TYPES])
         return [p for p in candidates if layout.channels[p].data_type in _NUMERIC_TYPES
                 and layout.channels[p].expected_length > 0]
     chosen = []
@@ -268,6 +274,30 @@ def _match_channels(layout: TdmsLayout, groups: list[str],
                 hint="name it as 'group/channel'")
         chosen.append(hits[0])
     return chosen
+
+
+def _type_name(data_type: int | None) -> str:
+    """Return a readable name of a TDMS value type."""
+    if data_type is None:
+        return "no type"
+    return _UNREAD_TYPES.get(data_type, f"type 0x{data_type:X}")
+
+
+def _warn_unread(layout: TdmsLayout, paths: list[str]) -> None:
+    """Warn about channels holding values that are not real numbers (complex, text, time stamps).
+
+    Such a channel is not read; the DataWarning names each one with its value type and count,
+    so that nothing is left out silently (a complex RF capture, for example).
+    """
+    unread = [f"{'/'.join(object_path_parts(p))} ({_type_name(layout.channels[p].data_type)}, "
+              f"{layout.channels[p].length} values)"
+              for p in paths if layout.channels[p].length > 0]
+    if unread:
+        warn_data(f"{len(unread)} channel(s) hold values that are not real numbers and are not "
+                  f"read: {'; '.join(unread)}", where={"file": str(layout.path)},
+                  hint="rigval reads real numeric waveforms; export the real and imaginary "
+                  "parts (or magnitude and phase) as numeric channels to use them",
+                  stacklevel=4)
 
 
 def plan_tdms(layout: TdmsLayout, *, group: str | Sequence[str] | None = None,
@@ -301,7 +331,8 @@ def plan_tdms(layout: TdmsLayout, *, group: str | Sequence[str] | None = None,
         channel = layout.channels[path]
         group_name, name = object_path_parts(path)[:2]
         if channel.data_type not in _NUMERIC_TYPES:
-            raise DataFileError(f"channel {name!r} holds no numeric samples",
+            raise DataFileError(f"channel {name!r} holds {_type_name(channel.data_type)} values "
+                                f"({channel.length}), not real numeric samples",
                                 where={"file": str(layout.path), "channel": path},
                                 hint="rigval reads numeric waveforms only")
         info = _channel_time(channel, fs, layout.group_properties.get(group_name, {}),

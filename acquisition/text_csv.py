@@ -430,6 +430,47 @@ def _drop_bad_times(table: pd.DataFrame, line_of: np.ndarray, t_index: int,
     return table[keep].reset_index(drop=True), line_of[keep]
 
 
+def _split_rows(lines: list[str], delimiter: str, width: int) -> pd.DataFrame:
+    """Split a few wide data lines into a table of text cells, as ``pandas.read_csv`` would.
+
+    The cells are split on the delimiter only (no quoting, as the per-line path reads), missing
+    cells of a short row are empty strings.
+    """
+    cells = np.full((len(lines), width), "", dtype=object)
+    for row, line in enumerate(lines):
+        parts = line.split(delimiter)
+        cells[row, :len(parts)] = parts
+    return pd.DataFrame(cells, dtype=object, copy=False)
+
+
+def _convert_cells(table: pd.DataFrame, columns: list[int], decimal: str
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Convert the text cells of ``columns`` to numbers in one pass over all of them.
+
+    One pass, not one per column: a table of one row and 20,000 columns costs what a table of
+    20,000 rows and one column costs.
+
+    Returns
+    -------
+    cells : numpy.ndarray of object, shape (rows, len(columns))
+        The stripped cells (empty string for a missing cell).
+    numbers : numpy.ndarray of float, shape (rows, len(columns))
+        Their values; NaN for empty cells and text.
+    bad : numpy.ndarray of bool, shape (rows, len(columns))
+        True for cells holding text that is not a number (``nan`` and ``inf`` are numbers).
+    """
+    shape = (len(table), len(columns))
+    flat = pd.Series(table[columns].to_numpy(dtype=object).ravel(), dtype=object)
+    cells = flat.fillna("").astype(str).str.strip()
+    if decimal == ",":
+        cells = cells.str.replace(",", ".", regex=False)
+    numbers = pd.to_numeric(cells.replace("", np.nan), errors="coerce").to_numpy(float)
+    bad = np.isnan(numbers) & ~cells.str.match(_NUMBER.pattern, case=False).to_numpy(bool) \
+        & (cells != "").to_numpy()
+    return (cells.to_numpy(dtype=object).reshape(shape), numbers.reshape(shape),
+            bad.reshape(shape))
+
+
 def _fast_path(file: Path, encoding: str | None, sniff: dict[str, Any]
                ) -> tuple[list[str], CsvLayout, np.ndarray, Middle, bool] | None:
     """Read the clean blocks of a file's middle in bounded memory (see ``csv_blocks``).
@@ -562,6 +603,13 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     notes: list[str] = []
     t_index = _time_column(layout.names, time_column, where)
     width = len(layout.names)
+    if t_index is None and fs is None:  # before any cell is converted
+        rows = len(lines) - layout.data_start + n_mid
+        raise DataFileError(
+            "no time column found and no fs given", where=where,
+            hint="pass time_column=... or fs=... (Hz)" + (
+                f"; the data are one row of {width} values: rigval reads channels as columns, "
+                "so a waveform written as one row must be transposed first" if rows == 1 else ""))
     lost: dict[str, list[int]] = {"not a data row (text line, footer)":
                                   [int(real[k]) + 1 for k in layout.skipped]}
     numbers_of = [k for k in range(layout.data_start, len(lines))
@@ -579,14 +627,18 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     line_of = real[np.array(numbers_of, dtype=np.int64)] + 1  # 1-based line number of each row
     body = "\n".join(lines[k] for k in numbers_of)
     fields = max((lines[k].count(layout.delimiter) + 1 for k in numbers_of), default=width)
-    try:
-        table = pd.read_csv(io.StringIO(body), sep=layout.delimiter, decimal=layout.decimal,
-                            header=None, names=list(range(max(fields, width))), index_col=False,
-                            dtype=str, keep_default_na=False, quoting=csv.QUOTE_NONE,
-                            skip_blank_lines=False, engine="c")
-    except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as error:
-        raise DataFileError(f"cannot split the data rows: {error}", where=where,
-                            hint="pass delimiter=... and header_row=...") from None
+    if len(numbers_of) < fields:  # few wide rows: pandas' parser costs per column
+        table = _split_rows([lines[k] for k in numbers_of], layout.delimiter,
+                            max(fields, width))
+    else:
+        try:
+            table = pd.read_csv(io.StringIO(body), sep=layout.delimiter, decimal=layout.decimal,
+                                header=None, names=list(range(max(fields, width))),
+                                index_col=False, dtype=str, keep_default_na=False,
+                                quoting=csv.QUOTE_NONE, skip_blank_lines=False, engine="c")
+        except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as error:
+            raise DataFileError(f"cannot split the data rows: {error}", where=where,
+                                hint="pass delimiter=... and header_row=...") from None
     if len(table) != line_of.size:
         raise DataFileError(f"{len(table)} table rows from {line_of.size} data lines",
                             where=where, hint="pass delimiter=... and header_row=...")
@@ -611,27 +663,22 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
                       stacklevel=2)
     values: dict[int, np.ndarray] = {}
     text_cells: dict[int, int] = {}
-    for k in range(width):
-        if k == t_index:
-            continue
-        cells = table[k].fillna("").str.strip()
-        if layout.decimal == ",":
-            cells = cells.str.replace(",", ".", regex=False)
-        numbers = pd.to_numeric(cells.replace("", np.nan), errors="coerce").to_numpy(float)
-        bad_mask = np.isnan(numbers) & ~cells.str.match(_NUMBER.pattern, case=False).to_numpy() \
-            & (cells != "").to_numpy()
-        numbers = np.insert(middle.values[k], into, numbers)
+    columns = [k for k in range(width) if k != t_index]
+    all_cells, all_numbers, all_bad = _convert_cells(table, columns, layout.decimal)
+    for j, k in enumerate(columns):
+        cells, bad_mask = all_cells[:, j], all_bad[:, j]
+        numbers = np.insert(middle.values[k], into, all_numbers[:, j])
         middle.values[k] = numbers[:0]  # taken over: freed
         bad = int(np.count_nonzero(bad_mask))
         if bad and bad == np.count_nonzero(cells != "") + n_mid:
             warn_data(f"column {layout.names[k]!r} holds no numbers ({bad} text cells such as "
-                      f"{cells[bad_mask].iloc[0]!r}): not read", where=where,
+                      f"{cells[bad_mask][0]!r}): not read", where=where,
                       hint=f"check decimal={layout.decimal!r} and delimiter", stacklevel=2)
             continue
         if bad:
             first = int(line_of[np.flatnonzero(bad_mask)[0]])
             warn_data(f"column {layout.names[k]!r}: {bad} cell(s) are not numbers (first on "
-                      f"line {first}: {cells[bad_mask].iloc[0]!r}); read as NaN",
+                      f"line {first}: {cells[bad_mask][0]!r}); read as NaN",
                       where={**where, "channel": layout.names[k]},
                       hint=f"check decimal={layout.decimal!r} and delimiter", stacklevel=2)
             text_cells[k] = bad
@@ -665,9 +712,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
             start = stamps[0] if start is None else start
             time = (stamps - stamps[0]).astype(np.int64) / 1e9
     else:
-        if fs is None:
-            raise DataFileError("no time column found and no fs given", where=where,
-                                hint="pass time_column=... or fs=... (Hz)")
+        assert fs is not None  # checked before the cells were converted
         time = np.arange(n) / fs
         notes.append(f"no time column: t = i / {fs} Hz")
     del middle, into, table  # every value is in values and time now

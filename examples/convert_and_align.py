@@ -15,10 +15,9 @@ import numpy as np
 from rigval.processing.clock_fit import channel_time
 from rigval.processing.stream_alignment import align_streams
 from rigval.sample_data import shipped_runs
-from rigval.validation.alignment import alignment_settings
-from rigval.validation.convert import convert_stream
-from rigval.validation.pipeline import read_streams
+from rigval.validation.read_plan import read_streams
 from rigval.validation.scene import load_scene
+from rigval.validation.stage_settings import alignment_settings, convert_stream
 
 
 def main(scene_path: Path) -> None:

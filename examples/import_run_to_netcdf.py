@@ -13,7 +13,7 @@ from pathlib import Path
 import xarray as xr
 
 from rigval.sample_data import shipped_runs
-from rigval.validation.pipeline import read_streams
+from rigval.validation.read_plan import read_streams
 from rigval.validation.scene import load_scene
 
 

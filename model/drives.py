@@ -136,7 +136,9 @@ def cycle_period(mechanism: Mechanism, driver: str | None = None) -> tuple[Drive
     if law.ratio != 1.0 or slowest <= 0.0:
         raise ConfigError(
             f"driver {main.name!r} does not turn steadily forward (omega {main.omega} rad/s, "
-            f"slowest speed {slowest:.4g} rad/s)", where={"key": "driver"},
+            f"slowest speed {slowest:.4g} rad/s)",
+            where={"file": mechanism.source, "key": f"drivers.{main.name}.omega"} if driver is None
+            else {"key": "driver"},
             hint="choose a driver with positive mean speed larger than its harmonics' swing")
     period = 2.0 * math.pi / excitation.omega
     for other, other_law in excitation.laws:

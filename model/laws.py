@@ -283,6 +283,10 @@ class Excitation:
     laws: tuple[tuple[str, DriveLaw], ...]
     main: str
 
+    def __post_init__(self) -> None:
+        # (2 pi f)**2 of a frequency beyond the maximum overflows, or nearly, in the solver
+        check_frequency(self.frequency, "frequency")
+
     @property
     def omega(self) -> float:
         """Cycle angular frequency, rad/s."""
@@ -334,7 +338,8 @@ class Excitation:
         rate = abs(law.ratio) or next((abs(h.order) for h in law.harmonics if h.order), 0.0)
         if rate == 0.0:
             raise ConfigError(f"the main drive {name!r} does not move (omega 0, no harmonics)",
-                              where={"drive": name}, hint="give the main drive a constant speed")
+                              where={"key": f"drivers.{name}.omega"},
+                              hint="give the main drive a constant speed")
         if rate == 1.0:
             return dataclasses.replace(self, main=name)
         laws = tuple((n, dataclasses.replace(
@@ -467,7 +472,8 @@ def excitation_from_drivers(drivers: Iterable[tuple[str, float, float,
     cycle_omega = cycle_rate(*rows[main])
     if cycle_omega == 0.0:
         raise ConfigError(f"the main drive {main!r} does not move (omega 0, no harmonics)",
-                          where={"drive": main}, hint="give the main drive a constant speed")
+                          where={"key": f"drivers.{main}.omega"},
+                          hint="give the main drive a constant speed")
     laws = tuple((name, law_from_rates(theta0, omega, harmonics, cycle_omega))
                  for name, theta0, omega, harmonics in drivers)
     return Excitation(frequency=cycle_omega / (2.0 * math.pi), laws=laws, main=main)

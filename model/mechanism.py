@@ -11,6 +11,7 @@ and the key path (``joints[3].bodies[1]``) and whose hint says what to change.
 from __future__ import annotations
 
 import logging
+import math
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -22,7 +23,7 @@ from rigval.acquisition.errors import ConfigError
 from rigval.acquisition.tables import TableReader
 from rigval.model.assembly import check_constraint_count
 from rigval.model.errors import MechanismError
-from rigval.model.laws import cycle_rate, law_from_rates
+from rigval.model.laws import MAX_FREQUENCY_HZ, cycle_rate, law_from_rates
 from rigval.model.mechanism_types import Body, Driver, Joint, Mechanism, PointTable
 
 __all__ = [
@@ -55,6 +56,22 @@ _JOINT_KEYS = {"revolute": {"point", "type", "bodies", "description"},
                "ground": {"point", "type", "body", "at", "description"}}
 _DRIVER_KEYS = {"name", "body", "law", "theta0", "omega", "harmonics", "description"}
 _HARMONIC_KEYS = {"amplitude", "omega", "phase"}
+
+# Plausible ranges of a mechanism's numbers (docs/mechanism.md, "Ranges"): far beyond any machine
+# a planar rigid-body model describes, and far enough from overflow that speeds, accelerations,
+# forces and their products stay finite. A value outside is a typo or a unit mix-up.
+#: Largest coordinate of a point, a ground joint or a body's guessed position, m.
+MAX_LENGTH_M = 1e4
+#: Largest body mass, kg (a bucket-wheel excavator is about 1.4e7 kg).
+MAX_MASS_KG = 1e9
+#: Largest body moment of inertia about its centre of gravity, kg m2.
+MAX_INERTIA_KG_M2 = 1e13
+#: Largest component of gravity, m s-2 (100 g: a rig in a centrifuge).
+MAX_GRAVITY_M_S2 = 1e3
+#: Largest angle (``theta0``, a guessed angle, a harmonic's amplitude or phase), rad.
+MAX_ANGLE_RAD = 1e6
+#: Largest drive speed (``omega`` of a driver or a harmonic), rad/s: the largest cycle frequency.
+MAX_OMEGA_RAD_S = 2.0 * math.pi * MAX_FREQUENCY_HZ
 
 
 def builtin_mechanism(name: str) -> Path:
@@ -145,6 +162,11 @@ def load_mechanism(source: str | Path | Mapping[str, Any]) -> Mechanism:
     return check_constraint_count(_Parser(file=origin).parse(data))
 
 
+#: Hints for values out of range: lengths (True) and angles (False).
+_WHY = {True: f"write lengths in m (at most {MAX_LENGTH_M:g} m): docs/mechanism.md, Ranges",
+        False: f"write angles in rad (at most {MAX_ANGLE_RAD:g} rad): docs/mechanism.md, Ranges"}
+
+
 @dataclass(frozen=True)
 class _Parser(TableReader):
     """Turns a mapping into a :class:`Mechanism`, naming the file and key path in every error."""
@@ -152,11 +174,24 @@ class _Parser(TableReader):
     error: type[ConfigError] = MechanismError
     docs: str = "docs/mechanism.md"
 
-    def vector(self, value: Any, key: str, size: int) -> tuple[float, ...]:
+    def vector(self, value: Any, key: str, size: int, largest: float = MAX_LENGTH_M,
+               why: str = _WHY[True]) -> tuple[float, ...]:
+        """Return ``size`` numbers: x and y up to ``largest`` (``why`` if not), then an angle."""
         if not isinstance(value, Sequence) or isinstance(value, str) or len(value) != size:
             raise self.fail(key, f"expected a list of {size} numbers, got {value!r}",
                             hint=f"write [{', '.join(['x', 'y', 'theta'][:size])}] in m and rad")
-        return tuple(self.number(v, f"{key}[{i}]") for i, v in enumerate(value))
+        return tuple(self.number(v, f"{key}[{i}]", largest=largest, why_largest=why) if i < 2
+                     else self.angle(v, f"{key}[{i}]") for i, v in enumerate(value))
+
+    def angle(self, value: Any, key: str) -> float:
+        """Return an angle in rad, at most :data:`MAX_ANGLE_RAD` in magnitude."""
+        return self.number(value, key, largest=MAX_ANGLE_RAD, why_largest=_WHY[False])
+
+    def speed(self, value: Any, key: str) -> float:
+        """Return a drive speed in rad/s, at most :data:`MAX_OMEGA_RAD_S` in magnitude."""
+        return self.number(value, key, largest=MAX_OMEGA_RAD_S,
+                           why_largest=f"write the speed in rad/s (2 pi f; at most "
+                                       f"{MAX_FREQUENCY_HZ:g} Hz): docs/mechanism.md, Ranges")
 
     def array(self, data: Mapping[str, Any], key: str) -> list[Any]:
         value = data.get(key, [])
@@ -171,7 +206,9 @@ class _Parser(TableReader):
                             hint=f'write schema = "{SCHEMA}" and the format of docs/mechanism.md')
         default_name = Path(str(self.file)).stem if self.file != "<dict>" else "unnamed mechanism"
         name = self.text(data.get("name", default_name), "name")
-        gravity = self.vector(data.get("gravity", [0.0, -9.81]), "gravity", 2)
+        gravity = self.vector(data.get("gravity", [0.0, -9.81]), "gravity", 2,
+                              largest=MAX_GRAVITY_M_S2,
+                              why=f"write gravity in m s-2 (at most {MAX_GRAVITY_M_S2:g})")
         bodies = self.bodies(self.array(data, "bodies"))
         joints = self.joints(self.array(data, "joints"), bodies)
         drivers = self.drivers(self.array(data, "drivers"), bodies)
@@ -202,9 +239,12 @@ class _Parser(TableReader):
             bodies.append(Body(
                 name=name,
                 mass=self.number(table["mass"], f"{key}.mass", minimum=0.0,
-                                why_minimum="masses and inertias cannot be negative"),
+                                 why_minimum="masses and inertias cannot be negative",
+                                 largest=MAX_MASS_KG, why_largest="write the mass in kg"),
                 inertia=self.number(table["inertia"], f"{key}.inertia", minimum=0.0,
-                                why_minimum="masses and inertias cannot be negative"),
+                                    why_minimum="masses and inertias cannot be negative",
+                                    largest=MAX_INERTIA_KG_M2,
+                                    why_largest="write the moment of inertia in kg m2"),
                 points=PointTable({p: (v[0], v[1]) for p, v in parsed.items()}),
                 guess=(guess[0], guess[1], guess[2]),
                 description=str(table.get("description", "")),
@@ -286,11 +326,11 @@ class _Parser(TableReader):
             for h_index, term in enumerate(terms):
                 h_key = f"{key}.harmonics[{h_index}]"
                 self.check_keys(term, h_key, _HARMONIC_KEYS, ("amplitude", "omega"))
-                rates.append((self.number(term["amplitude"], f"{h_key}.amplitude"),
-                              self.number(term["omega"], f"{h_key}.omega"),
-                              self.number(term.get("phase", 0.0), f"{h_key}.phase")))
-            rows.append((name, body.name, self.number(table["theta0"], f"{key}.theta0"),
-                         self.number(table["omega"], f"{key}.omega"), rates))
+                rates.append((self.angle(term["amplitude"], f"{h_key}.amplitude"),
+                              self.speed(term["omega"], f"{h_key}.omega"),
+                              self.angle(term.get("phase", 0.0), f"{h_key}.phase")))
+            rows.append((name, body.name, self.angle(table["theta0"], f"{key}.theta0"),
+                         self.speed(table["omega"], f"{key}.omega"), rates))
         # Every law is written against the first driver's cycle (1 rad/s where it stands still:
         # Mechanism.excitation then refuses it as a main drive).
         cycle_omega = (cycle_rate(rows[0][3], rows[0][4]) if rows else 0.0) or 1.0

@@ -487,7 +487,7 @@ def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = No
     Parameters
     ----------
     stream : xarray.Dataset
-        A stream (design 3.1).
+        A stream (the stream schema, docs/formats.md).
     clock : ClockModel
         The stream's clock model (:func:`estimate_clock`, or :func:`identity_clock` for the
         reference stream).

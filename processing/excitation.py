@@ -44,6 +44,7 @@ from rigval.acquisition.errors import ConfigError, DataError
 from rigval.acquisition.schema import append_history
 from rigval.processing.arrays import FloatArray
 from rigval.processing.encoder import counts_to_angle, remove_index_resets, unwrap_counts
+from rigval.processing.errors import DriveRateError
 from rigval.processing.filters import (
     DEFAULT_CHUNK,
     PadType,
@@ -254,6 +255,12 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
                 raise DataError(f"the drive turns at {rate:.3g} rad/s on average, too slowly to "
                                 "choose a filter corner from its speed",
                                 hint="pass cutoff_hz explicitly (Hz)")
+            if cutoff_hz >= fs / 2:
+                raise DriveRateError(
+                    f"cut-off {cutoff_hz} Hz (8 harmonics of the drive's {rate:.4g} rad/s) must "
+                    f"lie between 0 and fs/2 = {fs / 2} Hz", where={"key": "cutoff_hz"},
+                    hint="check the encoder's counts per revolution and the sampling rate",
+                    corner_hz=float(cutoff_hz), fs=float(fs), rate_rad_s=float(rate))
         sos = butter_sos(cutoff_hz, fs, order=order)
         params = {"cutoff_hz": float(cutoff_hz), "order": float(order),
                   "trend_harmonics": float(trend_harmonics)}

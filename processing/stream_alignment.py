@@ -33,7 +33,7 @@ from rigval.processing import alignment_summary as diagnose
 from rigval.processing import clock_fit
 from rigval.processing.alignment_summary import StreamAlignment
 from rigval.processing.angle import phi_f
-from rigval.processing.encoder import increasing_angle
+from rigval.processing.encoder import increasing_angle, remove_index_resets, unwrap_counts
 from rigval.processing.errors import AlignmentError
 from rigval.processing.pulses import StreamPulses, stream_pulses
 from rigval.processing.stamps import CoarseOffset, clock_groups, coarse_offset, stamps_clock
@@ -102,6 +102,9 @@ class AlignmentSettings:
         +1, or -1 for an encoder that counts down while the shaft turns forward.
     min_pulses : int, default 2
         Fewest good reference pulses the reference stream must hold.
+    min_pulses_key : str, default "min_pulses"
+        Key path of ``min_pulses`` (``angle.min_cycles`` in a scene), named when the record is
+        shorter than it (the encoder turned fewer revolutions), not the pulse channel.
     key : str, default "alignment"
         Key path of these settings, named in error messages.
     """
@@ -112,6 +115,7 @@ class AlignmentSettings:
     streams: Mapping[str, ClockSettings] = field(default_factory=dict)
     direction: float = 1.0
     min_pulses: int = 2
+    min_pulses_key: str = "min_pulses"
     key: str = "alignment"
 
 
@@ -162,14 +166,32 @@ def _pulses(stream: xr.Dataset, channel: ChannelSpec) -> StreamPulses:
     return found
 
 
+def _encoder_turns(ref: xr.Dataset, encoder: ChannelSpec) -> float:
+    """Return the revolutions the main encoder turned over the record (NaN: counts unusable)."""
+    try:
+        counts = unwrap_counts(ref[encoder.name].to_numpy())
+    except DataError:
+        return math.nan  # reported by the angle itself
+    cpr = float(encoder.params["counts_per_rev"])
+    if encoder.params.get("index_reset", False):
+        counts, _ = remove_index_resets(counts, cpr)
+    return float(np.ptp(counts)) / cpr if counts.size else 0.0
+
+
 def _main_angle(settings: AlignmentSettings, ref: xr.Dataset) -> tuple[MainAngle, StreamPulses]:
     """Return phi_F(t) from the main encoder, zero at the reference pulse, and those pulses."""
     encoder, pulse_channel = settings.encoder, settings.reference_pulse
     pulses = _pulses(ref, pulse_channel)
     if pulses.good.size < settings.min_pulses:
-        raise DataError(f"only {pulses.good.size} reference pulses on "
-                        f"{settings.reference}.{pulse_channel.name}",
-                        where={"key": f"{settings.key}.main_reference_pulse"},
+        turns = _encoder_turns(ref, encoder)
+        found = (f"only {pulses.good.size} reference pulses on "
+                 f"{settings.reference}.{pulse_channel.name}; the main encoder turned "
+                 f"{turns:.3g} revolutions")
+        if math.isfinite(turns) and pulses.good.size >= math.floor(turns) - 1:  # a short record
+            raise DataError(f"{found}, fewer than the {settings.min_pulses} cycles asked for",
+                            where={"key": settings.min_pulses_key},
+                            hint=f"record more revolutions, or lower {settings.min_pulses_key}")
+        raise DataError(found, where={"key": f"{settings.key}.main_reference_pulse"},
                         hint="check the pulse channel (threshold, edge, wiring)")
     angle = phi_f(ref, encoder.name, pulses, counts_per_rev=encoder.params["counts_per_rev"],
                   direction=float(settings.direction),

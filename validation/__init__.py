@@ -11,7 +11,7 @@ from rigval.acquisition.lazy import lazy_exports
 
 #: Public names and their modules, imported on first use so that ``rigval --help`` stays light.
 _LAZY = {"Scene": "scene", "load_scene": "scene", "SceneError": "errors",
-         "read_streams": "pipeline", "run_scene": "pipeline", "validate_scene": "report.validate",
+         "read_streams": "read_plan", "run_scene": "pipeline", "validate_scene": "validate",
          "ValidationResult": "results"}
 
 __all__ = ["Scene", "SceneError", "ValidationResult", "load_scene", "read_streams", "run_scene",

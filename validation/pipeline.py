@@ -1,35 +1,38 @@
-"""The validation pipeline: scene -> read -> convert -> align -> model -> angle domain -> compare.
+"""The validation pipeline: one scene through its stages, from the files to the result.
 
 :func:`run_scene` validates one scene and returns a
-:class:`~rigval.validation.results.ValidationResult` (nothing written;
-:func:`rigval.validation.report.validate.validate_scene` also writes the report folder). Stages,
-timed one by one:
+:class:`~rigval.validation.results.ValidationResult`, from which the report is written alone
+(nothing is written here; :func:`rigval.validation.validate.validate_scene` also writes the
+report folder). :func:`run_scene` reads as the list of stages (:data:`STAGES`), each timed: a
+stage takes the output of the one before and hands on only what later stages need, so what it
+consumed is let go when its output replaces it, with no bookkeeping of lifetimes. The scene
+reaches processing and the model as plain settings (:mod:`rigval.validation.stage_settings`),
+whose errors that are problems of the scene are reported once as a
+:class:`~rigval.validation.errors.SceneError`; which channels each stage needs is the read
+plan's (:mod:`rigval.validation.read_plan`), so every channel is read once.
 
 read
-    Each stream's file, only the channels the alignment needs (pulses, the encoders of phi_F
-    and of measured drives; a text file's compared channels too)
-    (:func:`rigval.acquisition.channel_map.load_stream`). The compared channels of a TDMS
-    file are read in the angle stage, one stream after the other, and dropped after use, so
-    memory holds the alignment's channels and one stream's compared channels, not every
-    stage of every channel (docs/performance.md, long records). With ``[output] raw`` or
-    ``aligned`` every channel is read here and kept.
-convert
-    Raw channels to physical units (:mod:`rigval.processing.sensors`).
+    Each stream's file, only the channels the alignment and the model need (pulses, the
+    encoders of phi_F and of measured drives; a text file's compared channels too), one stream
+    after the other, converted to physical units (:mod:`rigval.processing.sensors`) as it is
+    read; the files' SHA-256 and the operator's note. With ``[output] raw`` or ``aligned`` every
+    channel is read here and kept.
 align
     phi_F(t) from the main encoder (smoothed, never differenced raw), zero at the reference
     pulse; each other stream's clock fitted on its reference pulses against the events the
-    encoder angle predicts (:mod:`rigval.processing.stream_alignment`), module input delays removed.
+    encoder angle predicts (:mod:`rigval.processing.stream_alignment`), module input delays
+    removed; the whole revolutions of phi_F and the reference times of the grids.
 model
-    Before the angle stage, so that the encoders can be dropped. Only the outputs the
+    Before the angle stage, so that the encoders are let go first. Only the outputs the
     comparisons and predictions name, on the phi_F grid: with measured drives, each driver's
     angle, speed and acceleration from its encoder averaged over the revolutions at each grid
     angle; with analytic drives, the mechanism file's laws. The model runs on a grid four times
-    finer, so that the error of the chosen grid is measured.
+    finer, so that the error of the chosen grid is measured (:mod:`rigval.validation.model_run`).
 angle
-    Whole revolutions; each compared channel low-passed (its ``lowpass_hz``) within gap-free
-    runs, then resampled at the reference times of the uniform phi_F grid with the
-    anti-aliasing of :func:`rigval.processing.angle.resample_to_angle`; revolutions touching a
-    gap are dropped for that channel.
+    Comparison by comparison, its channels read (those not read yet), low-passed (its
+    ``lowpass_hz``) within gap-free runs, then resampled at the reference times of the uniform
+    phi_F grid with the anti-aliasing of :func:`rigval.processing.angle.resample_to_angle`;
+    revolutions touching a gap are dropped for that channel.
 numerics
     The chosen grid's error against the finer one (also the V&V 20 ``u_num``), and the power
     balance of the model on the mechanism file's law.
@@ -41,24 +44,23 @@ compare
 from __future__ import annotations
 
 import dataclasses
-import datetime
 import logging
 import math
 import time
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from types import MappingProxyType
-from typing import Any
 
 import numpy as np
 import xarray as xr
 
-from rigval.acquisition.channel_map import StreamSpec, load_stream
+from rigval.acquisition.detect import source_checksum
 from rigval.acquisition.errors import DataError
 from rigval.model.balance import energy_residual
 from rigval.model.mechanism import load_mechanism
+from rigval.model.mechanism_types import Mechanism
+from rigval.model.output_values import model_values
 from rigval.processing.alignment_summary import StreamAlignment
 from rigval.processing.angle import (
     AngleGrid,
@@ -67,28 +69,34 @@ from rigval.processing.angle import (
     cycle_grid,
     resample_to_angle,
 )
-from rigval.processing.clock_fit import input_delay
-from rigval.processing.encoder import compact_counts
 from rigval.processing.filters import zero_phase
 from rigval.processing.stream_alignment import AlignmentSettings, MainAngle, align_streams
-from rigval.validation.alignment import alignment_settings
-from rigval.validation.convert import convert_stream
 from rigval.validation.diagnosis.decimate import diagnosis_signal
 from rigval.validation.metrics.compare import baseline, check_thresholds, compare
-from rigval.validation.model_run import (
-    FINE_FACTOR,
-    grid_error,
-    model_request,
-    model_values,
-    run_model,
+from rigval.validation.model_run import FINE_FACTOR, grid_error, run_model
+from rigval.validation.note import read_note
+from rigval.validation.read_plan import (
+    MeasuredSignal,
+    ReadPlan,
+    convert_first,
+    measured_signals,
+    read_first,
+    read_plan,
 )
 from rigval.validation.results import ComparisonResult, NumericsSummary, ValidationResult
+from rigval.validation.run_tree import history_lines, run_tree
 from rigval.validation.scene import load_scene
-from rigval.validation.scene_rates import check_sample_rates, encoder_scale_errors
 from rigval.validation.scene_types import ComparisonSpec, Scene
+from rigval.validation.stage_settings import (
+    ModelSettings,
+    alignment_settings,
+    check_sample_rates,
+    model_settings,
+    scene_errors,
+)
 from rigval.validation.verdict import carried_uncertainty, with_common_gain
 
-__all__ = ["read_streams", "run_scene"]
+__all__ = ["STAGES", "run_scene"]
 
 logger = logging.getLogger(__name__)
 
@@ -99,18 +107,30 @@ ANALYTIC_SPEED_TOLERANCE = 0.02
 
 
 class _Stopwatch:
-    """Wall time per named stage, in the order the stages ran."""
+    """Wall time per named stage, in the order the stages ran; a stage inside another pauses it."""
 
     def __init__(self) -> None:
         self.seconds: dict[str, float] = {}
+        self._running: list[str] = []
+        self._since = time.perf_counter()
+
+    def _book(self) -> None:
+        now = time.perf_counter()
+        if self._running:
+            name = self._running[-1]
+            self.seconds[name] = self.seconds.get(name, 0.0) + now - self._since
+        self._since = now
 
     @contextmanager
     def stage(self, name: str) -> Iterator[None]:
-        start = time.perf_counter()
+        self._book()
+        self._running.append(name)
+        self.seconds.setdefault(name, 0.0)
         try:
             yield
         finally:
-            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
+            self._book()
+            self._running.pop()
             logger.info("stage %s: %.3f s (process CPU %.1f s, peak memory %s)", name,
                         self.seconds[name], time.process_time(), _peak_memory())
 
@@ -125,269 +145,100 @@ def _peak_memory() -> str:
     return f"{kib / 1024:.0f} MiB"
 
 
-def read_streams(scene: Scene, channels: Mapping[str, Iterable[str]] | None = None, *,
-                 only: str | None = None) -> dict[str, xr.Dataset]:
-    """Read every stream of a scene: the mapped channels under their scene names.
+# ---------------------------------------------------------------------------------------------
+# read
 
-    Parameters
-    ----------
-    scene : Scene
-        The scene.
-    channels : mapping of str to iterable of str, optional
-        Per stream, only these scene channels; default every mapped channel.
-    only : str, optional
-        Read only this stream.
 
-    Returns
-    -------
-    dict of str to xarray.Dataset
-        Stream name -> stream as read (raw units).
+def _read_stream(scene: Scene, plan: ReadPlan, name: str, watch: _Stopwatch
+                 ) -> tuple[xr.Dataset, str, xr.Dataset | None]:
+    """Return one stream's first channels converted, its file's SHA-256 and, kept, as read."""
+    stream = read_first(scene, plan, name)
+    check_sample_rates(scene, {name: stream})
+    with watch.stage("convert"):
+        converted = convert_first(scene, plan, name, stream)
+    return converted, str(stream.attrs["source_sha256"]), stream if scene.output.raw else None
+
+
+@dataclass(frozen=True)
+class _Inputs:
+    """What the run read besides the channels: kept for the result."""
+
+    raw: Mapping[str, xr.Dataset]
+    note: str | None
+    digests: tuple[tuple[Path, str], ...]
+
+
+@dataclass(frozen=True)
+class _Read:
+    """The read stage's output."""
+
+    inputs: _Inputs
+    converted: Mapping[str, xr.Dataset]
+
+
+def _read(scene: Scene, plan: ReadPlan, watch: _Stopwatch) -> _Read:
+    """Read and convert each stream's first channels, one stream after the other.
+
+    Stream by stream, so that memory holds one stream as read beside the converted ones; the
+    data files' SHA-256 come from this read, the mechanism's and the note's are computed here.
     """
-    names = list(scene.streams) if only is None else [only]
-    if channels is None:
-        return {name: load_stream(scene.streams[name]) for name in names}
-    return {name: load_stream(_stream_part(scene.streams[name], channels[name]))
-            for name in names}
-
-
-def _stream_part(spec: StreamSpec, names: Iterable[str]) -> StreamSpec:
-    """Return the stream table with only the named channels (in table order)."""
-    keep = set(names)
-    return dataclasses.replace(spec, channels=MappingProxyType(
-        {name: channel for name, channel in spec.channels.items() if name in keep}))
-
-
-def _compact_encoders(stream: xr.Dataset, spec: StreamSpec) -> None:
-    """Store, in place, the stream's encoder counters as 32-bit integers where exact.
-
-    See :func:`rigval.processing.encoder.compact_counts`: values are never altered.
-    """
-    for name, channel in spec.channels.items():
-        if channel.sensor == "encoder" and name in stream:
-            stream[name] = stream[name].copy(data=compact_counts(stream[name].to_numpy()))
-
-
-def _alignment_channels(scene: Scene, settings: AlignmentSettings) -> dict[str, set[str]]:
-    """Return the channels read before the alignment: pulses, encoders of phi_F and the drives.
-
-    A stream aligned by its start stamps needs no channel; its first is read for its samples.
-    A stream in a text file (CSV, LVM) brings its compared channels too: only TDMS files are
-    read channel by channel.
-    """
-    needs: dict[str, set[str]] = {name: set() for name in scene.streams}
-    needs[settings.reference] |= {settings.encoder.name, settings.reference_pulse.name}
-    if scene.model.drives == "measured":
-        for driver in scene.model.drivers.values():
-            needs[driver.encoder.stream].add(driver.encoder.channel)
-    for name, clock in settings.streams.items():
-        if clock.pulse is not None:
-            needs[name].add(clock.pulse.name)
-    for name, names in needs.items():
-        if not names:
-            names.add(next(iter(scene.streams[name].channels)))
-        if scene.streams[name].file.suffix.lower() != ".tdms":
-            # a text file is parsed whole for any channel: its compared channels come along
-            names.update(ref.channel for c in scene.comparisons for _, ref in c.terms
-                         if ref.stream == name)
-    return needs
-
-
-def _add_channels(scene: Scene, name: str, aligned: xr.Dataset, channels: list[str]
-                  ) -> xr.Dataset:
-    """Read, convert and put on the reference timeline channels of an aligned stream.
-
-    The samples are those of the alignment's read of the same file, so they take its
-    reference times; each channel's module delay is scaled by the stream's clock drift as
-    :func:`rigval.processing.clock_fit.align_stream` does.
-
-    Raises
-    ------
-    DataError
-        If the file holds another number of samples than when the stream was aligned.
-    """
-    spec = _stream_part(scene.streams[name], channels)
-    part = convert_stream(load_stream(spec, checksum=False), spec)
-    if part.sizes["time"] != aligned.sizes["time"]:
-        raise DataError(f"stream {name}: {spec.file.name} gave {part.sizes['time']} samples for "
-                        f"{channels} but {aligned.sizes['time']} when it was aligned",
-                        where={"file": str(spec.file), "stream": name},
-                        hint="the file changed during the validation: validate a finished "
-                             "copy of the run")
-    drift = float(aligned.attrs.get("clock_drift_ppm", 0.0)) * 1e-6
-    fs = float(part.attrs["fs_nominal"])
-    out = aligned.copy()
-    for channel in channels:
-        var = part[channel]
-        out[channel] = xr.Variable("time", var.to_numpy(), {
-            **var.attrs, "input_delay_s": input_delay(var.attrs, fs) * (1.0 + drift)})
-    return out
+    converted: dict[str, xr.Dataset] = {}
+    raw: dict[str, xr.Dataset] = {}
+    digests: dict[Path, str] = {}
+    for name, spec in scene.streams.items():
+        converted[name], digests[spec.file], kept = _read_stream(scene, plan, name, watch)
+        if kept is not None:
+            raw[name] = kept
+    inputs = tuple((path, digests.get(path) or source_checksum(path))
+                   for path in scene.input_files)
+    note = read_note(scene.note) if scene.note is not None else None
+    return _Read(_Inputs(raw, note, inputs), converted)
 
 
 # ---------------------------------------------------------------------------------------------
-# angle domain
+# align
 
 
-def _resample_channel(scene: Scene, comparison: ComparisonSpec, aligned: dict[str, xr.Dataset],
-                      grid: AngleGrid, done: list[str], diagnosis: dict[str, xr.Dataset]
-                      ) -> tuple[np.ndarray, float | None]:
-    """Resample a measured channel onto the phi_F grid, (n_cycle, n_angle); NaN at gaps.
+@dataclass(frozen=True)
+class _Timeline:
+    """The streams on the reference timeline and the grids of phi_F.
 
-    The comparison's ``lowpass_hz`` (zero phase, within gap-free runs) comes first; the
-    anti-alias low-pass of :func:`rigval.processing.angle.resample_to_angle` follows.
-    The channels ``done`` are dropped from the stream in ``aligned`` once their samples are
-    taken, so that each filter's input is freed as its output is made (memory).
-    Returns the resampled cycles and the low-pass corner applied in Hz (None: none); puts the
-    signal before any low-pass, decimated, into ``diagnosis`` (docs/diagnosis.md).
+    ``streams`` hold the channels the angle stage takes (every channel when the output keeps
+    them); after the angle stage, only the streams the output keeps.
     """
-    stream, name = comparison.measured.stream, comparison.measured.channel
-    ds = aligned[stream]
-    fs = float(ds.attrs["fs_nominal"])
-    delay = float(ds[name].attrs.get("input_delay_s", 0.0))
-    values = np.asarray(ds[name].to_numpy(), dtype=np.float64)  # no copy (memory)
-    for sign, ref in comparison.terms[1:]:  # channels of the same stream and unit, summed
-        values = values + sign * ds[ref.channel].to_numpy().astype(np.float64)
-    valid = ds["valid"].to_numpy() & np.isfinite(values)
-    segment, time_axis = ds["segment"].to_numpy(), ds["time"]
-    if done:
-        aligned[stream] = ds.drop_vars(done)
-    del ds
-    diagnosis[comparison.name] = diagnosis_signal(time_axis.to_numpy() - delay, values, segment,
-                                                  valid, fs)
-    corner = comparison.lowpass_hz
-    if corner is not None and corner < 0.45 * fs:
-        values = zero_phase(values, fs, corner, segment=segment, valid=valid)
-        valid &= np.isfinite(values)
-    # resample_to_angle's anti-alias filter, here so that its input can be freed
-    anti_alias = anti_alias_hz(grid, scene.angle.points_per_revolution)
-    if anti_alias < 0.45 * fs:
-        values = zero_phase(values, fs, anti_alias, order=8, segment=segment, valid=valid)
-    _, _, cycles = resample_to_angle(
-        time_axis.to_numpy() - delay, values, None, None,  # as align.channel_time
-        points_per_rev=scene.angle.points_per_revolution, fs=fs,
-        order=INTERPOLATION_ORDER[scene.angle.interpolation], anti_alias="none",
-        segment=segment, valid=valid, grid=grid)
-    return cycles, corner
+
+    streams: dict[str, xr.Dataset]
+    diagnostics: Mapping[str, StreamAlignment]
+    grid: _Grid
+    angle_times: AngleGrid
+    history: list[str]
 
 
-# ---------------------------------------------------------------------------------------------
-# model
+@dataclass(frozen=True)
+class _Aligned:
+    """The align stage's output: the timeline and, apart, the drives' encoders for the model."""
+
+    inputs: _Inputs
+    timeline: _Timeline
+    drives: xr.Dataset | None
 
 
-# ---------------------------------------------------------------------------------------------
-# compare
-
-
-def _compare(comparison: ComparisonSpec, units: str, long_name: str, angle: np.ndarray,
-             cycles: np.ndarray, model: np.ndarray, u_num: float,
-             carried: Mapping[str, float] | None = None) -> ComparisonResult:
-    """Score the model against the measured mean, the baseline and the thresholds.
-
-    ``u_num`` is the numerical uncertainty of the model (signal units) for V&V 20; ``carried``
-    the uncertainties carried from alignment and drives (``u_time`` s, ``speed`` rad/s,
-    ``u_drive_angle`` rad, see :func:`rigval.validation.metrics.vv20.vv20_curve`).
-    """
-    whole = cycles[np.all(np.isfinite(cycles), axis=1)]
-    if whole.shape[0] < 2:
-        raise DataError(f"{comparison.name}: only {whole.shape[0]} whole revolutions without "
-                        "gaps", where={"key": comparison.key, "channel": str(comparison.measured)},
-                        hint="record longer or check the stream's gaps")
-    mean = whole.mean(axis=0)
-    model = model * comparison.scale
-    offset = float(mean.mean() - model.mean()) if comparison.remove_offset else 0.0
-    model = model + offset
-    scores = compare(mean, model, angle, metrics=(*comparison.metrics, "vv20"),
-                     normaliser=comparison.nrmse_normaliser, cycles=whole,
-                     uncertainty={"u_num": u_num, **dict(carried or {}),
-                                  **comparison.uncertainty})
-    base = baseline(whole, mean, angle=angle, metrics=comparison.metrics,
-                    normaliser=comparison.nrmse_normaliser)
-    checks = check_thresholds(scores, comparison.thresholds,
-                              key_path=f"{comparison.key}.thresholds")
-    return ComparisonResult(spec=comparison, units=units, long_name=long_name, angle=angle,
-                            cycles=whole, model=model, offset=offset, scores=scores,
-                            baseline={"median": base.median, "worst": base.worst},
-                            checks=tuple(checks))
-
-
-# ---------------------------------------------------------------------------------------------
-# the run's data tree
-
-
-def _measured_float32(ds: xr.Dataset) -> xr.Dataset:
-    out = ds.copy()
-    for name, var in ds.data_vars.items():
-        if var.dtype.kind == "f":
-            out[name] = var.astype(np.float32)
-    return out
-
-
-def _tree(scene: Scene, raw: Mapping[str, xr.Dataset], aligned: Mapping[str, xr.Dataset],
-          angle: np.ndarray, grid_times: np.ndarray, measured: Mapping[str, np.ndarray],
-          results: tuple[ComparisonResult, ...], model: xr.Dataset, steps: list[str],
-          history: list[str]) -> xr.DataTree:
-    """Build the run's DataTree; history: the streams' processing lines, then ``steps``.
-
-    ``/raw`` and ``/aligned`` hold the streams given in ``raw`` and ``aligned`` (empty mappings
-    when the scene's ``[output]`` does not ask for them).
-    """
-    cycle = np.arange(grid_times.shape[0])
-    angle_ds = xr.Dataset(coords={
-        "angle": ("angle", angle, {"units": "rad", "long_name": "main shaft angle phi_F"}),
-        "cycle": ("cycle", cycle, {"long_name": "whole revolution index", "units": "1"})})
-    angle_ds["time_at_angle"] = (("cycle", "angle"), grid_times, {
-        "units": "s", "long_name": "reference time at each grid angle"})
-    for result in results:
-        name = result.name
-        attrs = {"units": result.units, "long_name": result.long_name,
-                 "source": result.spec.measured_text}
-        angle_ds[name] = (("cycle", "angle"), measured[name].astype(np.float32), attrs)
-        low, high = result.band
-        stats = {"mean": result.mean, "std": result.cycles.std(axis=0, ddof=1), "p5": low,
-                 "p95": high, "min": result.cycles.min(axis=0), "max": result.cycles.max(axis=0)}
-        for stat, values in stats.items():
-            angle_ds[f"{name}_{stat}"] = ("angle", values,
-                                          {**attrs, "cell_methods": f"cycle: {stat}"})
-        angle_ds[f"{name}_n"] = ((), result.cycles.shape[0], {"units": "1"})
-    model_ds = model.copy()
-    for result in results:
-        model_ds[f"compared_{result.name}"] = ("angle", result.model, {
-            "units": result.units, "long_name": f"{result.spec.model} x {result.spec.scale:g}"
-                                                f" + {result.offset:g}"})
-    scores = sorted({k for r in results for k, v in r.scores.items()
-                     if isinstance(v, int | float) and not isinstance(v, bool)}
-                    | {k for r in results for k in r.spec.thresholds})
-    table = {row: np.array([[float(source.get(s, np.nan)) for s in scores]
-                            for source in sources]) for row, sources in (
-        ("model", [r.scores for r in results]),
-        ("baseline_median", [r.baseline["median"] for r in results]),
-        ("baseline_worst", [r.baseline["worst"] for r in results]))}
-    validation = xr.Dataset(
-        {f"metrics_{row}": (("comparison", "score"), values, {"units": "1"})
-         for row, values in table.items()},
-        coords={"comparison": [r.name for r in results], "score": scores})
-    validation["passed"] = ("comparison", np.array([r.passed for r in results], dtype=np.int8),
-                            {"long_name": "all thresholds met", "units": "1"})
-    validation["threshold"] = (("comparison", "score"), np.array(
-        [[str(r.spec.thresholds.get(s, "")) for s in scores] for r in results], dtype=object),
-        {"long_name": "pass/fail rule on the score, OP LIMIT (empty: none)"})
-    nodes: dict[str, xr.Dataset] = {}
-    for name, ds in raw.items():
-        nodes[f"/raw/{name}"] = _measured_float32(ds)
-    for name, ds in aligned.items():
-        nodes[f"/aligned/{name}"] = _measured_float32(ds)
-    nodes["/angle"] = angle_ds
-    nodes["/model"] = model_ds
-    nodes["/validation"] = validation
-    tree = xr.DataTree.from_dict(nodes)
-    tree.attrs["title"] = scene.title
-    lines = list(history)
-    lines += [f"{datetime.datetime.now(datetime.UTC):%Y-%m-%dT%H:%M:%SZ} rigval {step}"
-              for step in steps]
-    tree.attrs["history"] = "\n".join(lines)
-    return tree
-
-
-# ---------------------------------------------------------------------------------------------
+def _align(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, read: _Read) -> _Aligned:
+    """Put the streams on the reference timeline; keep what the later stages need."""
+    # the device clocks go into the output only with [output] aligned
+    aligned, diagnostics, main = align_streams(settings, read.converted,
+                                               device_time=scene.output.aligned)
+    history = [line for ds in aligned.values()
+               for line in str(ds.attrs.get("history", "")).splitlines()]
+    reference = aligned[settings.reference]
+    drives = reference[[*plan.drives, "valid", "segment"]] if plan.drives else None
+    if not plan.whole:
+        aligned = {name: ds[[*sorted(plan.kept_after_alignment(name)), "valid", "segment"]]
+                   for name, ds in aligned.items()}
+    # the reference times of the comparison grid; phi_F(t) itself is not needed after
+    times = angle_grid(main.time, main.phi, scene.angle.points_per_revolution)
+    return _Aligned(read.inputs, _Timeline(aligned, diagnostics, _grid(scene, main), times,
+                                           history), drives)
 
 
 @dataclass(frozen=True)
@@ -423,91 +274,192 @@ def _grid(scene: Scene, main: MainAngle) -> _Grid:
     return _Grid(turns, fine_grid[0] - fine_grid[0, 0], fine_times, turns.size / duration)
 
 
-def _compare_all(scene: Scene, long_names: Mapping[str, str], model: xr.Dataset,
-                 grid: _Grid, measured: Mapping[str, np.ndarray],
-                 errors: Mapping[str, float], alignment: Mapping[str, StreamAlignment]
+# ---------------------------------------------------------------------------------------------
+# model
+
+
+@dataclass(frozen=True)
+class _Model:
+    """The model of the run: on the fine grid and on the chosen one (every fourth point)."""
+
+    mechanism: Mechanism
+    settings: ModelSettings
+    fine: xr.Dataset
+    chosen: xr.Dataset
+
+
+@dataclass(frozen=True)
+class _Modelled:
+    """The model stage's output: the drives' encoders are let go."""
+
+    inputs: _Inputs
+    timeline: _Timeline
+    model: _Model
+
+
+def _model(scene: Scene, aligned: _Aligned) -> _Modelled:
+    """Solve the mechanism on the fine phi_F grid; the chosen grid is every fourth point."""
+    grid = aligned.timeline.grid
+    mechanism = load_mechanism(scene.mechanism)
+    settings = model_settings(scene, mechanism)
+    fine = run_model(settings, mechanism, aligned.drives, grid.fine_times, grid.fine_angle)
+    if settings.drives == "analytic":
+        law_speed = 1.0 / float(fine.attrs["cycle_period_s"])
+        if abs(law_speed / grid.speed_rev_s - 1.0) > ANALYTIC_SPEED_TOLERANCE:
+            logger.warning("the mechanism's drive law turns at %.4g rev/s, the run at %.4g "
+                           "rev/s: forces scale with the square of the speed; consider "
+                           'drives = "measured"', law_speed, grid.speed_rev_s)
+    return _Modelled(aligned.inputs, aligned.timeline, _Model(
+        mechanism, settings, fine, fine.isel(angle=slice(None, None, FINE_FACTOR))))
+
+
+# ---------------------------------------------------------------------------------------------
+# angle domain
+
+
+@dataclass(frozen=True)
+class _Measured:
+    """The angle stage's output: the measured revolutions on the phi_F grid, by comparison.
+
+    The timeline keeps only the streams the output keeps (``[output] aligned``).
+    """
+
+    inputs: _Inputs
+    timeline: _Timeline
+    model: _Model
+    cycles: Mapping[str, np.ndarray]
+    corners: Mapping[str, float | None]
+    long_names: Mapping[str, str]
+    diagnosis: Mapping[str, xr.Dataset]
+
+
+def _angle(scene: Scene, plan: ReadPlan, modelled: _Modelled) -> _Measured:
+    """Resample every comparison's measured signal onto the phi_F grid, in the plan's order.
+
+    Gives the resampled cycles, the low-pass corners applied and the channels' long names.
+    """
+    timeline = modelled.timeline
+    cycles, corners, long_names, diagnosis = {}, {}, {}, {}
+    for comparison, signal in measured_signals(scene, plan, timeline.streams):
+        cycles[comparison.name], corners[comparison.name] = _resample(
+            scene, comparison, signal, timeline.angle_times, diagnosis)
+        long_names[comparison.name] = signal.long_name
+    kept = timeline.streams if scene.output.aligned else {}
+    return _Measured(modelled.inputs, dataclasses.replace(timeline, streams=kept),
+                     modelled.model, cycles, corners, long_names, diagnosis)
+
+
+def _resample(scene: Scene, comparison: ComparisonSpec, signal: MeasuredSignal, grid: AngleGrid,
+              diagnosis: dict[str, xr.Dataset]) -> tuple[np.ndarray, float | None]:
+    """Resample a measured signal onto the phi_F grid, (n_cycle, n_angle); NaN at gaps.
+
+    The comparison's ``lowpass_hz`` (zero phase, within gap-free runs) comes first; the
+    anti-alias low-pass of :func:`rigval.processing.angle.resample_to_angle` follows, here so
+    that each filter's input is freed as its output is made (memory). Returns the resampled
+    cycles and the low-pass corner applied in Hz (None: none); puts the signal before any
+    low-pass, decimated, into ``diagnosis`` (docs/diagnosis.md).
+    """
+    fs, valid, segment = signal.fs, signal.valid, signal.segment
+    values = signal.take_values()
+    diagnosis[comparison.name] = diagnosis_signal(signal.time.to_numpy() - signal.delay_s,
+                                                  values, segment, valid, fs)
+    corner = comparison.lowpass_hz
+    if corner is not None and corner < 0.45 * fs:
+        values = zero_phase(values, fs, corner, segment=segment, valid=valid)
+        valid &= np.isfinite(values)
+    anti_alias = anti_alias_hz(grid, scene.angle.points_per_revolution)
+    if anti_alias < 0.45 * fs:
+        values = zero_phase(values, fs, anti_alias, order=8, segment=segment, valid=valid)
+    _, _, cycles = resample_to_angle(
+        signal.time.to_numpy() - signal.delay_s, values, None, None,  # as clock_fit.channel_time
+        points_per_rev=scene.angle.points_per_revolution, fs=fs,
+        order=INTERPOLATION_ORDER[scene.angle.interpolation], anti_alias="none",
+        segment=segment, valid=valid, grid=grid)
+    return cycles, corner
+
+
+# ---------------------------------------------------------------------------------------------
+# numerics and compare
+
+
+@dataclass(frozen=True)
+class _Numerics:
+    """The chosen grid's error per comparison, the model's power balance, the fine grid's size."""
+
+    errors: Mapping[str, float]
+    residuals: Mapping[str, float]
+    model_points: int
+
+
+def _numerics(scene: Scene, model: _Model) -> _Numerics:
+    """Return the chosen grid's error per comparison and the model's power balance."""
+    residuals = energy_residual(model.mechanism, scene.angle.points_per_revolution)
+    residuals["max condition number (this run)"] = float(
+        model.chosen.attrs.get("max_condition_number", math.nan))
+    return _Numerics(grid_error(model.settings, model.fine), residuals,
+                     int(model.fine.sizes["angle"]))
+
+
+def _compare(comparison: ComparisonSpec, units: str, long_name: str, angle: np.ndarray,
+             cycles: np.ndarray, model: np.ndarray, u_num: float,
+             carried: Mapping[str, float] | None = None) -> ComparisonResult:
+    """Score the model against the measured mean, the baseline and the thresholds.
+
+    ``u_num`` is the numerical uncertainty of the model (signal units) for V&V 20; ``carried``
+    the uncertainties carried from alignment and drives (``u_time`` s, ``speed`` rad/s,
+    ``u_drive_angle`` rad, see :func:`rigval.validation.metrics.vv20.vv20_curve`).
+    """
+    whole = cycles[np.all(np.isfinite(cycles), axis=1)]
+    if whole.shape[0] < 2:
+        raise DataError(f"{comparison.name}: only {whole.shape[0]} whole revolutions without "
+                        "gaps", where={"key": comparison.key, "channel": str(comparison.measured)},
+                        hint="record longer or check the stream's gaps")
+    mean = whole.mean(axis=0)
+    model = model * comparison.scale
+    offset = float(mean.mean() - model.mean()) if comparison.remove_offset else 0.0
+    model = model + offset
+    scores = compare(mean, model, angle, metrics=(*comparison.metrics, "vv20"),
+                     normaliser=comparison.nrmse_normaliser, cycles=whole,
+                     uncertainty={"u_num": u_num, **dict(carried or {}),
+                                  **comparison.uncertainty})
+    base = baseline(whole, mean, angle=angle, metrics=comparison.metrics,
+                    normaliser=comparison.nrmse_normaliser)
+    checks = check_thresholds(scores, comparison.thresholds,
+                              key_path=f"{comparison.key}.thresholds")
+    return ComparisonResult(spec=comparison, units=units, long_name=long_name, angle=angle,
+                            cycles=whole, model=model, offset=offset, scores=scores,
+                            baseline={"median": base.median, "worst": base.worst},
+                            checks=tuple(checks))
+
+def _compare_all(scene: Scene, measured: _Measured, numerics: _Numerics
                  ) -> tuple[ComparisonResult, ...]:
-    results = []
+    """Score every comparison; the common-gain statement across them."""
+    grid, results = measured.timeline.grid, []
     for comparison in scene.comparisons:
-        long_name = long_names[comparison.name]
-        if comparison.summed:
-            long_name = comparison.measured_text
-        values = model_values(model, comparison.model)
-        u_num = errors[comparison.name] * float(np.ptp(values)) * abs(comparison.scale)
-        carried = carried_uncertainty(scene, alignment[comparison.measured.stream],
-                                      grid.speed_rev_s)
-        results.append(_compare(comparison, scene.units(comparison.measured), long_name,
-                                grid.angle, measured[comparison.name], values, u_num, carried))
+        values = model_values(measured.model.chosen, comparison.model)
+        u_num = numerics.errors[comparison.name] * float(np.ptp(values)) * abs(comparison.scale)
+        carried = carried_uncertainty(
+            scene, measured.timeline.diagnostics[comparison.measured.stream], grid.speed_rev_s)
+        results.append(_compare(comparison, scene.units(comparison.measured),
+                                measured.long_names[comparison.name], grid.angle,
+                                measured.cycles[comparison.name], values, u_num, carried))
     return with_common_gain(scene, results)
 
 
-def _drop_served(scene: Scene, aligned: dict[str, xr.Dataset], *, model_done: bool) -> None:
-    """Drop, in place, the channels that have served their stage.
+# ---------------------------------------------------------------------------------------------
+# the run
 
-    After the alignment: the device clocks and the pulse channels; once the model has its
-    drives (``model_done``), the drives' encoders too. Compared channels stay.
-    """
-    needed: dict[str, set[str]] = {}
-    for comparison in scene.comparisons:
-        for _, ref in comparison.terms:
-            needed.setdefault(ref.stream, set()).add(ref.channel)
-    if not model_done and scene.model.drives == "measured":
-        for driver in scene.model.drivers.values():
-            needed.setdefault(driver.encoder.stream, set()).add(driver.encoder.channel)
-    for stream, ds in aligned.items():
-        keep = needed.get(stream, set()) | {"valid", "segment"}
-        aligned[stream] = ds.drop_vars(
-            [name for name in ds.data_vars if name not in keep] + ["device_time"],
-            errors="ignore")
-
-
-def _angle_domain(scene: Scene, aligned: dict[str, xr.Dataset], grid: AngleGrid,
-                  diagnosis: dict[str, xr.Dataset], *, keep: bool
-                  ) -> tuple[dict[str, np.ndarray], dict[str, float | None], dict[str, str]]:
-    """Resample every comparison's measured signal onto the phi_F grid, stream by stream.
-
-    Comparison by comparison, its channels not read yet are read, and each is dropped as soon
-    as no later comparison of its stream needs it, so that memory holds about one compared
-    channel at a time (``keep``: every channel was read and stays, the streams go into the
-    output). Returns the resampled cycles, the low-pass corners and the channels' long
-    names, by comparison; ``diagnosis`` receives each signal for the residual spectra.
-    """
-    by_stream: dict[str, list[ComparisonSpec]] = {}
-    for comparison in scene.comparisons:
-        by_stream.setdefault(comparison.measured.stream, []).append(comparison)
-    measured, corners, long_names = {}, {}, {}
-    for stream, comparisons in by_stream.items():
-        for i, comparison in enumerate(comparisons):
-            names = [ref.channel for _, ref in comparison.terms]
-            missing = [name for name in dict.fromkeys(names) if name not in aligned[stream]]
-            if missing:
-                aligned[stream] = _add_channels(scene, stream, aligned[stream], missing)
-            channel = comparison.measured.channel
-            long_names[comparison.name] = str(aligned[stream][channel].attrs.get(
-                "long_name", channel))
-            later = {ref.channel for c in comparisons[i + 1:] for _, ref in c.terms}
-            done = [] if keep else [name for name in dict.fromkeys(names) if name not in later]
-            measured[comparison.name], corners[comparison.name] = _resample_channel(
-                scene, comparison, aligned, grid, done, diagnosis)
-    return measured, corners, long_names
-
-
-def _history(scene: Scene, grid: _Grid, corners: Mapping[str, float | None],
-             request: Mapping[str, Any], passed: bool) -> list[str]:
-    files = ", ".join(spec.file.name for spec in scene.streams.values())
-    return [
-        f"validation.pipeline read+convert {files}",
-        f"validation.pipeline angle: {grid.turns.size} revolutions, "
-        f"{scene.angle.points_per_revolution} points per revolution, "
-        f"{scene.angle.interpolation} interpolation, low-pass {dict(corners)}",
-        f"validation.pipeline model {scene.mechanism.name}: drives {scene.model.drives}, "
-        f"outputs {dict(request)}",
-        f"validation.pipeline compare {', '.join(c.name for c in scene.comparisons)}: "
-        f"{'passed' if passed else 'failed'}"]
+#: The stages of a run, in order, as timed (``NumericsSummary.stage_seconds``; ``convert`` is
+#: timed inside ``read``).
+STAGES = ("read", "align", "model", "angle", "numerics", "compare")
 
 
 def run_scene(scene: Scene | str | Path) -> ValidationResult:
-    """Validate one scene: read, convert, align, angle domain, model, compare.
+    """Validate one scene: read, align, model, angle domain, numerics, compare.
+
+    Each stage takes the output of the one before and hands on what the later ones need, so
+    what a stage consumed (the converted streams, the drives' encoders, the compared channels)
+    is let go as the next stage's output replaces it.
 
     Parameters
     ----------
@@ -522,8 +474,8 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
     Raises
     ------
     SceneError
-        For a bad scene, including channels absent from their files and units that do not
-        fit the declared sensors.
+        For a bad scene, including channels absent from their files, units that do not fit
+        the declared sensors and encoder scales the data contradict.
     RigvalError
         For data that cannot be read, aligned or modelled (``DataFileError``, ``DataError``,
         ``AlignmentError``, ``ModelError``).
@@ -533,79 +485,45 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
         settings = alignment_settings(scene)
-        # Streams kept in the output are read whole; otherwise only what the alignment
-        # needs, and each compared channel when its comparison comes (memory: see
-        # docs/performance.md, long records).
-        whole = scene.output.raw or scene.output.aligned
-        first = None if whole else _alignment_channels(scene, settings)
-    raw: dict[str, xr.Dataset] = {}
-    converted: dict[str, xr.Dataset] = {}
-    for name, spec in scene.streams.items():
-        # stream by stream: one stream as read beside the converted ones, not all of them
+        plan = read_plan(scene, settings)
+    with scene_errors(scene):
         with watch.stage("read"):
-            stream = read_streams(scene, first, only=name)[name]
-            check_sample_rates(scene, {name: stream})
-        with watch.stage("convert"):
-            converted[name] = convert_stream(stream, _stream_part(spec, stream.data_vars))
-            if not whole:  # float64 counters as exact 32-bit integers (memory)
-                _compact_encoders(converted[name], spec)
-            if scene.output.raw:
-                raw[name] = stream
-            del stream
-    with watch.stage("align"), encoder_scale_errors(scene):
-        # the device clocks go into the output only with [output] aligned
-        aligned, diagnostics, main = align_streams(settings, converted,
-                                                   device_time=scene.output.aligned)
-        del converted
-        if not whole:
-            _drop_served(scene, aligned, model_done=False)
-        grid = _grid(scene, main)
-        # the reference times of the comparison grid; phi_F(t) itself is not needed after
-        angle_times = angle_grid(main.time, main.phi, scene.angle.points_per_revolution)
-        del main
-    with watch.stage("model"), encoder_scale_errors(scene):
-        mechanism = load_mechanism(scene.mechanism)
-        fine = run_model(scene, mechanism, aligned[scene.alignment.reference], grid.fine_times,
-                          grid.fine_angle)
-        if scene.model.drives == "analytic":
-            law_speed = 1.0 / float(fine.attrs["cycle_period_s"])
-            if abs(law_speed / grid.speed_rev_s - 1.0) > ANALYTIC_SPEED_TOLERANCE:
-                logger.warning("the mechanism's drive law turns at %.4g rev/s, the run at %.4g "
-                               "rev/s: forces scale with the square of the speed; consider "
-                               'drives = "measured"', law_speed, grid.speed_rev_s)
-        model = fine.isel(angle=slice(None, None, FINE_FACTOR))
-        if not whole:
-            _drop_served(scene, aligned, model_done=True)
-    with watch.stage("angle"):
-        diagnosis: dict[str, xr.Dataset] = {}
-        measured, corners, long_names = _angle_domain(scene, aligned, angle_times, diagnosis,
-                                                      keep=whole)
-    with watch.stage("numerics"):
-        errors = grid_error(scene, fine)
-    with watch.stage("compare"):
-        results = _compare_all(scene, long_names, model, grid, measured, errors, diagnostics)
-    with watch.stage("numerics"):
-        residuals = energy_residual(mechanism, scene.angle.points_per_revolution)
-        residuals["max condition number (this run)"] = float(
-            model.attrs.get("max_condition_number", math.nan))
+            run = _read(scene, plan, watch)
+        with watch.stage("align"):
+            run = _align(scene, plan, settings, run)
+        with watch.stage("model"):
+            run = _model(scene, run)
+        with watch.stage("angle"):
+            run = _angle(scene, plan, run)
+        with watch.stage("numerics"):
+            numerics = _numerics(scene, run.model)
+        with watch.stage("compare"):
+            results = _compare_all(scene, run, numerics)
+    return _result(scene, watch, run, numerics, results)
+
+
+def _result(scene: Scene, watch: _Stopwatch, measured: _Measured, numerics: _Numerics,
+            results: tuple[ComparisonResult, ...]) -> ValidationResult:
+    """Return the run's result: everything the report needs."""
+    grid, timeline, model = measured.timeline.grid, measured.timeline, measured.model
     passed = all(r.passed for r in results)
-    steps = _history(scene, grid, corners, model_request(scene, mechanism), passed)
-    history = [line for ds in aligned.values()
-               for line in str(ds.attrs.get("history", "")).splitlines()]
-    tree = _tree(scene, raw, aligned if scene.output.aligned else {}, grid.angle, grid.times,
-                 measured, results, model, steps, history)
-    for name, corner in corners.items():  # absent: not low-passed
-        if corner is not None:
-            tree["/angle"][name].attrs["lowpass_hz"] = float(corner)
-    for name, signal in diagnosis.items():  # the residual spectra's input (docs/diagnosis.md)
+    steps = history_lines(scene, int(grid.turns.size), measured.corners, model.settings.request,
+                          passed)
+    tree = run_tree(scene, measured.inputs.raw, timeline.streams, grid.angle, grid.times,
+                    measured.cycles, results, model.chosen, steps, timeline.history,
+                    measured.corners)
+    for name, signal in measured.diagnosis.items():  # the residual spectra's input
         tree[f"/diagnosis/{name}"] = xr.DataTree(signal)
-    numerics = NumericsSummary(dict(watch.seconds), residuals, errors, grid.fine_angle.size)
+    summary = NumericsSummary(dict(watch.seconds), numerics.residuals, numerics.errors,
+                              numerics.model_points)
     logger.info("validated %s in %.2f s: %s", scene.path.name, sum(watch.seconds.values()),
                 "passed" if passed else "failed")
-    return ValidationResult(scene=scene, comparisons=results, alignment=diagnostics,
-                            predictions=_predicted_outputs(scene, model), numerics=numerics,
-                            speed_rev_s=grid.speed_rev_s, n_cycles=int(grid.turns.size),
-                            tree=tree)
+    return ValidationResult(
+        scene=scene, comparisons=results, alignment=timeline.diagnostics,
+        predictions=_predicted_outputs(scene, model.chosen), numerics=summary,
+        speed_rev_s=grid.speed_rev_s, n_cycles=int(grid.turns.size), tree=tree,
+        mechanism=model.mechanism, note=measured.inputs.note,
+        input_digests=measured.inputs.digests)
 
 
 def _predicted_outputs(scene: Scene, model: xr.Dataset) -> xr.Dataset:

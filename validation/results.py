@@ -8,13 +8,14 @@ notebook or a campaign can use them without re-running anything.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
+from rigval.model.mechanism_types import Mechanism
 from rigval.processing.alignment_summary import StreamAlignment
 from rigval.validation.metrics.thresholds import ThresholdCheck
 from rigval.validation.scene_types import ComparisonSpec, Scene
@@ -111,7 +112,7 @@ class NumericsSummary:
     model_points: int
 
 
-@dataclass
+@dataclass(frozen=True)
 class ValidationResult:
     """Everything one validation produced; the report is written from it alone.
 
@@ -135,8 +136,15 @@ class ValidationResult:
     tree : xarray.DataTree
         The run's data: ``/angle``, ``/model``, ``/validation``, and ``/raw/<stream>`` and
         ``/aligned/<stream>`` where the scene's ``[output]`` asks for them.
-    outputs : list of pathlib.Path
-        Files written (filled by :func:`rigval.validation.report.run_report.write_report`).
+    mechanism : rigval.model.Mechanism
+        The mechanism the model ran (the report's sketch).
+    note : str or None
+        The text of the scene's operator's note (None without one).
+    input_digests : tuple of (pathlib.Path, str)
+        Every file the validation read (data files, mechanism, note) with its SHA-256.
+    outputs : tuple of pathlib.Path
+        Files written (:func:`rigval.validation.validate.validate_scene` returns them here;
+        empty from :func:`rigval.validation.pipeline.run_scene`).
     """
 
     scene: Scene
@@ -147,7 +155,10 @@ class ValidationResult:
     speed_rev_s: float
     n_cycles: int
     tree: xr.DataTree
-    outputs: list[Path] = field(default_factory=list)
+    mechanism: Mechanism
+    note: str | None
+    input_digests: tuple[tuple[Path, str], ...]
+    outputs: tuple[Path, ...] = ()
 
     @property
     def passed(self) -> bool:
@@ -157,7 +168,7 @@ class ValidationResult:
     @property
     def inputs(self) -> tuple[Path, ...]:
         """Files the validation read (data files, mechanism, note)."""
-        return self.scene.input_files
+        return tuple(path for path, _ in self.input_digests)
 
     def metric_rows(self) -> list[dict[str, Any]]:
         """Return one row per comparison and metric: the model scores, then the baseline.

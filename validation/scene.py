@@ -79,6 +79,7 @@ __all__ = [
     "load_scene",
     "parse_scene",
     "todo_keys",
+    "todo_label",
 ]
 
 logger = logging.getLogger(__name__)
@@ -510,6 +511,25 @@ def _output_spec(doc: Mapping[str, Any]) -> OutputSpec:
 TODO = "TODO"
 
 
+def todo_label(doc: Mapping[str, Any], key: str) -> str:
+    """Return a TODO's key path with its comparison's name: ``comparisons[3] (tor1).scale``.
+
+    Parameters
+    ----------
+    doc : mapping
+        The parsed scene.
+    key : str
+        A key path from :func:`todo_keys`.
+    """
+    match = re.match(r"comparisons\[(\d+)\]", key)
+    comparisons = doc.get("comparisons")
+    if not match or not isinstance(comparisons, list):
+        return key
+    table = comparisons[int(match.group(1))] if int(match.group(1)) < len(comparisons) else {}
+    name = table.get("name") if isinstance(table, Mapping) else None
+    return key if not isinstance(name, str) else f"{match.group(0)} ({name}){key[match.end():]}"
+
+
 def todo_keys(doc: Mapping[str, Any], key: str = "") -> list[str]:
     """Return the key path of every string value that starts with ``TODO``, in document order.
 
@@ -567,7 +587,8 @@ def parse_scene(text: str, path: str | Path, *, names: MechanismNames | None = N
     todo = todo_keys(doc)
     if todo:
         raise SceneError(
-            f"{len(todo)} value(s) still marked TODO: {', '.join(todo)}",
+            f"{len(todo)} value(s) still marked TODO:\n"
+            + "".join(f"  {todo_label(doc, key)}\n" for key in todo),
             where={"key": todo[0], "file": str(path)}, keys=todo,
             hint="fill each value (the comment next to it in the skeleton written by rigval "
                  "init says what it is); docs/scene.md describes every key")

@@ -19,12 +19,14 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from rigval.acquisition.devices import MODULES, rate_divider
-from rigval.acquisition.errors import ConfigError, UnitError
+from rigval.acquisition.errors import ConfigError, DataWarning, UnitError
+from rigval.acquisition.start_time import start_time_text
 from rigval.acquisition.survey import (
     BRIDGE_UNITS,
     ChannelGuess,
@@ -38,7 +40,10 @@ from rigval.model.drives import law_angles_at_reference
 from rigval.validation.scene import TODO
 from rigval.validation.scene_types import SCHEMA
 
-__all__ = ["fill_todos", "skeleton_text"]
+__all__ = ["MIN_CYCLES", "fill_todos", "skeleton_text"]
+
+#: ``[angle] min_cycles`` of a skeleton: the fewest revolutions a comparison needs.
+MIN_CYCLES = 3
 
 
 class _Writer:
@@ -83,7 +88,7 @@ _SENSOR_TODO: Mapping[str, tuple[tuple[str, str], ...]] = {
 
 
 def _channel_table(w: _Writer, stream: StreamGuess, channel: ChannelGuess,
-                   main_cpr: int | None) -> None:
+                   main_cpr: int | None, main: bool = False) -> None:
     w.line(f"[streams.{stream.name}.channels.{channel.name}]")
     w.key("source", channel.source, f"unit in the file: {channel.units or '-'!r}, "
                                     f"{stream.fs:.9g} S/s")
@@ -97,9 +102,15 @@ def _channel_table(w: _Writer, stream: StreamGuess, channel: ChannelGuess,
             w.key("index_reset", True, f"the counts fall back to 0 every {channel.index_counts} "
                                        f"counts ({'at least' if tol < 0 else f'+- {tol}'}): the "
                                        "index pulse reloads the counter")
-        if main_cpr:
-            w.todo("counts_per_rev", f"after x4 decoding; {main_cpr} counts per main-shaft "
-                                     "revolution in this file")
+        if main_cpr and main:
+            w.todo("counts_per_rev", f"per turn of the encoder's shaft, after x4 decoding; "
+                                     f"{main_cpr} counts per main-shaft revolution in this file, "
+                                     "the main shaft's encoder: the value")
+        elif main_cpr:
+            w.todo("counts_per_rev", f"per turn of this encoder's own shaft, after x4 decoding; "
+                                     f"{main_cpr} counts per main-shaft revolution in this file "
+                                     "= the value x turns of its shaft per main-shaft revolution "
+                                     f"({main_cpr} if one, {main_cpr / 2:g} if two)")
         else:
             w.todo("counts_per_rev", "after x4 decoding (encoder datasheet)")
         return
@@ -187,7 +198,8 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
         w.line(f"[streams.{stream.name}]")
         w.key("file", Path(os.path.relpath(stream.file.resolve(), scene_dir)).as_posix(),
               f"{stream.format}, {stream.samples} samples at {stream.fs:.9g} S/s, "
-              f"start {stream.start_time}")
+              "start " + start_time_text(stream.start_time, zone_unknown=stream.timezone_missing,
+                                         timezone=stream.reader.get("timezone")))
         w.key("device", stream.device, f"guessed: {stream.device_reason}")
         for option, value in stream.reader.items():
             w.key(f"reader.{option}", value)
@@ -202,7 +214,7 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
             cpr = (counts_per_pulse(reference, channel.name, main_pulse.name)
                    if stream is reference and main_pulse and channel.role == "encoder"
                    else None)
-            _channel_table(w, stream, channel, cpr)
+            _channel_table(w, stream, channel, cpr, main=channel is main_encoder)
             w.line()
             notes.append(f"  {channel.name}: {channel.units or '-'} -> {channel.sensor} "
                          f"({channel.reason})")
@@ -219,7 +231,10 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
     w.line("[angle]")
     w.key("points_per_revolution", 360, "comparison grid: 1 degree")
     w.key("interpolation", "cubic")
-    w.key("min_cycles", 3)
+    w.key("min_cycles", MIN_CYCLES)
+    for problem in _record_problems(streams, reference, main_pulse):
+        warnings.warn(problem, DataWarning, stacklevel=2)
+        w.line(f"# WARNING: {problem}")
     w.line()
     _model_table(w, reference, mech, notes, main_pulse)
     units_of = {(s.name, c.name): SENSOR_UNITS[c.sensor]({
@@ -228,6 +243,24 @@ def skeleton_text(streams: Sequence[StreamGuess], scene_path: str | os.PathLike[
                 and c.sensor in SENSOR_UNITS}
     _comparison_tables(w, streams, units_of, mech)
     return "\n".join(w.lines).rstrip() + "\n", notes
+
+
+def _record_problems(streams: Sequence[StreamGuess], reference: StreamGuess | None,
+                     main_pulse: ChannelGuess | None) -> list[str]:
+    """Return why these files can never validate: encoders that never move, too few turns."""
+    problems = [f"{stream.name}.{channel.name}: the counts never change in this file: the "
+                "encoder did not turn or is not connected, so no revolution can be compared"
+                for stream in streams for channel in stream.of_role("encoder")
+                if channel.counts_span == 0]
+    if reference is not None and main_pulse is not None:
+        turns = max(reference.pulse_times[main_pulse.name].size - 1, 0)
+        if turns < MIN_CYCLES:
+            problems.append(
+                f"{reference.name}.{main_pulse.name}: {turns} complete revolution(s) between "
+                f"the reference pulses in {reference.duration_s:.3g} s, fewer than [angle] "
+                f"min_cycles = {MIN_CYCLES}: rigval validate will refuse the record; record "
+                f"at least {MIN_CYCLES + 1} reference pulses")
+    return problems
 
 
 def _mechanism(mechanism: str | None, scene_dir: Path) -> tuple[str, Any] | None:
@@ -341,6 +374,46 @@ def _model_table(w: _Writer, reference: StreamGuess | None, mech: tuple[str, Any
         w.line()
 
 
+#: What the stated uncertainty ``u_measurement_rel`` of a comparison covers, by sensor kind.
+_UNCERTAINTY_COVERS = {
+    "charge_accelerometer": "the charge sensitivity and the amplifier gain (calibration "
+                            "certificates)",
+    "iepe_accelerometer": "the sensitivity (calibration certificate)",
+    "strain_bridge": "the gauge factor, Young's modulus and the cross-section",
+    "torsion_bridge": "the torsion bridge calibration (gauge factor, diameters, shear modulus)",
+    "load_cell": "the rated output and capacity (calibration certificate)",
+}
+
+#: Sensor kinds whose bridge is nulled before a run (``remove_offset`` comment).
+_NULLED_BRIDGES = ("strain_bridge", "torsion_bridge", "load_cell")
+
+
+def _uncertainty(w: _Writer, sensor: str, *, share: bool = False) -> None:
+    """Write the comparison's stated uncertainty as TODO, with what it must cover."""
+    covers = _UNCERTAINTY_COVERS.get(sensor, "the sensor's calibration")
+    if share:
+        covers += ("; and that of this shaft's share of the drive torque, in quadrature (1 % "
+                   "calibration and a share of 50 +- 3 %, i.e. 3.5 % of it: 0.036)")
+    w.todo("uncertainty.u_measurement_rel",
+           f"fraction (0.02 for 2 %), part of V&V 20 u_val: {covers}")
+
+
+def _offset(w: _Writer, sensor: str) -> None:
+    """Write ``remove_offset`` where the sensor's zero is not the model's zero."""
+    if sensor in ("charge_accelerometer", "iepe_accelerometer"):
+        w.key("remove_offset", True, "an accelerometer's zero is unknown")
+    elif sensor in _NULLED_BRIDGES:
+        w.key("remove_offset", True, "a bridge nulled with the machine at rest lost the load "
+                                     "at rest, which the model has; false only if it was "
+                                     "nulled unloaded")
+
+
+def _summed_torques(stream: StreamGuess) -> tuple[ChannelGuess, ChannelGuess] | None:
+    """Return the two torsion channels of a stream that carries exactly two (one drive)."""
+    shafts = [c for c in stream.of_role("sensor") if c.sensor == "torsion_bridge"]
+    return (shafts[0], shafts[1]) if len(shafts) == 2 else None
+
+
 def _comparison_tables(w: _Writer, streams: Sequence[StreamGuess],
                  units_of: Mapping[tuple[str, str], str], mech: tuple[str, Any] | None) -> None:
     names = {}
@@ -355,6 +428,7 @@ def _comparison_tables(w: _Writer, streams: Sequence[StreamGuess],
             w.key("name", channel.name)
             w.key("measured", f"{stream.name}.{channel.name}")
             match = next((q for q in _QUANTITY_BY_UNIT if q[0] == units), None)
+            share = False
             if match is None:
                 w.todo("model.quantity", "point_acceleration, joint_force, driver_torque, ... "
                                          "(docs/scene.md)")
@@ -362,9 +436,9 @@ def _comparison_tables(w: _Writer, streams: Sequence[StreamGuess],
             else:
                 _, quantity, kind = match
                 w.key("model.quantity", quantity, f"guessed from the unit {units!r}")
-                listed = ", ".join(names.get(kind, ())) or f"the {kind}"
-                w.todo("model.item", f"one of: {listed}")
+                _item(w, kind, names)
                 if quantity == "driver_torque":
+                    share = True
                     w.todo("scale", "the share of the driver torque this shaft carries (0.5 "
                                     "for one of two equal shafts)")
                 else:
@@ -373,15 +447,41 @@ def _comparison_tables(w: _Writer, streams: Sequence[StreamGuess],
                     w.todo("scale", "-1/A (A the cross-section, m2) for stress; -1/(E A) for "
                                     "strain")
                     w.key("scale_units", "m-2" if units == "Pa" else "N-1")
-            if units == "m s-2":
-                w.key("remove_offset", True, "an accelerometer's zero is unknown")
-            w.key("uncertainty.u_measurement_rel", 0.02,
-                  "sensor calibration (fraction), part of V&V 20 u_val: state yours")
-            w.key('thresholds."vv20.curve.normalised_error"', "<= 2",
-                  "fails when a model error is detected (|E| > 2 u_val)")
-            w.line()
+            _offset(w, channel.sensor)
+            _uncertainty(w, channel.sensor, share=share)
+            _thresholds(w)
+        pair = _summed_torques(stream)
+        if pair is not None:
+            first, second = pair
+            w.line(f"# {first.name} and {second.name} are recorded by one device: if they are "
+                   "the two shafts of one drive,")
+            w.line("# their sum is the whole drive torque, whatever the split between them "
+                   "(delete this table if not).")
+            w.line("[[comparisons]]")
+            w.key("name", f"{first.name}_{second.name}_sum")
+            w.key("measured", [f"{stream.name}.{first.name}", f"{stream.name}.{second.name}"],
+                  "both shafts: the whole drive torque")
+            w.key("model.quantity", "driver_torque")
+            _item(w, "driver", names)
+            _offset(w, "torsion_bridge")
+            _uncertainty(w, "torsion_bridge")
+            _thresholds(w)
     if not any(s.of_role("sensor") for s in streams):
         w.line("# No channel to compare was found; add [[comparisons]] tables.")
+
+
+def _item(w: _Writer, kind: str, names: Mapping[str, Sequence[str]]) -> None:
+    """Write ``model.item`` as TODO, listing the mechanism's names of that kind when known."""
+    listed = names.get(kind)
+    w.todo("model.item", f"one of: {', '.join(listed)}" if listed else
+           f"the {kind}'s name in the mechanism file (rigval init --mechanism lists them)")
+
+
+def _thresholds(w: _Writer) -> None:
+    """Write the pass/fail threshold every comparison starts with, and end the table."""
+    w.key('thresholds."vv20.curve.normalised_error"', "<= 2",
+          "fails when a model error is detected (|E| > 2 u_val)")
+    w.line()
 
 
 def fill_todos(text: str, values: Mapping[str, Any]) -> str:

@@ -114,7 +114,13 @@ def test_load_stream_renames_sources_and_attaches_sensors(tmp_path: Path) -> Non
     with pytest.raises(ChannelMapError, match="channels in the file: ai0, ai1") as error:
         load_stream(missing)
     assert error.value.where["key"] == "streams.wls1.channels.x.source"
-    with pytest.raises(ChannelMapError, match="the tdms reader has this option") as error:
+    with pytest.raises(ChannelMapError, match="the tdms reader has no such option") as error:
+        parse_stream({"file": "wls1.tdms", "reader": {"grop": "x"}}, "streams.wls1",
+                     base_dir=tmp_path)  # an option no reader has (a typo of group)
+    assert error.value.where["key"] == "streams.wls1.reader.grop"
+    assert "has this option" not in str(error.value)
+    with pytest.raises(ChannelMapError, match=r"wls1.tdms is a TDMS file, but the reader "
+                       r"options decimal are those of the csv or lvm reader") as error:
         parse_stream({"file": "wls1.tdms", "reader": {"decimal": ","}}, "streams.wls1",
-                     base_dir=tmp_path)  # a CSV option for a file that is TDMS
-    assert error.value.where["key"] == "streams.wls1.reader.decimal"
+                     base_dir=tmp_path)  # CSV options for a file that is TDMS: the wrong file
+    assert error.value.where["key"] == "streams.wls1.file"

@@ -94,3 +94,19 @@ def test_header_only_file_is_refused(tmp_path: Path) -> None:
     path.write_text(FILE_HEADER.format(dec=".", x="One"))
     with pytest.raises(DataFileError, match="no 'X_Value' names row"):
         read(path)
+
+
+def test_segment_shorter_than_its_header_warns_with_a_fix(tmp_path: Path) -> None:
+    from rigval.acquisition.errors import DataWarning
+
+    rows = [f"\t{k / 10:.6f}" for k in range(8)]
+    text = _segment(["acc1"], ["m/s^2"], "06:00:01.000000", "0.000000", "0.001000", rows)
+    text = text.replace("Samples\t8", "Samples\t10")  # the header announces 10 rows
+    path = tmp_path / "short.lvm"
+    path.write_text(FILE_HEADER.format(dec=".", x="No") + text)
+    with pytest.warns(DataWarning, match="fewer rows than its header") as seen:
+        ds = read_stream(path)
+    assert ds.sizes["time"] == 8  # the rows present, none invented
+    hint = str(seen[0].message)
+    assert "copy it again after the acquisition has stopped" in hint
+    assert "read the original file" in hint

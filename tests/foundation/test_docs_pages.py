@@ -10,6 +10,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import pytest
+
 from rigval.validation.cli import build_parser
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -61,3 +63,16 @@ def test_relative_links_between_pages_resolve() -> None:
             if not (page.parent / target).resolve().is_file():
                 broken.append(f"{page.relative_to(ROOT)} -> {target}")
     assert not broken, broken
+
+
+def test_readme_says_how_long_the_tests_take_and_git_ignores_the_demo_report() -> None:
+    import subprocess
+
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert re.search(r"tests in \d+ s on", readme) and "minutes" in readme
+    demo = re.findall(r"rigval demo --out (\S+)", readme)[0]  # the first command's folder
+    ignored = subprocess.run(["git", "check-ignore", "-q", f"{demo}/index.html"], cwd=ROOT,
+                             check=False)
+    if ignored.returncode == 128:
+        pytest.skip("not a git checkout")
+    assert ignored.returncode == 0, f"{demo}/ is not in .gitignore"

@@ -32,6 +32,7 @@ BUILTIN = {
     errors.UnitError: ValueError,
     errors.DataError: ValueError,
     processing_errors.AlignmentError: ValueError,
+    processing_errors.DriveRateError: ValueError,
     model_errors.ModelError: RuntimeError,
     model_errors.AssemblyError: RuntimeError,
     model_errors.SingularityError: RuntimeError,

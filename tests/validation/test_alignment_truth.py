@@ -44,10 +44,9 @@ import xarray as xr
 from rigval.processing.alignment_summary import StreamAlignment
 from rigval.processing.stream_alignment import MainAngle, align_streams
 from rigval.sample_data import Imperfections, RigSettings, load_truth, simulate_rig
-from rigval.validation.alignment import alignment_settings
-from rigval.validation.convert import convert_stream
-from rigval.validation.pipeline import read_streams
+from rigval.validation.read_plan import read_streams
 from rigval.validation.scene import load_scene
+from rigval.validation.stage_settings import alignment_settings, convert_stream
 
 DURATION_S = 16.0
 SPEED_REV_S = 1.0

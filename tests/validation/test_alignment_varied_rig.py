@@ -21,8 +21,8 @@ from rigval.acquisition.errors import DataWarning
 from rigval.processing.errors import AlignmentError
 from rigval.sample_data import Imperfections, RigSettings, load_truth, simulate_rig
 from rigval.validation.pipeline import run_scene
-from rigval.validation.report.validate import validate_scene
 from rigval.validation.results import ValidationResult
+from rigval.validation.validate import validate_scene
 from rigval.validation.verdict import carried_uncertainty
 
 

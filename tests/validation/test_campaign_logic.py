@@ -222,7 +222,7 @@ def test_cli_exit_code_says_the_worst_run(tmp_path: Path, scenes: list[Path], na
     out = tmp_path / "out"
     assert main(["campaign", *map(str, chosen), "--out", str(out), "--scheduler", "none"]) == code
     captured = capsys.readouterr()
-    assert (out / "campaign.html").is_file()
+    assert (out / "index.html").is_file()
     assert captured.out.splitlines()[-1].startswith(
         f"{names.count('slow')} passed, {names.count('fast')} failed, "
         f"{names.count('broken')} errors")

@@ -72,7 +72,7 @@ def test_failed_and_broken_runs_say_why_in_terminal_and_page(tmp_path: Path) -> 
     assert re.search(r"rigval: run broken error: DataFileError: not a column of numbers "
                      r"\(file: .*broken\.csv\)", err)
     assert "run slow" not in err
-    page = (out / "campaign.html").read_text()
+    page = (out / "index.html").read_text()
     assert "missed acc1 nrmse 3 (needs &lt;= 1)" in page
     assert "DataFileError: not a column of numbers" in page
     # 31 metrics per run: the key scores shown, all columns folded under <details>

@@ -15,48 +15,58 @@ import pytest
 from rigval.acquisition.errors import ConfigError
 from rigval.acquisition.survey import classify_channel
 from rigval.sample_data import runs_dir
-from rigval.validation.cli import EXIT_FAILED, EXIT_OK, EXIT_USAGE, main
+from rigval.validation.cli import EXIT_OK, EXIT_USAGE, main
 from rigval.validation.errors import SceneError
-from rigval.validation.scene import load_scene, todo_keys
+from rigval.validation.scene import load_scene, todo_keys, todo_label
 from rigval.validation.scene_init import fill_todos
 
 SAMPLE = ("run_0p8_cdaq.tdms", "run_0p8_wls1.tdms", "run_0p8_wls2.csv")
 
 
-def _rig_value(key: str, shipped: dict[str, Any], truth: dict[str, Any]) -> Any:
-    """The value the virtual rig used for a TODO key: from its scene and its truth record."""
-    parts = re.findall(r"[^.\[\]]+|\[\d+\]", key)
-    if parts[0] == "comparisons":
-        return None  # filled by comparison name below
-    if parts[:2] == ["model", "drivers"] and parts[-1] == "angle_at_reference":
-        return truth["angle_at_reference"][parts[2]]
-    node: Any = shipped
-    for part in parts:
-        if part not in node:
-            # keys the shipped scene leaves at their defaults
-            return {"angle": 0.0, "youngs_modulus": None}[part]
-        node = node[part]
-    return node
+def _sheet_value(sheet: Any, path: str) -> Any:
+    """The value at a dotted key path of a table of the calibration sheet, or None."""
+    for part in path.split("."):
+        if not isinstance(sheet, dict) or part not in sheet:
+            return None
+        sheet = sheet[part]
+    return sheet
 
 
 def _fill_sample(text: str) -> str:
+    """Fill the skeleton as a newcomer would from the rig's calibration sheet.
+
+    The sheet is the shipped scene: the calibration values of every channel, which shaft or
+    point each sensor sits on, the angle of each driver at the reference pulse. A comparison
+    the sheet has no entry for (acc3: no model point given) is deleted, as the newcomer would;
+    a summed comparison is found on the sheet by its channels.
+    """
     shipped = tomllib.loads((runs_dir() / "run_0p8_scene.toml").read_text())
-    truth = json.loads((runs_dir() / "run_0p8_truth.json").read_text())
     doc = tomllib.loads(text)
     values: dict[str, Any] = {}
     by_name = {c["name"]: c for c in shipped["comparisons"]}
+    by_channels = {tuple(c["measured"]): c for c in shipped["comparisons"]
+                   if isinstance(c["measured"], list)}
+    unlisted = set()
     for key in todo_keys(doc):
         match = re.match(r"comparisons\[(\d+)\]\.(.+)", key)
         if match:
-            name = doc["comparisons"][int(match.group(1))]["name"]
-            rig = by_name.get(name, by_name["acc2"] if name == "acc3" else None)
-            part = match.group(2)
-            values[key] = (rig["model"][part.split(".")[1]] if part.startswith("model.")
-                           else rig[part])
-        else:
-            values[key] = _rig_value(key, shipped, truth)
+            index = int(match.group(1))
+            table = doc["comparisons"][index]
+            sheet = by_name.get(table["name"]) or by_channels.get(tuple(table["measured"]))
+            if sheet is None:
+                unlisted.add(index)
+                continue
+            values[key] = _sheet_value(sheet, match.group(2))
+        else:  # a pulse sensor the sheet gives no angle for sits with the main one
+            values[key] = _sheet_value(shipped, key)
+            if values[key] is None and key.endswith(".angle"):
+                values[key] = 0.0
     assert all(v is not None for v in values.values()), values
-    return fill_todos(text, values)
+    filled = fill_todos(text, values)
+    assert [doc["comparisons"][i]["name"] for i in unlisted] == ["acc3"]
+    tables = filled.split("[[comparisons]]")
+    kept = [table for i, table in enumerate(tables[1:]) if i not in unlisted]
+    return "[[comparisons]]".join([tables[0], *kept])
 
 
 def test_sample_skeleton_validates_once_filled(tmp_path: Path,
@@ -81,18 +91,34 @@ def test_sample_skeleton_validates_once_filled(tmp_path: Path,
     assert doc["alignment"]["pulses"]["wls2"]["per_revolution"] == 2
     assert "8192 counts per main-shaft revolution" in text
     assert "16384 counts per main-shaft revolution" in text  # the lifting shaft turns twice
+    # the value wanted is per turn of enc2's own shaft: the rig's 8192, which the hint names
+    shipped = tomllib.loads((runs_dir() / "run_0p8_scene.toml").read_text())
+    enc2 = shipped["streams"]["cdaq"]["channels"]["enc2"]["counts_per_rev"]
+    hint = next(line for line in text.split("[streams.cdaq.channels.enc2]")[1].splitlines()
+                if line.startswith("counts_per_rev"))
+    assert "per turn of this encoder's own shaft" in hint and f"{enc2} if two" in hint
     # refused while TODOs remain, each named
     todo = todo_keys(doc)
     assert "streams.cdaq.channels.str1.gauge_factor" in todo
     assert "model.drivers.theta_H.angle_at_reference" in todo
     assert main(["validate", str(scene), "--out", str(tmp_path / "refused")]) == EXIT_USAGE
     err = capsys.readouterr().err
-    assert all(key in err for key in todo)
-    # filled with the rig's values: validates
+    # one key a line, a comparison's key with the comparison's name
+    listed = [line.strip() for line in err.splitlines() if line.startswith("  ")]
+    assert listed == [todo_label(doc, key) for key in todo]
+    assert "comparisons[3] (str1).scale" in listed
+    # every stated uncertainty is the newcomer's to state; the sums of both shafts proposed
+    comparisons = {c["name"]: c for c in doc["comparisons"]}
+    assert all(c["uncertainty"]["u_measurement_rel"] == "TODO" for c in comparisons.values())
+    assert comparisons["tor1_tor2_sum"]["measured"] == ["wls1.tor1", "wls1.tor2"]
+    assert comparisons["tor3_tor4_sum"]["measured"] == ["wls2.tor3", "wls2.tor4"]
+    assert all(comparisons[n]["remove_offset"] for n in ("str1", "tor1", "tor1_tor2_sum"))
+    assert "nulled with the machine at rest" in text
+    # filled from the calibration sheet: passes, as the shipped scene does
     scene.write_text(_fill_sample(text))
     code = main(["validate", str(scene), "--out", str(tmp_path / "report")])
     out = capsys.readouterr()
-    assert code in (EXIT_OK, EXIT_FAILED), out.err
+    assert code == EXIT_OK, out.out + out.err
     html = (tmp_path / "report" / "report.html").read_text()
     # the report shows each driver's angle at the reference pulse next to the drive law's
     truth = json.loads((runs_dir() / "run_0p8_truth.json").read_text())
@@ -117,6 +143,8 @@ def test_fill_todos_names_a_key_that_is_no_todo() -> None:
         fill_todos(text, {"a.y": 2})
 
 
+# the example files' counters never counted: init warns that they cannot validate
+@pytest.mark.filterwarnings("default::rigval.acquisition.errors.DataWarning")
 def test_real_daqmx_skeleton_parses_once_filled(realdata_dir: Path, tmp_path: Path) -> None:
     folder = realdata_dir / "nidaqmx-python"
     files = [folder / f"data_{n}.tdms" for n in ("ai", "ci1", "ci2")]
@@ -146,7 +174,7 @@ def test_real_daqmx_skeleton_parses_once_filled(realdata_dir: Path, tmp_path: Pa
         leaf = key.rsplit(".", 1)[-1]
         values[key] = {
             "slope": 20.0, "units": "N m", "counts_per_rev": 4096, "per_revolution": 1,
-            "angle": 0.0, "item": "theta_F", "scale": 0.5,
+            "angle": 0.0, "item": "theta_F", "scale": 0.5, "u_measurement_rel": 0.02,
             "source": f"PFI{len(values)}"}[leaf]
     scene.write_text(fill_todos(text, values))
     parsed = load_scene(scene)
@@ -194,7 +222,7 @@ def test_lvm_in_g_becomes_a_linear_scale_to_m_s2(realdata_dir: Path, tmp_path: P
     (stream,) = doc["streams"].values()
     assert stream["channels"]["ax"]["slope"] == 9.80665
     from rigval.acquisition.channel_map import load_stream, parse_stream
-    from rigval.validation.convert import convert_stream
+    from rigval.validation.stage_settings import convert_stream
 
     assert stream["reader"]["timezone"] == "TODO"  # LVM header times carry no zone
     table = {**stream, "reader": {"timezone": "UTC"}, "channels": {"ay": stream["channels"]["ay"]}}

@@ -16,9 +16,9 @@ import pytest
 from rigval.sample_data import runs_dir
 from rigval.validation.cli import main
 from rigval.validation.errors import SceneError
-from rigval.validation.pipeline import read_streams
+from rigval.validation.read_plan import read_streams
 from rigval.validation.scene import load_scene
-from rigval.validation.scene_rates import check_sample_rates
+from rigval.validation.stage_settings import check_sample_rates
 
 SHIPPED = runs_dir() / "run_0p8_scene.toml"
 

@@ -11,9 +11,9 @@ import pytest
 from rigval.acquisition.channel_map import load_stream
 from rigval.acquisition.errors import ConfigError
 from rigval.sample_data import runs_dir
-from rigval.validation.convert import convert_stream
 from rigval.validation.errors import SceneError
 from rigval.validation.scene import load_scene
+from rigval.validation.stage_settings import convert_stream
 
 G0 = 9.80665  # m s-2
 

@@ -11,7 +11,7 @@ from rigval.acquisition.errors import ConfigError
 from rigval.sample_data import runs_dir
 from rigval.validation.cli import EXIT_USAGE, main
 from rigval.validation.errors import SceneError
-from rigval.validation.scene import load_scene, todo_keys
+from rigval.validation.scene import load_scene, todo_keys, todo_label
 
 
 def _shipped(tmp_path: Path) -> str:
@@ -24,6 +24,14 @@ def test_todo_keys_in_document_order() -> None:
     doc = {"a": "TODO", "b": {"c": 1, "d": "TODO: gauge factor"},
            "e": [{"f": "x"}, {"g": "TODO"}], "h": "not a TODO"}
     assert todo_keys(doc) == ["a", "b.d", "e[1].g"]
+
+
+def test_todo_label_names_the_comparison() -> None:
+    doc = {"comparisons": [{"name": "acc1"}, {"name": "tor1", "scale": "TODO"}, {"x": 1}]}
+    assert todo_label(doc, "comparisons[1].scale") == "comparisons[1] (tor1).scale"
+    assert todo_label(doc, "comparisons[1].model.item") == "comparisons[1] (tor1).model.item"
+    assert todo_label(doc, "comparisons[2].scale") == "comparisons[2].scale"  # no name yet
+    assert todo_label(doc, "streams.a.channels.b.gain") == "streams.a.channels.b.gain"
 
 
 def test_validate_refuses_todo_naming_each_key(tmp_path: Path,

@@ -3,12 +3,13 @@
 :func:`write_campaign_report` writes three files into the campaign folder, beside the per-run
 report folders:
 
-``campaign.html``
-    Self-contained page: counts, one row per run (status, speed, time, why it did not pass,
-    warnings, link to its report), the data each run could not use (:func:`data_not_used`: gaps,
-    samples dropped and why, pulses missed), the metrics of every comparison over the runs, the
-    metrics plotted against running speed, every warning, and every error with its class,
-    message, location, hint and traceback.
+``index.html``
+    Self-contained page, the summary of ``rigval campaign`` and ``rigval demo`` alike: the
+    V&V 20 verdict and the result, counts, one row per run (status, speed, time, why it did not
+    pass, warnings, link to its report), the data each run could not use
+    (:func:`data_not_used`: gaps, samples dropped and why, pulses missed), the metrics of every
+    comparison over the runs, the metrics plotted against running speed, every warning, and
+    every error with its class, message, location, hint and traceback.
 ``campaign_metrics.csv``
     The metrics of every run in long form (one row per run, comparison and metric).
 ``campaign.json``
@@ -47,9 +48,10 @@ from rigval.validation.diagnosis.campbell import (
     plot_campbell,
 )
 from rigval.validation.diagnosis.rigidity import resonances_from_record
-from rigval.validation.report.page import Page, escape
+from rigval.validation.report.page import Link, Page
 
 __all__ = [
+    "SUMMARY_PAGE",
     "CampaignFiles",
     "data_not_used",
     "metrics_table",
@@ -60,6 +62,8 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
+#: The summary page's file name in the campaign folder (also the demo's).
+SUMMARY_PAGE = "index.html"
 _METRIC_COLUMNS = ["run", "status", "speed_rev_s", "comparison", "row", "metric", "value",
                    "text", "threshold", "passed"]
 #: Most metrics the speed plot shows (those with thresholds first).
@@ -73,7 +77,7 @@ class CampaignFiles:
     Parameters
     ----------
     html : Path
-        ``campaign.html``.
+        ``index.html``, the summary page.
     metrics_csv : Path
         ``campaign_metrics.csv``.
     outcomes_json : Path
@@ -206,7 +210,7 @@ def write_campaign_report(outcomes: Sequence[RunOutcome], out_dir: str | Path, *
     out_dir.mkdir(parents=True, exist_ok=True)
     details = dict(details or {})
     table = metrics_table(outcomes)
-    files = CampaignFiles(html=out_dir / "campaign.html",
+    files = CampaignFiles(html=out_dir / SUMMARY_PAGE,
                           metrics_csv=out_dir / "campaign_metrics.csv",
                           outcomes_json=out_dir / "campaign.json")
     with atomic_output(files.metrics_csv) as partial:
@@ -365,6 +369,14 @@ def _campbell_section(page: Page, outcomes: Sequence[RunOutcome]) -> None:
             page.figure(plot_campbell(diagram), caption=diagram.sentence, fmt="svg")
 
 
+def _report_link(outcome: RunOutcome, out_dir: Path) -> Link | str:
+    """Return the run's name, linking its report page when it has one."""
+    report = outcome.output(".html")
+    if report is None:
+        return outcome.name
+    return Link(outcome.name, Path(os.path.relpath(report, out_dir)).as_posix())
+
+
 def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: Path,
                   title: str, counts: dict[str, int], details: dict[str, Any],
                   unused: Mapping[str, list[dict[str, Any]]]) -> Page:
@@ -379,26 +391,18 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
                    + "".join(f"; {name}: {', '.join(names)}"
                              for name, names in detected.items() if names),
                    css_class="bad" if any(detected.values()) else "ok")
-    page.facts({"result": verdict, **counts,
-                "reused (up to date)": sum(o.reused for o in outcomes), **details})
+    page.paragraph(f"Result: {verdict.upper()}", css_class="ok" if verdict == "passed" else "bad")
+    page.facts({**counts, "reused (up to date)": sum(o.reused for o in outcomes), **details})
 
     page.section("Runs")
-    page.table([{"run": o.name, "status": o.status,
+    page.table([{"run": _report_link(o, out_dir), "status": o.status,
                  "V&V 20": (None if not o.metrics else "detected: " + ", ".join(
                      _vv20_detected(o)) if _vv20_detected(o) else "not detected"),
                  "speed [rev/s]": o.speed_rev_s,
                  "time [s]": o.elapsed_s, "CPU [s]": o.cpu_s, "reused": o.reused,
                  "warnings": len(o.warnings),
                  "reason": run_reason(o) or None} for o in outcomes], digits=3)
-    links = []
-    for outcome in outcomes:
-        report = outcome.output(".html")
-        if report is not None:
-            href = Path(os.path.relpath(report, out_dir)).as_posix()
-            links.append(f'<li><a href="{escape(href)}">{escape(outcome.name)}</a></li>')
-    if links:
-        page.paragraph("Per-run reports:")
-        page.raw("<ul>" + "".join(links) + "</ul>")
+    page.paragraph("Each run's name links its report.")
 
     page.section("Data not used")
     rows = [{"run": name, **row} for name, part in unused.items() for row in part]
@@ -503,7 +507,7 @@ def open_campaign(directory: str | Path, group: str = "validation", *,
              if name.endswith(".nc")]
     if not found:
         raise DataFileError("no run of the campaign has a netCDF file", where={"file": index},
-                            hint="check the errors in campaign.html; rerun the failed runs")
+                            hint=f"check the errors in {SUMMARY_PAGE}; rerun the failed runs")
     has_dask = dask_available()
     # h5netcdf (the parallel extra) reads from threads safely; the netCDF4 library of a plain
     # install does not (xarray issues 7079, 8120, 11088), so it opens the files one by one.

@@ -27,7 +27,7 @@ def add_parser(subparsers: Any) -> None:
         subparsers, run, "campaign",
         help="validate many runs (scenes) at once, in parallel (on Dask if installed)",
         description="Validate every scene into OUT/<run>/ and write a campaign summary "
-                    "(campaign.html, campaign_metrics.csv, campaign.json) beside them. Runs "
+                    "(index.html, campaign_metrics.csv, campaign.json) beside them. Runs "
                     "whose inputs and outputs are unchanged since the last campaign are reused.",
         exit_codes="0 all passed, 1 some run failed its thresholds, 2 usage error, "
                    "3 some run could not be validated (the others still complete).",

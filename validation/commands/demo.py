@@ -4,8 +4,10 @@ The shipped runs (:func:`rigval.sample_data.shipped_runs`, virtual-rig data at s
 form a campaign (:func:`rigval.validation.campaign.engine.run_campaign`): each run is validated
 into ``DIR/<run>/`` like ``rigval validate`` does, each in a process of its own forked from
 this one, one per core (``--workers 1``: one after the other in this process), and a run whose
-inputs and outputs are unchanged since an earlier demo is reused. ``DIR/index.html`` (a
-:class:`~rigval.validation.report.page.Page`) links the reports. Exit code 0 when every run
+inputs and outputs are unchanged since an earlier demo is reused. ``DIR/index.html`` is the
+campaign summary page (:func:`rigval.validation.campaign.report.write_campaign_report`, the
+page ``rigval campaign`` writes): the V&V 20 verdict, one row per run linking its report, the
+metrics over the runs. Exit code 0 when every run
 meets its thresholds, 1 when one misses a threshold, 3 when one cannot be validated.
 """
 
@@ -15,25 +17,20 @@ import argparse
 import atexit
 import gc
 import io
-import json
 import sys
 import time
-import tomllib
-from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rigval.validation.commands.common import add_command, add_out_option
 
 if TYPE_CHECKING:
-    from rigval.validation.campaign.engine import RunOutcome, RunReport
+    from rigval.validation.campaign.engine import RunReport
 
 __all__ = ["SUMMARY_NAME", "add_parser", "run", "validate_one"]
 
 #: The printed summary of a run (``rigval validate``'s console output), kept in its folder.
 SUMMARY_NAME = "summary.txt"
-#: The score shown per comparison in the index page.
-_RATING = "iso18571_periodic.rating"
 
 
 def add_parser(subparsers: Any) -> None:
@@ -41,7 +38,8 @@ def add_parser(subparsers: Any) -> None:
     parser = add_command(
         subparsers, run, "demo", help="validate the shipped sample runs and write their reports",
         description="Validate the sample runs shipped with rigval (virtual-rig data at several "
-                    "speeds) and write one report folder per run plus an index page.",
+                    "speeds) and write one report folder per run plus the campaign summary page "
+                    "(index.html, as rigval campaign writes it).",
         exit_codes="0 all runs met their thresholds, 1 a threshold failed, 3 data error.")
     add_out_option(parser)
     parser.add_argument("--workers", type=int, default=None,
@@ -72,7 +70,7 @@ def validate_one(scene: Path, out_dir: Path) -> RunReport:
     from rigval.acquisition.outputs import write_text_atomic
     from rigval.validation.campaign.engine import RunReport
     from rigval.validation.commands.validate import print_summary
-    from rigval.validation.report.validate import validate_scene
+    from rigval.validation.validate import validate_scene
 
     result = validate_scene(scene, out_dir)
     text = io.StringIO()
@@ -83,57 +81,13 @@ def validate_one(scene: Path, out_dir: Path) -> RunReport:
                      speed_rev_s=result.speed_rev_s)
 
 
-def _title(outcome: RunOutcome) -> str:
-    """Return the scene's title (its ``title`` key), or the run name without one."""
-    try:
-        title = tomllib.loads(outcome.scene.read_text(encoding="utf-8")).get("title")
-    except (OSError, ValueError):  # it was validated: only a file changed since could fail
-        title = None
-    return title if isinstance(title, str) and title else outcome.name
-
-
-def _cycles(outcome: RunOutcome) -> int | None:
-    """Return the run's number of revolutions from its ``metrics.json`` (None without one)."""
-    path = outcome.output("metrics.json")
-    try:
-        return int(json.loads(path.read_text(encoding="utf-8"))["cycles"]) if path else None
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
-
-
-def _index(out_dir: Path, outcomes: Sequence[RunOutcome]) -> Path:
-    """Write ``index.html``: one row per run, linking its report."""
-    from rigval.validation.report.page import Link, Page
-
-    passed = all(o.status == "passed" for o in outcomes)
-    page = Page("rigval demo: the shipped sample runs",
-                subtitle="PASSED" if passed else "FAILED", contents=False)
-    page.section("Runs")
-    page.paragraph("Virtual-rig runs with known truth, validated against the pendulum model. "
-                   "Each row links the run's report; ratings are ISO/TS 18571 (periodic) of the "
-                   "model against the measured mean.")
-    rows = []
-    for outcome in outcomes:
-        ratings = {m["comparison"]: m["value"] for m in outcome.metrics
-                   if m.get("row") == "model" and m.get("metric") == _RATING}
-        report = outcome.output("report.html")
-        title = _title(outcome)
-        rows.append({"run": Link(title, f"{outcome.name}/report.html") if report else title,
-                     "speed [rev/s]": outcome.speed_rev_s, "revolutions": _cycles(outcome),
-                     **ratings,
-                     "status": {"passed": "pass", "failed": "fail"}.get(outcome.status,
-                                                                        "error")})
-    page.table(rows)
-    return page.write(out_dir / "index.html")
-
-
 def run(args: argparse.Namespace) -> int:
     """Validate every shipped run; return 0 when all pass, 1 when one fails, 3 on an error."""
     from rigval.acquisition.errors import DataError
     from rigval.sample_data import shipped_runs
     from rigval.validation.campaign.engine import run_campaign, stop_worker_processes
     from rigval.validation.campaign.processes import preload_pipeline
-    from rigval.validation.campaign.report import run_reason
+    from rigval.validation.campaign.report import run_reason, write_campaign_report
     from rigval.validation.console import interrupt_quietly
 
     # The interpreter's exit would walk the objects of every imported module (numpy, scipy,
@@ -158,8 +112,14 @@ def run(args: argparse.Namespace) -> int:
         reason = run_reason(outcome)
         if outcome.status == "error":
             print(f"rigval: run {outcome.name} error: {reason}", file=sys.stderr)
-    index = _index(Path(args.out), outcomes)
-    print(f"demo: {len(outcomes)} runs in {time.perf_counter() - start:.1f} s; open {index}")
+    details = {"runs": "the virtual-rig runs shipped with rigval (known truth), validated "
+                       "against the pendulum model",
+               "workers": "1 (this process)" if in_process else args.workers or
+               "one per CPU, at most one per run",
+               "wall time [s]": round(time.perf_counter() - start, 2)}
+    files = write_campaign_report(outcomes, args.out, title="rigval demo: the shipped sample "
+                                  "runs", details=details)
+    print(f"demo: {len(outcomes)} runs in {time.perf_counter() - start:.1f} s; open {files.html}")
     if any(o.status == "error" for o in outcomes):
         return 3
     return 0 if all(o.status == "passed" for o in outcomes) else 1

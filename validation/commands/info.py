@@ -33,8 +33,10 @@ def add_parser(subparsers: Any) -> None:
                              "e.g. Europe/Berlin); default: taken as UTC, with a note")
 
 
-def _print_text(info: dict[str, Any]) -> None:
-    """Print one file's description as indented text."""
+def _print_text(info: dict[str, Any], timezone: str | None) -> None:
+    """Print one file's description as indented text (start times as :func:`start_time_text`)."""
+    from rigval.acquisition.start_time import start_time_text, taken_as_utc
+
     head = f"{info['file']}: {info['format'].upper()}, {info['bytes']} bytes"
     if info["format"] == "tdms":
         head += (f", {info['segments']} segments, version {info['tdms_version']}"
@@ -46,8 +48,10 @@ def _print_text(info: dict[str, Any]) -> None:
     for group in info.get("skipped_groups", []):
         print(f"  skipped group (decimated): {group}")
     for stream in info["streams"]:
+        start = start_time_text(stream["start_time"], timezone=timezone,
+                                zone_unknown=taken_as_utc(stream["time_fallbacks"]))
         print(f"  stream {stream['name']!r}: {stream['fs_hz']:.9g} Hz, {stream['samples']} "
-              f"samples, {stream['duration_s']:.6g} s, start {stream['start_time']}")
+              f"samples, {stream['duration_s']:.6g} s, start {start}")
         for gap in stream["gaps"]:
             print(f"    gap after {gap['after_s']:.6f} s: {gap['duration_s']:.6g} s, "
                   f"{gap['missing_samples']} samples missing")
@@ -106,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
             continue
         results.append(info)
         if not args.json:
-            _print_text(info)
+            _print_text(info, args.timezone)
     if args.json:
         print(json.dumps(results, indent=2, default=str))
     return status

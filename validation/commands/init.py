@@ -26,8 +26,8 @@ def add_parser(subparsers: Any) -> None:
                     "with units and rates, guessed device profiles and sensor kinds, the "
                     "alignment and comparison blocks. What the files cannot tell is marked "
                     "TODO; rigval validate refuses the scene until each TODO is filled.",
-        exit_codes="0 written, 2 bad option, missing FILE or existing --out (use --force), 3 a file "
-                   "cannot be read.")
+        exit_codes="0 written, 2 bad option, missing FILE or existing --out (use --force), "
+                   "3 a file cannot be read.")
     parser.add_argument("files", nargs="+", type=input_file, metavar="FILE", help="data files")
     parser.add_argument("--out", type=out_file, required=True, help="scene file to write (TOML)")
     parser.add_argument("--mechanism", metavar="M", default=None,

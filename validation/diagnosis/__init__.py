@@ -1,1 +1,1 @@
-"""Diagnosis: why a comparison disagrees (residual spectra, modes, symmetry, attribution)."""
+"""Diagnosis: why a comparison disagrees (residual spectra and modes, symmetry, attribution)."""

@@ -210,7 +210,7 @@ def _axis_label(result: xr.Dataset, dim: str) -> str:
 
 def _write_netcdf(prediction: xr.Dataset, sweep: xr.Dataset | None, path: Path,
                   command: str | None) -> None:
-    """Write the prediction and the sweep as groups of one netCDF file (design 3.4)."""
+    """Write the prediction and the sweep as groups of one netCDF file (zlib 4, docs/predict.md)."""
     children = {"prediction": prediction}
     if sweep is not None:  # netCDF names: a dot in a dimension name is avoided
         children["sweep"] = sweep.rename({d: d.replace(".", "_") for d in sweep_dims(sweep)})

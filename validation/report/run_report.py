@@ -27,17 +27,14 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from rigval.acquisition.detect import source_checksum
 from rigval.acquisition.json_values import json_ready
 from rigval.acquisition.outputs import atomic_output, staged_folder, write_text_atomic
 from rigval.validation.diagnosis.rigidity import evidence_record, run_rigidity
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
-from rigval.validation.note import read_note
 from rigval.validation.report import plots
 from rigval.validation.report.page import Page
 from rigval.validation.results import ComparisonResult, ValidationResult
-from rigval.validation.scene_types import Scene
 from rigval.validation.verdict import failure_reasons, run_verdict
 from rigval.validation.version import rigval_version
 
@@ -96,7 +93,7 @@ def write_alignment(result: ValidationResult, out_dir: Path) -> Path:
 
 
 def _encoding(ds: xr.Dataset) -> dict[str, dict[str, Any]]:
-    """Return the encoding: zlib level 4 with shuffle for numeric variables (design 3.4)."""
+    """Return the encoding: zlib level 4 with shuffle for numeric variables (docs/formats.md)."""
     return {name: {"zlib": True, "complevel": 4, "shuffle": True}
             for name, var in ds.variables.items()
             if var.dtype.kind in "fiub" and var.ndim > 0}
@@ -119,8 +116,8 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
     """
     tree = result.tree.copy()
     scene = result.scene
-    inputs = [(p, source_checksum(p)) for p in scene.input_files]
-    tree.dataset = root_summary(result, tree, inputs)  # what plain xr.open_dataset shows
+    # what plain xr.open_dataset shows
+    tree.dataset = root_summary(result, tree, result.input_digests)
     tree.attrs.update({
         "Conventions": "CF-1.13",
         "title": scene.title,
@@ -267,18 +264,10 @@ def _summary(page: Page, result: ValidationResult, status: str) -> None:
         "revolutions compared": _revolutions_text(result),
         "mean main-shaft speed [rev/s]": result.speed_rev_s,
     })
-    note = _note_block(scene)
-    if note is not None:
-        page.paragraph(note[0])
-        page.preformatted(note[1])
+    if scene.note is not None and result.note is not None:
+        page.paragraph(f"Operator's note, from {scene.note}:")
+        page.preformatted(result.note)
     page.table(_summary_rows(result), caption="comparisons")
-
-
-def _note_block(scene: Scene) -> tuple[str, str] | None:
-    """Return the note's source line and text, or None without a note."""
-    if scene.note is None:
-        return None
-    return f"Operator's note, from {scene.note}:", read_note(scene.note)
 
 
 def _comparisons(page: Page, result: ValidationResult) -> None:
@@ -346,16 +335,10 @@ def _predictions(page: Page, result: ValidationResult) -> None:
 
 def _mechanism_sketch(page: Page, result: ValidationResult) -> None:
     """Add the sketch of the run's mechanism, the points the report names in red."""
-    from rigval.model import load_mechanism
     from rigval.validation.report.sketch import sketch_mechanism
 
-    try:
-        mechanism = load_mechanism(result.scene.mechanism)
-    except (OSError, ValueError) as error:  # the report goes on without the sketch
-        logger.warning("no mechanism sketch in the report: %s", error)
-        return
     points = [str(p) for p in result.predictions.coords.get("point", xr.DataArray([])).values]
-    page.figure(sketch_mechanism(mechanism, highlight=points),
+    page.figure(sketch_mechanism(result.mechanism, highlight=points),
                 caption="the mechanism at t = 0 of its file's drive laws: bodies (letters), "
                         "joints (open circles), ground pins (hatched: the supports), drives "
                         f"(red arrows); red: {', '.join(points) or 'no point'}")
@@ -385,7 +368,7 @@ def _reproduction(page: Page, result: ValidationResult) -> None:
                 "reference signal of the metrics": "the measured mean over the revolutions",
                 "ISO/TS 18571 parameters": ", ".join(
                     f"{k} {v}" for k, v in dataclasses.asdict(IsoParameters()).items())})
-    page.table([{"file": str(p), "sha256": source_checksum(p)} for p in scene.input_files],
+    page.table([{"file": str(p), "sha256": digest} for p, digest in result.input_digests],
                caption="input files")
     page.preformatted(scene.text)
 
@@ -417,7 +400,8 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
     -------
     list of pathlib.Path
         ``report.html``, ``metrics.csv``, ``metrics.json``, ``alignment.json``,
-        ``rigidity.json`` and the netCDF file; also stored in ``result.outputs``.
+        ``rigidity.json`` and the netCDF file (:func:`rigval.validation.validate.validate_scene`
+        returns them in the result's ``outputs``).
     """
     out = Path(out_dir)
     page = _build_page(result)  # everything that can fail before the first file is written
@@ -429,7 +413,6 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
         staged.append(write_netcdf(result, stage / f"{result.scene.path.stem}.nc"))
         staged.insert(0, page.write(stage / "report.html"))
     written = [out / path.name for path in staged]
-    result.outputs[:] = written
     logger.info("report written to %s", out)
     return written
 

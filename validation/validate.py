@@ -1,12 +1,14 @@
-"""One validation with its report folder: :func:`validate_scene`.
+"""The run's entry point: validate a scene and write its report folder (:func:`validate_scene`).
 
-:func:`rigval.validation.pipeline.run_scene` validates in memory; this module adds the writing of
-the run folder (:func:`rigval.validation.report.run_report.write_report`), so that the pipeline
-never imports the report package (docs/architecture.md).
+:func:`rigval.validation.pipeline.run_scene` validates in memory and returns a result that holds
+everything the report needs; :func:`validate_scene` writes the folder from that result alone
+(:func:`rigval.validation.report.run_report.write_report`) and returns the result with the files
+written. The pipeline itself never imports the report package (docs/architecture.md).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from rigval.validation.pipeline import run_scene
@@ -33,5 +35,4 @@ def validate_scene(scene_path: str | Path, out_dir: str | Path) -> ValidationRes
         and ``speed_rev_s``.
     """
     result = run_scene(scene_path)
-    write_report(result, out_dir)
-    return result
+    return dataclasses.replace(result, outputs=tuple(write_report(result, out_dir)))
