@@ -71,7 +71,7 @@ from rigval.processing.angle import (
 )
 from rigval.processing.filters import zero_phase
 from rigval.processing.stream_alignment import AlignmentSettings, MainAngle, align_streams
-from rigval.validation.diagnosis.decimate import diagnosis_signal
+from rigval.processing.stretch_decimation import diagnosis_signal
 from rigval.validation.metrics.compare import baseline, check_thresholds, compare
 from rigval.validation.model_run import FINE_FACTOR, grid_error, run_model
 from rigval.validation.note import read_note

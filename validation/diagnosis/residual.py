@@ -3,7 +3,7 @@
 The angle domain of a run (cycles x phi_F) is low-passed for its metrics (a comparison's
 ``lowpass_hz``, the grid's anti-alias filter), which hides a structural mode above the corner.
 The diagnosis therefore works on the aligned signal before that low-pass (the run's
-``/diagnosis/<comparison>``, :mod:`~rigval.validation.diagnosis.decimate`): each sample's
+``/diagnosis/<comparison>``, :mod:`~rigval.processing.stretch_decimation`): each sample's
 main-shaft angle phi_F comes from the run's grid times (``/angle/time_at_angle``), the model
 curve (scaled, with the comparison's offset) is evaluated there, and the residual is the
 measured value minus it.

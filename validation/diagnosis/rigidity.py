@@ -16,7 +16,7 @@ from typing import Any
 
 from rigval.acquisition.errors import DataError
 from rigval.acquisition.json_values import json_ready
-from rigval.validation.diagnosis.decimate import UPPER_HZ
+from rigval.processing.stretch_decimation import UPPER_HZ
 from rigval.validation.diagnosis.modes import Resonance, default_band, find_resonances
 from rigval.validation.diagnosis.residual import ResidualSeries, residual_series
 from rigval.validation.diagnosis.spectra import ResidualSpectra, residual_spectra

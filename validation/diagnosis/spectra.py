@@ -23,7 +23,7 @@ from scipy.signal import welch
 
 from rigval.acquisition.errors import DataError
 from rigval.processing.arrays import FloatArray
-from rigval.validation.diagnosis.decimate import decimated_runs
+from rigval.processing.stretch_decimation import decimated_runs
 from rigval.validation.diagnosis.residual import ResidualSeries
 
 __all__ = ["OrderSpectrum", "ResidualParts", "ResidualSpectra", "Spectrum", "residual_parts",

@@ -1,9 +1,9 @@
-"""Decimation of a measured signal for the diagnosis, stretch by stretch between gaps.
+"""Decimation of a signal stretch by stretch between its gaps (zero-phase FIR).
 
-The pipeline keeps each compared signal, before its comparison's low-pass, at an analysis rate
-of about ``4 UPPER_HZ`` (:func:`diagnosis_signal`, the run's ``/diagnosis/<comparison>``), so
-that the residual spectra see the modes the angle domain's low-pass hides, at a small cost in
-memory and file size.
+The validation pipeline keeps each compared signal, before its comparison's low-pass, at an
+analysis rate of about ``4 UPPER_HZ`` (:func:`diagnosis_signal`, a run's
+``/diagnosis/<comparison>``), so that the residual spectra of docs/diagnosis.md see the modes
+the angle domain's low-pass hides, at a small cost in memory and file size.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ __all__ = ["UPPER_HZ", "decimated_runs", "diagnosis_signal"]
 logger = logging.getLogger(__name__)
 
 #: Upper end of the band the diagnosis analyses by default (Hz): the first modes of a machine
-#: of this size (docs/diagnosis.md).
+#: of this size (docs/diagnosis.md); the kept signal's rate is at least four times it.
 UPPER_HZ = 40.0
 
 
