@@ -17,7 +17,7 @@ from scipy.signal import decimate
 from rigval.acquisition.errors import DataError
 from rigval.processing.arrays import FloatArray
 
-__all__ = ["UPPER_HZ", "decimated_runs", "diagnosis_signal"]
+__all__ = ["EDGE", "UPPER_HZ", "decimated_runs", "diagnosis_signal"]
 
 logger = logging.getLogger(__name__)
 
@@ -26,12 +26,20 @@ logger = logging.getLogger(__name__)
 UPPER_HZ = 40.0
 
 
+#: Output samples dropped at each end of a decimated stretch (the FIR's half length).
+EDGE = 10
+
+
 def decimated_runs(values: FloatArray, run: np.ndarray, q: int) -> tuple[FloatArray, np.ndarray,
                                                                           np.ndarray]:
     """Decimate a signal by ``q`` stretch by stretch (zero-phase FIR), as one array.
 
     Returns the decimated values, their stretch index and the index of the original sample
-    each decimated sample sits at (stretches too short to filter are dropped).
+    each decimated sample sits at (stretches too short to filter are dropped). The filter
+    (:func:`scipy.signal.decimate`, 20 q + 1 taps) sees each stretch less its straight line
+    from end to end, added back after, and the :data:`EDGE` output samples at each end, where
+    the filter reaches past the stretch, are dropped: a large signal cut at a gap would
+    otherwise ring there.
     """
     out, runs, index = [], [], []
     for k in np.unique(run):
@@ -39,16 +47,19 @@ def decimated_runs(values: FloatArray, run: np.ndarray, q: int) -> tuple[FloatAr
         if where.size < 64 * q:
             continue
         x = values[where]
-        y = decimate(x, q, ftype="fir", zero_phase=True) if q > 1 else x
+        if q > 1:
+            line = np.linspace(x[0], x[-1], x.size)
+            y = (decimate(x - line, q, ftype="fir", zero_phase=True) + line[::q])[EDGE:-EDGE]
+            taken = where[::q][EDGE:EDGE + y.size]
+        else:
+            y, taken = x, where
         out.append(y)
         runs.append(np.full(y.size, k))
-        index.append(where[::q][:y.size])
+        index.append(taken)
     if not out:
         raise DataError("no gap-free stretch is long enough for the residual spectra",
                         hint="record longer or with fewer gaps")
     return np.concatenate(out), np.concatenate(runs), np.concatenate(index)
-
-
 
 
 def diagnosis_signal(time: FloatArray, values: FloatArray, segment: np.ndarray,
