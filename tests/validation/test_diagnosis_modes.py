@@ -97,3 +97,13 @@ def test_welch_over_stretches_keeps_white_noise_variance_and_dof():
     assert spectrum.variance(0.0, fs / 2) == pytest.approx(4.0, rel=0.05)
     # 8 s segments at 50 % overlap: 6 per stretch, 1.89 dof each
     assert spectrum.dof == pytest.approx(12 * 1.894, rel=0.01)
+
+
+def test_order_response_is_the_mode_beyond_quasi_static_at_each_order():
+    res = Resonance(20.0, 0.1, 0.03, 0.005, 1.0, 0.1, 0.5, 100.0, 20.0)
+    angle = np.linspace(0.0, 2 * np.pi, 360, endpoint=False)
+    curve = 3.0 * np.cos(5 * angle)
+    r = 5.0 * 1.0 / 20.0  # order 5 at 1 rev/s, 5 Hz against a 20 Hz mode
+    h = 1.0 / complex(1.0 - r**2, 2 * 0.03 * r)
+    expected = 3.0 * np.real((h - 1.0) * np.exp(1j * 5 * angle))
+    np.testing.assert_allclose(res.order_response(curve, 1.0), expected, atol=1e-12)

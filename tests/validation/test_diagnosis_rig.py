@@ -71,7 +71,7 @@ def test_outputs_carry_the_diagnosis(rig_scene: Path, tmp_path: Path) -> None:
     assert diagnosis["symmetry"][0]["name"] == "main drive shafts"
     assert 0.4 < diagnosis["symmetry"][0]["share"] < 0.6
     with xr.open_datatree(tmp_path / "run.nc") as tree:
-        group = tree["/diagnosis"].to_dataset()
+        group = tree["/why"].to_dataset()
         assert group["shares_share"].dtype.kind == "f"
         assert group["cause_detected"].dtype.kind == "i"
         assert math.isclose(float(group["shares_share"][0]),

@@ -5,7 +5,7 @@ comparisons that share no channel (:func:`rigval.validation.diagnosis.causes.ind
 and the scene's ``[[symmetry]]`` pairs (:mod:`rigval.validation.diagnosis.symmetry`), and words
 the result: per comparison the most likely cause with its size and uncertainty, against the best
 cause of the other class (a parameter against a measurement error). :class:`Diagnosis` gives the
-same as JSON (metrics.json) and as typed variables (the run's netCDF group ``/diagnosis``).
+same as JSON (metrics.json) and as typed variables (the run's netCDF group ``/why``).
 """
 
 from __future__ import annotations
@@ -211,7 +211,7 @@ class Diagnosis:
                           "sentence": p.sentence} for p in self.pairs]})
 
     def dataset(self) -> xr.Dataset:
-        """Return the diagnosis as typed variables (the netCDF group ``/diagnosis``)."""
+        """Return the diagnosis as typed variables (the netCDF group ``/why``)."""
         names = list(self.causes)
         ds = xr.Dataset(coords={"comparison": names})
         for field in dataclasses.fields(CauseStatement):
@@ -295,12 +295,13 @@ def diagnose(result: ValidationResult,
 def attach_diagnosis(result: ValidationResult,
                      modes: Mapping[str, Sequence[tuple[float, float]]] | None = None
                      ) -> ValidationResult:
-    """Diagnose a run: the result with ``diagnosis`` and its tree with ``/diagnosis``.
+    """Diagnose a run: the result with ``diagnosis`` and its tree with ``/why``.
 
     Parameters
     ----------
     result : ValidationResult
-        The validated run (its tree gains the group ``/diagnosis``).
+        The validated run (its tree gains the group ``/why``; ``/diagnosis`` holds the
+        residual spectra's input).
     modes : mapping, optional
         As for :func:`diagnose`; default: the resonances
         :func:`rigval.validation.diagnosis.rigidity.run_rigidity` finds in each comparison
@@ -316,7 +317,7 @@ def attach_diagnosis(result: ValidationResult,
         modes = {name: [(r.frequency_hz, r.damping) for r in evidence.resonances]
                  for name, evidence in run_rigidity(result).items()}
     diagnosis = diagnose(result, modes)
-    result.tree["/diagnosis"] = xr.DataTree(diagnosis.dataset())
+    result.tree["/why"] = xr.DataTree(diagnosis.dataset())
     logger.info("diagnosis: %.3f s", time.perf_counter() - start)
     return dataclasses.replace(result, diagnosis=diagnosis)
 

@@ -2,10 +2,11 @@
 
 The angle domain of a run (cycles x phi_F) is low-passed for its metrics (a comparison's
 ``lowpass_hz``, the grid's anti-alias filter), which hides a structural mode above the corner.
-The diagnosis therefore works on the aligned stream itself (the run's ``/aligned/<stream>``,
-kept when the scene's ``[output]`` says ``aligned = true``): each sample's main-shaft angle
-phi_F comes from the run's grid times (``/angle/time_at_angle``), the model curve (scaled, with
-the comparison's offset) is evaluated there, and the residual is the measured value minus it.
+The diagnosis therefore works on the aligned signal before that low-pass (the run's
+``/diagnosis/<comparison>``, :mod:`~rigval.processing.stretch_decimation`): each sample's
+main-shaft angle phi_F comes from the run's grid times (``/angle/time_at_angle``), the model
+curve (scaled, with the comparison's offset) is evaluated there, and the residual is the
+measured value minus it.
 """
 
 from __future__ import annotations
@@ -96,10 +97,13 @@ def _measured(comparison: ComparisonResult, stream: xr.Dataset) -> tuple[FloatAr
 def residual_series(result: ValidationResult, name: str) -> ResidualSeries:
     """Build one comparison's residual in time from a validated run.
 
+    The measured signal is the run's ``/diagnosis/<comparison>`` (kept by the pipeline before
+    any low-pass, decimated), or else the aligned stream (scene ``[output] aligned = true``).
+
     Parameters
     ----------
     result : ValidationResult
-        A run whose tree keeps the aligned streams (scene ``[output] aligned = true``).
+        A validated run.
     name : str
         Comparison name.
 
@@ -118,14 +122,25 @@ def residual_series(result: ValidationResult, name: str) -> ResidualSeries:
     if comparison is None:
         raise DataError(f"no comparison {name!r} in the run", where={"key": name},
                         hint=f"use one of {[c.name for c in result.comparisons]}")
+    kept = f"/diagnosis/{name}"
     stream_name = comparison.spec.measured.stream
     path = f"/aligned/{stream_name}"
-    if path not in result.tree.groups:
-        raise DataError(f"{name}: the run did not keep the aligned stream {stream_name!r}, "
-                        "which the residual spectra need", where={"key": "output.aligned"},
-                        hint="set aligned = true under [output] in the scene")
-    stream = result.tree[path].to_dataset()
-    time, measured = _measured(comparison, stream)
+    if kept in result.tree.groups:
+        signal = result.tree[kept].to_dataset()
+        time = np.asarray(signal["time"].to_numpy(), dtype=np.float64)
+        measured = np.asarray(signal["measured"].to_numpy(), dtype=np.float64)
+        stretch = signal["stretch"].to_numpy()
+    elif path in result.tree.groups:
+        time, measured = _measured(comparison, result.tree[path].to_dataset())
+        stretch = None
+    else:
+        raise DataError(f"{name}: the run kept neither its signal for the diagnosis nor the "
+                        f"aligned stream {stream_name!r}", where={"key": name},
+                        hint="validate with this version of rigval, or set aligned = true "
+                             "under [output] in the scene")
+    if time.size < 2:
+        raise DataError(f"{name}: no gap-free stretch long enough for the residual spectra",
+                        where={"key": name}, hint="record longer or with fewer gaps")
     grid = result.tree["/angle"].to_dataset()
     grid_times = np.asarray(grid["time_at_angle"].to_numpy(), dtype=np.float64)
     angle = np.asarray(grid["angle"].to_numpy(), dtype=np.float64)
@@ -140,7 +155,10 @@ def residual_series(result: ValidationResult, name: str) -> ResidualSeries:
     dt = np.diff(time)
     step = float(np.median(dt))
     breaks = np.concatenate([[0], np.cumsum((dt > 1.5 * step) | ~keep[1:] | ~keep[:-1])])
+    if stretch is not None:
+        breaks = breaks + stretch * time.size  # a new stretch also starts at a filter break
     idx = np.flatnonzero(keep)
     return ResidualSeries(name, comparison.units, time[idx], measured[idx], model[idx],
-                          phi[idx], breaks[idx], 1.0 / step, result.speed_rev_s, angle,
+                          phi[idx], np.unique(breaks[idx], return_inverse=True)[1], 1.0 / step,
+                          result.speed_rev_s, angle,
                           np.asarray(comparison.model, dtype=np.float64))

@@ -11,21 +11,21 @@ The small API the pipeline, the report and the attribution call:
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, fields
+from typing import Any
 
 from rigval.acquisition.errors import DataError
+from rigval.acquisition.json_values import json_ready
+from rigval.processing.stretch_decimation import UPPER_HZ
 from rigval.validation.diagnosis.modes import Resonance, default_band, find_resonances
 from rigval.validation.diagnosis.residual import ResidualSeries, residual_series
 from rigval.validation.diagnosis.spectra import ResidualSpectra, residual_spectra
 from rigval.validation.results import ValidationResult
 
-__all__ = ["UPPER_HZ", "RigidityEvidence", "rigidity_evidence", "run_rigidity"]
+__all__ = ["RigidityEvidence", "evidence_record", "resonances_from_record",
+           "rigidity_evidence", "run_rigidity"]
 
 logger = logging.getLogger(__name__)
-
-#: Upper end of the band analysed by default (Hz): covers the first modes of a machine of
-#: this size (docs/diagnosis.md).
-UPPER_HZ = 40.0
 
 
 @dataclass(frozen=True)
@@ -66,8 +66,8 @@ class RigidityEvidence:
                 f"variance below {self.spectra.upper_hz:g} Hz")
         if not self.resonances:
             return (f"{head}; no resonance stands above the residual's floor between "
-                    f"{self.band[0]:g} and {self.band[1]:g} Hz")
-        parts = [f"{100.0 * self.share(r):.1f} % is a structural mode at "
+                    f"{self.band[0]:.3g} and {self.band[1]:.3g} Hz")
+        parts = [f"{100.0 * self.share(r):.2g} % is a structural mode at "
                  f"{r.frequency_hz:.1f} +- {max(r.u_frequency_hz, 0.05):.1f} Hz (damping about "
                  f"{100.0 * r.damping:.1g} %)" for r in self.resonances]
         return f"{head}; " + "; ".join(parts)
@@ -110,3 +110,32 @@ def run_rigidity(result: ValidationResult, upper_hz: float = UPPER_HZ
         except DataError as exc:
             logger.info("no rigidity evidence for %s: %s", comparison.name, exc)
     return out
+
+
+def evidence_record(evidence: RigidityEvidence) -> dict[str, Any]:
+    """Return one comparison's evidence as JSON-ready data (``rigidity.json`` of a run).
+
+    Keys: ``sentence``, ``units``, ``speed_rev_s``, ``upper_hz``, ``band_hz``, ``explained``,
+    the variances, ``orders`` (amplitudes of the synchronous residual, order 0 first),
+    ``spectrum`` (``frequency_hz``, ``residual_psd``, ``nonsynchronous_psd``) and
+    ``resonances`` (the fields of :class:`Resonance` plus ``share``).
+    """
+    s = evidence.spectra
+    return json_ready({
+        "sentence": evidence.sentence, "units": evidence.units, "speed_rev_s": s.speed_rev_s,
+        "upper_hz": s.upper_hz, "band_hz": list(evidence.band), "explained": evidence.explained,
+        "variance_measured": s.variance_measured, "variance_residual": s.variance_residual,
+        "variance_synchronous": s.variance_synchronous,
+        "variance_nonsynchronous": s.variance_nonsynchronous,
+        "orders": s.orders.amplitude.tolist(),
+        "spectrum": {"frequency_hz": s.residual.frequency.tolist(),
+                     "residual_psd": s.residual.psd.tolist(),
+                     "nonsynchronous_psd": s.nonsynchronous.psd.tolist()},
+        "resonances": [{**asdict(r), "share": evidence.share(r)} for r in evidence.resonances]})
+
+
+def resonances_from_record(record: dict[str, Any]) -> tuple[Resonance, ...]:
+    """Return the resonances of an :func:`evidence_record` (as read back from JSON)."""
+    names = {f.name for f in fields(Resonance)}
+    return tuple(Resonance(**{k: v for k, v in r.items() if k in names})
+                 for r in record["resonances"])

@@ -19,14 +19,15 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import decimate, welch
+from scipy.signal import welch
 
 from rigval.acquisition.errors import DataError
 from rigval.processing.arrays import FloatArray
+from rigval.processing.stretch_decimation import decimated_runs
 from rigval.validation.diagnosis.residual import ResidualSeries
 
-__all__ = ["OrderSpectrum", "ResidualSpectra", "Spectrum", "decimated_runs", "residual_spectra",
-           "welch_runs"]
+__all__ = ["OrderSpectrum", "ResidualParts", "ResidualSpectra", "Spectrum", "residual_parts",
+           "residual_spectra", "welch_runs"]
 
 logger = logging.getLogger(__name__)
 
@@ -125,29 +126,6 @@ class ResidualSpectra:
         return 1.0 - self.variance_residual / self.variance_measured
 
 
-def decimated_runs(values: FloatArray, run: np.ndarray, q: int) -> tuple[FloatArray, np.ndarray,
-                                                                          np.ndarray]:
-    """Decimate a signal by ``q`` stretch by stretch (zero-phase FIR), as one array.
-
-    Returns the decimated values, their stretch index and the index of the original sample
-    each decimated sample sits at (stretches too short to filter are dropped).
-    """
-    out, runs, index = [], [], []
-    for k in np.unique(run):
-        where = np.flatnonzero(run == k)
-        if where.size < 64 * q:
-            continue
-        x = values[where]
-        y = decimate(x, q, ftype="fir", zero_phase=True) if q > 1 else x
-        out.append(y)
-        runs.append(np.full(y.size, k))
-        index.append(where[::q][:y.size])
-    if not out:
-        raise DataError("no gap-free stretch is long enough for the residual spectra",
-                        hint="record longer or with fewer gaps")
-    return np.concatenate(out), np.concatenate(runs), np.concatenate(index)
-
-
 def welch_runs(values: FloatArray, run: np.ndarray, fs: float,
                segment_s: float = SEGMENT_S) -> Spectrum:
     """Return the Welch PSD of a signal averaged over its gap-free stretches.
@@ -210,39 +188,71 @@ def _orders_at(coef: FloatArray, phi: FloatArray) -> FloatArray:
     return np.real(np.exp(1j * np.outer(phi, k)) @ coef)
 
 
-def residual_spectra(series: ResidualSeries, upper_hz: float = 40.0) -> ResidualSpectra:
-    """Split a comparison's residual into its synchronous and non-synchronous parts, with spectra.
+@dataclass(frozen=True)
+class ResidualParts:
+    """A residual decimated to its analysis rate and split at the orders.
+
+    Parameters
+    ----------
+    fs : float
+        Analysis rate in Hz.
+    residual, nonsynchronous : numpy.ndarray
+        The residual and the residual less its synchronous part, signal units.
+    measured : numpy.ndarray
+        The measured signal at the same samples.
+    run : numpy.ndarray
+        Gap-free stretch of each sample.
+    coefficients : numpy.ndarray
+        Complex order coefficients of the synchronous part, orders 0 ... K.
+    """
+
+    fs: float
+    residual: FloatArray
+    nonsynchronous: FloatArray
+    measured: FloatArray
+    run: np.ndarray
+    coefficients: FloatArray
+
+
+def residual_parts(series: ResidualSeries, upper_hz: float) -> ResidualParts:
+    """Decimate a residual to at least ``4 upper_hz`` and split off its orders up to ``upper_hz``.
 
     The synchronous part is the least-squares Fourier series of the residual over phi_F,
     orders 0 ... ``upper_hz / speed`` (the revolution mean, gaps allowed); the non-synchronous
     part is the rest.
+    """
+    q = max(int(series.fs // (4.0 * upper_hz)), 1)
+    residual, run, index = decimated_runs(series.residual, series.run, q)
+    measured, _, _ = decimated_runs(series.measured, series.run, q)
+    phi = series.phi[index]
+    coef = _order_fit(phi, residual, max(int(upper_hz / series.speed_rev_s), 1))
+    return ResidualParts(series.fs / q, residual, residual - _orders_at(coef, phi), measured,
+                         run, coef)
+
+
+def residual_spectra(series: ResidualSeries, upper_hz: float = 40.0) -> ResidualSpectra:
+    """Split a comparison's residual into its synchronous and non-synchronous parts, with spectra.
 
     Parameters
     ----------
     series : ResidualSeries
         The comparison's residual in time.
     upper_hz : float, default 40
-        Upper end of the band analysed (Hz); at most the aligned stream's ``0.2 fs``.
+        Upper end of the band analysed (Hz); at most ``0.25 fs``.
 
     Returns
     -------
     ResidualSpectra
-        The parts and their spectra.
+        The parts (:func:`residual_parts`) and their spectra.
     """
-    upper_hz = min(upper_hz, 0.2 * series.fs)
-    q = max(int(series.fs // (4.0 * upper_hz)), 1)
-    fs_a = series.fs / q
-    residual, run, index = decimated_runs(series.residual, series.run, q)
-    measured, _, _ = decimated_runs(series.measured, series.run, q)
-    phi = series.phi[index]
-    max_order = max(int(upper_hz / series.speed_rev_s), 1)
-    coef = _order_fit(phi, residual, max_order)
-    amplitude = np.abs(coef)
-    nonsync = residual - _orders_at(coef, phi)
-    spectra = [welch_runs(x, run, fs_a) for x in (measured, residual, nonsync)]
+    upper_hz = min(upper_hz, 0.25 * series.fs)
+    parts = residual_parts(series, upper_hz)
+    amplitude = np.abs(parts.coefficients)
+    spectra = [welch_runs(x, parts.run, parts.fs)
+               for x in (parts.measured, parts.residual, parts.nonsynchronous)]
     return ResidualSpectra(series.name, series.units, series.speed_rev_s, upper_hz,
-                           _orders_at(coef, series.angle), OrderSpectrum(np.arange(coef.size),
-                                                                         amplitude),
+                           _orders_at(parts.coefficients, series.angle),
+                           OrderSpectrum(np.arange(amplitude.size), amplitude),
                            *spectra, spectra[0].variance(0.0, upper_hz),
                            spectra[1].variance(0.0, upper_hz),
                            float(np.sum(amplitude[1:] ** 2) / 2.0),

@@ -29,6 +29,7 @@ import xarray as xr
 
 from rigval.acquisition.json_values import json_ready
 from rigval.acquisition.outputs import atomic_output, staged_folder, write_text_atomic
+from rigval.validation.diagnosis.rigidity import evidence_record, run_rigidity
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
 from rigval.validation.report import plots
@@ -73,6 +74,16 @@ def write_metrics(result: ValidationResult, out_dir: Path) -> list[Path]:
     }
     write_text_atomic(json_path, json.dumps(document, indent=2) + "\n")
     return [csv_path, json_path]
+
+
+def write_rigidity(result: ValidationResult, out_dir: Path) -> Path:
+    """Write ``rigidity.json``: each comparison's residual spectra and resonances.
+
+    See :func:`rigval.validation.diagnosis.rigidity.evidence_record` and docs/diagnosis.md.
+    """
+    document = {name: evidence_record(evidence)
+                for name, evidence in run_rigidity(result).items()}
+    return write_text_atomic(out_dir / "rigidity.json", json.dumps(document, indent=1) + "\n")
 
 
 def write_alignment(result: ValidationResult, out_dir: Path) -> Path:
@@ -397,8 +408,9 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
     Returns
     -------
     list of pathlib.Path
-        ``report.html``, ``metrics.csv``, ``metrics.json``, ``alignment.json`` and the netCDF
-        file (:func:`rigval.validation.run.validate.validate_scene` returns them in the result's
+        ``report.html``, ``metrics.csv``, ``metrics.json``, ``alignment.json``,
+        ``rigidity.json`` and the netCDF file
+        (:func:`rigval.validation.run.validate.validate_scene` returns them in the result's
         ``outputs``).
     """
     out = Path(out_dir)
@@ -407,6 +419,7 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
     with staged_folder(out) as stage:
         staged = write_metrics(result, stage)
         staged.append(write_alignment(result, stage))
+        staged.append(write_rigidity(result, stage))
         staged.append(write_netcdf(result, stage / f"{result.scene.path.stem}.nc"))
         staged.insert(0, page.write(stage / "report.html"))
     written = [out / path.name for path in staged]
