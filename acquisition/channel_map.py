@@ -75,6 +75,10 @@ class _Param:
     required: bool = False
     default: Any = None
     choices: tuple[str, ...] = ()
+    #: plausible range of a number's magnitude, in the parameter's unit (docs/scene.md, Ranges)
+    low: float = 0.0
+    high: float = 1e15
+    unit: str = ""
 
 
 _NULL = _Param("choice", default="none", choices=("none", "first_second"))
@@ -82,44 +86,48 @@ _NULL = _Param("choice", default="none", choices=("none", "first_second"))
 #: Sensor kind -> parameter name -> rule.
 SENSORS: Mapping[str, Mapping[str, _Param]] = MappingProxyType({
     "charge_accelerometer": {
-        "charge_sensitivity": _Param("positive", True),
-        "amplifier_gain": _Param("positive", True),
-        "highpass_hz": _Param("nonnegative"),
+        "charge_sensitivity": _Param("positive", True, low=1e-4, high=1e5, unit="pC/g"),
+        "amplifier_gain": _Param("positive", True, low=1e-6, high=1e3, unit="V/pC"),
+        "highpass_hz": _Param("nonnegative", high=1e6, unit="Hz"),
         "correct_highpass": _Param("bool", default=False),
     },
     "strain_bridge": {
         "bridge": _Param("choice", True, choices=("quarter_I", "quarter_II", "half_I", "half_II",
                                                   "full_I", "full_II", "full_III")),
-        "gauge_factor": _Param("positive", True),
-        "excitation": _Param("positive"),
-        "gauge_resistance": _Param("positive", default=120.0),
-        "lead_resistance": _Param("nonnegative", default=0.0),
-        "poisson": _Param("nonnegative", default=0.3),
-        "youngs_modulus": _Param("positive"),
+        "gauge_factor": _Param("positive", True, low=0.1, high=500.0),
+        "excitation": _Param("positive", low=1e-3, high=100.0, unit="V"),
+        "gauge_resistance": _Param("positive", default=120.0, low=1.0, high=1e6, unit="ohm"),
+        "lead_resistance": _Param("nonnegative", default=0.0, high=1e4, unit="ohm"),
+        "poisson": _Param("nonnegative", default=0.3, high=0.5),
+        "youngs_modulus": _Param("positive", low=1e5, high=2e12, unit="Pa"),
         "null_offset": _NULL,
     },
     "torsion_bridge": {
         "bridge": _Param("choice", True, choices=("full", "half")),
-        "gauge_factor": _Param("positive", True),
-        "excitation": _Param("positive"),
-        "outer_diameter": _Param("positive", True),
-        "inner_diameter": _Param("nonnegative", default=0.0),
-        "shear_modulus": _Param("positive", True),
+        "gauge_factor": _Param("positive", True, low=0.1, high=500.0),
+        "excitation": _Param("positive", low=1e-3, high=100.0, unit="V"),
+        "outer_diameter": _Param("positive", True, low=1e-4, high=100.0, unit="m"),
+        "inner_diameter": _Param("nonnegative", default=0.0, high=100.0, unit="m"),
+        "shear_modulus": _Param("positive", True, low=1e5, high=1e12, unit="Pa"),
         "null_offset": _NULL,
     },
-    "encoder": {"counts_per_rev": _Param("int", True),
+    "encoder": {"counts_per_rev": _Param("int", True, high=1e9),
                 "index_reset": _Param("bool", default=False)},
     "reference_pulse": {
-        "threshold": _Param("number"),
+        "threshold": _Param("number", high=1e6),
         "edge": _Param("choice", default="rising", choices=("rising", "falling")),
     },
     "voltage": {},
     "physical": {"units": _Param("text", True)},
-    "linear": {"slope": _Param("number", True), "offset": _Param("number", default=0.0),
+    "linear": {"slope": _Param("number", True, low=1e-15, high=1e15),
+               "offset": _Param("number", default=0.0, high=1e15),
                "units": _Param("text", True), "input_units": _Param("text", default="V")},
-    "iepe_accelerometer": {"sensitivity": _Param("positive", True)},
-    "load_cell": {"sensitivity": _Param("positive", True), "capacity": _Param("positive", True),
-                  "excitation": _Param("positive"), "null_offset": _NULL},
+    "iepe_accelerometer": {"sensitivity": _Param("positive", True, low=1e-3, high=1e6,
+                                                 unit="mV/g")},
+    "load_cell": {"sensitivity": _Param("positive", True, low=1e-3, high=1e3, unit="mV/V"),
+                  "capacity": _Param("positive", True, low=1e-3, high=1e10, unit="N"),
+                  "excitation": _Param("positive", low=1e-3, high=100.0, unit="V"),
+                  "null_offset": _NULL},
 })
 
 
@@ -220,6 +228,8 @@ def _check_value(value: Any, rule: _Param, key: str) -> Any:
     if rule.kind == "int":
         if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
             raise fail("a positive integer")
+        if value > rule.high:
+            raise fail(f"at most {rule.high:g}")
         return value
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise fail("a finite number")
@@ -227,6 +237,13 @@ def _check_value(value: Any, rule: _Param, key: str) -> Any:
         raise fail("positive")
     if rule.kind == "nonnegative" and value < 0:
         raise fail("zero or positive")
+    if not (value == 0 and rule.kind != "positive") and not rule.low <= abs(value) <= rule.high:
+        unit = f" {rule.unit}" if rule.unit else ""
+        raise _TABLES.fail(key, f"{value!r}{unit} is outside the plausible range "
+                           f"{rule.low:g} to {rule.high:g}{unit}"
+                           + (" in magnitude" if rule.kind == "number" else ""),
+                           hint="check the unit and the digits against the calibration sheet "
+                                "(docs/scene.md lists each sensor's keys and ranges)")
     return float(value)
 
 
@@ -327,7 +344,7 @@ def parse_stream(table: Mapping[str, Any], key: str,
     """
     table = _TABLES.check_keys(table, key, _STREAM_KEYS, ["file"],
                                what="in a stream table")
-    path = Path(_TABLES.text(table["file"], f"{key}.file"))
+    path = Path(_TABLES.path(table["file"], f"{key}.file"))
     if base_dir is not None and not path.is_absolute():
         path = Path(base_dir) / path
     device = _known(table, "device", key, get_device, DEVICES)
@@ -338,15 +355,59 @@ def parse_stream(table: Mapping[str, Any], key: str,
                                "is set by the scene, not the reader table")
     _check_reader_options(reader, path, f"{key}.reader")
     channels_table = _TABLES.get(table, "channels", key, dict, {})
-    channels = {name: _parse_channel(name, sub, f"{key}.channels.{name}")
+    channels = {_TABLES.name(name, f"{key}.channels.{name}"):
+                _parse_channel(name, sub, f"{key}.channels.{name}")
                 for name, sub in channels_table.items()}
     sources = [c.source for c in channels.values()]
     doubled = sorted({s for s in sources if sources.count(s) > 1})
     if doubled:
         raise _TABLES.fail(f"{key}.channels", f"file channel {doubled[0]!r} is mapped twice",
                            hint="map each file channel to one scene channel")
-    return StreamSpec(key.rsplit(".", 1)[-1], path, device, MappingProxyType(dict(reader)),
+    spec = StreamSpec(key.rsplit(".", 1)[-1], path, device, MappingProxyType(dict(reader)),
                       MappingProxyType(channels), key)
+    _check_tdms_sources(spec)
+    return spec
+
+
+def _not_in_file(spec: StreamSpec, error: ChannelNotFoundError) -> ChannelMapError:
+    """Return the error naming the key of a group or mapped channel the file does not hold."""
+    available = [str(a) for a in error.extra.get("available", [])]
+    if error.message.startswith("group "):
+        key = f"{spec.key}.reader.group"
+        hint = "groups in the file: " + ", ".join(available)
+    else:
+        missing = [c for c in spec.channels.values() if c.source not in available]
+        key = f"{missing[0].key}.source" if missing else spec.key
+        hint = "channels in the file: " + ", ".join(available)
+    return ChannelMapError(f"{key}: {error.message}", where={**error.where, "key": key},
+                           hint=hint)
+
+
+def _check_tdms_sources(spec: StreamSpec) -> None:
+    """Check from a TDMS file's metadata alone that its group and mapped channels are there.
+
+    Before any sample is read, so that a scene naming a channel the file lacks is refused when
+    it is loaded. Other formats, absent or damaged files and reader options of the wrong type
+    are left to the read, which reports them.
+    """
+    from rigval.acquisition.detect import detect_format
+    from rigval.acquisition.errors import RigvalError
+    from rigval.acquisition.tdms_layout import scan_tdms
+    from rigval.acquisition.tdms_plan import plan_tdms
+
+    group = spec.reader.get("group")
+    if not spec.channels or not (group is None or isinstance(group, str)) \
+            or not spec.file.is_file():
+        return
+    try:
+        if detect_format(spec.file) != "tdms":
+            return
+        plan_tdms(scan_tdms(spec.file), group=group,
+                  channels=[c.source for c in spec.channels.values()])
+    except ChannelNotFoundError as error:
+        raise _not_in_file(spec, error) from None
+    except RigvalError:
+        return  # a damaged file: reported, with what can be recovered, when it is read
 
 
 def parse_streams(table: Mapping[str, Any], key: str = "streams",
@@ -361,7 +422,8 @@ def parse_streams(table: Mapping[str, Any], key: str = "streams",
     if not _TABLES.table(table, key):
         raise _TABLES.fail(key, "must hold at least one stream",
                            hint=f"add a [{key}.NAME] table per data file")
-    return {name: parse_stream(sub, f"{key}.{name}", base_dir) for name, sub in table.items()}
+    return {_TABLES.name(name, f"{key}.{name}"): parse_stream(sub, f"{key}.{name}", base_dir)
+            for name, sub in table.items()}
 
 
 def sensor_attrs(params: Mapping[str, Any]) -> dict[str, Any]:
@@ -416,11 +478,7 @@ def load_stream(spec: StreamSpec, *, time_range: tuple[float | None, float | Non
         ds = read_stream(spec.file, device=spec.device, channels=sources, time_range=time_range,
                          checksum=checksum, **options)
     except ChannelNotFoundError as error:
-        available = [str(a) for a in error.extra.get("available", [])]
-        missing = [c for c in spec.channels.values() if c.source not in available]
-        key = f"{missing[0].key}.source" if missing else spec.key
-        raise ChannelMapError(f"{key}: {error.message}", where={**error.where, "key": key},
-                         hint="channels in the file: " + ", ".join(available)) from None
+        raise _not_in_file(spec, error) from None
     except ChannelMapError:
         raise
     except ConfigError as error:

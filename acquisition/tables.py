@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -181,6 +182,40 @@ class TableReader:
             raise self.fail(key, f"expected a non-empty string, got {value!r}",
                             hint="write a quoted name")
         return value
+
+    def path(self, value: Any, key: str) -> str:
+        """Return a non-empty string without control characters (a file path)."""
+        text = self.text(value, key)
+        if any(ord(c) < 32 or ord(c) == 127 for c in text):
+            raise self.fail(key, f"the path {text!r} holds a control character",
+                            hint="write the file's path as plain text (no NUL, tab or line end)")
+        longest = max(len(part.encode()) for part in re.split(r"[/\\]", text))
+        if longest > MAX_FILE_NAME or len(text.encode()) > MAX_PATH:
+            raise self.fail(key, f"the path ({len(text)} characters, a name of {longest} bytes) "
+                            "is longer than file systems allow",
+                            hint=f"file names have at most {MAX_FILE_NAME} bytes, paths "
+                                 f"{MAX_PATH}; check the value")
+        return text
+
+    def name(self, value: Any, key: str) -> str:
+        """Return a name that can label netCDF groups and variables and report files.
+
+        At most :data:`MAX_NAME` characters, no ``/`` and no control characters.
+        """
+        text = self.text(value, key)
+        if len(text) > MAX_NAME or "/" in text or any(ord(c) < 32 or ord(c) == 127
+                                                      for c in text):
+            raise self.fail(key, f"the name {text[:40]!r}{'...' if len(text) > 40 else ''} "
+                            f"({len(text)} characters) is not a usable name",
+                            hint=f"use at most {MAX_NAME} characters, without '/' and control "
+                                 "characters (names label netCDF groups, variables and files)")
+        return text
+
+
+#: Longest name (of a comparison, stream or channel) accepted, characters.
+MAX_NAME = 256
+#: Longest file name and path (bytes) file systems take (Linux NAME_MAX and PATH_MAX).
+MAX_FILE_NAME, MAX_PATH = 255, 4096
 
 
 def toml_value(value: Any, key: str = "") -> str:

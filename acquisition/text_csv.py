@@ -667,7 +667,8 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     all_cells, all_numbers, all_bad = _convert_cells(table, columns, layout.decimal)
     for j, k in enumerate(columns):
         cells, bad_mask = all_cells[:, j], all_bad[:, j]
-        numbers = np.insert(middle.values[k], into, all_numbers[:, j])
+        numbers = (np.insert(middle.values[k], into, all_numbers[:, j]) if middle.values[k].size
+                   else all_numbers[:, j].copy())  # no middle: nothing to insert into
         middle.values[k] = numbers[:0]  # taken over: freed
         bad = int(np.count_nonzero(bad_mask))
         if bad and bad == np.count_nonzero(cells != "") + n_mid:

@@ -273,7 +273,7 @@ class _Parser(TableReader):
             if not isinstance(table, Mapping):
                 raise self.fail(key, f"expected a table, got {table!r}")
             kind = table.get("type")
-            if kind not in _JOINT_KEYS:
+            if not isinstance(kind, str) or kind not in _JOINT_KEYS:
                 raise self.fail(f"{key}.type", f"unknown joint type {kind!r}",
                                 hint='use type = "revolute" or type = "ground"')
             required = ("point", "type", "bodies") if kind == "revolute" else (

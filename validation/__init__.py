@@ -10,8 +10,8 @@ waveform metrics, V&V 20, thresholds), ``report`` (pages and plots), ``campaign`
 from rigval.acquisition.lazy import lazy_exports
 
 #: Public names and their modules, imported on first use so that ``rigval --help`` stays light.
-_LAZY = {"Scene": "scene", "load_scene": "scene", "SceneError": "errors",
-         "read_streams": "read_plan", "run_scene": "pipeline", "validate_scene": "validate",
+_LAZY = {"Scene": "scene_types", "load_scene": "scene", "SceneError": "errors",
+         "read_streams": "read_plan", "run_scene": "pipeline", "validate_scene": "run.validate",
          "ValidationResult": "results"}
 
 __all__ = ["Scene", "SceneError", "ValidationResult", "load_scene", "read_streams", "run_scene",

@@ -2,7 +2,7 @@
 
 :func:`run_scene` validates one scene and returns a
 :class:`~rigval.validation.results.ValidationResult`, from which the report is written alone
-(nothing is written here; :func:`rigval.validation.validate.validate_scene` also writes the
+(nothing is written here; :func:`rigval.validation.run.validate.validate_scene` also writes the
 report folder). :func:`run_scene` reads as the list of stages (:data:`STAGES`), each timed: a
 stage takes the output of the one before and hands on only what later stages need, so what it
 consumed is let go when its output replaces it, with no bookkeeping of lifetimes. The scene
@@ -58,9 +58,11 @@ import xarray as xr
 from rigval.acquisition.detect import source_checksum
 from rigval.acquisition.errors import DataError
 from rigval.model.balance import energy_residual
+from rigval.model.drives import law_angles_at_reference
 from rigval.model.mechanism import load_mechanism
 from rigval.model.mechanism_types import Mechanism
 from rigval.model.output_values import model_values
+from rigval.model.solver import solve
 from rigval.processing.alignment_summary import StreamAlignment
 from rigval.processing.angle import (
     AngleGrid,
@@ -280,12 +282,17 @@ def _grid(scene: Scene, main: MainAngle) -> _Grid:
 
 @dataclass(frozen=True)
 class _Model:
-    """The model of the run: on the fine grid and on the chosen one (every fourth point)."""
+    """The model of the run: on the fine grid, the chosen one and at t = 0 of the drive laws.
+
+    The chosen grid is every fourth point of the fine one; the configuration at t = 0 is what
+    the report's sketch draws.
+    """
 
     mechanism: Mechanism
     settings: ModelSettings
     fine: xr.Dataset
     chosen: xr.Dataset
+    configuration: xr.Dataset
 
 
 @dataclass(frozen=True)
@@ -310,7 +317,8 @@ def _model(scene: Scene, aligned: _Aligned) -> _Modelled:
                            "rev/s: forces scale with the square of the speed; consider "
                            'drives = "measured"', law_speed, grid.speed_rev_s)
     return _Modelled(aligned.inputs, aligned.timeline, _Model(
-        mechanism, settings, fine, fine.isel(angle=slice(None, None, FINE_FACTOR))))
+        mechanism, settings, fine, fine.isel(angle=slice(None, None, FINE_FACTOR)),
+        solve(mechanism, np.zeros(1), outputs=["position", "point_position"])))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -523,7 +531,8 @@ def _result(scene: Scene, watch: _Stopwatch, measured: _Measured, numerics: _Num
         predictions=_predicted_outputs(scene, model.chosen), numerics=summary,
         speed_rev_s=grid.speed_rev_s, n_cycles=int(grid.turns.size), tree=tree,
         mechanism=model.mechanism, note=measured.inputs.note,
-        input_digests=measured.inputs.digests)
+        input_digests=measured.inputs.digests, configuration=model.configuration,
+        drive_law_angles=law_angles_at_reference(model.mechanism))
 
 
 def _predicted_outputs(scene: Scene, model: xr.Dataset) -> xr.Dataset:

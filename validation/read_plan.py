@@ -62,11 +62,15 @@ class ComparisonRead:
         Channels of its stream read when it comes (not read before).
     release : tuple of str
         Channels of its stream no later comparison needs.
+    last : bool
+        The stream's last comparison: the stream itself (its times, validity and segments) is
+        let go after it, unless the output keeps it.
     """
 
     comparison: ComparisonSpec
     read: tuple[str, ...]
     release: tuple[str, ...]
+    last: bool = False
 
 
 @dataclass(frozen=True)
@@ -150,7 +154,8 @@ def read_plan(scene: Scene, settings: AlignmentSettings) -> ReadPlan:
             read = tuple(n for n in names if n not in have)
             have.update(read)
             release = () if whole else tuple(n for n in names if n not in later)
-            steps.append(ComparisonRead(comparison, read, release))
+            steps.append(ComparisonRead(comparison, read, release,
+                                        last=not whole and i == len(comparisons) - 1))
     drives = tuple(d.encoder.channel for d in scene.model.drivers.values()) \
         if scene.model.drives == "measured" else ()
     return ReadPlan(first=MappingProxyType(first), drives=drives, compared=tuple(steps),
@@ -289,14 +294,20 @@ def measured_signals(scene: Scene, plan: ReadPlan, aligned: dict[str, xr.Dataset
 
     ``aligned`` is updated as the plan says: a comparison's channels not read yet are added to
     its stream, and those no later comparison needs are dropped before its signal is yielded,
-    so that the consumer's filters can free their input as they make their output.
+    so that the consumer's filters can free their input as they make their output; after a
+    stream's last comparison the stream itself is dropped. Streams come shortest first, so that
+    the longest is worked on when the others are gone.
     """
-    for step in plan.compared:
+    length = {name: ds.sizes["time"] for name, ds in aligned.items()}
+    steps = sorted(plan.compared, key=lambda s: length[s.comparison.measured.stream])  # stable
+    for step in steps:
         stream = step.comparison.measured.stream
         if step.read:
             aligned[stream] = _add_channels(scene, stream, aligned[stream], step.read)
         signal = _signal(step.comparison, aligned[stream])
-        if step.release:
+        if step.last:
+            aligned.pop(stream)
+        elif step.release:
             aligned[stream] = aligned[stream].drop_vars(list(step.release))
         yield step.comparison, signal
 

@@ -8,7 +8,7 @@ notebook or a campaign can use them without re-running anything.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -142,8 +142,15 @@ class ValidationResult:
         The text of the scene's operator's note (None without one).
     input_digests : tuple of (pathlib.Path, str)
         Every file the validation read (data files, mechanism, note) with its SHA-256.
+    configuration : xarray.Dataset or None
+        The mechanism at t = 0 of its file's drive laws (``position``, ``point_position``), for
+        the report's sketch; None: the report solves it.
+    drive_law_angles : mapping of str to float
+        Per driver, its law angle in rad when the main driver passes its ``theta0``
+        (:func:`rigval.model.drives.law_angles_at_reference`), to set beside the scene's
+        ``angle_at_reference`` of measured drives.
     outputs : tuple of pathlib.Path
-        Files written (:func:`rigval.validation.validate.validate_scene` returns them here;
+        Files written (:func:`rigval.validation.run.validate.validate_scene` returns them here;
         empty from :func:`rigval.validation.pipeline.run_scene`).
     """
 
@@ -158,6 +165,8 @@ class ValidationResult:
     mechanism: Mechanism
     note: str | None
     input_digests: tuple[tuple[Path, str], ...]
+    configuration: xr.Dataset | None = None
+    drive_law_angles: Mapping[str, float] = field(default_factory=dict)
     outputs: tuple[Path, ...] = ()
 
     @property

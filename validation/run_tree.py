@@ -108,7 +108,8 @@ def history_lines(scene: Scene, n_cycles: int, corners: Mapping[str, float | Non
         f"validation.pipeline read+convert {files}",
         f"validation.pipeline angle: {n_cycles} revolutions, "
         f"{scene.angle.points_per_revolution} points per revolution, "
-        f"{scene.angle.interpolation} interpolation, low-pass {dict(corners)}",
+        f"{scene.angle.interpolation} interpolation, "
+        f"low-pass {({c.name: corners[c.name] for c in scene.comparisons})}",
         f"validation.pipeline model {scene.mechanism.name}: drives {scene.model.drives}, "
         f"outputs {dict(request)}",
         f"validation.pipeline compare {', '.join(c.name for c in scene.comparisons)}: "

@@ -60,27 +60,7 @@ from rigval.validation.scene_types import (
     Scene,
 )
 
-__all__ = [
-    "MODEL_QUANTITIES",
-    "SCHEMA",
-    "TODO",
-    "AlignmentSpec",
-    "AngleSpec",
-    "ChannelRef",
-    "ComparisonSpec",
-    "DriverSpec",
-    "ModelSpec",
-    "OutputSpec",
-    "PredictionSpec",
-    "PulseSpec",
-    "Scene",
-    "channel_map_as_scene",
-    "check_mechanism_names",
-    "load_scene",
-    "parse_scene",
-    "todo_keys",
-    "todo_label",
-]
+__all__ = ["TODO", "channel_map_as_scene", "load_scene", "parse_scene", "todo_keys", "todo_label"]
 
 logger = logging.getLogger(__name__)
 
@@ -138,7 +118,7 @@ def _setting(table: Mapping[str, Any], spec: type, name: str, key: str,
 
 
 def _file(scene_dir: Path, value: str, key: str) -> Path:
-    path = (scene_dir / value).resolve()
+    path = (scene_dir / _TABLES.path(value, key)).resolve()
     if not path.is_file():
         raise _error(key, f"file not found: {path}",
                      hint="paths in a scene are relative to the scene file; check the name")
@@ -177,6 +157,24 @@ def _ref(value: Any, key: str, streams: Mapping[str, StreamSpec],
         raise _error(key, f"{value} is a {sensor!r} channel, expected {' or '.join(sensors)}")
     return ChannelRef(stream, channel)
 
+
+#: Largest magnitudes of the scene's angles (rad), times (s), frequencies (Hz) and counts: far
+#: beyond any run, so that a value outside is a typo or a unit mix-up (docs/scene.md, Numbers).
+MAX_ANGLE_RAD, MAX_SECONDS, MAX_HZ, MAX_COUNT = 1e6, 1e7, 1e9, 1_000_000
+
+
+def _bounded(value: float | None, key: str, largest: float, unit: str) -> float | None:
+    """Return ``value`` (None passes) after checking its magnitude is at most ``largest``."""
+    if value is not None and not abs(value) <= largest:
+        raise _error(key, f"must be at most {largest:g} {unit} in magnitude, got {value!r}",
+                     hint=f"write the value in {unit}; check its digits")
+    return value
+
+
+#: Plausible magnitudes of a comparison's ``scale`` (model quantity to measured unit).
+MIN_SCALE, MAX_SCALE = 1e-12, 1e12
+#: Largest relative uncertainties (fractions) and coverage factor of ``uncertainty``.
+MAX_UNCERTAINTY = {"u_measurement_rel": 1.0, "u_measurement_rel_common": 1.0, "k": 10.0}
 
 #: Fewest encoder counts per revolution (after x4 decoding): the drive speed and acceleration are
 #: filtered at 8 harmonics of the revolution (processing.excitation), which takes at least two
@@ -255,19 +253,20 @@ def _alignment_spec(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]) -
             channel = _ref(f"{stream}.{_get(entry, 'channel', pkey, str)}", f"{pkey}.channel",
                            streams, ("reference_pulse",))
         per_rev = _setting(entry, PulseSpec, "per_revolution", pkey, int)
-        if per_rev < 1:
-            raise _error(f"{pkey}.per_revolution", f"must be at least 1, got {per_rev}",
+        if not 1 <= per_rev <= MAX_COUNT:
+            raise _error(f"{pkey}.per_revolution", f"must be 1 to {MAX_COUNT}, got {per_rev}",
                          hint="count the pulses the sensor gives per main-shaft revolution")
         uncertainty = _setting(entry, PulseSpec, "start_time_uncertainty_s", pkey, float)
-        if uncertainty is not None and not 0.0 < uncertainty < float("inf"):
+        if uncertainty is not None and not 0.0 < uncertainty <= MAX_SECONDS:
             raise _error(f"{pkey}.start_time_uncertainty_s",
-                         f"must be a positive number of seconds, got {uncertainty}")
-        coarse = _setting(entry, PulseSpec, "coarse_offset_s", pkey, float)
-        if coarse is not None and not abs(coarse) < float("inf"):
-            raise _error(f"{pkey}.coarse_offset_s", f"must be finite, got {coarse}")
+                         f"must be a positive number of seconds up to {MAX_SECONDS:g}, "
+                         f"got {uncertainty}")
+        coarse = _bounded(_setting(entry, PulseSpec, "coarse_offset_s", pkey, float),
+                          f"{pkey}.coarse_offset_s", MAX_SECONDS, "s")
         pulses[stream] = PulseSpec(
             channel=channel, per_revolution=per_rev,
-            angle=_setting(entry, PulseSpec, "angle", pkey, float), method=method,
+            angle=_bounded(_setting(entry, PulseSpec, "angle", pkey, float), f"{pkey}.angle",
+                           MAX_ANGLE_RAD, "rad"), method=method,
             coarse_offset_s=coarse, start_time_uncertainty_s=uncertainty)
     missing = [s for s in streams if s != reference and s not in pulses]
     if missing:
@@ -286,8 +285,8 @@ def _angle_spec(doc: Mapping[str, Any]) -> AngleSpec:
     if not 8 <= points <= 1_000_000:
         raise _error(f"{key}.points_per_revolution", f"expected 8 to 1000000, got {points}")
     cycles = _setting(table, AngleSpec, "min_cycles", key, int)
-    if cycles < 1:
-        raise _error(f"{key}.min_cycles", f"must be at least 1, got {cycles}")
+    if not 1 <= cycles <= MAX_COUNT:
+        raise _error(f"{key}.min_cycles", f"must be 1 to {MAX_COUNT}, got {cycles}")
     return AngleSpec(points_per_revolution=points,
                      interpolation=_setting(table, AngleSpec, "interpolation", key, str),
                      min_cycles=cycles)
@@ -313,7 +312,9 @@ def _model_spec(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec], refer
                          f"got {encoder}", hint="drive encoders share the reference clock")
         drivers[name] = DriverSpec(
             name=name, encoder=encoder,
-            angle_at_reference=_setting(entry, DriverSpec, "angle_at_reference", dkey, float),
+            angle_at_reference=_bounded(
+                _setting(entry, DriverSpec, "angle_at_reference", dkey, float),
+                f"{dkey}.angle_at_reference", MAX_ANGLE_RAD, "rad"),
             direction=direction)
     if drives == "analytic" and drivers:
         raise _error(f"{key}.drivers", 'driver tables apply only to drives = "measured"',
@@ -346,6 +347,11 @@ def _uncertainty(table: Mapping[str, Any], key: str) -> Mapping[str, float]:
         value = _get(table, name, key, float)
         if not (math.isfinite(value) and value >= 0) or (name == "k" and value == 0):
             raise _error(f"{key}.{name}", f"must be a finite number >= 0 (k > 0), got {value}")
+        largest = MAX_UNCERTAINTY.get(name, MAX_SCALE)
+        if value > largest:
+            raise _error(f"{key}.{name}", f"must be at most {largest:g}, got {value}",
+                         hint="relative uncertainties are fractions (0.02 for 2 %); k is a "
+                              "coverage factor (2 for 95 %)")
         values[name] = value
     return MappingProxyType(values)
 
@@ -382,18 +388,21 @@ def _comparison_specs(doc: Mapping[str, Any], streams: Mapping[str, StreamSpec]
         key = f"comparisons[{index}]"
         table = _table(raw, key)
         _check_keys(table, key, _keys(ComparisonSpec))
-        name = _get(table, "name", key, str)
+        name = _TABLES.name(_get(table, "name", key, str), f"{key}.name")
         if name in {s.name for s in specs}:
             raise _error(f"{key}.name", f"duplicate comparison name {name!r}")
         measured, summed, signs = _measured(table, key, streams)
         output = _model_output(_get(table, "model", key, dict), f"{key}.model")
         scale = _setting(table, ComparisonSpec, "scale", key, float)
-        if not math.isfinite(scale) or scale == 0:
-            raise _error(f"{key}.scale", f"must be finite and non-zero, got {scale}")
+        if not MIN_SCALE <= abs(scale) <= MAX_SCALE:
+            raise _error(f"{key}.scale", f"must be non-zero and within {MIN_SCALE:g} to "
+                         f"{MAX_SCALE:g} in magnitude, got {scale}",
+                         hint="the factor from the model quantity to the measured unit "
+                              "(e.g. -1/A in m-2); check its unit and digits")
         scale_units = _setting(table, ComparisonSpec, "scale_units", key, str)
         lowpass = _setting(table, ComparisonSpec, "lowpass_hz", key, float)
-        if lowpass is not None and not lowpass > 0:
-            raise _error(f"{key}.lowpass_hz", f"must be positive, got {lowpass}")
+        if lowpass is not None and not 0 < lowpass <= MAX_HZ:
+            raise _error(f"{key}.lowpass_hz", f"must be positive, up to {MAX_HZ:g}, got {lowpass}")
         metrics = tuple(_setting(table, ComparisonSpec, "metrics", key, list))
         for i, metric in enumerate(metrics):
             if metric not in METRICS or metric == "vv20":
@@ -646,7 +655,20 @@ def load_scene(path: str | Path, *, check_mechanism: bool = True) -> Scene:
                          hint="check the path") from None
     scene = parse_scene(text, path)
     if check_mechanism:
-        check_mechanism_names(scene, mechanism_names(scene.mechanism))
+        try:
+            names = mechanism_names(scene.mechanism)
+        except MechanismError as error:
+            if error.where.get("key"):
+                raise
+            # the file as a whole (unreadable, not TOML): the scene's key that names it
+            raise SceneError(error.message, where={"key": "mechanism", **error.where},
+                             hint=error.hint) from None
+        check_mechanism_names(scene, names)
+        if scene.model.drives == "analytic":  # the laws the model runs: a main drive that turns
+            from rigval.model.drives import cycle_period
+            from rigval.model.mechanism import load_mechanism
+
+            cycle_period(load_mechanism(scene.mechanism))
     logger.debug("scene %s: %d streams, %d comparisons", path, len(scene.streams),
                  len(scene.comparisons))
     return scene

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Literal
+from typing import Any, Literal
 
 from rigval.acquisition.channel_map import ChannelSpec, StreamSpec
 from rigval.model.output_values import ModelOutput
@@ -39,6 +39,11 @@ __all__ = [
 
 #: Field metadata of a field the parser fills that is not a key of the scene file.
 NOT_A_KEY: Mapping[str, bool] = MappingProxyType({"toml": False})
+
+
+def _no_entries() -> Mapping[str, Any]:
+    """Return the default of a table of entries: an empty read-only mapping."""
+    return MappingProxyType({})
 
 SCHEMA = "rigval-scene/1"
 
@@ -120,7 +125,7 @@ class AlignmentSpec:
     reference: str
     main_encoder: ChannelRef
     main_reference_pulse: ChannelRef
-    pulses: Mapping[str, PulseSpec] = field(default_factory=lambda: MappingProxyType({}))
+    pulses: Mapping[str, PulseSpec] = field(default_factory=_no_entries)
 
 
 @dataclass(frozen=True)
@@ -178,7 +183,7 @@ class ModelSpec:
     """
 
     drives: Literal["measured", "analytic"] = "analytic"
-    drivers: Mapping[str, DriverSpec] = field(default_factory=lambda: MappingProxyType({}))
+    drivers: Mapping[str, DriverSpec] = field(default_factory=_no_entries)
 
 
 @dataclass(frozen=True)
@@ -233,9 +238,9 @@ class ComparisonSpec:
     lowpass_hz: float | None = None
     remove_offset: bool = False
     metrics: tuple[str, ...] = DEFAULT_METRICS
-    uncertainty: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+    uncertainty: Mapping[str, float] = field(default_factory=_no_entries)
     nrmse_normaliser: Literal["range", "rms", "peak"] = "range"
-    thresholds: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
+    thresholds: Mapping[str, str] = field(default_factory=_no_entries)
     summed: tuple[ChannelRef, ...] = field(default=(), metadata=NOT_A_KEY)
     signs: tuple[float, ...] = field(default=(), metadata=NOT_A_KEY)
 

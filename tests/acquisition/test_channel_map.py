@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import re
 import tomllib
 from pathlib import Path
@@ -109,10 +111,15 @@ def test_load_stream_renames_sources_and_attaches_sensors(tmp_path: Path) -> Non
     assert attrs["source_channel"] == "/'WLS task'/'ai1'"
     assert attrs["input_delay_s"] == pytest.approx((40 + 5 / 512) * 0.00062 + 4.5e-6)
     assert ds.attrs["stream"] == "wls1"
-    missing = parse_stream({"file": "wls1.tdms", "channels": {"x": {"sensor": "voltage"}}},
-                           "streams.wls1", base_dir=tmp_path)
     with pytest.raises(ChannelMapError, match="channels in the file: ai0, ai1") as error:
-        load_stream(missing)
+        # refused when parsed, from the file's metadata, before any sample is read
+        parse_stream({"file": "wls1.tdms", "channels": {"x": {"sensor": "voltage"}}},
+                     "streams.wls1", base_dir=tmp_path)
+    assert error.value.where["key"] == "streams.wls1.channels.x.source"
+    late = dataclasses.replace(spec, channels={"x": dataclasses.replace(
+        spec.channels["tor1"], name="x", source="x", key="streams.wls1.channels.x")})
+    with pytest.raises(ChannelMapError, match="channels in the file: ai0, ai1") as error:
+        load_stream(late)  # and when read (a spec built in code)
     assert error.value.where["key"] == "streams.wls1.channels.x.source"
     with pytest.raises(ChannelMapError, match="the tdms reader has no such option") as error:
         parse_stream({"file": "wls1.tdms", "reader": {"grop": "x"}}, "streams.wls1",
@@ -124,3 +131,43 @@ def test_load_stream_renames_sources_and_attaches_sensors(tmp_path: Path) -> Non
         parse_stream({"file": "wls1.tdms", "reader": {"decimal": ","}}, "streams.wls1",
                      base_dir=tmp_path)  # CSV options for a file that is TDMS: the wrong file
     assert error.value.where["key"] == "streams.wls1.file"
+
+
+def _inside(rule: Any) -> float | int:
+    """A value well inside a parameter's plausible range."""
+    if rule.kind == "int":
+        return 8192
+    return math.sqrt(rule.low * rule.high) if rule.low > 0 else min(1.0, rule.high)
+
+
+def test_every_sensor_range_is_in_the_scene_docs() -> None:
+    """Each calibration value with a plausible range is in docs/scene.md's range table, and a
+    value just outside its range is refused naming its key (just inside is accepted)."""
+    from rigval.acquisition.channel_map import SENSORS
+
+    docs = (REPO / "docs" / "scene.md").read_text(encoding="utf-8")
+    table = docs[docs.index("| key | plausible magnitude |"):]
+    table = table[:table.index("\n\n")]
+    for sensor, rules in SENSORS.items():
+        for param, rule in rules.items():
+            if rule.kind not in ("positive", "nonnegative", "number") or \
+                    (rule.low, rule.high) == (0.0, 1e15):
+                continue
+            assert f"`{param}`" in table, param
+            if param == "inner_diameter":
+                continue  # bounded by the outer diameter first (its own test above)
+            base = {"sensor": sensor, **{p: r.choices[0] if r.kind == "choice" else
+                                         ("V" if r.kind == "text" else _inside(r))
+                                         for p, r in rules.items() if r.required}}
+            key = f"streams.s.channels.c.{param}"
+            for value, accepted in ((rule.high, True), (rule.high * 1.01, False),
+                                    (rule.low * 0.99, rule.low == 0.0)):
+                if value == 0.0:
+                    continue
+                table_ = {"file": "absent.tdms", "channels": {"c": {**base, param: value}}}
+                if accepted:
+                    parse_stream(table_, "streams.s")
+                else:
+                    with pytest.raises(ChannelMapError, match="plausible range") as error:
+                        parse_stream(table_, "streams.s")
+                    assert error.value.where["key"] == key

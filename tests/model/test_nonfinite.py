@@ -7,6 +7,7 @@ behaviour fail loudly).
 
 from __future__ import annotations
 
+import dataclasses
 import tomllib
 import warnings
 from collections.abc import Callable
@@ -17,7 +18,7 @@ import pytest
 
 import rigval.model as rm
 from rigval.acquisition.errors import DataError
-from rigval.model.errors import ModelError
+from rigval.model.errors import MechanismError, ModelError
 
 T = np.linspace(0.0, 0.5, 11)
 
@@ -28,13 +29,35 @@ def _fourbar(change: Callable[[dict[str, Any]], object]) -> rm.Mechanism:
     return rm.load_mechanism(data)
 
 
-@pytest.mark.parametrize(("change", "cause"), [
-    (lambda d: d["bodies"][1].update(mass=1e308), "mass 1e+308 kg of body 'coupler'"),
-    (lambda d: d["bodies"][2].update(inertia=1e308), "inertia 1e+308 kg m2 of body 'rocker'"),
-    (lambda d: d.update(gravity=[0.0, -1e308]), "gravity 1e+308 m/s2"),
-])
-def test_overflowing_mass_or_gravity_is_a_model_error(change, cause: str) -> None:
-    mech = _fourbar(change)
+def _with_body(mech: rm.Mechanism, name: str, **values: float) -> rm.Mechanism:
+    bodies = tuple(dataclasses.replace(b, **values) if b.name == name else b for b in mech.bodies)
+    return dataclasses.replace(mech, bodies=bodies)
+
+
+OVERFLOWING = [
+    (lambda d: d["bodies"][1].update(mass=1e308),
+     lambda m: _with_body(m, "coupler", mass=1e308), "mass 1e+308 kg of body 'coupler'",
+     "bodies[1].mass"),
+    (lambda d: d["bodies"][2].update(inertia=1e308),
+     lambda m: _with_body(m, "rocker", inertia=1e308), "inertia 1e+308 kg m2 of body 'rocker'",
+     "bodies[2].inertia"),
+    (lambda d: d.update(gravity=[0.0, -1e308]),
+     lambda m: dataclasses.replace(m, gravity=(0.0, -1e308)), "gravity 1e+308 m/s2",
+     "gravity[1]"),
+]
+
+
+@pytest.mark.parametrize(("change", "key"), [(c[0], c[3]) for c in OVERFLOWING])
+def test_overflowing_mass_or_gravity_is_refused_in_the_file(change, key: str) -> None:
+    with pytest.raises(MechanismError, match="expected a magnitude of at most") as info:
+        _fourbar(change)
+    assert info.value.where["key"] == key
+
+
+@pytest.mark.parametrize(("build", "cause"), [(c[1], c[2]) for c in OVERFLOWING])
+def test_overflowing_mass_or_gravity_is_a_model_error(build, cause: str) -> None:
+    """Built in code (past the file's ranges), the solver still names the overflow's cause."""
+    mech = build(rm.load_mechanism(rm.builtin_mechanism("fourbar")))
     with warnings.catch_warnings():
         warnings.simplefilter("error")          # no numpy RuntimeWarning on the way
         with pytest.raises(ModelError, match="not finite") as info:
@@ -68,16 +91,18 @@ def test_non_finite_drive_samples_are_a_data_error() -> None:
 
 
 def test_large_but_finite_inputs_still_solve_exactly() -> None:
-    """1e150 kg is absurd but representable: torques scale exactly with the masses."""
+    """1e150 kg is absurd but representable: torques scale exactly with the masses.
+
+    A mechanism file refuses such masses (docs/mechanism.md, Ranges); built in code, the
+    solver still handles them exactly.
+    """
     scale = 1e150
-    base = rm.solve(rm.builtin_mechanism("fourbar"), T, outputs=["driver_torque"])
-
-    def heavy(d: dict[str, Any]) -> None:
-        for body in d["bodies"]:
-            body["mass"] *= scale
-            body["inertia"] *= scale
-
-    scaled = rm.solve(_fourbar(heavy), T, outputs=["driver_torque"])
+    mech = rm.load_mechanism(rm.builtin_mechanism("fourbar"))
+    base = rm.solve(mech, T, outputs=["driver_torque"])
+    heavy = dataclasses.replace(mech, bodies=tuple(
+        dataclasses.replace(b, mass=b.mass * scale, inertia=b.inertia * scale)
+        for b in mech.bodies))
+    scaled = rm.solve(heavy, T, outputs=["driver_torque"])
     np.testing.assert_allclose(scaled["driver_torque"].to_numpy() / scale,
                                base["driver_torque"].to_numpy(), rtol=1e-12)
 

@@ -7,7 +7,7 @@ import numpy as np
 
 import rigval.model as rm
 from rigval.model.results import COMPARABLE, QUANTITIES
-from rigval.validation.scene import MODEL_QUANTITIES
+from rigval.validation.scene_types import MODEL_QUANTITIES
 
 T = np.linspace(0.0, 0.2, 11)
 

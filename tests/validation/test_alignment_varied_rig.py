@@ -22,7 +22,7 @@ from rigval.processing.errors import AlignmentError
 from rigval.sample_data import Imperfections, RigSettings, load_truth, simulate_rig
 from rigval.validation.pipeline import run_scene
 from rigval.validation.results import ValidationResult
-from rigval.validation.validate import validate_scene
+from rigval.validation.run.validate import validate_scene
 from rigval.validation.verdict import carried_uncertainty
 
 

@@ -90,6 +90,9 @@ def test_command_writes_json_mechanism_and_report(heavy_arm, tmp_path):
     assert "ASME V&amp;V 20, identified model: Model error not detected" in page
     assert (out / "nominal" / "metrics.json").exists()
     assert (out / "identified" / "metrics.json").exists()
+    for which in ("nominal", "identified"):  # the two reports are links that resolve
+        assert f'<a href="{which}/report.html">' in page
+        assert (out / which / "report.html").is_file()
 
 
 def test_first_moments_move_the_centre_of_gravity_in_the_written_file(tmp_path):

@@ -6,7 +6,8 @@ import pytest
 
 from rigval.acquisition.errors import ConfigError
 from rigval.sample_data import shipped_runs
-from rigval.validation.scene import OutputSpec, Scene, parse_scene
+from rigval.validation.scene import parse_scene
+from rigval.validation.scene_types import OutputSpec, Scene
 
 
 def _scene_with(extra: str) -> Scene:

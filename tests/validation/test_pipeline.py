@@ -17,8 +17,8 @@ from rigval.sample_data import RigSettings, load_truth, simulate_rig
 from rigval.validation.cli import main
 from rigval.validation.pipeline import run_scene
 from rigval.validation.read_plan import read_streams
+from rigval.validation.run.validate import validate_scene
 from rigval.validation.scene import load_scene
-from rigval.validation.validate import validate_scene
 
 DURATION_S = 12.0
 

@@ -11,8 +11,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from rigval.acquisition.detect import source_checksum
+from rigval.model import load_mechanism
 from rigval.processing.alignment_summary import StreamAlignment
 from rigval.validation.metrics.thresholds import check_thresholds
+from rigval.validation.note import read_note
 from rigval.validation.report.run_report import write_report
 from rigval.validation.results import ComparisonResult, NumericsSummary, ValidationResult
 from rigval.validation.scene import load_scene
@@ -75,7 +78,10 @@ def result(tmp_path: Path) -> ValidationResult:
                                {c.name: 1e-6 for c in comparisons}, 72)
     return ValidationResult(scene=scene, comparisons=tuple(comparisons), alignment=alignment,
                             predictions=predictions, numerics=numerics, speed_rev_s=1.0,
-                            n_cycles=6, tree=tree)
+                            n_cycles=6, tree=tree, mechanism=load_mechanism(scene.mechanism),
+                            note=read_note(scene.note) if scene.note else None,
+                            input_digests=tuple((p, source_checksum(p))
+                                                for p in scene.input_files))
 
 
 def test_report_folder_has_every_file(result: ValidationResult, tmp_path: Path) -> None:

@@ -66,5 +66,5 @@ def test_regular_note_is_read_and_the_report_names_its_file(tmp_path: Path) -> N
     scene = load_scene(_scene(tmp_path, note.as_posix()))
     from rigval.validation.report.run_report import _note_block
 
-    html = _note_block(scene)
+    html = _note_block(scene.note, read_note(scene.note))
     assert html is not None and str(note) in html[0] and html[1] == text

@@ -242,3 +242,23 @@ def test_lower_keys_stand_above_their_panels_and_peaks_are_keyed() -> None:
     assert len(markers) == 2
     for line in markers:
         assert keyed[PEAK_GLYPHS[line.get_marker()]] == to_hex(line.get_color())
+
+
+def test_bench_log_axis_ticks_are_few_plain_and_apart() -> None:
+    # CPU times 6.5-8.2 us (a fifth of a decade, as the BLAS-thread rows), errors 1e-15-1e-10
+    rows = [_bench_row("one thread", 6.5e-6, 2.5e-13, 1e-10),
+            _bench_row("two threads", 8.2e-6, 2.4e-13, 1e-10),
+            _bench_row("exact", 7.0e-6, 1e-15, 1e-10)]
+    fig = plot_stage(rows, "model")
+    renderer = _renderer(fig)
+    ax = fig.axes[0]
+    low, high = ax.get_xlim()
+    shown = [t for t in ax.get_xticklabels() if t.get_text() and low <= t.get_position()[0] <= high]
+    assert 2 <= len(shown) <= 6, [t.get_text() for t in shown]
+    values = [float(t.get_text()) for t in shown]  # plain numbers, no "x10^0"
+    assert all(low <= v <= high for v in values)
+    boxes = sorted((t.get_window_extent(renderer) for t in shown), key=lambda b: b.x0)
+    assert all(a.x1 < b.x0 for a, b in itertools.pairwise(boxes))  # never run together
+    # the error axis spans decades below 0.001: powers of ten
+    labels = [t.get_text() for t in ax.get_yticklabels() if t.get_text()]
+    assert labels and all(text.startswith("$10^{") for text in labels), labels

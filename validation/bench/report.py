@@ -22,7 +22,7 @@ from pathlib import Path
 
 from matplotlib.axis import Axis
 from matplotlib.figure import Figure
-from matplotlib.ticker import LogFormatterSciNotation, LogLocator, NullFormatter
+from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
 
 from rigval.acquisition.errors import DataFileError
 from rigval.acquisition.outputs import atomic_output, write_text_atomic
@@ -312,14 +312,41 @@ def closing_line(rows: Sequence[BenchRow]) -> str:
     return f"rigval bench: {len(over)} of {len(rows)} rows exceed their bounds: {names}"
 
 
+def _tick_label(value: float, plain: bool) -> str:
+    """Return a log-axis tick label: plain digits, or a power of ten (``plain`` False)."""
+    if value <= 0 or not math.isfinite(value):
+        return ""
+    if plain:
+        return f"{value:.3g}"
+    exponent = math.floor(math.log10(value) + 1e-9)
+    mantissa = value / 10.0 ** exponent
+    if math.isclose(mantissa, 1.0, rel_tol=1e-6):
+        return f"$10^{{{exponent}}}$"
+    return f"${mantissa:.2g}\\times10^{{{exponent}}}$"
+
+
 def _log_ticks(axis: Axis, values: Sequence[float]) -> None:
-    """Label a log axis even when its data span less than a decade (1, 2, 5 steps then)."""
+    """Label a log axis with a few readable ticks, also when its data span under a decade.
+
+    Over several decades: the powers of ten (with 2 and 5 between them over less than 2.5
+    decades); within less than one decade, where a log locator finds one tick or none: at most
+    five evenly spaced round values. Labels are plain digits when the whole axis lies between
+    0.001 and 9999, else powers of ten (:func:`_tick_label`), so neighbours never run into each
+    other as ``6.6x10^0 6.8x10^0`` did.
+    """
     finite = [v for v in values if math.isfinite(v) and v > 0]
     decades = math.log10(max(finite) / min(finite)) if finite else 0.0
-    subs = (1.0, 1.5, 2.0, 3.0, 5.0, 7.0) if decades < 1 else (1.0, 2.0, 5.0) if decades < 2.5 \
-        else (1.0,)
-    axis.set_major_locator(LogLocator(base=10.0, subs=subs))
-    axis.set_major_formatter(LogFormatterSciNotation(labelOnlyBase=False))
+    if decades < 1:
+        axis.set_major_locator(MaxNLocator(nbins=4, steps=[1, 2, 2.5, 5, 10]))
+    else:
+        subs = (1.0, 2.0, 5.0) if decades < 2.5 else (1.0,)
+        axis.set_major_locator(LogLocator(base=10.0, subs=subs, numticks=8))
+
+    def label(value: float, _position: float | None) -> str:
+        low, high = sorted(axis.get_view_interval())
+        return _tick_label(value, plain=low >= 1e-3 and high < 1e4)
+
+    axis.set_major_formatter(FuncFormatter(label))
     axis.set_minor_formatter(NullFormatter())
 
 

@@ -38,7 +38,7 @@ logger = logging.getLogger(__name__)
 #: Modules a validation imports, some only when it first needs them (the TDMS reader, netCDF4,
 #: matplotlib's Agg backend, and dask.array if Dask is installed, which xarray imports when it
 #: first checks for dask arrays: about 0.7 s of CPU alone).
-PIPELINE_MODULES = ("rigval.validation.pipeline", "rigval.validation.validate",
+PIPELINE_MODULES = ("rigval.validation.pipeline", "rigval.validation.run.validate",
                     "rigval.validation.report.sketch", "rigval.validation.commands.validate",
                     "rigval.acquisition.reader", "rigval.acquisition.tdms",
                     "rigval.acquisition.text_csv", "rigval.acquisition.lvm", "dask.array",

@@ -409,7 +409,7 @@ def _picklable(error: BaseException) -> bool:
 
 def _validate_with_pipeline(scene: Path, run_dir: Path) -> RunReport:
     """Validate one scene with rigval's pipeline and write its report (the default)."""
-    from rigval.validation.validate import validate_scene
+    from rigval.validation.run.validate import validate_scene
 
     result = validate_scene(scene, run_dir)
     return RunReport(passed=result.passed, metrics=tuple(result.metric_rows()),

@@ -70,7 +70,7 @@ def validate_one(scene: Path, out_dir: Path) -> RunReport:
     from rigval.acquisition.outputs import write_text_atomic
     from rigval.validation.campaign.engine import RunReport
     from rigval.validation.commands.validate import print_summary
-    from rigval.validation.validate import validate_scene
+    from rigval.validation.run.validate import validate_scene
 
     result = validate_scene(scene, out_dir)
     text = io.StringIO()

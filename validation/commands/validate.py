@@ -68,7 +68,7 @@ def print_summary(result: Any, out_dir: Path, stream: TextIO | None = None) -> N
 
 def run(args: argparse.Namespace) -> int:
     """Validate the scene; return 0 when every threshold is met, else 1."""
-    from rigval.validation.validate import validate_scene
+    from rigval.validation.run.validate import validate_scene
 
     result = validate_scene(args.scene, args.out)
     print_summary(result, args.out)

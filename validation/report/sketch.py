@@ -13,6 +13,7 @@ import itertools
 from collections.abc import Iterable, Sequence
 
 import numpy as np
+import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import FancyArrowPatch, Polygon
@@ -58,7 +59,7 @@ def body_outlines(mechanism: Mechanism, positions: dict[str, np.ndarray]
 
 def sketch_mechanism(mechanism: Mechanism, *, time: float = 0.0,
                      highlight: Iterable[str] = (), title: str | None = None,
-                     width: float = 8.0) -> Figure:
+                     width: float = 8.0, configuration: xr.Dataset | None = None) -> Figure:
     """Draw the mechanism at one instant of its file's drive laws.
 
     Parameters
@@ -73,13 +74,18 @@ def sketch_mechanism(mechanism: Mechanism, *, time: float = 0.0,
         Figure title; default names the mechanism and the instant.
     width : float
         Figure width in inches (the height follows the mechanism's extent).
+    configuration : xarray.Dataset, optional
+        The mechanism solved at ``time`` with the outputs ``position`` and ``point_position``
+        (a validation's result carries it); default: solved here.
 
     Returns
     -------
     matplotlib.figure.Figure
         The sketch.
     """
-    result = solve(mechanism, np.array([float(time)]), outputs=["position", "point_position"])
+    result = configuration
+    if result is None:
+        result = solve(mechanism, np.array([float(time)]), outputs=["position", "point_position"])
     names = [str(p) for p in result["point"].values]
     xy = result["point_position"].isel(time=0).transpose("point", "axis").values
     positions = dict(zip(names, xy, strict=True))

@@ -1,0 +1,59 @@
+"""The read plan: every channel of a run is read once, each stage gets what it needs (issue 29).
+
+The shipped 0.8 rev/s scene is validated with the file reader spied on: no (stream, channel) is
+read twice, every compared channel is read, and a TDMS stream's compared channels are not among
+the channels read before the alignment. The plan itself is checked against the scene: each
+compared channel is released once, at its stream's last comparison that uses it.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import pytest
+
+from rigval.sample_data import runs_dir
+from rigval.validation import read_plan as plan_module
+from rigval.validation.pipeline import run_scene
+from rigval.validation.scene import load_scene
+from rigval.validation.stage_settings import alignment_settings
+
+SCENE = runs_dir() / "run_0p8_scene.toml"
+
+
+def test_a_run_reads_every_channel_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    reads: Counter[tuple[str, str]] = Counter()
+    real = plan_module.load_stream
+
+    def spy(spec, **kwargs):
+        reads.update((spec.name, channel) for channel in spec.channels)
+        return real(spec, **kwargs)
+
+    monkeypatch.setattr(plan_module, "load_stream", spy)
+    result = run_scene(SCENE)
+    assert result.comparisons
+    twice = [key for key, n in reads.items() if n > 1]
+    assert not twice, f"read more than once: {twice}"
+    scene = result.scene
+    compared = {(ref.stream, ref.channel) for c in scene.comparisons for _, ref in c.terms}
+    assert compared <= set(reads)
+
+
+def test_the_plan_reads_compared_channels_late_and_releases_each_once() -> None:
+    scene = load_scene(SCENE)
+    plan = plan_module.read_plan(scene, alignment_settings(scene))
+    assert not plan.whole
+    compared = {(ref.stream, ref.channel) for c in scene.comparisons for _, ref in c.terms}
+    for stream, spec in scene.streams.items():
+        if spec.file.suffix.lower() == ".tdms":  # read channel by channel: compared ones late
+            assert not {(stream, c) for c in plan.first[stream]} & compared
+    read_late = Counter((s.comparison.measured.stream, c) for s in plan.compared for c in s.read)
+    released = Counter((s.comparison.measured.stream, c) for s in plan.compared
+                       for c in s.release)
+    assert max(read_late.values()) == 1 and max(released.values()) == 1
+    assert set(released) == compared
+    for i, step in enumerate(plan.compared):  # released at the last comparison that uses it
+        stream = step.comparison.measured.stream
+        later = {ref.channel for s in plan.compared[i + 1:] for _, ref in s.comparison.terms
+                 if s.comparison.measured.stream == stream}
+        assert not set(step.release) & later
