@@ -24,6 +24,7 @@ import logging
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -33,7 +34,8 @@ from rigval.model.mechanism import Mechanism, load_mechanism
 from rigval.model.reference import constraint_jacobian
 from rigval.model.solver import solve
 
-__all__ = ["KINDS", "Regressor", "nominal_parameters", "parameter_names", "regressor"]
+__all__ = ["KINDS", "Regressor", "nominal_parameters", "parameter_names", "path_regressors",
+           "regressor"]
 
 logger = logging.getLogger(__name__)
 
@@ -109,11 +111,83 @@ def regressor(mechanism: Mechanism | str | Path, t: np.ndarray, outputs: Sequenc
     mech = mechanism if isinstance(mechanism, Mechanism) else load_mechanism(mechanism)
     rows = [_output_row(mech, tuple(output)) for output in outputs]
     ds = solve(mech, t, drives=drives, outputs=["position", "velocity", "acceleration"])
-    theta = ds["position"].sel(coord="theta").to_numpy()
-    omega = ds["velocity"].sel(coord="theta").to_numpy()
-    alpha = ds["acceleration"].sel(coord="theta").to_numpy()
-    acc = (ds["acceleration"].sel(coord="x").to_numpy()
-           + 1j * ds["acceleration"].sel(coord="y").to_numpy())
+    theta, omega, alpha, _, acc = _kinematics(ds)
+    lam = _multipliers(mech, theta, _rhs(mech, theta, omega, alpha, acc))
+    return _regressor(mech, outputs, rows, lam, omega)
+
+
+def path_regressors(mechanism: Mechanism, outputs: Sequence[Sequence[str]], phi: np.ndarray,
+                    path: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray]],
+                    speeds: np.ndarray, accelerations: np.ndarray) -> list[Regressor]:
+    """Regressors of one path of the drive angles travelled at several speeds, from one solve.
+
+    Every driver follows a path in a parameter ``phi`` (the leading drive's angle): its angle
+    ``theta_d(phi)``, ``kappa_d = d theta_d / d phi`` and ``bend_d = d2 theta_d / d phi2``; a
+    pass ``r`` travels it at ``phi' = speeds[r]`` and ``phi'' = accelerations[r]``, so that
+    ``omega_d = kappa_d phi'`` and ``alpha_d = bend_d phi'^2 + kappa_d phi''``. On one path the
+    positions are those of ``phi`` alone, the velocities are ``phi' U`` and the accelerations
+    ``phi'' U + phi'^2 W``, with ``U`` and ``W`` the velocities and accelerations of the pass at
+    unit speed without acceleration (the velocity constraints are linear in the drive speeds,
+    the acceleration constraints linear in the drive accelerations plus a quadratic form of the
+    velocities). So one :func:`rigval.model.solve` of the unit pass and one solve of ``C_e^T``
+    for all passes' right-hand sides give what :func:`regressor` gives pass by pass (to the
+    Newton tolerance; ``tests/model/test_identify_paths.py`` compares the two).
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism (its geometry).
+    outputs : sequence of sequence of str
+        As for :func:`regressor`.
+    phi : numpy.ndarray
+        ``(n,)`` the path parameter at the samples, rad, monotonic.
+    path : mapping
+        Driver name to ``(theta_d, kappa_d, bend_d)`` on the ``n`` samples (rad, 1, rad-1).
+    speeds, accelerations : numpy.ndarray
+        ``(n_pass, n)`` ``phi'`` (rad/s) and ``phi''`` (rad/s2) of each pass.
+
+    Returns
+    -------
+    list of Regressor
+        One per pass, as :func:`regressor` of that pass's sampled drives.
+    """
+    rows = [_output_row(mechanism, tuple(output)) for output in outputs]
+    sign = 1.0 if float(np.mean(speeds)) >= 0.0 else -1.0
+    unit = {name: (theta, kappa * sign, bend) for name, (theta, kappa, bend) in path.items()}
+    ds = solve(mechanism, (phi - phi[0]) / sign, drives=unit,
+               outputs=["position", "velocity", "acceleration"])
+    theta, omega_u, alpha_u, velocity_u, acc_u = _kinematics(ds)
+    rate = (speeds / sign)[:, :, np.newaxis]           # phi' / sign: velocities are rate * U
+    gain = (accelerations / sign)[:, :, np.newaxis]
+    square = (speeds**2)[:, :, np.newaxis]
+    omega = rate * omega_u
+    rhs = np.concatenate([_rhs(mechanism, theta, omega[r], gain[r] * omega_u + square[r] * alpha_u,
+                               gain[r] * velocity_u + square[r] * acc_u)
+                          for r in range(speeds.shape[0])], axis=2)
+    lam = _multipliers(mechanism, theta, rhs)
+    width = 4 * theta.shape[1]
+    return [_regressor(mechanism, outputs, rows, lam[:, :, r * width:(r + 1) * width], omega[r])
+            for r in range(speeds.shape[0])]
+
+
+def _kinematics(ds: Any) -> tuple[np.ndarray, ...]:
+    """Return theta, omega, alpha and the origins' complex velocity and acceleration.
+
+    Each ``(n, n_bodies)``, from a :func:`rigval.model.solve` result with positions,
+    velocities and accelerations.
+    """
+
+    def part(name: str, coord: str) -> np.ndarray:
+        return ds[name].sel(coord=coord).to_numpy()
+
+    return (part("position", "theta"), part("velocity", "theta"), part("acceleration", "theta"),
+            part("velocity", "x") + 1j * part("velocity", "y"),
+            part("acceleration", "x") + 1j * part("acceleration", "y"))
+
+
+def _rhs(mech: Mechanism, theta: np.ndarray, omega: np.ndarray, alpha: np.ndarray,
+         acc: np.ndarray) -> np.ndarray:
+    """Right-hand side ``Q_e - M e''`` of each parameter alone, ``(n, 3 n_bodies, 4 n_bodies)``."""
     n, n_bodies = theta.shape
     gravity = complex(*mech.gravity)
     free = gravity - acc                                    # g - a_O, (n, n_bodies)
@@ -130,11 +204,20 @@ def regressor(mechanism: Mechanism | str | Path, t: np.ndarray, outputs: Sequenc
             rhs[:, 3 * b, 4 * b + k] = force.real
             rhs[:, 3 * b + 1, 4 * b + k] = force.imag
             rhs[:, 3 * b + 2, 4 * b + k] = moment
+    return rhs
+
+
+def _multipliers(mech: Mechanism, theta: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Solve ``C_e^T lambda = rhs`` at every sample (minimum norm for redundant constraints)."""
     jac_t = np.swapaxes(constraint_jacobian(loop_system(mech), theta), -1, -2)
     if jac_t.shape[1] == jac_t.shape[2] and not mech.redundant_constraints:
-        lam = np.linalg.solve(jac_t, rhs)
-    else:  # minimum-norm multipliers, as the solver returns for redundant constraints
-        lam = np.linalg.pinv(jac_t) @ rhs
+        return np.linalg.solve(jac_t, rhs)
+    return np.linalg.pinv(jac_t) @ rhs  # minimum-norm multipliers, as the solver returns
+
+
+def _regressor(mech: Mechanism, outputs: Sequence[Sequence[str]], rows: list[int],
+               lam: np.ndarray, omega: np.ndarray) -> Regressor:
+    """Return the Regressor of the multipliers ``lam`` ``(n, n_constraints, 4 n_bodies)``."""
     matrix = np.stack([-lam[:, row, :] for row in rows])
     driven = {d.name: omega[:, [b.name for b in mech.bodies].index(d.body)]
               for d in mech.drivers}

@@ -19,7 +19,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rigval.model.identify import UNITS, Regressor, nominal_parameters, parameter_names, regressor
+from rigval.model.identify import (
+    UNITS,
+    Regressor,
+    nominal_parameters,
+    parameter_names,
+    path_regressors,
+    regressor,
+)
 from rigval.model.identify_fit import Design, typical_sizes
 from rigval.model.mechanism_types import Mechanism
 
@@ -178,19 +185,17 @@ def revolution_problems(mechanism: Mechanism, curves: Sequence[Curve], design: D
         ``(n_rev, n_rows)`` weighted measurements.
     """
     lead = drives[leading]
-    outputs = [c.output for c in curves]
-    columns, data = [], []
-    for row, t in enumerate(angle_times):
-        slope = np.gradient(t, step)
-        omega = 1.0 / slope
-        alpha = -np.gradient(slope, step) * omega**3
-        own = {}
-        for name, (theta, w, a) in drives.items():
-            kappa = w / lead[1]
-            bend = (a - kappa * lead[2]) / lead[1] ** 2
-            own[name] = (theta, kappa * omega, bend * omega**2 + kappa * alpha)
-        reg = regressor(mechanism, t - t[0], outputs, drives=own)
-        columns.append(_weighted_columns(reg, curves, design.friction))
-        data.append(np.concatenate([c[row] * curve.weight
-                                    for c, curve in zip(cycles, curves, strict=True)]))
+    slope = np.gradient(np.asarray(angle_times, dtype=float), step, axis=1)
+    speeds = 1.0 / slope
+    accelerations = -np.gradient(slope, step, axis=1) * speeds**3
+    path = {}
+    for name, (theta, w, a) in drives.items():
+        kappa = w / lead[1]
+        path[name] = (theta, kappa, (a - kappa * lead[2]) / lead[1] ** 2)
+    # one path in angle at each revolution's speed: one model solve for all (path_regressors)
+    regressors = path_regressors(mechanism, [c.output for c in curves], lead[0], path, speeds,
+                                 accelerations)
+    columns = [_weighted_columns(reg, curves, design.friction) for reg in regressors]
+    data = [np.concatenate([c[row] * curve.weight for c, curve in zip(cycles, curves, strict=True)])
+            for row in range(len(regressors))]
     return np.array(columns), np.array(data)

@@ -11,7 +11,7 @@ from rigval.validation.campaign.engine import RunOutcome
 from rigval.validation.campaign.report import campbell_diagrams, write_campaign_report
 from rigval.validation.diagnosis.campbell import RunSpectrum, campbell, plot_campbell
 from rigval.validation.diagnosis.modes import Resonance
-from rigval.validation.validate import validate_scene
+from rigval.validation.run.validate import validate_scene
 
 
 def _res(hz, speed, u=0.05, zeta=0.02):

@@ -146,8 +146,10 @@ def test_fill_todos_names_a_key_that_is_no_todo() -> None:
 # the example files' counters never counted: init warns that they cannot validate
 @pytest.mark.filterwarnings("default::rigval.acquisition.errors.DataWarning")
 def test_real_daqmx_skeleton_parses_once_filled(realdata_dir: Path, tmp_path: Path) -> None:
-    folder = realdata_dir / "nidaqmx-python"
-    files = [folder / f"data_{n}.tdms" for n in ("ai", "ci1", "ci2")]
+    files = []
+    for n in ("ai", "ci1", "ci2"):  # copies: the lab's pulse channel is added to ci1 below
+        files.append(tmp_path / f"data_{n}.tdms")
+        files[-1].write_bytes((realdata_dir / "nidaqmx-python" / f"data_{n}.tdms").read_bytes())
     scene = tmp_path / "scene.toml"
     assert main(["init", *map(str, files), "--out", str(scene),
                  "--mechanism", "builtin:pendulum"]) == EXIT_OK
@@ -175,13 +177,28 @@ def test_real_daqmx_skeleton_parses_once_filled(realdata_dir: Path, tmp_path: Pa
         values[key] = {
             "slope": 20.0, "units": "N m", "counts_per_rev": 4096, "per_revolution": 1,
             "angle": 0.0, "item": "theta_F", "scale": 0.5, "u_measurement_rel": 0.02,
-            "source": f"PFI{len(values)}"}[leaf]
+            "source": "PFI0"}[leaf]
     scene.write_text(fill_todos(text, values))
+    with pytest.raises(SceneError, match="channels in the file: Rotations01") as info:
+        load_scene(scene)  # PFI0 is not in data_ci1.tdms: refused when loaded, from its metadata
+    assert info.value.where["key"] == "streams.ci1.channels.reference_pulse.source"
+    _add_channel(files[1], "PFI0")  # the lab's pulse channel, recorded beside the counter
     parsed = load_scene(scene)
     assert parsed.streams["ai"].channels["Torque01"].params["slope"] == 20.0
     assert parsed.alignment.reference == "ci1"
     assert parsed.alignment.pulses["ai"].method == "stamps"
     assert parsed.units(parsed.comparisons[0].measured) == "N m"
+
+
+def _add_channel(path: Path, name: str) -> None:
+    """Append a channel on the time base of the file's first channel (a new segment)."""
+    from nptdms import ChannelObject, TdmsFile, TdmsWriter
+
+    first = next(c for g in TdmsFile.read(path).groups() for c in g.channels())
+    marks = {k: v for k, v in first.properties.items() if k.startswith("wf_")}
+    with TdmsWriter(path, mode="a") as writer:
+        writer.write_segment([ChannelObject(first.group_name, name, np.zeros(len(first)),
+                                            properties=marks)])
 
 
 def _classify(name: str, values: np.ndarray, units: str):

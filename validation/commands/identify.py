@@ -65,6 +65,7 @@ def write_identification(identification: Any, out_dir: Path) -> list[Path]:
     from rigval.acquisition.outputs import write_text_atomic
     from rigval.model.mechanism import load_mechanism
     from rigval.model.mechanism_text import apply_parameters, mechanism_toml
+    from rigval.validation.beside import beside
     from rigval.validation.pipeline import run_scene
     from rigval.validation.report.run_report import write_report
 
@@ -81,10 +82,11 @@ def write_identification(identification: Any, out_dir: Path) -> list[Path]:
         "identified.json")))
     json_path = out_dir / "identified.json"
     write_text_atomic(json_path, json.dumps(identification.as_dict(), indent=2) + "\n")
+    # the nominal report folder is written beside the identified run (a forked child)
+    nominal_report = beside(lambda: write_report(nominal, out_dir / "nominal"))
     identified = run_scene(dataclasses.replace(scene, mechanism=mechanism_path.resolve()))
-    written = [json_path, mechanism_path]
-    written += write_report(nominal, out_dir / "nominal")
-    written += write_report(identified, out_dir / "identified")
+    identified_files = write_report(identified, out_dir / "identified")
+    written = [json_path, mechanism_path, *nominal_report.result(), *identified_files]
     written.insert(0, _page(identification, identified).write(out_dir / "report.html"))
     return written
 

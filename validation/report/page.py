@@ -38,7 +38,7 @@ from matplotlib.figure import Figure
 from rigval.acquisition.outputs import write_text_atomic
 
 __all__ = ["STATUS_CLASSES", "STYLE_SHEET", "Link", "Page", "escape", "figure_data_uri",
-           "figure_svg", "format_value", "style_sheet"]
+           "figure_svg", "format_value", "prefix_ids", "style_sheet", "svg_text"]
 
 #: CSS class per status word; :meth:`Page.table` colours cells whose text is one of these.
 STATUS_CLASSES = {"pass": "ok", "passed": "ok", "ok": "ok", "fail": "bad", "failed": "bad",
@@ -132,14 +132,28 @@ def figure_svg(fig: Figure, *, prefix: str = "figure") -> str:
         ``id="PREFIX-axes_1"``): give each figure of one page its own, so that the ids of
         several SVGs inlined in one HTML document do not collide.
     """
+    return prefix_ids(svg_text(fig), prefix)
+
+
+def svg_text(fig: Figure) -> str:
+    """Return a figure as an ``<svg>`` element whose ids are not yet prefixed.
+
+    The drawing of :func:`figure_svg`, which is :func:`prefix_ids` of this text; it is a plain
+    string, so it can be drawn in another process (:mod:`rigval.validation.report.drawing`)
+    and placed on a page later.
+    """
     buffer = io.StringIO()
     with rc_context({"svg.fonttype": "none", "svg.hashsalt": "rigval"}):
         fig.savefig(buffer, format="svg", metadata={"Date": None})
     text = buffer.getvalue()
-    text = text[text.index("<svg"):]
+    return text[text.index("<svg"):]
+
+
+def prefix_ids(svg: str, prefix: str) -> str:
+    """Return :func:`svg_text`'s element with ``prefix`` before every id and reference to one."""
     for start in (' id="', 'href="#', "url(#"):  # where matplotlib writes or refers to an id
-        text = text.replace(start, f"{start}{prefix}-")
-    return text
+        svg = svg.replace(start, f"{start}{prefix}-")
+    return svg
 
 
 def _slug(text: str, taken: set[str]) -> str:
@@ -289,14 +303,15 @@ class Page:
         else:
             self.table(rows, columns=columns, caption=caption, digits=digits)
 
-    def figure(self, fig: Figure, *, caption: str | None = None, alt: str | None = None,
+    def figure(self, fig: Figure | str, *, caption: str | None = None, alt: str | None = None,
                fmt: Literal["png", "svg"] | None = None, dpi: float = 96) -> None:
         """Embed a matplotlib figure (base64 PNG or inline SVG) with an optional caption.
 
         Parameters
         ----------
-        fig : matplotlib.figure.Figure
-            The figure; it is rendered now, so it may be discarded afterwards.
+        fig : matplotlib.figure.Figure or str
+            The figure; it is rendered now, so it may be discarded afterwards. A str is a
+            figure already drawn by :func:`svg_text`, embedded as inline SVG.
         caption : str, optional
             Caption under the figure.
         alt : str, optional
@@ -308,8 +323,9 @@ class Page:
             Resolution of PNG figures in dots per inch.
         """
         alt_text = escape(alt or caption or "figure")
-        if (fmt or self.figure_format) == "svg":
-            svg = figure_svg(fig, prefix=f"figure-{len(self._parts)}")
+        if isinstance(fig, str) or (fmt or self.figure_format) == "svg":
+            drawn = fig if isinstance(fig, str) else svg_text(fig)
+            svg = prefix_ids(drawn, f"figure-{len(self._parts)}")
             body = f'<svg role="img" aria-label="{alt_text}" {svg.removeprefix("<svg ")}'
         else:
             body = f'<img src="{figure_data_uri(fig, dpi=dpi)}" alt="{alt_text}">'

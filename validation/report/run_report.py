@@ -22,7 +22,7 @@ import dataclasses
 import json
 import logging
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
@@ -33,15 +33,22 @@ from rigval.validation.diagnosis.rigidity import evidence_record, run_rigidity
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
 from rigval.validation.report import plots
+from rigval.validation.report.drawing import FigureGroup, draw_svgs
 from rigval.validation.report.page import Page
 from rigval.validation.report.why import why_section
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.verdict import failure_reasons, run_verdict
 from rigval.validation.version import rigval_version
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
 __all__ = ["write_metrics", "write_netcdf", "write_report"]
 
 logger = logging.getLogger(__name__)
+
+#: The page's figures drawn as SVG text (:func:`_draw_figures`), by group name.
+_Figures = dict[str, list[str]]
 
 #: Scores in each comparison's main table (all scores follow in a folded table).
 _PREFERRED = ("iso18571_periodic.rating", "iso18571_periodic.grade",
@@ -277,15 +284,13 @@ def _note_block(path: Path | None, text: str | None) -> tuple[str, str] | None:
     return f"Operator's note, from {path}:", text
 
 
-def _comparisons(page: Page, result: ValidationResult) -> None:
+def _comparisons(page: Page, result: ValidationResult, figures: _Figures) -> None:
     page.section("Comparisons")
     page.paragraph("Measured against the model over the main shaft angle phi_F. Light lines: each "
                    "revolution; band: 5th to 95th percentile over revolutions; the baseline rows "
                    "score each measured revolution against the measured mean (median and worst "
                    "revolution): the agreement no model can beat.")
-    # one figure redrawn per comparison; page.figure renders it before the next one is drawn
-    figures = plots.plot_comparisons(result.comparisons)
-    for comparison, figure in zip(result.comparisons, figures, strict=True):
+    for comparison, figure in zip(result.comparisons, figures["comparisons"], strict=True):
         page.section(f"{comparison.name}: {comparison.spec.measured_text} against "
                      f"{comparison.spec.model}", level=3)
         scale, scale_units = comparison.spec.scale, comparison.spec.scale_units
@@ -302,7 +307,7 @@ def _comparisons(page: Page, result: ValidationResult) -> None:
                    collapsed=f"all {len(comparison.scores)} scores of {comparison.name}")
 
 
-def _alignment(page: Page, result: ValidationResult) -> None:
+def _alignment(page: Page, result: ValidationResult, figures: _Figures) -> None:
     page.section("Alignment")
     page.table(_alignment_rows(result),
                caption="clock model per stream: t_ref = offset + (1 + drift) t_device per "
@@ -312,44 +317,68 @@ def _alignment(page: Page, result: ValidationResult) -> None:
     if dropped:
         page.table(dropped, caption="samples that could not be aligned (marked invalid, left "
                                     "out of every comparison)")
-    page.figure(plots.plot_pulse_edges(result.alignment),
+    page.figure(figures["pulse_edges"][0],
                 caption="one reference pulse as each stream recorded it (raw signal, reference "
                         "timeline after alignment) with the detected edges dashed")
-    page.figure(plots.plot_clock_residuals(result.alignment),
+    page.figure(figures["clock_residuals"][0],
                 caption="clock-fit residuals at the matched reference events")
-    page.figure(plots.plot_stream_coverage(result.alignment),
+    page.figure(figures["stream_coverage"][0],
                 caption="streams on the reference timeline; gaps in red")
     gap_rows = [{"stream": name, **g} for name, a in result.alignment.items() for g in a.gaps]
     if gap_rows:
         page.table(gap_rows, caption="gaps (stream clock)")
 
 
-def _predictions(page: Page, result: ValidationResult) -> None:
+def _predictions(page: Page, result: ValidationResult, figures: _Figures) -> None:
     page.section("Predictions")
     page.paragraph("What the model says about quantities that were not measured, for the drive "
                    "motion of this run (the paper's figs. 15 to 17).")
-    _mechanism_sketch(page, result)
-    points = [str(p) for p in result.predictions.coords.get("point", xr.DataArray([])).values]
-    # one figure redrawn per point; page.figure renders it before the next one is drawn
-    for point, figure in zip(points, plots.plot_points_kinematics(result.predictions, points),
-                             strict=True):
+    points = _points(result)
+    page.figure(figures["sketch"][0],
+                caption="the mechanism at t = 0 of its file's drive laws: bodies (letters), "
+                        "joints (open circles), ground pins (hatched: the supports), drives "
+                        f"(red arrows); red: {', '.join(points) or 'no point'}")
+    for point, figure in zip(points, figures["points"], strict=True):
         page.figure(figure, caption=f"{point}: vertical position, absolute speed and acceleration")
     if "support_force" in result.predictions:
-        page.figure(plots.plot_support_forces(result.predictions),
+        page.figure(figures["support_forces"][0],
                     caption="support forces on the frame (minus the ground pins' joint forces)")
         page.table(_peaks(result.predictions), caption="support force extremes")
 
 
-def _mechanism_sketch(page: Page, result: ValidationResult) -> None:
-    """Add the sketch of the run's mechanism, the points the report names in red."""
+def _points(result: ValidationResult) -> list[str]:
+    """Return the points whose kinematics the report shows (red in the sketch)."""
+    return [str(p) for p in result.predictions.coords.get("point", xr.DataArray([])).values]
+
+
+def _mechanism_sketch(result: ValidationResult) -> list[Figure]:
+    """Return the sketch of the run's mechanism, the report's points in red."""
     from rigval.validation.report.sketch import sketch_mechanism
 
-    points = [str(p) for p in result.predictions.coords.get("point", xr.DataArray([])).values]
-    page.figure(sketch_mechanism(result.mechanism, highlight=points,
-                                 configuration=result.configuration),
-                caption="the mechanism at t = 0 of its file's drive laws: bodies (letters), "
-                        "joints (open circles), ground pins (hatched: the supports), drives "
-                        f"(red arrows); red: {', '.join(points) or 'no point'}")
+    return [sketch_mechanism(result.mechanism, highlight=_points(result),
+                             configuration=result.configuration)]
+
+
+def _draw_figures(result: ValidationResult) -> _Figures:
+    """Draw every figure of the page as SVG text; a forked child draws the comparisons.
+
+    The comparisons' figures (one reused figure redrawn per comparison) are about half the
+    drawing; :func:`rigval.validation.report.drawing.draw_svgs` draws them beside the others
+    where it can.
+    """
+    predictions, alignment = result.predictions, result.alignment
+    groups: dict[str, FigureGroup] = {
+        "comparisons": lambda: plots.plot_comparisons(result.comparisons),
+        "pulse_edges": lambda: [plots.plot_pulse_edges(alignment)],
+        "clock_residuals": lambda: [plots.plot_clock_residuals(alignment)],
+        "stream_coverage": lambda: [plots.plot_stream_coverage(alignment)],
+        "sketch": lambda: _mechanism_sketch(result),
+        "points": lambda: plots.plot_points_kinematics(predictions, _points(result)),
+        "support_forces": lambda: ([plots.plot_support_forces(predictions)]
+                                   if "support_force" in predictions else []),
+    }
+    drawn = draw_svgs(list(groups.values()), background=[0])
+    return dict(zip(groups, drawn, strict=True))
 
 
 def _numerics(page: Page, result: ValidationResult) -> None:
@@ -388,10 +417,13 @@ def _build_page(result: ValidationResult) -> Page:
                 subtitle=f"{status} · {len(result.comparisons)} comparisons · "
                          f"{result.n_cycles} revolutions at {result.speed_rev_s:.3f} rev/s",
                 figure_format="svg")
+    figures = _draw_figures(result)
     _summary(page, result, status)
-    for section in (why_section, _comparisons, _alignment, _predictions, _numerics,
-                    _reproduction):
-        section(page, result)
+    why_section(page, result)
+    for drawn_section in (_comparisons, _alignment, _predictions):
+        drawn_section(page, result, figures)
+    _numerics(page, result)
+    _reproduction(page, result)
     return page
 
 
