@@ -21,7 +21,8 @@ and, used by the rig's departures (:mod:`~rigval.sample_data.departures`):
 ``rod_B_bending_moment`` (N m), the in-plane bending moment of rod B at mid-length from its end
 forces across the axis as for a uniform load (weight and inertia), ``-(V5 + V2) L / 8``, positive
 stretching the face at +n (the axis P5 -> P2 turned 90 degrees counter-clockwise);
-``rod_B_axis_x`` (1), the x component of rod B's unit axis; ``rod_B_length`` (m), P5 to P2.
+``rod_B_axis_x`` (1), the x component of rod B's unit axis; ``rod_B_length`` (m), P5 to P2 in
+the body's frame (constant).
 """
 
 from __future__ import annotations
@@ -138,7 +139,9 @@ def model_truth(mechanism_path: str | Path | Mapping[str, Any], drive: DriveMoti
     on_b_p2 = -force.sel(joint="P2").values
     tension = 0.5 * (np.einsum("ij,ij->i", on_b_p2, axis) - np.einsum("ij,ij->i", on_b_p5, axis))
     normal = np.stack([-axis[:, 1], axis[:, 0]], axis=1)
-    length = np.linalg.norm((pos.sel(point="P2") - pos.sel(point="P5")).values, axis=1)
+    # the rod's length from its body frame: a constant, exactly the same in every piece
+    rod = next(body for body in mechanism.bodies if body.name == "B")
+    length = np.full(t.size, float(np.hypot(*np.subtract(rod.points["P2"], rod.points["P5"]))))
     bending = -(np.einsum("ij,ij->i", on_b_p2, normal)
                 + np.einsum("ij,ij->i", on_b_p5, normal)) * length / 8.0
     values = {
