@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from rigval.acquisition.errors import ConfigError
+from rigval.sample_data.departures import Departures, calibration_errors
 from rigval.sample_data.devices import ClockSegment, DeviceClock, dropout_segments
 from rigval.sample_data.drive import DriveMotion, Harmonic, SpeedWander
 from rigval.sample_data.faults import Fault
@@ -155,6 +156,9 @@ class RigSettings:
     faults : tuple of Fault, default ()
         Sensor faults injected into the written channels (:mod:`rigval.sample_data.faults`);
         their truth goes to ``faults`` in ``truth.json``.
+    departures : Departures
+        Where the rig departs from the rigid planar model and its scene (a flexible mode, rod
+        bending, calibration errors, a lag, a torque split, other masses); default: none.
     """
 
     speed: float = 1.0
@@ -166,6 +170,7 @@ class RigSettings:
     preroll: float = 12.0
     index_reset: bool = False
     faults: tuple[Fault, ...] = ()
+    departures: Departures = field(default_factory=Departures)
 
     def check(self) -> None:
         """Raise ConfigError for settings the rig cannot run."""
@@ -180,6 +185,7 @@ class RigSettings:
         self.imperfections.check()
         for fault in self.faults:
             fault.check()
+        self.departures.check()
 
 
 def run_stem(speed: float) -> str:
@@ -220,6 +226,14 @@ class RigDraw:
         Probability that an optical pulse is missing (1).
     spurious_per_minute : float
         Mean rate of spurious optical pulses (1/min).
+    bending : dict of str to StrainBridge
+        Gauge pair on rod B's faces (``str2`` stretched by bending, ``str3`` opposite); empty
+        unless the departures ask for rod bending.
+    calibration_error : dict of str to float
+        Relative error of each sensor's true sensitivity over the value its scene states (1);
+        the sensors above are the true ones. Empty: the scene states the truth.
+    lags : dict of str to float
+        Undeclared lag of a channel's samples beyond its module's delay (s).
     """
 
     start_time: np.datetime64
@@ -235,6 +249,9 @@ class RigDraw:
     noise_seed: np.random.SeedSequence
     missing_probability: float
     spurious_per_minute: float
+    bending: dict[str, StrainBridge] = field(default_factory=dict)
+    calibration_error: dict[str, float] = field(default_factory=dict)
+    lags: dict[str, float] = field(default_factory=dict)
 
 
 def _round(value: float, decimals: int) -> float:
@@ -328,8 +345,11 @@ def draw_rig(settings: RigSettings,
                         rng.uniform(-1.0, 1.0) * 4e-7 * drift, 60.0, 1e-7 * noise)
     gauge_factor_shafts = _round(rng.uniform(2.0, 2.1), 2)
     torsion = {}
-    for first, second in (("tor1", "tor2"), ("tor3", "tor4")):
+    departures = settings.departures
+    fixed = (departures.split_main, departures.split_lift)
+    for (first, second), split in zip((("tor1", "tor2"), ("tor3", "tor4")), fixed, strict=True):
         share = 0.5 + rng.uniform(-1.0, 1.0) * imp.torque_split
+        share = share if split is None else split
         for name, part in ((first, share), (second, 1.0 - share)):
             torsion[name] = TorsionBridge(gauge_factor_shafts, 0.100, 0.060, 80e9, 2.5, part,
                                           3e-5 * rng.uniform(0.5, 1.0),
@@ -348,9 +368,26 @@ def draw_rig(settings: RigSettings,
     frame = {"natural_hz": _round(rng.uniform(18.0, 30.0), 1),
              "damping_ratio": _round(rng.uniform(0.02, 0.05), 3), "modal_mass": 900.0}
     pulse_seeds = dict(zip(("opt1", "opt2", "opt3"), seeds[4:7], strict=True))
+    bending = ({name: replace(str1, bridge_type="quarter_i") for name in ("str2", "str3")}
+               if departures.rod_bending > 0 else {})
+    errors = {}
+    if departures.calibration_error > 0:
+        errors = calibration_errors(
+            settings.seed, departures.calibration_error, tuple(torsion),
+            {**dict.fromkeys(accelerometers, "accelerometer"),
+             **dict.fromkeys(("str1", *bending), "strain")})
+        accelerometers = {name: replace(s, charge_sensitivity=s.charge_sensitivity
+                                        * (1.0 + errors[name]))
+                          for name, s in accelerometers.items()}
+        str1 = replace(str1, gauge_factor=str1.gauge_factor * (1.0 + errors["str1"]))
+        bending = {name: replace(s, gauge_factor=s.gauge_factor * (1.0 + errors[name]))
+                   for name, s in bending.items()}
+        torsion = {name: replace(s, gauge_factor=s.gauge_factor * (1.0 + errors[name]))
+                   for name, s in torsion.items()}
     return RigDraw(start, drive, clocks, accelerometers, str1, torsion, encoders, optical, frame,
                    pulse_seeds, seeds[7], imp.missing_pulse_probability,
-                   imp.spurious_pulses_per_minute)
+                   imp.spurious_pulses_per_minute, bending, errors,
+                   {departures.lag_channel: departures.lag_s} if departures.lag_channel else {})
 
 
 @dataclass(frozen=True)

@@ -36,6 +36,16 @@ def local_time(utc: np.datetime64) -> datetime.datetime:
     return stamp.astimezone(zoneinfo.ZoneInfo(LAB_TIMEZONE))
 
 
+def _stated(draw: RigDraw, name: str, true_value: float) -> float:
+    """Return the value the scene states for a sensor whose true value has a calibration error.
+
+    The certificate and lot values are printed to two decimals, so the stated value is the true
+    one without its drawn error, rounded back to the printed digits.
+    """
+    error = draw.calibration_error.get(name)
+    return true_value if error is None else round(true_value / (1.0 + error), 2)
+
+
 def _accelerometer(name: str, draw: RigDraw) -> str:
     sensor = draw.accelerometers[name]
     return f"""
@@ -43,7 +53,7 @@ def _accelerometer(name: str, draw: RigDraw) -> str:
 source = "{name}"
 module = "NI 9215"
 sensor = "charge_accelerometer"
-charge_sensitivity = {sensor.charge_sensitivity!r}   # pC/g, calibration certificate
+charge_sensitivity = {_stated(draw, name, sensor.charge_sensitivity)!r}   # pC/g, calibration certificate
 amplifier_gain = {sensor.amplifier_gain * 1e-3!r}   # V/pC
 highpass_hz = {sensor.highpass_hz!r}
 correct_highpass = true
@@ -75,12 +85,34 @@ source = "{name}"
 module = "NI 9237"
 sensor = "torsion_bridge"
 bridge = "full"
-gauge_factor = {sensor.gauge_factor!r}
+gauge_factor = {_stated(draw, name, sensor.gauge_factor)!r}
 excitation = {sensor.excitation!r}
 outer_diameter = {sensor.outer_diameter!r}
 inner_diameter = {sensor.inner_diameter!r}
 shear_modulus = {sensor.shear_modulus!r}
 """
+
+
+def _face_gauges(draw: RigDraw) -> str:
+    """Return the scene text of the gauge pair on rod B's faces (empty without one)."""
+    text = ""
+    for name, face in draw.bending.items():
+        side = "+n, stretched by positive bending" if name == "str2" else "-n, opposite str2"
+        text += f"""
+[streams.cdaq.channels.{name}]
+source = "{name}"
+module = "NI 9237"
+sensor = "strain_bridge"
+bridge = "quarter_I"                   # one gauge on the face of rod B at {side}
+gauge_factor = {_stated(draw, name, face.gauge_factor)!r}
+excitation = {face.excitation!r}
+gauge_resistance = {face.gauge_resistance!r}
+lead_resistance = 0.0
+poisson = {face.poisson!r}
+youngs_modulus = {face.youngs_modulus!r}
+null_offset = "none"
+"""
+    return text
 
 
 def _index_comment(draw: RigDraw) -> str:
@@ -153,14 +185,14 @@ source = "str1"
 module = "NI 9237"                     # 24-bit bridge module: input delay 8.0 ms at 5 kS/s
 sensor = "strain_bridge"
 bridge = "half_I"                      # axial + Poisson gauge on the neutral axis of rod B
-gauge_factor = {bridge.gauge_factor!r}
+gauge_factor = {_stated(draw, "str1", bridge.gauge_factor)!r}
 excitation = {bridge.excitation!r}
 gauge_resistance = {bridge.gauge_resistance!r}
 lead_resistance = 0.0
 poisson = {bridge.poisson!r}
 youngs_modulus = {bridge.youngs_modulus!r}
 null_offset = "none"                   # bridge nulled with the machine at rest before the run
-
+{_face_gauges(draw)}
 [streams.cdaq.channels.enc1]
 source = "enc1"
 module = "NI 9411"
@@ -224,13 +256,14 @@ direction = 1
                             1.0, acc_thresholds, "lowpass_hz = 20.0\nremove_offset = true\n"
                             "uncertainty = { u_measurement_rel = 0.02 }   # sensitivity and "
                             "amplifier gain, 2 %\n")
-    text += _comparison("str1", "cdaq.str1",
-                        '{ quantity = "joint_force", item = "P5", axis = "x" }', -1.0 / area,
-                        f'{{ "iso18571_periodic.rating" = ">= 0.58", {verdict} }}',
-                        'scale_units = "m-2"                     # -1/A, A = '
-                        f'{area!r} m2 (paper eq. 24)\nlowpass_hz = 20.0\n'
-                        "uncertainty = { u_measurement_rel = 0.02 }   # gauge factor, modulus, "
-                        "area: 2 %\n")
+    for name in ("str1", *draw.bending):
+        text += _comparison(name, f"cdaq.{name}",
+                            '{ quantity = "joint_force", item = "P5", axis = "x" }', -1.0 / area,
+                            f'{{ "iso18571_periodic.rating" = ">= 0.58", {verdict} }}',
+                            'scale_units = "m-2"                     # -1/A, A = '
+                            f'{area!r} m2 (paper eq. 24)\nlowpass_hz = 20.0\n'
+                            "uncertainty = { u_measurement_rel = 0.02 }   # gauge factor, "
+                            "modulus, area: 2 %\n")
     for name, driver, stream in (("tor1", "theta_F", "wls1"), ("tor2", "theta_F", "wls1"),
                                  ("tor3", "theta_H", "wls2"), ("tor4", "theta_H", "wls2")):
         text += _comparison(name, f"{stream}.{name}",

@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import tempfile
+import tomllib
 from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
@@ -37,6 +38,7 @@ from rigval.acquisition.errors import ConfigError
 from rigval.acquisition.json_values import json_ready
 from rigval.acquisition.outputs import write_text_atomic
 from rigval.model.mechanism import load_mechanism
+from rigval.sample_data.departures import departed_grid
 from rigval.sample_data.drive import DriveMotion, Harmonic
 from rigval.sample_data.faults import FaultInjector
 from rigval.sample_data.rig import RigDraw, RigSettings, RunFiles, draw_rig, run_stem
@@ -214,9 +216,9 @@ class _StreamFiles:
 
 def _truth_record(settings: RigSettings, draw: RigDraw, streams: dict[str, Stream],
                   pulses: dict[str, dict[str, list[float]]], files: RunFiles,
-                  references: dict[str, float]) -> dict[str, Any]:
-    sensors: dict[str, Any] = {**draw.accelerometers, "str1": draw.str1, **draw.torsion,
-                               **draw.encoders, **draw.optical}
+                  references: dict[str, float], mode: dict[str, Any]) -> dict[str, Any]:
+    sensors: dict[str, Any] = {**draw.accelerometers, "str1": draw.str1, **draw.bending,
+                               **draw.torsion, **draw.encoders, **draw.optical}
     out_streams = {}
     for name, stream in streams.items():
         clock = stream.clock
@@ -239,11 +241,18 @@ def _truth_record(settings: RigSettings, draw: RigDraw, streams: dict[str, Strea
             "segments": segments, "gaps": gaps,
             "channels": {c.name: {"module": c.module, "file_unit": c.unit, "slope": c.slope,
                                   "input_delay_s": c.delay, "truth_unit": c.truth_unit,
-                                  "sensor": json_ready(sensors[c.name])}
+                                  "sensor": json_ready(sensors[c.name]),
+                                  **_channel_departures(draw, c.name)}
                          for c in stream.channels}}
+    settings_record = json_ready(dataclasses.replace(settings, mechanism=None))
+    extra = {}
+    if settings.departures.active:
+        extra = {"departures": {**settings.departures.record(), "mode": mode}}
+    else:  # the default rig's truth file as before the departures existed
+        del settings_record["departures"]
     return {
         "schema": TRUTH_SCHEMA,
-        "settings": json_ready(dataclasses.replace(settings, mechanism=None)),
+        "settings": settings_record,
         "mechanism": str(settings.mechanism) if settings.mechanism else "builtin:pendulum",
         "true_time_zero": str(draw.start_time),
         "time_note": "true time t in s from true_time_zero; sample k of a segment is at "
@@ -254,7 +263,18 @@ def _truth_record(settings: RigSettings, draw: RigDraw, streams: dict[str, Strea
         "streams": out_streams,
         "pulses": pulses,
         "arrays": files.path("truth.npz").name,
+        **extra,
     }
+
+
+def _channel_departures(draw: RigDraw, name: str) -> dict[str, float]:
+    """Return a channel's undeclared lag and calibration error, where the rig has them."""
+    out = {}
+    if name in draw.lags:
+        out["lag_s"] = draw.lags[name]
+    if name in draw.calibration_error:
+        out["calibration_error"] = draw.calibration_error[name]
+    return out
 
 
 def _references(drive: DriveMotion) -> dict[str, float]:
@@ -279,6 +299,27 @@ def _truth_grid(provider: TruthProvider, drive: DriveMotion,
         for name, array in part.values.items():
             values.setdefault(name, np.empty(t_grid.size))[i:i + array.size] = array
     return TruthGrid(t_grid, values)
+
+
+def _scaled_mechanism(path: Path, mass_scale: tuple[tuple[str, float], ...]
+                      ) -> Path | dict[str, Any]:
+    """Return the mechanism file, or its content with some bodies' masses scaled.
+
+    Raises
+    ------
+    ConfigError
+        If a scaled body is not in the mechanism.
+    """
+    if not mass_scale:
+        return path
+    data = tomllib.loads(path.read_text(encoding="utf-8"))
+    bodies = {body["name"]: body for body in data.get("bodies", [])}
+    for name, factor in mass_scale:
+        if name not in bodies:
+            raise ConfigError(f"no body {name!r} to make heavier", where={
+                "file": str(path), "key": f"mass_scale.{name}"}, hint=f"use one of {sorted(bodies)}")
+        bodies[name]["mass"] = bodies[name]["mass"] * factor
+    return data
 
 
 def simulate_rig(out_dir: str | Path, settings: RigSettings | None = None, *,
@@ -309,8 +350,12 @@ def simulate_rig(out_dir: str | Path, settings: RigSettings | None = None, *,
     t0 = min(starts) - settings.preroll
     n = int(np.ceil((max(stops) + 0.5 - t0) * settings.truth_fs)) + 1
     t_grid = t0 + np.arange(n) / settings.truth_fs
-    provider = truth or (lambda drive, t: model_truth(mechanism, drive, t))
+    source = _scaled_mechanism(mechanism, settings.departures.mass_scale)
+    provider = truth or (lambda drive, t: model_truth(source, drive, t))
     grid = _truth_grid(provider, draw.drive, t_grid)
+    grid, mode = departed_grid(grid, settings.departures, settings.seed,
+                               (min(starts), max(stops)), draw.str1.area,
+                               draw.str1.youngs_modulus)
     streams, pulses, pieces = stream_pieces(draw, grid, window_s=WINDOW_S)
     injector = FaultInjector(settings.faults, streams, settings.seed)
 
@@ -328,7 +373,7 @@ def simulate_rig(out_dir: str | Path, settings: RigSettings | None = None, *,
             sink.close()
         sink.write_truth(files.path("truth.npz"))
     references = _references(draw.drive)
-    record = _truth_record(settings, draw, streams, pulses, files, references)
+    record = _truth_record(settings, draw, streams, pulses, files, references, mode)
     if settings.faults:
         record["faults"] = injector.records()
     else:  # a run without faults writes the truth it wrote before faults existed

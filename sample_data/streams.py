@@ -14,6 +14,8 @@ cdaq      acc1    NI 9215    Volts     point_acceleration P1 x (m s-2)
 cdaq      acc2    NI 9215    Volts     point_acceleration P2 x (m s-2)
 cdaq      acc3    NI 9215    Volts     frame vibration at P3 (m s-2)
 cdaq      str1    NI 9237    V/V       axial stress at mid-length of rod B (Pa)
+cdaq      str2    NI 9237    V/V       stress on rod B's face at +n (only with rod bending)
+cdaq      str3    NI 9237    V/V       stress on the opposite face (only with rod bending)
 cdaq      opt1    NI 9215    Volts     pulse edges (in the truth JSON)
 cdaq      enc1    NI 9411    counts    theta_F (rad, from the drive law)
 cdaq      enc2    NI 9411    counts    theta_H (rad, from the drive law)
@@ -31,7 +33,7 @@ from __future__ import annotations
 import itertools
 import logging
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -138,6 +140,8 @@ class _Plan:
     truth_unit: str | None
     #: A counter's counts(angle, angle_at_start); None for an analog channel.
     counts: Callable[[FloatArray, float], NDArray] | None = None
+    #: Undeclared lag (s) of the samples beyond the module's delay (the rig's departures).
+    lag: float = 0.0
 
 
 def _pulse_signal(train: PulseTrain, module: str, fs: float) -> _Signal:
@@ -182,6 +186,17 @@ def _plans(draw: RigDraw, grid: TruthGrid, physical: TruthGrid, volts: TruthGrid
     plans["cdaq"].append(_Plan(
         "str1", "NI 9237", lambda t: bridge.ratio(grid.at("rod_B_axial_force", t), t),
         bridge.noise_rms, lambda t: grid.at("rod_B_axial_force", t) / bridge.area, "Pa"))
+    for name, sign in (("str2", 1.0), ("str3", -1.0)):  # the faces of rod B, if it bends
+        if name in draw.bending:
+            face = draw.bending[name]
+
+            def stress(t: FloatArray, s: float = sign) -> FloatArray:
+                return (grid.at("rod_B_axial_force", t) / bridge.area
+                        + s * grid.at("rod_B_bending_stress", t))
+
+            plans["cdaq"].append(_Plan(
+                name, "NI 9237", lambda t, f=face, st=stress: f.ratio(st(t) * f.area, t),
+                face.noise_rms, stress, "Pa"))
     plans["cdaq"].append(_Plan("opt1", "NI 9215",
                                _pulse_signal(trains["opt1"], "NI 9215", cdaq.fs_nominal),
                                draw.optical["opt1"].noise_rms, None, None))
@@ -202,6 +217,9 @@ def _plans(draw: RigDraw, grid: TruthGrid, physical: TruthGrid, volts: TruthGrid
         plans[stream].append(_Plan(opt, "NI 9237",
                                    _pulse_signal(trains[opt], "NI 9237", clock.fs_nominal),
                                    draw.optical[opt].noise_rms, None, None))
+    if draw.lags:
+        plans = {stream: [replace(p, lag=draw.lags.get(p.name, 0.0)) for p in channels]
+                 for stream, channels in plans.items()}
     return plans
 
 
@@ -266,7 +284,7 @@ def _sample(plan: _Plan, clock: DeviceClock, parts: list[tuple[int, int, int]],
     delay = mod.delay(clock.fs_true)
     raw, slope = [], 1.0
     for t in times:
-        values = plan.signal(t - delay) + rng.normal(0.0, 1.0, t.size) * plan.noise_rms
+        values = plan.signal(t - delay - plan.lag) + rng.normal(0.0, 1.0, t.size) * plan.noise_rms
         codes, slope = mod.quantise(values, _FULL_SCALE[plan.module])
         raw.append(codes)
     truth = None if plan.truth is None else plan.truth(np.concatenate(times))

@@ -16,6 +16,13 @@ name                   unit    meaning
 ``torque_theta_F``     N m     ``driver_torque`` of theta_F (whole machine, both main shafts)
 ``torque_theta_H``     N m     ``driver_torque`` of theta_H (both lifting shafts)
 =====================  ======  ================================================================
+
+and, used by the rig's departures (:mod:`~rigval.sample_data.departures`):
+``rod_B_bending_moment`` (N m), the in-plane bending moment of rod B at mid-length from its end
+forces across the axis as for a uniform load (weight and inertia), ``-(V5 + V2) L / 8``, positive
+stretching the face at +n (the axis P5 -> P2 turned 90 degrees counter-clockwise);
+``rod_B_axis_x`` (1), the x component of rod B's unit axis; ``rod_B_length`` (m), P5 to P2 in
+the body's frame (constant).
 """
 
 from __future__ import annotations
@@ -24,6 +31,7 @@ import logging
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -94,13 +102,14 @@ class TruthGrid:
         return TruthGrid(self.t[i0:i1], {k: v[i0:i1] for k, v in self.values.items()})
 
 
-def model_truth(mechanism_path: str | Path, drive: DriveMotion, t: ArrayLike) -> TruthGrid:
+def model_truth(mechanism_path: str | Path | Mapping[str, Any], drive: DriveMotion, t: ArrayLike) -> TruthGrid:
     """Solve the mechanism along the true drive motion and return the truth grid.
 
     Parameters
     ----------
-    mechanism_path : str or Path
-        Mechanism file (``pendulum.toml`` or one with the same points, joints and drivers).
+    mechanism_path : str, Path or mapping
+        Mechanism file (``pendulum.toml`` or one with the same points, joints and drivers), or
+        its parsed content (:func:`rigval.model.load_mechanism` takes both).
     drive : DriveMotion
         True motion of both drives.
     t : array_like
@@ -129,6 +138,12 @@ def model_truth(mechanism_path: str | Path, drive: DriveMotion, t: ArrayLike) ->
     on_b_p5 = force.sel(joint="P5").values
     on_b_p2 = -force.sel(joint="P2").values
     tension = 0.5 * (np.einsum("ij,ij->i", on_b_p2, axis) - np.einsum("ij,ij->i", on_b_p5, axis))
+    normal = np.stack([-axis[:, 1], axis[:, 0]], axis=1)
+    # the rod's length from its body frame: a constant, exactly the same in every piece
+    rod = next(body for body in mechanism.bodies if body.name == "B")
+    length = np.full(t.size, float(np.hypot(*np.subtract(rod.points["P2"], rod.points["P5"]))))
+    bending = -(np.einsum("ij,ij->i", on_b_p2, normal)
+                + np.einsum("ij,ij->i", on_b_p5, normal)) * length / 8.0
     values = {
         "acc_P1_x": acc.sel(point="P1", axis="x").values,
         "acc_P2_x": acc.sel(point="P2", axis="x").values,
@@ -137,6 +152,9 @@ def model_truth(mechanism_path: str | Path, drive: DriveMotion, t: ArrayLike) ->
         "rod_B_axial_force": tension,
         "torque_theta_F": result["driver_torque"].sel(driver="theta_F").values,
         "torque_theta_H": result["driver_torque"].sel(driver="theta_H").values,
+        "rod_B_bending_moment": bending,
+        "rod_B_axis_x": axis[:, 0],
+        "rod_B_length": length,
     }
     return TruthGrid(t, {k: np.asarray(v, dtype=np.float64) for k, v in values.items()})
 

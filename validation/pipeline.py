@@ -73,6 +73,7 @@ from rigval.processing.angle import (
 )
 from rigval.processing.filters import zero_phase
 from rigval.processing.stream_alignment import AlignmentSettings, MainAngle, align_streams
+from rigval.processing.stretch_decimation import diagnosis_signal
 from rigval.validation.health import HealthLog
 from rigval.validation.metrics.compare import baseline, check_thresholds, compare
 from rigval.validation.model_run import FINE_FACTOR, grid_error, run_model
@@ -346,6 +347,7 @@ class _Measured:
     cycles: Mapping[str, np.ndarray]
     corners: Mapping[str, float | None]
     long_names: Mapping[str, str]
+    diagnosis: Mapping[str, xr.Dataset]
 
 
 def _angle(scene: Scene, plan: ReadPlan, modelled: _Modelled) -> _Measured:
@@ -354,28 +356,31 @@ def _angle(scene: Scene, plan: ReadPlan, modelled: _Modelled) -> _Measured:
     Gives the resampled cycles, the low-pass corners applied and the channels' long names.
     """
     timeline = modelled.timeline
-    cycles, corners, long_names = {}, {}, {}
+    cycles, corners, long_names, diagnosis = {}, {}, {}, {}
     for comparison, signal in measured_signals(scene, plan, timeline.streams,
                                                on_read=modelled.inputs.health.check):
         cycles[comparison.name], corners[comparison.name] = _resample(
-            scene, comparison, signal, timeline.angle_times)
+            scene, comparison, signal, timeline.angle_times, diagnosis)
         long_names[comparison.name] = signal.long_name
     kept = timeline.streams if scene.output.aligned else {}
     return _Measured(modelled.inputs, dataclasses.replace(timeline, streams=kept),
-                     modelled.model, cycles, corners, long_names)
+                     modelled.model, cycles, corners, long_names, diagnosis)
 
 
-def _resample(scene: Scene, comparison: ComparisonSpec, signal: MeasuredSignal, grid: AngleGrid
-              ) -> tuple[np.ndarray, float | None]:
+def _resample(scene: Scene, comparison: ComparisonSpec, signal: MeasuredSignal, grid: AngleGrid,
+              diagnosis: dict[str, xr.Dataset]) -> tuple[np.ndarray, float | None]:
     """Resample a measured signal onto the phi_F grid, (n_cycle, n_angle); NaN at gaps.
 
     The comparison's ``lowpass_hz`` (zero phase, within gap-free runs) comes first; the
     anti-alias low-pass of :func:`rigval.processing.angle.resample_to_angle` follows, here so
     that each filter's input is freed as its output is made (memory). Returns the resampled
-    cycles and the low-pass corner applied in Hz (None: none).
+    cycles and the low-pass corner applied in Hz (None: none); puts the signal before any
+    low-pass, decimated, into ``diagnosis`` (docs/diagnosis.md).
     """
     fs, valid, segment = signal.fs, signal.valid, signal.segment
     values = signal.take_values()
+    diagnosis[comparison.name] = diagnosis_signal(signal.time.to_numpy() - signal.delay_s,
+                                                  values, segment, valid, fs)
     corner = comparison.lowpass_hz
     if corner is not None and corner < 0.45 * fs:
         values = zero_phase(values, fs, corner, segment=segment, valid=valid)
@@ -482,7 +487,9 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
     Returns
     -------
     ValidationResult
-        Everything the report needs; nothing is written.
+        Everything the report needs but the diagnosis
+        (:func:`rigval.validation.diagnosis.explain.attach_diagnosis`, which
+        :func:`rigval.validation.run.validate.validate_scene` adds); nothing is written.
 
     Raises
     ------
@@ -525,6 +532,8 @@ def _result(scene: Scene, watch: _Stopwatch, measured: _Measured, numerics: _Num
     tree = run_tree(scene, measured.inputs.raw, timeline.streams, grid.angle, grid.times,
                     measured.cycles, results, model.chosen, steps, timeline.history,
                     measured.corners)
+    for name, signal in measured.diagnosis.items():  # the residual spectra's input
+        tree[f"/diagnosis/{name}"] = xr.DataTree(signal)
     summary = NumericsSummary(dict(watch.seconds), numerics.residuals, numerics.errors,
                               numerics.model_points)
     logger.info("validated %s in %.2f s: %s", scene.path.name, sum(watch.seconds.values()),

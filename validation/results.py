@@ -156,6 +156,9 @@ class ValidationResult:
     health : tuple of rigval.processing.health.Finding
         Sensor health findings of the channels the run read
         (:class:`rigval.validation.health.HealthLog`).
+    diagnosis : rigval.validation.diagnosis.explain.Diagnosis or None
+        Why the model disagrees: each comparison's most likely cause and the symmetry pairs
+        (:func:`rigval.validation.diagnosis.explain.attach_diagnosis`).
     """
 
     scene: Scene
@@ -173,6 +176,7 @@ class ValidationResult:
     drive_law_angles: Mapping[str, float] = field(default_factory=dict)
     outputs: tuple[Path, ...] = ()
     health: tuple[Finding, ...] = ()
+    diagnosis: Any = None
 
     @property
     def passed(self) -> bool:

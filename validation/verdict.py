@@ -26,8 +26,12 @@ from rigval.validation.metrics.vv20 import CURVE_PARTS, common_gain, error_ratio
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.scene_types import Scene
 
-__all__ = ["COMMON_GAIN_SCORE", "carried_uncertainty", "comparison_verdict", "failure_reasons",
-           "run_verdict", "with_common_gain"]
+__all__ = ["COMMON_GAIN_SCORE", "FAMILY_LEVEL", "carried_uncertainty", "comparison_verdict",
+           "failure_reasons", "family_k", "run_verdict", "with_common_gain"]
+
+#: Probability that no statement of a run that has no model error detects one (the run's
+#: family of statements together, see :func:`family_k`).
+FAMILY_LEVEL = 0.95
 
 #: The score of the common-gain statement that gets a threshold check, ``|E| / u_val <= k``.
 COMMON_GAIN_SCORE = "vv20.common_gain.normalised_error"
@@ -229,8 +233,12 @@ def run_verdict(result: ValidationResult) -> dict[str, Any]:
     dict
         ``detected`` (bool: a model error is detected on at least one comparison),
         ``statement`` (the headline, one line), ``detected_on`` (comparison names),
-        ``worst`` (the comparison with the largest ``E / (k u_val)``) and ``comparisons`` (one
-        :func:`comparison_verdict` each, comparisons without ``vv20.curve`` scores left out).
+        ``worst`` (the comparison with the largest ``E / (k u_val)``), ``comparisons`` (one
+        :func:`comparison_verdict` each, comparisons without ``vv20.curve`` scores left out)
+        ``why`` (per comparison with a detected error, its most likely cause in words from
+        ``result.diagnosis``; the worst one's ends the statement) and ``family``: the run's
+        statements taken together (``k`` from :func:`family_k` for their number ``tests``,
+        ``detected`` and ``detected_on`` at that ``k``).
         The ISO rating is the similarity score beside it.
     """
     rows = [comparison_verdict(c, comparison_health(c.spec, result.health))
@@ -240,9 +248,50 @@ def run_verdict(result: ValidationResult) -> dict[str, Any]:
                 "detected_on": [], "worst": None, "comparisons": []}
     detected = [row for row in rows if row["detected"]]
     worst = max(rows, key=lambda row: row["ratio"])
-    return {"detected": bool(detected), "statement": _statement(rows, detected, worst),
+    causes = result.diagnosis.causes if result.diagnosis is not None else {}
+    why = {row["comparison"]: causes[row["comparison"]].explanation for row in detected
+           if row["comparison"] in causes}
+    tests = len(rows) + sum(row["common_gain"] is not None for row in rows)
+    k_family = family_k(tests)
+    # each row's ratio is |E| / (k u_val) at its own k: at k_family it is ratio k / k_family
+    on = [row["comparison"] for row in rows if row["ratio"] * row["k"] > k_family]
+    family = {"k": k_family, "tests": tests, "detected": bool(on), "detected_on": on}
+    statement = _statement(rows, detected, worst)
+    statement += (f"; the {tests} statements together at {100 * FAMILY_LEVEL:g} % (k = "
+                  f"{k_family:.2f}): " + (f"detected on {', '.join(on)}" if on
+                                         else "not detected"))
+    if worst["comparison"] in why:
+        statement += f"; why {worst['comparison']}: {why[worst['comparison']]}"
+    return {"detected": bool(detected), "statement": statement,
             "detected_on": [row["comparison"] for row in detected], "worst": worst["comparison"],
-            "comparisons": rows}
+            "comparisons": rows, "why": why, "family": family}
+
+
+def family_k(tests: int, level: float = FAMILY_LEVEL) -> float:
+    """Return the coverage factor at which ``tests`` statements together hold at ``level``.
+
+    Each comparison's statement ``|E| > k u_val`` with ``k = 2`` is wrong about 4.6 % of the
+    time when its error is a single Gaussian part at its stated size (a calibration error drawn
+    from its stated uncertainty); a run of ``m`` comparisons says "detected" somewhere far more
+    often. Sidak's correction gives each statement the level ``level^(1/m)``; for independent
+    or positively dependent statements the family is then right at ``level``.
+
+    Parameters
+    ----------
+    tests : int
+        Statements in the family (>= 1).
+    level : float
+        Probability that none of them detects an error that is not there.
+
+    Returns
+    -------
+    float
+        ``k`` with ``P(|z| > k) = 1 - level^(1/tests)`` for a standard normal ``z``.
+    """
+    import scipy.stats
+
+    each = 1.0 - level ** (1.0 / max(tests, 1))
+    return float(scipy.stats.norm.isf(each / 2.0))
 
 
 def _statement(rows: list[Mapping[str, Any]], detected: list[Mapping[str, Any]],

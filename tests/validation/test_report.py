@@ -88,7 +88,11 @@ def test_report_folder_has_every_file(result: ValidationResult, tmp_path: Path) 
     out = tmp_path / "report"
     written = write_report(result, out)
     names = sorted(p.name for p in written)
-    assert names == ["alignment.json", "metrics.csv", "metrics.json", "report.html", "scene.nc"]
+    assert names == ["alignment.json", "metrics.csv", "metrics.json", "report.html",
+                     "rigidity.json", "scene.nc"]
+    # a result built without the pipeline keeps no signal for the residual spectra: nothing
+    # is analysed, nothing invented (the rig's runs: tests/validation/test_diagnosis_*.py)
+    assert json.loads((out / "rigidity.json").read_text()) == {}
     html_text = (out / "report.html").read_text()
     # comparisons, alignment, sketch, predictions: inline SVGs, each with its caption as label
     assert html_text.count("<svg ") == 3 + 3 + 1 + 2 and "<img " not in html_text

@@ -40,6 +40,14 @@ from matplotlib.figure import Figure
 from rigval.acquisition.errors import DataFileError
 from rigval.acquisition.outputs import atomic_output, write_text_atomic
 from rigval.validation.campaign.engine import RunOutcome, dask_available
+from rigval.validation.diagnosis.campbell import (
+    MIN_SPEEDS,
+    Campbell,
+    RunSpectrum,
+    campbell,
+    plot_campbell,
+)
+from rigval.validation.diagnosis.rigidity import resonances_from_record
 from rigval.validation.report.page import Link, Page
 
 __all__ = [
@@ -322,6 +330,45 @@ _KEY_METRICS = ("iso18571_periodic.rating", "iso18571_periodic.grade", "nrmse", 
                 "vv20.curve.error", "vv20.curve.u_val", "vv20.curve.detected")
 
 
+def campbell_diagrams(outcomes: Sequence[RunOutcome]) -> list[Campbell]:
+    """Return the Campbell diagram of each comparison from the runs' ``rigidity.json``.
+
+    Empty when fewer than :data:`~rigval.validation.diagnosis.campbell.MIN_SPEEDS` runs at
+    distinct speeds have one (docs/diagnosis.md).
+    """
+    records: dict[str, list[tuple[str, dict[str, Any]]]] = {}
+    for outcome in outcomes:
+        path = outcome.output("rigidity.json")
+        if path is None or not path.is_file():
+            continue
+        for name, record in json.loads(path.read_text(encoding="utf-8")).items():
+            records.setdefault(name, []).append((outcome.name, record))
+    diagrams = []
+    for name, runs in records.items():
+        spectra = [RunSpectrum(run, r["speed_rev_s"],
+                               np.asarray(r["spectrum"]["frequency_hz"], dtype=float),
+                               np.asarray(r["spectrum"]["residual_psd"], dtype=float),
+                               resonances_from_record(r)) for run, r in runs]
+        if len({round(s.speed_rev_s, 2) for s in spectra}) >= MIN_SPEEDS:
+            diagrams.append(campbell(name, runs[0][1]["units"], spectra))
+    return diagrams
+
+
+def _campbell_section(page: Page, outcomes: Sequence[RunOutcome]) -> None:
+    """Add the Campbell diagrams (residual spectra against speed) to the campaign page."""
+    diagrams = campbell_diagrams(outcomes)
+    if not diagrams:
+        return
+    page.section("Campbell diagram: residual spectra against speed")
+    page.paragraph("A peak of the residual that keeps its frequency across speeds is a "
+                   "structural mode; content on an order line (k x speed) is the rigid-body "
+                   "motion's (docs/diagnosis.md).")
+    page.table([{"comparison": d.name, "finding": d.sentence} for d in diagrams])
+    for diagram in diagrams:
+        if any(run.resonances for run in diagram.runs):
+            page.figure(plot_campbell(diagram), caption=diagram.sentence, fmt="svg")
+
+
 def _report_link(outcome: RunOutcome, out_dir: Path) -> Link | str:
     """Return the run's name, linking its report page when it has one."""
     report = outcome.output(".html")
@@ -384,6 +431,8 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
                 rows.append({"run": run, "speed [rev/s]": speed, **cells})
             page.wide_table(rows, key=["run", "speed [rev/s]", *_KEY_METRICS],
                             caption=str(comparison), digits=3)
+
+    _campbell_section(page, outcomes)
 
     warned = [{"run": o.name, "warning": str(w)} for o in outcomes for w in o.warnings]
     if warned:

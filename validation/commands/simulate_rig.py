@@ -59,6 +59,28 @@ def add_parser(subparsers: Any) -> None:
                        help="the wireless clocks run on through each dropout (no restart)")
     group.add_argument("--fast-pulses", action="store_const", const=True,
                        help="1 us optical edges (opt1 on the NI 9215 sample-switched)")
+    truths = parser.add_argument_group(
+        "departures from the rigid planar model and the scene (default: none; docs/diagnosis.md)")
+    truths.add_argument("--mode-body", choices=("A", "B"),
+                        help="body with a flexible mode: B rod B (str1, acc2), A the arm (acc1, "
+                             "acc2)")
+    truths.add_argument("--mode-hz", type=float, help="the mode's natural frequency, Hz (18)")
+    truths.add_argument("--mode-damping", type=float, help="the mode's damping ratio (0.02)")
+    truths.add_argument("--mode-level", type=float,
+                        help="the mode's amplitude (sqrt 2 rms) over its channel's range (0.05)")
+    truths.add_argument("--rod-bending", type=float,
+                        help="adds gauges str2/str3 on rod B's faces, seeing this times the "
+                             "bending of the rod's weight and inertia")
+    truths.add_argument("--calibration-error", type=float,
+                        help="each sensor's calibration error, drawn from this times the "
+                             "scene's stated uncertainties")
+    truths.add_argument("--lag", metavar="CHANNEL=SECONDS",
+                        help="an undeclared lag of one channel, e.g. tor1=0.002")
+    truths.add_argument("--split-main", type=float, help="tor1's share of the main torque")
+    truths.add_argument("--split-lift", type=float, help="tor3's share of the lifting torque")
+    truths.add_argument("--mass-scale", metavar="BODY=FACTOR", action="append",
+                        help="the rig's body mass times FACTOR, the scene's mechanism "
+                             "unchanged, e.g. A=1.08 (repeatable)")
 
 
 #: Command-line option -> Imperfections field.
@@ -69,6 +91,35 @@ _OPTIONS = {"start_offset": "start_offset_s", "drift_ppm": "drift_ppm",
             "torque_split": "torque_split", "bridge_drift": "bridge_drift",
             "speed_wander": "speed_wander", "stamp_offset": "stamp_offset_s",
             "running_clock": "running_clock", "fast_pulses": "fast_pulses"}
+
+
+#: Command-line option -> Departures field (plain values).
+_DEPARTURES = ("mode_body", "mode_hz", "mode_damping", "mode_level", "rod_bending",
+               "calibration_error", "split_main", "split_lift")
+
+
+def _pair(text: str, option: str) -> tuple[str, float]:
+    """Split ``NAME=NUMBER`` of an option, or raise a ConfigError naming the option."""
+    from rigval.acquisition.errors import ConfigError
+
+    name, _, value = text.partition("=")
+    try:
+        return name.strip(), float(value)
+    except ValueError:
+        raise ConfigError(f"{option} {text!r} is not NAME=NUMBER", where={"key": option},
+                          hint=f"e.g. {option} tor1=0.002") from None
+
+
+def _departures(args: argparse.Namespace) -> Any:
+    """Return the Departures the options ask for."""
+    from rigval.sample_data.departures import Departures
+
+    values = {name: getattr(args, name) for name in _DEPARTURES if getattr(args, name) is not None}
+    if args.lag:
+        values["lag_channel"], values["lag_s"] = _pair(args.lag, "--lag")
+    if args.mass_scale:
+        values["mass_scale"] = tuple(_pair(text, "--mass-scale") for text in args.mass_scale)
+    return Departures(**values)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -82,7 +133,8 @@ def run(args: argparse.Namespace) -> int:
                if getattr(args, option) is not None}
     settings = RigSettings(speed=args.speed, duration=args.duration, seed=args.seed,
                            imperfections=dataclasses.replace(base, **changes),
-                           mechanism=args.mechanism, index_reset=args.index_reset)
+                           mechanism=args.mechanism, index_reset=args.index_reset,
+                           departures=_departures(args))
     files = simulate_rig(args.out, settings)
     for path in files.files:
         print(path)

@@ -29,12 +29,14 @@ import xarray as xr
 
 from rigval.acquisition.json_values import json_ready
 from rigval.acquisition.outputs import atomic_output, staged_folder, write_text_atomic
+from rigval.validation.diagnosis.rigidity import evidence_record, run_rigidity
 from rigval.validation.health import health_dataset
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
 from rigval.validation.report import plots
 from rigval.validation.report.drawing import FigureGroup, draw_svgs
 from rigval.validation.report.page import Page
+from rigval.validation.report.why import why_section
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.verdict import failure_reasons, run_verdict
 from rigval.validation.version import rigval_version
@@ -76,9 +78,20 @@ def write_metrics(result: ValidationResult, out_dir: Path) -> list[Path]:
         "scene": str(result.scene.path), "scene_sha256": result.scene.sha256,
         "passed": result.passed, "speed_rev_s": result.speed_rev_s, "cycles": result.n_cycles,
         "rows": [{k: json_ready(v) for k, v in row.items()} for row in rows],
+        "diagnosis": result.diagnosis.as_dict() if result.diagnosis is not None else None,
     }
     write_text_atomic(json_path, json.dumps(document, indent=2) + "\n")
     return [csv_path, json_path]
+
+
+def write_rigidity(result: ValidationResult, out_dir: Path) -> Path:
+    """Write ``rigidity.json``: each comparison's residual spectra and resonances.
+
+    See :func:`rigval.validation.diagnosis.rigidity.evidence_record` and docs/diagnosis.md.
+    """
+    document = {name: evidence_record(evidence)
+                for name, evidence in run_rigidity(result).items()}
+    return write_text_atomic(out_dir / "rigidity.json", json.dumps(document, indent=1) + "\n")
 
 
 def write_alignment(result: ValidationResult, out_dir: Path) -> Path:
@@ -420,6 +433,7 @@ def _build_page(result: ValidationResult) -> Page:
                 figure_format="svg")
     figures = _draw_figures(result)
     _summary(page, result, status)
+    why_section(page, result)
     for drawn_section in (_comparisons, _alignment, _predictions):
         drawn_section(page, result, figures)
     _numerics(page, result)
@@ -440,8 +454,9 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
     Returns
     -------
     list of pathlib.Path
-        ``report.html``, ``metrics.csv``, ``metrics.json``, ``alignment.json`` and the netCDF
-        file (:func:`rigval.validation.run.validate.validate_scene` returns them in the result's
+        ``report.html``, ``metrics.csv``, ``metrics.json``, ``alignment.json``,
+        ``rigidity.json`` and the netCDF file
+        (:func:`rigval.validation.run.validate.validate_scene` returns them in the result's
         ``outputs``).
     """
     out = Path(out_dir)
@@ -450,6 +465,7 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
     with staged_folder(out) as stage:
         staged = write_metrics(result, stage)
         staged.append(write_alignment(result, stage))
+        staged.append(write_rigidity(result, stage))
         staged.append(write_netcdf(result, stage / f"{result.scene.path.stem}.nc"))
         staged.insert(0, page.write(stage / "report.html"))
     written = [out / path.name for path in staged]

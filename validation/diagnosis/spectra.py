@@ -1,0 +1,259 @@
+"""Residual spectra of one comparison: synchronous orders, non-synchronous and whole, in Hz.
+
+The residual (measured minus model, :mod:`~rigval.validation.diagnosis.residual`) splits into
+
+* its **synchronous** part, the mean over whole revolutions as a function of phi_F: what
+  repeats every revolution (a wrong parameter, a gain, a lag, an order a mode amplifies); its
+  spectrum is in orders of the main shaft (the Fourier series of one revolution);
+* its **non-synchronous** part, the rest: what changes from revolution to revolution (a mode
+  rung by broadband forcing, noise, speed wander); its spectrum is in Hz.
+
+Spectra in Hz are Welch estimates (:func:`scipy.signal.welch`, Hann window, 50 % overlap)
+averaged over the gap-free stretches of the record, after a zero-phase decimation
+(:func:`scipy.signal.decimate`) to an analysis rate of at least ``4 upper_hz``.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import welch
+
+from rigval.acquisition.errors import DataError
+from rigval.processing.arrays import FloatArray
+from rigval.processing.stretch_decimation import decimated_runs
+from rigval.validation.diagnosis.residual import ResidualSeries
+
+__all__ = ["OrderSpectrum", "ResidualParts", "ResidualSpectra", "Spectrum", "residual_parts",
+           "residual_spectra", "welch_runs"]
+
+logger = logging.getLogger(__name__)
+
+#: Longest Welch segment in s (a frequency resolution of 0.125 Hz, Hann main lobe 0.25 Hz).
+SEGMENT_S = 8.0
+#: Equivalent degrees of freedom of one Hann segment at 50 % overlap, per segment (Welch 1967:
+#: 2 K / (1 + 2 c^2) with the overlap correlation c = 0.167 of the Hann window).
+DOF_PER_SEGMENT = 2.0 / (1.0 + 2.0 * 0.167**2)
+
+
+@dataclass(frozen=True)
+class Spectrum:
+    """A one-sided power spectral density.
+
+    Parameters
+    ----------
+    frequency : numpy.ndarray
+        Frequencies in Hz.
+    psd : numpy.ndarray
+        Power spectral density, signal units squared per Hz.
+    dof : float
+        Equivalent degrees of freedom of each estimate (chi-square), for its scatter.
+    resolution_hz : float
+        Bin spacing in Hz.
+    segment_s : float
+        Length of a Welch segment in s (its Hann window sets the smearing).
+    """
+
+    frequency: FloatArray
+    psd: FloatArray
+    dof: float
+    resolution_hz: float
+    segment_s: float
+
+    def variance(self, low: float = 0.0, high: float = np.inf) -> float:
+        """Return the variance between two frequencies (Hz), signal units squared."""
+        band = (self.frequency >= low) & (self.frequency < high)
+        return float(np.sum(self.psd[band]) * self.resolution_hz)
+
+
+@dataclass(frozen=True)
+class OrderSpectrum:
+    """Amplitudes of the orders of the main shaft in one revolution's curve.
+
+    Parameters
+    ----------
+    order : numpy.ndarray
+        Orders 0, 1, 2, ... (per revolution).
+    amplitude : numpy.ndarray
+        Amplitude of each order (order 0: the mean), signal units.
+    """
+
+    order: np.ndarray
+    amplitude: FloatArray
+
+
+@dataclass(frozen=True)
+class ResidualSpectra:
+    """One comparison's residual split and its spectra.
+
+    Parameters
+    ----------
+    name, units : str
+        Comparison and signal unit.
+    speed_rev_s : float
+        Mean main-shaft speed (rev/s): order k sits at ``k speed_rev_s`` Hz.
+    upper_hz : float
+        Upper end of the analysis band in Hz.
+    synchronous : numpy.ndarray
+        Residual averaged over whole revolutions on the run's phi_F grid, signal units.
+    orders : OrderSpectrum
+        Its orders.
+    measured, residual, nonsynchronous : Spectrum
+        In Hz: the measured signal, the residual, and the residual less its synchronous part.
+    variance_measured, variance_residual, variance_synchronous, variance_nonsynchronous : float
+        Variances below ``upper_hz`` (synchronous: of the revolution mean), units squared.
+    """
+
+    name: str
+    units: str
+    speed_rev_s: float
+    upper_hz: float
+    synchronous: FloatArray
+    orders: OrderSpectrum
+    measured: Spectrum
+    residual: Spectrum
+    nonsynchronous: Spectrum
+    variance_measured: float
+    variance_residual: float
+    variance_synchronous: float
+    variance_nonsynchronous: float
+
+    @property
+    def explained(self) -> float:
+        """Share of the measured variance below ``upper_hz`` the model explains (1)."""
+        return 1.0 - self.variance_residual / self.variance_measured
+
+
+def welch_runs(values: FloatArray, run: np.ndarray, fs: float,
+               segment_s: float = SEGMENT_S) -> Spectrum:
+    """Return the Welch PSD of a signal averaged over its gap-free stretches.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        Samples (NaN-free), signal units.
+    run : numpy.ndarray
+        Index of the gap-free stretch of each sample.
+    fs : float
+        Sample rate in Hz.
+    segment_s : float, default :data:`SEGMENT_S`
+        Longest segment in s; shorter (down to 2 s) so that the longest stretch holds about
+        2.5 segments.
+
+    Raises
+    ------
+    DataError
+        If no stretch is 2 s long.
+    """
+    stretches = [values[run == k] for k in np.unique(run)]
+    longest = max(s.size for s in stretches) / fs
+    if longest < 2.0:
+        raise DataError(f"the longest gap-free stretch lasts {longest:.2f} s; the residual "
+                        "spectra need 2 s", hint="record longer or with fewer gaps")
+    nperseg = int(float(np.clip(longest / 2.5, 2.0, segment_s)) * fs)
+    total, segments = np.zeros(nperseg // 2 + 1), 0
+    frequency = np.fft.rfftfreq(nperseg, 1.0 / fs)
+    for stretch in stretches:
+        if stretch.size < nperseg:
+            continue
+        _, psd = welch(stretch, fs=fs, nperseg=nperseg, noverlap=nperseg // 2,
+                       detrend="linear")
+        n = (stretch.size - nperseg) // (nperseg // 2) + 1
+        total += psd * n
+        segments += n
+    return Spectrum(frequency, total / segments, DOF_PER_SEGMENT * segments,
+                    float(frequency[1] - frequency[0]), nperseg / fs)
+
+
+def _order_fit(phi: FloatArray, values: FloatArray, max_order: int) -> FloatArray:
+    """Least-squares Fourier coefficients of ``values`` over phi_F, orders 0 ... max_order.
+
+    Returns complex coefficients ``c_k`` with ``values ~ Re(sum c_k exp(i k phi))``. A slow
+    trend (a bridge's thermal drift, quadratic in phi_F) is fitted beside them and left out: over
+    whole revolutions a ramp would otherwise leak into every order as a sawtooth.
+    """
+    k = np.arange(max_order + 1)
+    u = (phi - phi.mean()) / np.ptp(phi)
+    design = np.concatenate([np.cos(np.outer(phi, k)), np.sin(np.outer(phi, k[1:])),
+                             np.column_stack([u, u**2])], axis=1)
+    # normal equations: the columns are near orthogonal over whole revolutions (fast, stable)
+    coef = np.linalg.solve(design.T @ design, design.T @ values)[:2 * max_order + 1]
+    return np.concatenate([[coef[0]], coef[1:max_order + 1] - 1j * coef[max_order + 1:]])
+
+
+def _orders_at(coef: FloatArray, phi: FloatArray) -> FloatArray:
+    k = np.arange(coef.size)
+    return np.real(np.exp(1j * np.outer(phi, k)) @ coef)
+
+
+@dataclass(frozen=True)
+class ResidualParts:
+    """A residual decimated to its analysis rate and split at the orders.
+
+    Parameters
+    ----------
+    fs : float
+        Analysis rate in Hz.
+    residual, nonsynchronous : numpy.ndarray
+        The residual and the residual less its synchronous part, signal units.
+    measured : numpy.ndarray
+        The measured signal at the same samples.
+    run : numpy.ndarray
+        Gap-free stretch of each sample.
+    coefficients : numpy.ndarray
+        Complex order coefficients of the synchronous part, orders 0 ... K.
+    """
+
+    fs: float
+    residual: FloatArray
+    nonsynchronous: FloatArray
+    measured: FloatArray
+    run: np.ndarray
+    coefficients: FloatArray
+
+
+def residual_parts(series: ResidualSeries, upper_hz: float) -> ResidualParts:
+    """Decimate a residual to at least ``4 upper_hz`` and split off its orders up to ``upper_hz``.
+
+    The synchronous part is the least-squares Fourier series of the residual over phi_F,
+    orders 0 ... ``upper_hz / speed`` (the revolution mean, gaps allowed); the non-synchronous
+    part is the rest.
+    """
+    q = max(int(series.fs // (4.0 * upper_hz)), 1)
+    residual, run, index = decimated_runs(series.residual, series.run, q)
+    measured, _, _ = decimated_runs(series.measured, series.run, q)
+    phi = series.phi[index]
+    coef = _order_fit(phi, residual, max(int(upper_hz / series.speed_rev_s), 1))
+    return ResidualParts(series.fs / q, residual, residual - _orders_at(coef, phi), measured,
+                         run, coef)
+
+
+def residual_spectra(series: ResidualSeries, upper_hz: float = 40.0) -> ResidualSpectra:
+    """Split a comparison's residual into its synchronous and non-synchronous parts, with spectra.
+
+    Parameters
+    ----------
+    series : ResidualSeries
+        The comparison's residual in time.
+    upper_hz : float, default 40
+        Upper end of the band analysed (Hz); at most ``0.25 fs``.
+
+    Returns
+    -------
+    ResidualSpectra
+        The parts (:func:`residual_parts`) and their spectra.
+    """
+    upper_hz = min(upper_hz, 0.25 * series.fs)
+    parts = residual_parts(series, upper_hz)
+    amplitude = np.abs(parts.coefficients)
+    spectra = [welch_runs(x, parts.run, parts.fs)
+               for x in (parts.measured, parts.residual, parts.nonsynchronous)]
+    return ResidualSpectra(series.name, series.units, series.speed_rev_s, upper_hz,
+                           _orders_at(parts.coefficients, series.angle),
+                           OrderSpectrum(np.arange(amplitude.size), amplitude),
+                           *spectra, spectra[0].variance(0.0, upper_hz),
+                           spectra[1].variance(0.0, upper_hz),
+                           float(np.sum(amplitude[1:] ** 2) / 2.0),
+                           spectra[2].variance(0.0, upper_hz))
