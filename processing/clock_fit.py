@@ -47,7 +47,7 @@ from rigval.acquisition.schema import (
     invalid_counts,
     with_invalid_counts,
 )
-from rigval.processing.arrays import FloatArray, IntArray
+from rigval.processing.arrays import BoolArray, FloatArray, IntArray
 from rigval.processing.encoder import increasing_angle
 from rigval.processing.errors import AlignmentError
 from rigval.processing.event_match import Match, match_segment, robust_inliers, without_strays
@@ -324,6 +324,22 @@ def _clock_fit(ref: FloatArray, dev: FloatArray, group: IntArray, kind: IntArray
     return offsets, drift, residual, se, half
 
 
+def _median_centred(residual: FloatArray, among: BoolArray,
+                    labels: Sequence[IntArray]) -> FloatArray:
+    """Return residuals (s) less the median of each label's class, label after label.
+
+    The medians are taken over the residuals selected by ``among``; a class with none of them
+    becomes NaN (never an inlier).
+    """
+    out = np.array(residual, dtype=np.float64)
+    for label in labels:
+        for value in np.unique(label):
+            this = label == value
+            chosen = out[this & among]
+            out[this] -= np.median(chosen) if chosen.size else np.nan
+    return out
+
+
 def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
                    dev_times: ArrayLike | Sequence[ArrayLike],
                    dev_segment: ArrayLike | Sequence[ArrayLike] | None = None, *,
@@ -456,14 +472,12 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
     r, d, g, segment_of, kind_of, h = (np.concatenate(c) for c in zip(*rows, strict=True))
     keep = np.ones(r.size, dtype=bool)
     for _ in range(2):
-        offsets, drift, _res, _se, _half = _clock_fit(r[keep], d[keep], g[keep],
-                                                      kind_of[keep], h[keep])
-        model = np.array([offsets.get(int(x), np.nan) for x in g]) + (1 + drift) * d
-        shift = np.zeros(r.size)
-        for k in np.unique(kind_of):
-            shift[kind_of == k] = np.nanmedian((r - model)[keep & (kind_of == k)])
-        trial = robust_inliers(r - model - shift, among=keep,
-                               floor_s=2.0 * float(h.max()) + 1e-6)
+        _offsets, drift, _res, _se, _half = _clock_fit(r[keep], d[keep], g[keep],
+                                                       kind_of[keep], h[keep])
+        # the offsets by medians: a least-squares offset of a short segment takes a share of
+        # its stray partner's error onto every pair of that segment
+        residual = _median_centred(r - (1 + drift) * d, keep, (g, kind_of))
+        trial = robust_inliers(residual, among=keep, floor_s=2.0 * float(h.max()) + 1e-6)
         if trial.sum() < max(0.8 * r.size, min_events):
             logger.info("rejection would leave %d of %d pairs: all kept", trial.sum(), r.size)
             break

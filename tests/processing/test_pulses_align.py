@@ -212,3 +212,21 @@ def test_state_levels_in_chunks_with_a_mask_equal_the_masked_copy(monkeypatch) -
     monkeypatch.setattr(pulses, "_LEVEL_CHUNK", 7_777)
     np.testing.assert_allclose(pulses.state_levels(x, mask=valid), whole, rtol=1e-12)
     assert whole[0] == pytest.approx(0.2, abs=1e-3) and whole[1] == pytest.approx(5.0, abs=1e-3)
+
+
+def test_a_stray_partner_in_a_four_pulse_segment_is_rejected_by_the_whole_fit() -> None:
+    # Seed 21 of the virtual rig: after a dropout the device restarts with 4 pulses left; its
+    # last pulse is missing and a spurious one 0.12 s earlier takes its partner. The segment's
+    # own line cannot tell the stray (1 in 4); the drift of the long segment can.
+    ref = np.arange(0.0, 17.0, 1.0) + 0.003
+    drift, offsets = 33e-6, (1.1, 1.3)
+    segment = (ref > 12.5).astype(np.int64)
+    dev = (ref - np.take(offsets, segment)) / (1 + drift)
+    dev[-1] -= 0.12
+    clock = clock_fit.estimate_clock(ref, dev, segment, coarse_offset_s=1.2,
+                                     max_offset_error_s=0.3)
+    assert clock.segments == (0, 1)
+    assert clock.pulses_matched == ref.size - 1
+    # noise-free pulses: the fit without the stray is exact to rounding
+    assert clock.offsets_s == pytest.approx(offsets, abs=1e-9)
+    assert clock.drift == pytest.approx(drift, abs=1e-12)
