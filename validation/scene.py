@@ -58,6 +58,7 @@ from rigval.validation.scene_types import (
     PredictionSpec,
     PulseSpec,
     Scene,
+    SymmetrySpec,
 )
 
 __all__ = ["TODO", "channel_map_as_scene", "load_scene", "parse_scene", "todo_keys", "todo_label"]
@@ -508,6 +509,53 @@ def _prediction_spec(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, 
                           supports=None if supports is None else tuple(supports))
 
 
+def _symmetry_specs(doc: Mapping[str, Any], comparisons: tuple[ComparisonSpec, ...],
+              streams: Mapping[str, StreamSpec]) -> tuple[SymmetrySpec, ...]:
+    """Return the ``[[symmetry]]`` pairs: two comparisons of one unit, calibration stated."""
+    tables = _get(doc, "symmetry", "", list, [])
+    by_name = {c.name: c for c in comparisons}
+    names: set[str] = set()
+    out = []
+    for i, raw in enumerate(tables):
+        key = f"symmetry[{i}]"
+        table = _table(raw, key)
+        _check_keys(table, key, _keys(SymmetrySpec))
+        name = _get(table, "name", key, str)
+        if name in names:
+            raise _error(f"{key}.name", f"pair name {name!r} is used twice",
+                         hint="give each [[symmetry]] pair its own name")
+        names.add(name)
+        pair = _get(table, "comparisons", key, list)
+        if len(pair) != 2 or not all(isinstance(n, str) for n in pair) or pair[0] == pair[1]:
+            raise _error(f"{key}.comparisons", f"expected two comparison names, got {pair!r}",
+                         hint='e.g. comparisons = ["tor1", "tor2"]')
+        for n in pair:
+            if n not in by_name:
+                raise _error(f"{key}.comparisons", f"no comparison named {n!r}",
+                             hint=f"comparisons: {', '.join(by_name)}")
+        first, second = (by_name[n] for n in pair)
+        units = [channel_units(streams[c.measured.stream].channels[c.measured.channel])
+                 for c in (first, second)]
+        if units[0] != units[1] or first.scale != second.scale:
+            raise _error(f"{key}.comparisons", f"{pair[0]} and {pair[1]} differ in unit or "
+                         f"scale ({units[0]!r} x {first.scale:g}, {units[1]!r} x "
+                         f"{second.scale:g})", hint="pair two channels of one kind")
+        rel = _get(table, "u_measurement_rel", key, float)
+        common = _setting(table, SymmetrySpec, "u_measurement_rel_common", key, float)
+        for field_name, value in (("u_measurement_rel", rel),
+                                  ("u_measurement_rel_common", common)):
+            if not (math.isfinite(value) and value >= 0):
+                raise _error(f"{key}.{field_name}", f"must be a finite number >= 0, got {value}")
+        if common > rel:
+            raise _error(f"{key}.u_measurement_rel_common",
+                         f"the common part {common} exceeds the whole {rel}",
+                         hint="state the common part of the calibration, at most the whole")
+        out.append(SymmetrySpec(name=name, comparisons=(pair[0], pair[1]), key=key,
+                                kind=_setting(table, SymmetrySpec, "kind", key, str),
+                                u_measurement_rel=rel, u_measurement_rel_common=common))
+    return tuple(out)
+
+
 def _output_spec(doc: Mapping[str, Any]) -> OutputSpec:
     key = "output"
     table = _table(_get(doc, key, "", dict, {}), key)
@@ -618,7 +666,8 @@ def parse_scene(text: str, path: str | Path, *, names: MechanismNames | None = N
         streams=MappingProxyType(streams), alignment=alignment,
         angle=_angle_spec(doc), model=_model_spec(doc, streams, alignment.reference),
         comparisons=comparisons,
-        predictions=_prediction_spec(doc, comparisons), output=_output_spec(doc))
+        predictions=_prediction_spec(doc, comparisons), output=_output_spec(doc),
+        symmetry=_symmetry_specs(doc, comparisons, streams))
     if names is not None:
         check_mechanism_names(scene, names)
     return scene

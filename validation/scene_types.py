@@ -35,6 +35,7 @@ __all__ = [
     "PredictionSpec",
     "PulseSpec",
     "Scene",
+    "SymmetrySpec",
 ]
 
 #: Field metadata of a field the parser fills that is not a key of the scene file.
@@ -260,6 +261,39 @@ class ComparisonSpec:
 
 
 @dataclass(frozen=True)
+class SymmetrySpec:
+    """Two comparisons a symmetric planar model treats as equal (``[[symmetry]]``).
+
+    Parameters
+    ----------
+    name : str
+        Name of the pair in the report.
+    comparisons : tuple of str
+        The two comparisons, same unit, e.g. the two shafts of a drive.
+    u_measurement_rel : float
+        Each channel's relative calibration standard uncertainty (1 %: 0.01), required.
+    key : str
+        Key path in the scene file (``symmetry[0]``).
+    kind : "shares" or "faces"
+        ``shares``: each carries half of their sum (two shafts, a left and a right gauge): their
+        shares, lag and asymmetry are reported (:func:`rigval.validation.diagnosis.symmetry.
+        pair_shares`). ``faces``: gauges on opposite faces of a rod: the axial part is their
+        mean, the bending part half their difference
+        (:func:`rigval.validation.diagnosis.symmetry.axial_bending`).
+    u_measurement_rel_common : float, default 0
+        The part of it common to both (one gauge lot, one drawing); it cancels in the
+        comparison of the two.
+    """
+
+    name: str
+    comparisons: tuple[str, str]
+    u_measurement_rel: float
+    key: str = field(metadata=NOT_A_KEY)
+    kind: Literal["shares", "faces"] = "shares"
+    u_measurement_rel_common: float = 0.0
+
+
+@dataclass(frozen=True)
 class PredictionSpec:
     """Model outputs reported without a measured counterpart (the paper's figs. 15-17).
 
@@ -323,6 +357,8 @@ class Scene:
         What is predicted beyond the comparisons.
     output : OutputSpec
         What the netCDF file keeps besides the angle domain (``[output]``).
+    symmetry : tuple of SymmetrySpec
+        Pairs of comparisons a symmetric planar model treats as equal (``[[symmetry]]``).
     """
 
     path: Path = field(metadata=NOT_A_KEY)
@@ -338,6 +374,7 @@ class Scene:
     comparisons: tuple[ComparisonSpec, ...]
     predictions: PredictionSpec
     output: OutputSpec = OutputSpec()
+    symmetry: tuple[SymmetrySpec, ...] = ()
 
     @property
     def input_files(self) -> tuple[Path, ...]:

@@ -19,13 +19,19 @@ from typing import Any
 
 from rigval.acquisition.errors import ConfigError
 from rigval.processing.alignment_summary import StreamAlignment
+from rigval.processing.health import Finding
+from rigval.validation.health import comparison_health
 from rigval.validation.metrics.thresholds import ThresholdCheck
 from rigval.validation.metrics.vv20 import CURVE_PARTS, common_gain, error_ratio
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.scene_types import Scene
 
-__all__ = ["COMMON_GAIN_SCORE", "carried_uncertainty", "comparison_verdict", "failure_reasons",
-           "run_verdict", "with_common_gain"]
+__all__ = ["COMMON_GAIN_SCORE", "FAMILY_LEVEL", "carried_uncertainty", "comparison_verdict",
+           "failure_reasons", "family_k", "run_verdict", "with_common_gain"]
+
+#: Probability that no statement of a run that has no model error detects one (the run's
+#: family of statements together, see :func:`family_k`).
+FAMILY_LEVEL = 0.95
 
 #: The score of the common-gain statement that gets a threshold check, ``|E| / u_val <= k``.
 COMMON_GAIN_SCORE = "vv20.common_gain.normalised_error"
@@ -170,13 +176,17 @@ def failure_reasons(comparison: ComparisonResult) -> list[str]:
             for check in comparison.checks if not check.passed]
 
 
-def comparison_verdict(comparison: ComparisonResult) -> dict[str, Any]:
+def comparison_verdict(comparison: ComparisonResult, health: Sequence[Finding] = ()
+                       ) -> dict[str, Any]:
     """Return the V&V 20 curve verdict of one comparison as plain values.
 
     Parameters
     ----------
     comparison : ComparisonResult
         With ``vv20.curve.*`` scores.
+    health : sequence of Finding, optional
+        Sensor health findings on the comparison's channels
+        (:func:`rigval.validation.health.comparison_health`).
 
     Returns
     -------
@@ -186,7 +196,8 @@ def comparison_verdict(comparison: ComparisonResult) -> dict[str, Any]:
         common gain's ``|E| / (k u_val)``), ``units``, ``dominant`` (largest part of the curve's
         ``u_val``), ``parts`` (name -> value, signal units) and ``common_gain`` (None, or the
         comparison's ``gain``, the group's ``group_gain``, ``u_val``, ``ratio``, ``detected``
-        and ``group``).
+        and ``group``), ``health`` (the findings' verdict-line texts) and ``trusted`` (False
+        when a finding can change the verdict: clipping, a flat line, spikes, count errors).
     """
     scores = comparison.scores
     error, u_val, k = (float(scores["vv20.curve.error"]), float(scores["vv20.curve.u_val"]),
@@ -205,7 +216,8 @@ def comparison_verdict(comparison: ComparisonResult) -> dict[str, Any]:
             "E": error, "u_val": u_val, "k": k, "ratio": ratio, "units": comparison.units,
             "dominant": str(scores["vv20.curve.dominant"]),
             "parts": {part: float(scores[f"vv20.curve.{part}"]) for part in CURVE_PARTS},
-            "common_gain": gain}
+            "common_gain": gain, "health": [f.line() for f in health],
+            "trusted": all(f.trusted for f in health)}
 
 
 def run_verdict(result: ValidationResult) -> dict[str, Any]:
@@ -221,20 +233,65 @@ def run_verdict(result: ValidationResult) -> dict[str, Any]:
     dict
         ``detected`` (bool: a model error is detected on at least one comparison),
         ``statement`` (the headline, one line), ``detected_on`` (comparison names),
-        ``worst`` (the comparison with the largest ``E / (k u_val)``) and ``comparisons`` (one
-        :func:`comparison_verdict` each, comparisons without ``vv20.curve`` scores left out).
+        ``worst`` (the comparison with the largest ``E / (k u_val)``), ``comparisons`` (one
+        :func:`comparison_verdict` each, comparisons without ``vv20.curve`` scores left out)
+        ``why`` (per comparison with a detected error, its most likely cause in words from
+        ``result.diagnosis``; the worst one's ends the statement) and ``family``: the run's
+        statements taken together (``k`` from :func:`family_k` for their number ``tests``,
+        ``detected`` and ``detected_on`` at that ``k``).
         The ISO rating is the similarity score beside it.
     """
-    rows = [comparison_verdict(c) for c in result.comparisons
-            if "vv20.curve.error" in c.scores]
+    rows = [comparison_verdict(c, comparison_health(c.spec, result.health))
+            for c in result.comparisons if "vv20.curve.error" in c.scores]
     if not rows:
         return {"detected": False, "statement": "V&V 20 not computed (no vv20.curve scores)",
                 "detected_on": [], "worst": None, "comparisons": []}
     detected = [row for row in rows if row["detected"]]
     worst = max(rows, key=lambda row: row["ratio"])
-    return {"detected": bool(detected), "statement": _statement(rows, detected, worst),
+    causes = result.diagnosis.causes if result.diagnosis is not None else {}
+    why = {row["comparison"]: causes[row["comparison"]].explanation for row in detected
+           if row["comparison"] in causes}
+    tests = len(rows) + sum(row["common_gain"] is not None for row in rows)
+    k_family = family_k(tests)
+    # each row's ratio is |E| / (k u_val) at its own k: at k_family it is ratio k / k_family
+    on = [row["comparison"] for row in rows if row["ratio"] * row["k"] > k_family]
+    family = {"k": k_family, "tests": tests, "detected": bool(on), "detected_on": on}
+    statement = _statement(rows, detected, worst)
+    statement += (f"; the {tests} statements together at {100 * FAMILY_LEVEL:g} % (k = "
+                  f"{k_family:.2f}): " + (f"detected on {', '.join(on)}" if on
+                                         else "not detected"))
+    if worst["comparison"] in why:
+        statement += f"; why {worst['comparison']}: {why[worst['comparison']]}"
+    return {"detected": bool(detected), "statement": statement,
             "detected_on": [row["comparison"] for row in detected], "worst": worst["comparison"],
-            "comparisons": rows}
+            "comparisons": rows, "why": why, "family": family}
+
+
+def family_k(tests: int, level: float = FAMILY_LEVEL) -> float:
+    """Return the coverage factor at which ``tests`` statements together hold at ``level``.
+
+    Each comparison's statement ``|E| > k u_val`` with ``k = 2`` is wrong about 4.6 % of the
+    time when its error is a single Gaussian part at its stated size (a calibration error drawn
+    from its stated uncertainty); a run of ``m`` comparisons says "detected" somewhere far more
+    often. Sidak's correction gives each statement the level ``level^(1/m)``; for independent
+    or positively dependent statements the family is then right at ``level``.
+
+    Parameters
+    ----------
+    tests : int
+        Statements in the family (>= 1).
+    level : float
+        Probability that none of them detects an error that is not there.
+
+    Returns
+    -------
+    float
+        ``k`` with ``P(|z| > k) = 1 - level^(1/tests)`` for a standard normal ``z``.
+    """
+    import scipy.stats
+
+    each = 1.0 - level ** (1.0 / max(tests, 1))
+    return float(scipy.stats.norm.isf(each / 2.0))
 
 
 def _statement(rows: list[Mapping[str, Any]], detected: list[Mapping[str, Any]],
@@ -251,8 +308,11 @@ def _statement(rows: list[Mapping[str, Any]], detected: list[Mapping[str, Any]],
                    f"{worst['u_val']:.4g} {worst['units']}, k = {worst['k']:g}, |E|/(k u_val) = "
                    f"{error_ratio(worst['E'], worst['k'] * worst['u_val']):.2f}; largest part "
                    f"of u_val: {worst['dominant']}")
+    # a comparison whose channel has a fault that can change its verdict says so
+    faults = "".join(f"; {row['comparison']}: {line}" for row in rows if not row["trusted"]
+                     for line in row["health"])
     if detected:
         names = ", ".join(row["comparison"] for row in detected)
-        return f"Model error detected (|E| > k u_val) on {names}; worst {numbers}"
+        return f"Model error detected (|E| > k u_val) on {names}; worst {numbers}{faults}"
     return (f"Model error not detected (|E| <= k u_val) on any of {len(rows)} comparisons; "
-            f"closest {numbers}")
+            f"closest {numbers}{faults}")

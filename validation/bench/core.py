@@ -49,6 +49,7 @@ def _sweeps() -> dict[str, Callable[[bool], list[BenchRow]]]:
     from rigval.validation.bench import (
         align_cases,
         compare_cases,
+        diagnosis_cases,
         identify_cases,
         model_cases,
         read_cases,
@@ -61,7 +62,8 @@ def _sweeps() -> dict[str, Callable[[bool], list[BenchRow]]]:
             "derivatives": signal_cases.derivative_rows,
             "reading": read_cases.reading_rows,
             "identification": identify_cases.identification_rows,
-            "comparison": compare_cases.comparison_rows}
+            "comparison": compare_cases.comparison_rows,
+            "diagnosis": diagnosis_cases.diagnosis_rows}
 
 
 #: Environment of the worker process: one thread in every BLAS / OpenMP pool.

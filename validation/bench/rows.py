@@ -23,7 +23,7 @@ T = TypeVar("T")
 
 #: Stage names in the order :func:`run_bench` runs them.
 STAGES: tuple[str, ...] = ("model", "alignment", "resampling", "derivatives", "reading",
-                           "identification", "comparison")
+                           "identification", "comparison", "diagnosis")
 
 
 @dataclass(frozen=True)

@@ -30,11 +30,13 @@ import xarray as xr
 from rigval.acquisition.json_values import json_ready
 from rigval.acquisition.outputs import atomic_output, staged_folder, write_text_atomic
 from rigval.validation.diagnosis.rigidity import evidence_record, run_rigidity
+from rigval.validation.health import health_dataset
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
 from rigval.validation.report import plots
 from rigval.validation.report.drawing import FigureGroup, draw_svgs
 from rigval.validation.report.page import Page
+from rigval.validation.report.why import why_section
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.verdict import failure_reasons, run_verdict
 from rigval.validation.version import rigval_version
@@ -76,6 +78,7 @@ def write_metrics(result: ValidationResult, out_dir: Path) -> list[Path]:
         "scene": str(result.scene.path), "scene_sha256": result.scene.sha256,
         "passed": result.passed, "speed_rev_s": result.speed_rev_s, "cycles": result.n_cycles,
         "rows": [{k: json_ready(v) for k, v in row.items()} for row in rows],
+        "diagnosis": result.diagnosis.as_dict() if result.diagnosis is not None else None,
     }
     write_text_atomic(json_path, json.dumps(document, indent=2) + "\n")
     return [csv_path, json_path]
@@ -92,10 +95,17 @@ def write_rigidity(result: ValidationResult, out_dir: Path) -> Path:
 
 
 def write_alignment(result: ValidationResult, out_dir: Path) -> Path:
-    """Write ``alignment.json`` (per stream: offset, drift, residual, events, gaps)."""
+    """Write ``alignment.json``: per stream offset, drift, residual, events, gaps, health.
+
+    ``health`` lists the sensor health findings of the stream's channels
+    (:meth:`rigval.processing.health.Finding.record`).
+    """
     path = out_dir / "alignment.json"
     document = {name: {k: json_ready(v) for k, v in a.summary().items()}
                 for name, a in result.alignment.items()}
+    for name, summary in document.items():
+        summary["health"] = [f.record() for f in result.health
+                             if f.channel.split(".")[0] == name]
     return write_text_atomic(path, json.dumps(document, indent=2) + "\n")
 
 
@@ -123,6 +133,7 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
     """
     tree = result.tree.copy()
     scene = result.scene
+    tree["health"] = xr.DataTree(health_dataset(result.health))
     # what plain xr.open_dataset shows
     tree.dataset = root_summary(result, tree, result.input_digests)
     tree.attrs.update({
@@ -260,6 +271,11 @@ def _summary(page: Page, result: ValidationResult, status: str) -> None:
                        "threshold:")
         page.items([f"{c.name}: {'; '.join(failure_reasons(c))}" for c in failed],
                    css_class="failures")
+    if result.health:
+        page.paragraph(f"Sensor health: {len(result.health)} finding"
+                       f"{'s' if len(result.health) > 1 else ''} (docs/processing.md):")
+        page.items([f.line() for f in result.health],
+                   css_class="failures" if any(not f.trusted for f in result.health) else None)
     page.facts({
         "scene": scene.path, "scene sha256": scene.sha256, "mechanism": scene.mechanism,
         "drives": _drives_text(result),
@@ -417,6 +433,7 @@ def _build_page(result: ValidationResult) -> Page:
                 figure_format="svg")
     figures = _draw_figures(result)
     _summary(page, result, status)
+    why_section(page, result)
     for drawn_section in (_comparisons, _alignment, _predictions):
         drawn_section(page, result, figures)
     _numerics(page, result)

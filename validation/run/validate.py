@@ -1,7 +1,9 @@
 """The run's entry point: validate a scene and write its report folder (:func:`validate_scene`).
 
 :func:`rigval.validation.pipeline.run_scene` validates in memory and returns a result that holds
-everything the report needs; :func:`validate_scene` writes the folder from that result alone
+everything the report needs; :func:`validate_scene` adds why the model disagrees
+(:func:`rigval.validation.diagnosis.explain.attach_diagnosis`: the diagnosis package reads the
+pipeline's results, so the pipeline does not call it) and writes the folder from that result alone
 (:func:`rigval.validation.report.run_report.write_report`) and returns the result with the files
 written. The pipeline itself never imports the report package (docs/architecture.md).
 """
@@ -11,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+from rigval.validation.diagnosis.explain import attach_diagnosis
 from rigval.validation.pipeline import run_scene
 from rigval.validation.report.run_report import write_report
 from rigval.validation.results import ValidationResult
@@ -31,8 +34,8 @@ def validate_scene(scene_path: str | Path, out_dir: str | Path) -> ValidationRes
     Returns
     -------
     ValidationResult
-        With ``passed``, ``metric_rows()``, ``outputs`` (files written), ``inputs`` (files read)
-        and ``speed_rev_s``.
+        With ``passed``, ``metric_rows()``, ``outputs`` (files written), ``inputs`` (files read),
+        ``speed_rev_s`` and ``diagnosis``.
     """
-    result = run_scene(scene_path)
+    result = attach_diagnosis(run_scene(scene_path))
     return dataclasses.replace(result, outputs=tuple(write_report(result, out_dir)))

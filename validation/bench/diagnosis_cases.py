@@ -1,0 +1,72 @@
+"""Diagnosis sweep of ``rigval bench``: what naming a model error's cause costs, against its error.
+
+The virtual rig runs the pendulum with its arm A 8 % heavier (the departure ``mass_scale A=1.08``,
+432 kg instead of 400 kg) at 1 rev/s (20 s, seed 1; ``--quick``: 10 s); the run is validated
+once with the nominal mechanism file. Choices: the attribution of every comparison
+(:func:`rigval.validation.diagnosis.explain.diagnose`, the baseline: it names A.mass among every
+cause it considers) and ``rigval identify`` told to fit A.mass and A.inertia (it is given the
+cause). The error is that of the arm's mass change against the rig's truth, relative to it
+(bound 10 %); the time is the step alone (the validation before it not included), the work
+``n`` the revolutions.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import tempfile
+from pathlib import Path
+
+from rigval.validation.bench.rows import BenchRow, measure, with_baseline
+
+__all__ = ["diagnosis_rows"]
+
+logger = logging.getLogger(__name__)
+
+#: The rig's arm mass change, kg (400 kg times 0.08).
+TRUTH_KG = 32.0
+BASELINE = "attribution of every comparison (diagnose)"
+METRIC = "relative error of the arm's mass change (A.mass, +32 kg) against the rig's truth"
+
+
+def diagnosis_rows(quick: bool) -> list[BenchRow]:
+    """Return the diagnosis rows (see the module docstring).
+
+    Parameters
+    ----------
+    quick : bool
+        A 10 s run instead of 20 s.
+
+    Returns
+    -------
+    list of BenchRow
+    """
+    from rigval.sample_data import RigSettings, simulate_rig
+    from rigval.sample_data.departures import Departures
+    from rigval.validation.diagnosis.explain import diagnose
+    from rigval.validation.identify import identify
+    from rigval.validation.pipeline import run_scene
+
+    duration = 10.0 if quick else 20.0
+    case = f"virtual rig, arm A +8 % (432 kg), 1 rev/s, {duration:g} s, 9 comparisons"
+    with tempfile.TemporaryDirectory() as tmp:
+        files = simulate_rig(Path(tmp), RigSettings(
+            speed=1.0, duration=duration, seed=1,
+            departures=Departures(mass_scale=(("A", 1.08),))))
+        result = run_scene(files.path("scene.toml"))
+        attribution = measure(lambda: diagnose(result), 3)
+        cause = attribution.value.causes["torque_F"]
+        found = cause.value if cause.cause == "A.mass" else math.nan
+        fitted = measure(lambda: identify(result.scene, ["A.mass", "A.inertia"],
+                                          result=result), 1)
+        values = dict(zip(fitted.value.names, fitted.value.value, strict=True))
+        rows = []
+        for choice, change, run in ((BASELINE, found, attribution),
+                                    ("rigval identify A.mass, A.inertia (cause given)",
+                                     values["A.mass"] - 400.0, fitted)):
+            error = float(abs(change - TRUTH_KG) / TRUTH_KG)
+            logger.info("%s: error %.3g in %.2f s", choice, error, run.time_s)
+            rows.append(BenchRow(stage="diagnosis", case=case, choice=choice, metric=METRIC,
+                                 unit="1", error=error, bound=0.1, time_s=run.time_s,
+                                 cpu_s=run.cpu_s, n=result.n_cycles))
+    return with_baseline(rows, BASELINE)

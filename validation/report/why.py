@@ -1,0 +1,155 @@
+"""The report's "Why" section: each comparison's most likely cause, its residual's orders, pairs.
+
+Written from ``result.diagnosis`` (:mod:`rigval.validation.diagnosis.explain`): the attribution
+table (cause, size with its standard uncertainty, evidence weight, the other class's best, a
+cause the data cannot tell apart), the residual's order spectrum of each comparison with a
+detected error beside what the chosen causes explain, and the ``[[symmetry]]`` pairs. The
+method: docs/diagnosis.md.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from rigval.validation.diagnosis.attribution import order_coefficients
+from rigval.validation.diagnosis.explain import Diagnosis
+from rigval.validation.report.page import Page
+from rigval.validation.results import ComparisonResult, ValidationResult
+
+__all__ = ["plot_residual_orders", "why_section"]
+
+#: Orders shown in the residual's spectrum.
+ORDERS = 20
+#: Comparisons with a detected error drawn at most.
+MAX_DRAWN = 6
+
+
+def _size(statement: Any) -> str:
+    if not statement.cause or not math.isfinite(statement.value):
+        return ""
+    return statement.phrase
+
+
+def _attribution_rows(diagnosis: Diagnosis) -> list[dict[str, Any]]:
+    return [{"comparison": name, "verdict": "detected" if s.detected else "not detected",
+             "most likely cause": s.cause or "-", "chosen": "yes" if s.significant else "no",
+             "size": _size(s), "weight": round(s.weight, 3),
+             "other class's best": s.alternative or "-",
+             "its weight": round(s.alternative_weight, 3),
+             "cannot be told from": s.confusable_with or "-"}
+            for name, s in diagnosis.causes.items()]
+
+
+def _pair_rows(diagnosis: Diagnosis) -> list[dict[str, Any]]:
+    rows = []
+    for pair in diagnosis.pairs:
+        a, b = pair.spec.comparisons
+        row: dict[str, Any] = {"pair": pair.spec.name, "channels": f"{a}, {b}",
+                               "stated calibration": f"{100 * pair.spec.u_measurement_rel:g} %"}
+        if pair.shares is not None:
+            s = pair.shares
+            row.update({f"share of {a}": s.share, "95 % low": s.lower, "95 % high": s.upper,
+                        "u scatter": s.u_scatter, "u calibration": s.u_calibration,
+                        f"{b} lags (ms)": 1e3 * s.lag_s, "u lag (ms)": 1e3 * s.u_lag_s,
+                        "beyond calibration": "yes" if s.asymmetric else "no"})
+        elif pair.bending is not None:
+            g = pair.bending
+            row.update({"axial RMS": g.axial_rms, "bending RMS": g.bending_rms,
+                        "bending / axial": g.ratio, "allowed (k u)": g.k * g.u_bending,
+                        "bending": "yes" if g.bending else "no"})
+        rows.append(row)
+    return rows
+
+
+def plot_residual_orders(comparisons: list[ComparisonResult], diagnosis: Diagnosis, *,
+                         width: float = 9.0) -> Figure:
+    """Draw each comparison's residual amplitude per order beside what the causes explain.
+
+    Parameters
+    ----------
+    comparisons : list of ComparisonResult
+        The comparisons drawn (one panel each).
+    diagnosis : Diagnosis
+        Their diagnosis (``explained``).
+    width : float
+        Figure width, inches.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Bars: ``|c_k|`` of the mean residual (measured minus model), orders 1 to
+        :data:`ORDERS`, with whiskers of twice the revolution-to-revolution standard uncertainty
+        of the mean; dots: the chosen causes' fitted contribution.
+    """
+    fig = Figure(figsize=(width, 1.9 * len(comparisons) + 0.6))
+    fig.subplots_adjust(left=0.95 / width, right=1 - 0.25 / width, hspace=0.6)
+    axes = fig.subplots(len(comparisons), 1, squeeze=False)[:, 0]
+    for ax, comparison in zip(axes, comparisons, strict=True):
+        residual = comparison.cycles - comparison.model
+        orders = min(ORDERS, comparison.angle.size // 2 - 1)
+        k = np.arange(1, orders + 1)
+        per_cycle = order_coefficients(residual, orders, False).reshape(
+            residual.shape[0], orders, 2)
+        mean = per_cycle.mean(axis=0)
+        amplitude = np.hypot(mean[:, 0], mean[:, 1])
+        spread = 2.0 * np.sqrt(per_cycle.var(axis=0, ddof=1).sum(axis=1) / residual.shape[0])
+        fitted = order_coefficients(diagnosis.explained[comparison.name], orders,
+                                    False).reshape(orders, 2)
+        ax.bar(k, amplitude, width=0.6, color="#9bb7d4", label="residual |c_k|")
+        ax.errorbar(k, amplitude, yerr=spread, fmt="none", ecolor="#333333", lw=0.8,
+                    capsize=2, label="2 u (scatter)")
+        statement = diagnosis.causes[comparison.name]
+        if np.any(fitted):
+            ax.plot(k, np.hypot(fitted[:, 0], fitted[:, 1]), "o", color="#c0392b", ms=4,
+                    label=f"explained: {statement.cause}")
+        ax.set_title(f"{comparison.name}: residual per order of the main shaft", fontsize=9,
+                     loc="left")
+        ax.set_ylabel(comparison.units, fontsize=8)
+        ax.set_xticks(k)
+        ax.tick_params(labelsize=7)
+        ax.legend(fontsize=7, frameon=False, loc="upper right")
+    axes[-1].set_xlabel("order (per revolution of the main shaft)", fontsize=8)
+    return fig
+
+
+def why_section(page: Page, result: ValidationResult) -> None:
+    """Add the "Why" section to a run's report (nothing without a diagnosis).
+
+    Parameters
+    ----------
+    page : Page
+        The report page.
+    result : ValidationResult
+        The validation, with ``diagnosis``.
+    """
+    diagnosis = result.diagnosis
+    if diagnosis is None:
+        return
+    page.section("Why")
+    page.paragraph(
+        "Each comparison's residual (measured minus model) regressed, order by order of the "
+        "main shaft, on what each candidate cause would add: a gain (calibration, a pair's "
+        "split), an offset, a time lag, each mechanism parameter (the identification "
+        "regressor) and a found mode, with the stated calibration and alignment uncertainties "
+        "as noise of known size. A cause is chosen when it explains more than chance among "
+        "all candidates would (docs/diagnosis.md).")
+    detected = [c for c in result.comparisons if diagnosis.causes[c.name].detected]
+    for comparison in detected:
+        page.paragraph(diagnosis.causes[comparison.name].sentence, css_class="bad")
+    if not detected:
+        page.paragraph("No model error detected: the candidates below are listed for the record.",
+                       css_class="ok")
+    page.table(_attribution_rows(diagnosis), caption="attribution: the most likely cause of "
+               "each comparison's residual")
+    if detected:
+        page.figure(plot_residual_orders(detected[:MAX_DRAWN], diagnosis),
+                    caption="residual per order of the main shaft, and what the chosen causes "
+                            "explain")
+    if diagnosis.pairs:
+        page.table(_pair_rows(diagnosis), caption="symmetry pairs ([[symmetry]])")
+        for pair in diagnosis.pairs:
+            page.paragraph(pair.sentence)
