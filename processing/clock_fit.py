@@ -60,6 +60,7 @@ __all__ = [
     "identity_clock",
     "input_delay",
     "ni9237_input_delay",
+    "quantisation_limit",
     "reference_event_times",
 ]
 
@@ -270,6 +271,30 @@ def _intervals95(design: FloatArray, residual: FloatArray, bound: FloatArray,
     return se, np.sqrt((quantile * se) ** 2 + worst**2)
 
 
+def quantisation_limit(dev_times: ArrayLike, fs: float) -> tuple[float, float]:
+    """Return the quantisation limit of a clock fit on sampled edges: offset (s), drift (1).
+
+    Without a model of its shape, an edge is located only within the sample interval that
+    holds its crossing, to ``h = 1 / (2 fs)``. The most such errors can move the least-squares
+    line ``t_ref = a + (1 + d) t_dev`` is ``h sum_i |w_i|`` with ``w`` the estimator's weights:
+    ``w_d,i = (t_i - tbar) / S_tt`` for the drift and ``w_a,i = 1 / n - tbar w_d,i`` for the
+    offset at device time 0 (docs/processing.md, "Edge shapes and the quantisation limit").
+
+    Parameters
+    ----------
+    dev_times : array_like
+        The fitted device events in s on the device clock (at least 2 distinct).
+    fs : float
+        The device's sampling rate in Hz.
+    """
+    t = np.asarray(dev_times, dtype=np.float64)
+    centred = t - t.mean()
+    w_drift = centred / float(centred @ centred)
+    w_offset = 1.0 / t.size - t.mean() * w_drift
+    half = 0.5 / fs
+    return half * float(np.abs(w_offset).sum()), half * float(np.abs(w_drift).sum())
+
+
 def _clock_fit(ref: FloatArray, dev: FloatArray, group: IntArray, kind: IntArray,
                bound: FloatArray) -> tuple[dict[int, float], float, FloatArray, FloatArray,
                                             FloatArray]:
@@ -339,9 +364,11 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
         Fewest matched events overall; a segment needs at least 2 of its own.
     max_residual_s : float, default 1e-3
         Largest acceptable residual rms in s.
-    timing_bound_s : float or sequence of float, default 0
+    timing_bound_s : float, array_like or sequence of them, default 0
         Bound in s of each event's time error that is not random from event to event (half a
-        sample of a sample-switched edge on either clock), per kind.
+        sample of a sample-switched edge on either clock; a first-order edge's onset bound,
+        :func:`~rigval.processing.pulses.time_edges`), per kind: one for all its events or
+        one per device event.
     clock_groups : mapping of int to int, optional
         Segment -> clock group: segments of one group share one offset (a dropout during which
         the device clock ran on). Default: each segment its own.
@@ -364,8 +391,11 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
         When no trustworthy model can be fitted (with the reason).
     """
     kinds = _event_kinds(ref_times, dev_times, dev_segment)
-    bounds = (list(timing_bound_s) if isinstance(timing_bound_s, (list, tuple))
-              else [float(timing_bound_s)] * len(kinds))
+    given = (list(timing_bound_s) if isinstance(timing_bound_s, (list, tuple))
+             else [timing_bound_s] * len(kinds))
+    # one bound per device event of each kind (a scalar is every event's)
+    bounds = [np.broadcast_to(np.asarray(b, dtype=np.float64), dev.shape)
+              for b, (_, dev, _) in zip(given, kinds, strict=True)]
     place = dict(where or {})
     all_segments = np.unique(np.concatenate([seg for _, _, seg in kinds]))
     groups = {int(s): int((clock_groups or {}).get(int(s), s)) for s in all_segments}
@@ -411,14 +441,14 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
             matches[(kind, int(s))] = dataclasses.replace(again, decided_by="neighbour")
     for key, m in list(matches.items()):
         matches[key] = without_strays(m, kinds[key[0]][0], kinds[key[0]][1][
-            kinds[key[0]][2] == key[1]], bounds[key[0]])
+            kinds[key[0]][2] == key[1]], float(bounds[key[0]].max(initial=0.0)))
     count = {int(s): 0 for s in all_segments}
     for (_, s), m in matches.items():
         count[s] += m.ref_index.size
     unaligned = sorted(s for s, n in count.items() if n < 2)
     rows = [(kinds[k][0][m.ref_index], kinds[k][1][kinds[k][2] == s][m.dev_index],
              np.full(m.ref_index.size, groups[s]), np.full(m.ref_index.size, s),
-             m.ref_index % per_revolution, np.full(m.ref_index.size, bounds[k]))
+             m.ref_index % per_revolution, bounds[k][kinds[k][2] == s][m.dev_index])
             for (k, s), m in sorted(matches.items()) if s not in unaligned]
     if not rows:
         raise AlignmentError("no segment of the device could be matched to reference events",

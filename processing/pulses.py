@@ -32,10 +32,20 @@ from scipy.special import i0
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError
 from rigval.processing.arrays import BoolArray, FloatArray, IntArray
 from rigval.processing.clock_fit import input_delay
+from rigval.processing.edge_shape import SYMMETRIC_BOUND, fit_edges
 from rigval.processing.filters import contiguous_runs
 
-__all__ = ["PulseTrain", "StreamPulses", "classify_pulses", "detect_edges", "state_levels",
-           "stream_pulses"]
+__all__ = [
+    "SYMMETRIC_BOUND",
+    "EdgeTiming",
+    "PulseTrain",
+    "StreamPulses",
+    "classify_pulses",
+    "detect_edges",
+    "state_levels",
+    "stream_pulses",
+    "time_edges",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -404,7 +414,14 @@ class StreamPulses:
     timing_bound_s : float, default 0
         Half a sample period (s) when the edges are sample-switched (the samples jump from one
         level to the other with nothing between: a digital line, or a sensor faster than the
-        sample rate), so each edge is known only to +-0.5 sample; 0 for band-limited edges.
+        sample rate), so each edge is known only to +-0.5 sample; the largest of ``bounds_s``
+        for first-order edges; 0 for band-limited edges.
+    bounds_s : numpy.ndarray, optional
+        Bound in s of each edge's error that is not random from edge to edge (first-order
+        and ambiguous edges, :func:`time_edges`); None: ``timing_bound_s`` for every edge.
+    shape : str, default ""
+        Edge shape found by :func:`time_edges`: ``"switched"``, ``"first-order"`` (times are
+        the onsets), ``"unresolved"``, ``"symmetric"`` or ``"ambiguous"``.
     """
 
     channel: str
@@ -415,11 +432,20 @@ class StreamPulses:
     missing_times: FloatArray
     delay_s: float
     timing_bound_s: float = 0.0
+    bounds_s: FloatArray | None = None
+    shape: str = ""
 
     @property
     def good(self) -> FloatArray:
         """Edge times (s) not flagged spurious."""
         return self.times[~self.spurious]
+
+    @property
+    def good_bounds(self) -> FloatArray:
+        """Bound (s) of each good edge's error that is not random from edge to edge."""
+        if self.bounds_s is None:
+            return np.full(int(np.count_nonzero(~self.spurious)), self.timing_bound_s)
+        return self.bounds_s[~self.spurious]
 
     @property
     def good_segment(self) -> IntArray:
@@ -479,12 +505,87 @@ def stream_pulses(stream: xr.Dataset, channel: str, *,
         missing.append(train.missing_times)
     if spurious.any():
         logger.info("%s: %d spurious pulses at %s s", channel, spurious.sum(), edges[spurious])
-    switched = _sample_switched(stream[channel].to_numpy(), time, edges, polarity, valid)
-    if switched:
-        logger.info("%s: edges are sample-switched, each known to +-0.5 sample", channel)
-    return StreamPulses(channel, polarity, edges - delay, edge_segment.astype(np.int64),
+    timing = time_edges(stream[channel].to_numpy(), time, edges, fs=fs, polarity=polarity,
+                        valid=valid)
+    logger.info("%s: %s edges, bounds up to %.3g s", channel, timing.shape,
+                float(timing.bounds_s.max(initial=0.0)))
+    return StreamPulses(channel, polarity, timing.times - delay, edge_segment.astype(np.int64),
                         spurious, np.concatenate(missing) - delay if missing else np.zeros(0),
-                        delay, 0.5 / fs if switched else 0.0)
+                        delay, float(timing.bounds_s.max(initial=0.0)),
+                        timing.bounds_s if timing.shape in ("first-order", "ambiguous")
+                        else None,
+                        timing.shape)
+
+
+@dataclass(frozen=True)
+class EdgeTiming:
+    """Edge times of a pulse channel with the bound of their correlated errors.
+
+    Attributes
+    ----------
+    times : numpy.ndarray
+        Edge times in s: the given crossings, or the onsets of first-order edges.
+    bounds_s : numpy.ndarray
+        Bound in s of each time's error that is not random from edge to edge.
+    shape : str
+        ``"switched"``, ``"first-order"``, ``"unresolved"``, ``"symmetric"`` or
+        ``"ambiguous"`` (:class:`~rigval.processing.edge_shape.EdgeFit`).
+    """
+
+    times: FloatArray
+    bounds_s: FloatArray
+    shape: str
+
+
+def time_edges(x: ArrayLike, time: ArrayLike, edges: ArrayLike, *, fs: float,
+               polarity: Literal["rising", "falling"] = "rising",
+               valid: ArrayLike | None = None) -> EdgeTiming:
+    """Return edge times and the bound of their correlated errors from the edges' shape.
+
+    Sample-switched edges (:func:`_sample_switched`) keep their crossings, each bounded by half a
+    sample; otherwise a first-order rise, a symmetric and a band-limited edge are fitted to the
+    samples around every edge (:func:`~rigval.processing.edge_shape.fit_edges`): when the
+    first-order rise fits clearly better, the times become its onsets with their bounds; else
+    the crossings stay, bounded by half a sample when the edge is narrower than the samples
+    resolve (``"unresolved"``) and by :data:`SYMMETRIC_BOUND` sample otherwise (band-limited or
+    symmetric edges, timed without bias by their mid crossing).
+
+    Parameters
+    ----------
+    x : array_like
+        Pulse signal samples.
+    time : array_like
+        Sample times in s.
+    edges : array_like
+        Crossing times in s (:func:`detect_edges`).
+    fs : float
+        Sampling rate in Hz.
+    polarity : {"rising", "falling"}
+        Which edges ``edges`` are.
+    valid : array_like of bool, optional
+        The stream's ``valid`` samples.
+
+    Returns
+    -------
+    EdgeTiming
+        Times, bounds in s and the shape found.
+    """
+    data = np.asarray(x, dtype=np.float64)
+    t = np.asarray(time, dtype=np.float64)
+    given = np.asarray(edges, dtype=np.float64)
+    ok = np.isfinite(data) if valid is None else np.asarray(valid, bool) & np.isfinite(data)
+    if given.size == 0 or not ok.any():
+        return EdgeTiming(given, np.zeros(given.size), "symmetric")
+    if _sample_switched(data, t, given, polarity, ok):
+        return EdgeTiming(given, np.full(given.size, 0.5 / fs), "switched")
+    low, high = state_levels(data, mask=ok)
+    if polarity == "falling":
+        data, low, high = -data, -high, -low
+    flat = ok & (np.abs(data - low) < 0.1 * (high - low))
+    quiet = data[flat]
+    noise = 1.4826 * float(np.median(np.abs(quiet - np.median(quiet)))) if quiet.size else 0.0
+    fit = fit_edges(data, t, given, fs=fs, low=low, high=high, noise=noise)
+    return EdgeTiming(fit.times, fit.bounds_s, fit.shape)
 
 
 def _sample_switched(x: FloatArray, time: FloatArray, edges: FloatArray, polarity: str,

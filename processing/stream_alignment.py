@@ -153,7 +153,7 @@ def _pulses(stream: xr.Dataset, channel: ChannelSpec) -> StreamPulses:
         low, high = threshold - band, threshold + band
     found = stream_pulses(stream, channel.name, polarity=channel.params.get("edge", "rising"),
                           low=low, high=high)
-    if found.timing_bound_s == 0.0 and channel.module:
+    if found.shape == "symmetric" and channel.module:
         try:
             kind = get_module(channel.module).kind
         except ChannelNotFoundError:
@@ -162,7 +162,7 @@ def _pulses(stream: xr.Dataset, channel: ChannelSpec) -> StreamPulses:
             # No anti-alias filter: an edge faster than the sample clock is interpolated from
             # samples that do not describe it; half a sample bounds the error.
             found = dataclasses.replace(found, timing_bound_s=0.5 / float(
-                stream.attrs["fs_nominal"]))
+                stream.attrs["fs_nominal"]), bounds_s=None)
     return found
 
 
@@ -225,7 +225,7 @@ def _fit_clock(events: np.ndarray, found: StreamPulses, coarse: CoarseOffset,
     # as few events as leave one degree of freedom (3 for one offset and a drift): the
     # Student-t interval then says how little they tell
     kwargs = {"coarse_offset_s": coarse.offset_s, "max_offset_error_s": coarse.window_s,
-              "min_events": 3, "timing_bound_s": found.timing_bound_s,
+              "min_events": 3, "timing_bound_s": found.good_bounds,
               "per_revolution": clock.per_revolution, "where": where,
               "settle_keys": (f"{key}.coarse_offset_s", f"{key}.start_time_uncertainty_s")}
     if len(set(groups.values())) < len(groups):

@@ -9,8 +9,10 @@ Public API
 ----------
 simulate_rig(out_dir, settings=None, *, truth=None) -> RunFiles
     Write one run folder.
-RigSettings(speed, duration, seed, imperfections, mechanism, truth_fs, preroll, index_reset)
-    One run; ``Imperfections`` sets the imperfection levels (``Imperfections.none()``: ideal).
+RigSettings(speed, duration, seed, imperfections, mechanism, truth_fs, preroll, index_reset,
+            faults)
+    One run; ``Imperfections`` sets the imperfection levels (``Imperfections.none()``: ideal);
+    ``faults`` a tuple of ``Fault`` (injected sensor faults, ``sample_data/faults.py``).
 load_truth(path, *, signals=True) -> RunTruth
     The truth of a run, true signals as one Dataset per stream (``signals=False``: parameters,
     clocks and drive law only).
@@ -24,10 +26,10 @@ from rigval.acquisition.lazy import lazy_exports
 
 #: The rig's names, imported on first use (numpy, xarray and the model), so that ``runs_dir``
 #: stays light.
-_LAZY = {"Imperfections": "rig", "RigSettings": "rig", "run_stem": "rig", "RunFiles": "rig",
+_LAZY = {"Fault": "faults", "Imperfections": "rig", "RigSettings": "rig", "run_stem": "rig", "RunFiles": "rig",
          "simulate_rig": "simulate", "RunTruth": "truthfile", "load_truth": "truthfile"}
 
-__all__ = ["Imperfections", "RigSettings", "RunFiles", "RunTruth", "load_truth", "run_stem",
+__all__ = ["Fault", "Imperfections", "RigSettings", "RunFiles", "RunTruth", "load_truth", "run_stem",
            "runs_dir", "shipped_runs", "simulate_rig"]
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())

@@ -28,6 +28,7 @@ import numpy as np
 from rigval.acquisition.errors import ConfigError
 from rigval.sample_data.devices import ClockSegment, DeviceClock, dropout_segments
 from rigval.sample_data.drive import DriveMotion, Harmonic, SpeedWander
+from rigval.sample_data.faults import Fault
 from rigval.sample_data.sensors import (
     ChargeAccelerometer,
     Encoder,
@@ -151,6 +152,9 @@ class RigSettings:
     index_reset : bool, default False
         True: the main-shaft counter (enc1) reloads 0 at every index pulse (NI-DAQmx Z index
         enabled); False: both counters count on from the task start.
+    faults : tuple of Fault, default ()
+        Sensor faults injected into the written channels (:mod:`rigval.sample_data.faults`);
+        their truth goes to ``faults`` in ``truth.json``.
     """
 
     speed: float = 1.0
@@ -161,6 +165,7 @@ class RigSettings:
     truth_fs: float = 1000.0
     preroll: float = 12.0
     index_reset: bool = False
+    faults: tuple[Fault, ...] = ()
 
     def check(self) -> None:
         """Raise ConfigError for settings the rig cannot run."""
@@ -173,6 +178,8 @@ class RigSettings:
         if self.seed < 0:
             raise ConfigError(f"seed must be >= 0, got {self.seed}", where={"key": "seed"})
         self.imperfections.check()
+        for fault in self.faults:
+            fault.check()
 
 
 def run_stem(speed: float) -> str:

@@ -38,6 +38,7 @@ from rigval.acquisition.json_values import json_ready
 from rigval.acquisition.outputs import write_text_atomic
 from rigval.model.mechanism import load_mechanism
 from rigval.sample_data.drive import DriveMotion, Harmonic
+from rigval.sample_data.faults import FaultInjector
 from rigval.sample_data.rig import RigDraw, RigSettings, RunFiles, draw_rig, run_stem
 from rigval.sample_data.scene_text import local_time, note_text, scene_text
 from rigval.sample_data.streams import Stream, StreamPiece, stream_pieces
@@ -311,6 +312,7 @@ def simulate_rig(out_dir: str | Path, settings: RigSettings | None = None, *,
     provider = truth or (lambda drive, t: model_truth(mechanism, drive, t))
     grid = _truth_grid(provider, draw.drive, t_grid)
     streams, pulses, pieces = stream_pieces(draw, grid, window_s=WINDOW_S)
+    injector = FaultInjector(settings.faults, streams, settings.seed)
 
     folder = Path(out_dir)
     folder.mkdir(parents=True, exist_ok=True)
@@ -320,14 +322,18 @@ def simulate_rig(out_dir: str | Path, settings: RigSettings | None = None, *,
         written: set[str] = set()
         try:
             for piece in pieces:
-                sink.write(piece, opening=piece.stream not in written)
+                sink.write(injector.apply(piece), opening=piece.stream not in written)
                 written.add(piece.stream)
         finally:
             sink.close()
         sink.write_truth(files.path("truth.npz"))
     references = _references(draw.drive)
-    write_json(files.path("truth.json"),
-               _truth_record(settings, draw, streams, pulses, files, references))
+    record = _truth_record(settings, draw, streams, pulses, files, references)
+    if settings.faults:
+        record["faults"] = injector.records()
+    else:  # a run without faults writes the truth it wrote before faults existed
+        record["settings"].pop("faults", None)
+    write_json(files.path("truth.json"), record)
     write_text_atomic(files.path("scene.toml"), scene_text(settings, draw, files, references))
     write_text_atomic(files.path("note.txt"), note_text(settings, draw, streams, files))
     logger.info("virtual rig run written to %s (%s_*)", folder, files.stem)

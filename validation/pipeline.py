@@ -73,6 +73,7 @@ from rigval.processing.angle import (
 )
 from rigval.processing.filters import zero_phase
 from rigval.processing.stream_alignment import AlignmentSettings, MainAngle, align_streams
+from rigval.validation.health import HealthLog
 from rigval.validation.metrics.compare import baseline, check_thresholds, compare
 from rigval.validation.model_run import FINE_FACTOR, grid_error, run_model
 from rigval.validation.note import read_note
@@ -150,11 +151,16 @@ def _peak_memory() -> str:
 # read
 
 
-def _read_stream(scene: Scene, plan: ReadPlan, name: str, watch: _Stopwatch
+def _read_stream(scene: Scene, plan: ReadPlan, name: str, watch: _Stopwatch, health: HealthLog
                  ) -> tuple[xr.Dataset, str, xr.Dataset | None]:
-    """Return one stream's first channels converted, its file's SHA-256 and, kept, as read."""
+    """Return one stream's first channels converted, its file's SHA-256 and, kept, as read.
+
+    The channels' health is checked on them as read (``health``).
+    """
     stream = read_first(scene, plan, name)
     check_sample_rates(scene, {name: stream})
+    with watch.stage("health"):
+        health.check(name, stream)
     with watch.stage("convert"):
         converted = convert_first(scene, plan, name, stream)
     return converted, str(stream.attrs["source_sha256"]), stream if scene.output.raw else None
@@ -167,6 +173,7 @@ class _Inputs:
     raw: Mapping[str, xr.Dataset]
     note: str | None
     digests: tuple[tuple[Path, str], ...]
+    health: HealthLog
 
 
 @dataclass(frozen=True)
@@ -186,14 +193,16 @@ def _read(scene: Scene, plan: ReadPlan, watch: _Stopwatch) -> _Read:
     converted: dict[str, xr.Dataset] = {}
     raw: dict[str, xr.Dataset] = {}
     digests: dict[Path, str] = {}
+    health = HealthLog(scene)
     for name, spec in scene.streams.items():
-        converted[name], digests[spec.file], kept = _read_stream(scene, plan, name, watch)
+        converted[name], digests[spec.file], kept = _read_stream(scene, plan, name, watch,
+                                                                 health)
         if kept is not None:
             raw[name] = kept
     inputs = tuple((path, digests.get(path) or source_checksum(path))
                    for path in scene.input_files)
     note = read_note(scene.note) if scene.note is not None else None
-    return _Read(_Inputs(raw, note, inputs), converted)
+    return _Read(_Inputs(raw, note, inputs, health), converted)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -367,7 +376,8 @@ def _angle(scene: Scene, plan: ReadPlan, modelled: _Modelled) -> _Measured:
     """
     timeline = modelled.timeline
     cycles, corners, long_names = {}, {}, {}
-    for comparison, signal in measured_signals(scene, plan, timeline.streams):
+    for comparison, signal in measured_signals(scene, plan, timeline.streams,
+                                               on_read=modelled.inputs.health.check):
         cycles[comparison.name], corners[comparison.name] = _resample(
             scene, comparison, signal, timeline.angle_times)
         long_names[comparison.name] = signal.long_name
@@ -547,7 +557,8 @@ def _result(scene: Scene, watch: _Stopwatch, measured: _Measured, numerics: _Num
         speed_rev_s=grid.speed_rev_s, n_cycles=int(grid.turns.size), tree=tree,
         mechanism=model.mechanism, note=measured.inputs.note,
         input_digests=measured.inputs.digests, configuration=model.configuration,
-        drive_law_angles=law_angles_at_reference(model.mechanism))
+        drive_law_angles=law_angles_at_reference(model.mechanism),
+        health=tuple(measured.inputs.health.findings))
 
 
 def _predicted_outputs(scene: Scene, model: xr.Dataset) -> xr.Dataset:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
@@ -218,13 +218,15 @@ def convert_first(scene: Scene, plan: ReadPlan, name: str, stream: xr.Dataset) -
     return converted
 
 
-def _add_channels(scene: Scene, name: str, aligned: xr.Dataset, channels: Iterable[str]
-                  ) -> xr.Dataset:
+def _add_channels(scene: Scene, name: str, aligned: xr.Dataset, channels: Iterable[str],
+                  on_read: Callable[[str, xr.Dataset], None] | None = None) -> xr.Dataset:
     """Read, convert and put on the reference timeline channels of an aligned stream.
 
     The samples are those of the alignment's read of the same file, so they take its
     reference times; each channel's module delay is scaled by the stream's clock drift as
     :func:`rigval.processing.clock_fit.align_stream` does.
+
+    ``on_read(name, channels as read)`` is called before the conversion (the health checks).
 
     Raises
     ------
@@ -232,7 +234,11 @@ def _add_channels(scene: Scene, name: str, aligned: xr.Dataset, channels: Iterab
         If the file holds another number of samples than when the stream was aligned.
     """
     spec = stream_part(scene.streams[name], channels)
-    part = convert_stream(load_stream(spec, checksum=False), spec)
+    read = load_stream(spec, checksum=False)
+    if on_read is not None:
+        on_read(name, read)
+    part = convert_stream(read, spec)
+    del read
     if part.sizes["time"] != aligned.sizes["time"]:
         raise DataError(f"stream {name}: {spec.file.name} gave {part.sizes['time']} samples for "
                         f"{list(spec.channels)} but {aligned.sizes['time']} when it was aligned",
@@ -288,7 +294,8 @@ class MeasuredSignal:
         return self.held.pop()
 
 
-def measured_signals(scene: Scene, plan: ReadPlan, aligned: dict[str, xr.Dataset]
+def measured_signals(scene: Scene, plan: ReadPlan, aligned: dict[str, xr.Dataset], *,
+                     on_read: Callable[[str, xr.Dataset], None] | None = None
                      ) -> Iterator[tuple[ComparisonSpec, MeasuredSignal]]:
     """Yield each comparison and its measured signal, reading and letting go as planned.
 
@@ -296,14 +303,15 @@ def measured_signals(scene: Scene, plan: ReadPlan, aligned: dict[str, xr.Dataset
     its stream, and those no later comparison needs are dropped before its signal is yielded,
     so that the consumer's filters can free their input as they make their output; after a
     stream's last comparison the stream itself is dropped. Streams come shortest first, so that
-    the longest is worked on when the others are gone.
+    the longest is worked on when the others are gone. ``on_read`` sees each stream's
+    channels as read, before their conversion (:meth:`rigval.validation.health.HealthLog.check`).
     """
     length = {name: ds.sizes["time"] for name, ds in aligned.items()}
     steps = sorted(plan.compared, key=lambda s: length[s.comparison.measured.stream])  # stable
     for step in steps:
         stream = step.comparison.measured.stream
         if step.read:
-            aligned[stream] = _add_channels(scene, stream, aligned[stream], step.read)
+            aligned[stream] = _add_channels(scene, stream, aligned[stream], step.read, on_read)
         signal = _signal(step.comparison, aligned[stream])
         if step.last:
             aligned.pop(stream)

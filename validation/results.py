@@ -17,6 +17,7 @@ import xarray as xr
 
 from rigval.model.mechanism_types import Mechanism
 from rigval.processing.alignment_summary import StreamAlignment
+from rigval.processing.health import Finding
 from rigval.validation.metrics.thresholds import ThresholdCheck
 from rigval.validation.scene_types import ComparisonSpec, Scene
 
@@ -152,6 +153,9 @@ class ValidationResult:
     outputs : tuple of pathlib.Path
         Files written (:func:`rigval.validation.run.validate.validate_scene` returns them here;
         empty from :func:`rigval.validation.pipeline.run_scene`).
+    health : tuple of rigval.processing.health.Finding
+        Sensor health findings of the channels the run read
+        (:class:`rigval.validation.health.HealthLog`).
     """
 
     scene: Scene
@@ -168,6 +172,7 @@ class ValidationResult:
     configuration: xr.Dataset | None = None
     drive_law_angles: Mapping[str, float] = field(default_factory=dict)
     outputs: tuple[Path, ...] = ()
+    health: tuple[Finding, ...] = ()
 
     @property
     def passed(self) -> bool:

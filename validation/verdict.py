@@ -19,6 +19,8 @@ from typing import Any
 
 from rigval.acquisition.errors import ConfigError
 from rigval.processing.alignment_summary import StreamAlignment
+from rigval.processing.health import Finding
+from rigval.validation.health import comparison_health
 from rigval.validation.metrics.thresholds import ThresholdCheck
 from rigval.validation.metrics.vv20 import CURVE_PARTS, common_gain, error_ratio
 from rigval.validation.results import ComparisonResult, ValidationResult
@@ -170,13 +172,17 @@ def failure_reasons(comparison: ComparisonResult) -> list[str]:
             for check in comparison.checks if not check.passed]
 
 
-def comparison_verdict(comparison: ComparisonResult) -> dict[str, Any]:
+def comparison_verdict(comparison: ComparisonResult, health: Sequence[Finding] = ()
+                       ) -> dict[str, Any]:
     """Return the V&V 20 curve verdict of one comparison as plain values.
 
     Parameters
     ----------
     comparison : ComparisonResult
         With ``vv20.curve.*`` scores.
+    health : sequence of Finding, optional
+        Sensor health findings on the comparison's channels
+        (:func:`rigval.validation.health.comparison_health`).
 
     Returns
     -------
@@ -186,7 +192,8 @@ def comparison_verdict(comparison: ComparisonResult) -> dict[str, Any]:
         common gain's ``|E| / (k u_val)``), ``units``, ``dominant`` (largest part of the curve's
         ``u_val``), ``parts`` (name -> value, signal units) and ``common_gain`` (None, or the
         comparison's ``gain``, the group's ``group_gain``, ``u_val``, ``ratio``, ``detected``
-        and ``group``).
+        and ``group``), ``health`` (the findings' verdict-line texts) and ``trusted`` (False
+        when a finding can change the verdict: clipping, a flat line, spikes, count errors).
     """
     scores = comparison.scores
     error, u_val, k = (float(scores["vv20.curve.error"]), float(scores["vv20.curve.u_val"]),
@@ -205,7 +212,8 @@ def comparison_verdict(comparison: ComparisonResult) -> dict[str, Any]:
             "E": error, "u_val": u_val, "k": k, "ratio": ratio, "units": comparison.units,
             "dominant": str(scores["vv20.curve.dominant"]),
             "parts": {part: float(scores[f"vv20.curve.{part}"]) for part in CURVE_PARTS},
-            "common_gain": gain}
+            "common_gain": gain, "health": [f.line() for f in health],
+            "trusted": all(f.trusted for f in health)}
 
 
 def run_verdict(result: ValidationResult) -> dict[str, Any]:
@@ -225,8 +233,8 @@ def run_verdict(result: ValidationResult) -> dict[str, Any]:
         :func:`comparison_verdict` each, comparisons without ``vv20.curve`` scores left out).
         The ISO rating is the similarity score beside it.
     """
-    rows = [comparison_verdict(c) for c in result.comparisons
-            if "vv20.curve.error" in c.scores]
+    rows = [comparison_verdict(c, comparison_health(c.spec, result.health))
+            for c in result.comparisons if "vv20.curve.error" in c.scores]
     if not rows:
         return {"detected": False, "statement": "V&V 20 not computed (no vv20.curve scores)",
                 "detected_on": [], "worst": None, "comparisons": []}
@@ -251,8 +259,11 @@ def _statement(rows: list[Mapping[str, Any]], detected: list[Mapping[str, Any]],
                    f"{worst['u_val']:.4g} {worst['units']}, k = {worst['k']:g}, |E|/(k u_val) = "
                    f"{error_ratio(worst['E'], worst['k'] * worst['u_val']):.2f}; largest part "
                    f"of u_val: {worst['dominant']}")
+    # a comparison whose channel has a fault that can change its verdict says so
+    faults = "".join(f"; {row['comparison']}: {line}" for row in rows if not row["trusted"]
+                     for line in row["health"])
     if detected:
         names = ", ".join(row["comparison"] for row in detected)
-        return f"Model error detected (|E| > k u_val) on {names}; worst {numbers}"
+        return f"Model error detected (|E| > k u_val) on {names}; worst {numbers}{faults}"
     return (f"Model error not detected (|E| <= k u_val) on any of {len(rows)} comparisons; "
-            f"closest {numbers}")
+            f"closest {numbers}{faults}")

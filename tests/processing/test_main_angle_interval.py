@@ -9,12 +9,14 @@ from scipy.stats import t as student_t
 from rigval.acquisition.channel_map import ChannelSpec
 from rigval.acquisition.schema import Channel, stream_dataset
 from rigval.processing import stream_alignment
+from rigval.processing.pulses import SYMMETRIC_BOUND
 
 
 def test_zero_interval_is_the_student_t_interval_of_the_pulse_jitter(synth) -> None:
     """Pulses alternately +-d s off phi_F = 2 pi k at exactly 1 rev/s: the rms scatter of the
     pulses about phi_F = 0 is d (2 pi d rad), so the half-width of the mean's 95 % interval is
-    t_0.975(n - 1) d / sqrt(n) (no module: edges are timed as sampled, no sample bound)."""
+    t_0.975(n - 1) d / sqrt(n), combined with the band-limited edges' bound (no module: no
+    half-sample bound)."""
     fs, cpr, jitter = synth.FS_REF, synth.CPR, 1e-3
     rng = np.random.default_rng(4)
     time = np.arange(0.0, 41.0, 1 / fs)
@@ -34,8 +36,10 @@ def test_zero_interval_is_the_student_t_interval_of_the_pulse_jitter(synth) -> N
                                     "opt"))
     main, found = stream_alignment._main_angle(settings, stream)
     n = found.good.size
-    assert n == revs.size and found.timing_bound_s == 0.0
-    expected = float(student_t.ppf(0.975, n - 1)) * jitter / np.sqrt(n)
+    # band-limited edges: bounded by the sinc crossing's own error (SYMMETRIC_BOUND sample)
+    bound = SYMMETRIC_BOUND / fs
+    assert n == revs.size and found.shape == "symmetric" and found.timing_bound_s == bound
+    expected = float(np.hypot(float(student_t.ppf(0.975, n - 1)) * jitter / np.sqrt(n), bound))
     # 2 %: the edges' timing error (< 0.005 sample rms, see test_pulses_align) and the
     # smoothed encoder angle's quantisation (1/8192 rev) are below 1 % of d = 5 samples
     assert main.zero_u95_s == pytest.approx(expected, rel=0.02)

@@ -1,5 +1,5 @@
-"""``rigval init``: a skeleton from the sample files validates once its TODOs are filled with the
-rig's values; a skeleton from real NI-DAQmx files parses once filled."""
+"""``rigval init``: a skeleton from the sample files passes once its TODOs are filled from the
+rig's calibration; a skeleton from real NI-DAQmx files parses once filled."""
 
 from __future__ import annotations
 

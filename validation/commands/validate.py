@@ -42,6 +42,7 @@ def print_summary(result: Any, out_dir: Path, stream: TextIO | None = None) -> N
     stream : file, optional
         Where to print; default standard output.
     """
+    from rigval.validation.health import comparison_health
     from rigval.validation.verdict import failure_reasons, run_verdict
 
     stream = stream or sys.stdout
@@ -59,9 +60,11 @@ def print_summary(result: Any, out_dir: Path, stream: TextIO | None = None) -> N
                 "not detected" if "vv20.curve.detected" in scores else "not computed")
         ratio = scores.get("vv20.curve.normalised_error", float("nan")) / scores.get(
             "vv20.curve.k", 2.0)
+        health = "".join(f"; {f.line()}"
+                         for f in comparison_health(comparison.spec, result.health))
         print(f"  {comparison.name:<{width}}  V&V 20 {vv20:<14} |E|/(k u_val) {ratio:5.2f}  "
               f"ISO rating {rating:.3f} {grade:<9}  "
-              f"NRMSE {scores.get('nrmse', float('nan')):.4f}  {verdict}", file=stream)
+              f"NRMSE {scores.get('nrmse', float('nan')):.4f}  {verdict}{health}", file=stream)
     print(f"report: {out_dir / 'report.html'}", file=stream)
     print("PASSED" if result.passed else "FAILED", file=stream)
 

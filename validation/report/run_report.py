@@ -29,6 +29,7 @@ import xarray as xr
 
 from rigval.acquisition.json_values import json_ready
 from rigval.acquisition.outputs import atomic_output, staged_folder, write_text_atomic
+from rigval.validation.health import health_dataset
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
 from rigval.validation.report import plots
@@ -81,10 +82,17 @@ def write_metrics(result: ValidationResult, out_dir: Path) -> list[Path]:
 
 
 def write_alignment(result: ValidationResult, out_dir: Path) -> Path:
-    """Write ``alignment.json`` (per stream: offset, drift, residual, events, gaps)."""
+    """Write ``alignment.json``: per stream offset, drift, residual, events, gaps, health.
+
+    ``health`` lists the sensor health findings of the stream's channels
+    (:meth:`rigval.processing.health.Finding.record`).
+    """
     path = out_dir / "alignment.json"
     document = {name: {k: json_ready(v) for k, v in a.summary().items()}
                 for name, a in result.alignment.items()}
+    for name, summary in document.items():
+        summary["health"] = [f.record() for f in result.health
+                             if f.channel.split(".")[0] == name]
     return write_text_atomic(path, json.dumps(document, indent=2) + "\n")
 
 
@@ -112,6 +120,7 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
     """
     tree = result.tree.copy()
     scene = result.scene
+    tree["health"] = xr.DataTree(health_dataset(result.health))
     # what plain xr.open_dataset shows
     tree.dataset = root_summary(result, tree, result.input_digests)
     tree.attrs.update({
@@ -249,6 +258,11 @@ def _summary(page: Page, result: ValidationResult, status: str) -> None:
                        "threshold:")
         page.items([f"{c.name}: {'; '.join(failure_reasons(c))}" for c in failed],
                    css_class="failures")
+    if result.health:
+        page.paragraph(f"Sensor health: {len(result.health)} finding"
+                       f"{'s' if len(result.health) > 1 else ''} (docs/processing.md):")
+        page.items([f.line() for f in result.health],
+                   css_class="failures" if any(not f.trusted for f in result.health) else None)
     page.facts({
         "scene": scene.path, "scene sha256": scene.sha256, "mechanism": scene.mechanism,
         "drives": _drives_text(result),

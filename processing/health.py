@@ -1,0 +1,365 @@
+"""Sensor health per channel: clipping, flat line, spikes, noise, zero drift (analog channels).
+
+Each check reads one channel of a stream (file units, before conversion) and returns
+:class:`Finding` records that say what is wrong, where (samples, times, revolutions) and
+whether the fault can change a comparison's verdict (docs/processing.md, "Sensor health"):
+
+- **clipping**: runs of 3 or more samples at the record's extreme value (a range limit: the
+  channel's ``valid_min``/``valid_max`` or ``range_min``/``range_max`` attributes, or the
+  module's input range, when it is at one);
+- **flat line**: 0.1 s or more within one quantisation step (a broken gauge or cable);
+- **spikes**: samples farther than 12 robust sigmas from the 5-sample running median;
+- **noise**: 0.25 s windows whose noise (third differences, robust) exceeds 3 times the
+  channel's floor (the 20th percentile of its windows), two windows running or more;
+- **zero drift**: the trend of the means over whole revolutions, over the record, above 2 % of
+  the signal's span and 6 standard errors.
+
+Counters (count jumps and glitches) and pulse channels (changing pulse widths) are checked by
+:mod:`rigval.processing.health_events`; :func:`rigval.processing.health_check.stream_health`
+runs every check a channel's kind calls for.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.ndimage import median_filter
+
+from rigval.processing.arrays import BoolArray, FloatArray, IntArray
+
+__all__ = ["MODULE_RANGES", "UNTRUSTED", "Finding", "analog_health", "channel_range",
+           "quantum", "runs_of"]
+
+logger = logging.getLogger(__name__)
+
+#: Input range (+-, file unit) of the modules rigval knows, for clipping at a range limit.
+MODULE_RANGES = {"NI 9237": 0.025, "NI 9215": 10.0}
+#: Faults that make a comparison on the channel untrusted (they change its values where the
+#: model is compared): the others are reported beside the verdict.
+UNTRUSTED = frozenset({"clipping", "flat line", "count jump", "count glitch", "spikes"})
+#: Longest list of sample indices (spikes, jumps) a finding keeps.
+_MAX_LISTED = 50
+#: Clipping: shortest run at the extreme and fewest clipped samples.
+_CLIP_RUN, _CLIP_MIN = 3, 6
+#: Flat line: shortest run (s and samples).
+_FLAT_S, _FLAT_MIN = 0.1, 50
+#: Spikes: running-median length and threshold in robust sigmas.
+_SPIKE_WINDOW, _SPIKE_SIGMAS = 5, 12.0
+#: Noise: window (s), threshold over the floor, floor percentile, fewest windows in a row.
+_NOISE_WINDOW_S, _NOISE_FACTOR, _NOISE_PERCENTILE, _NOISE_RUN = 0.25, 3.0, 20.0, 2
+#: Zero drift: share of the signal's span and standard errors it must exceed.
+_DRIFT_SHARE, _DRIFT_SIGMAS = 0.02, 6.0
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One health fault of one channel.
+
+    Attributes
+    ----------
+    channel : str
+        The channel (``stream.channel`` in :func:`stream_health`).
+    fault : str
+        ``"clipping"``, ``"flat line"``, ``"spikes"``, ``"noise"``, ``"zero drift"``,
+        ``"count jump"``, ``"count glitch"`` or ``"pulse width"``.
+    text : str
+        What was found, e.g. ``"3.1 % of samples clipped at 0.002 V/V"``.
+    samples : int
+        Samples affected.
+    first_sample, last_sample : int
+        First and last affected sample (index into the stream).
+    first_s, last_s : float
+        Their times in s on the stream's time axis.
+    value : float
+        The fault's size: level (clipping, flat line), largest spike, noise over its floor,
+        drift over the record, count jump (file unit, 1 or counts).
+    indices : tuple of int
+        Each spike's or jump's sample (at most 50 listed).
+    revolutions : tuple of int
+        Revolutions (pulses or counter turns from the record's start) affected.
+    """
+
+    channel: str
+    fault: str
+    text: str
+    samples: int
+    first_sample: int
+    last_sample: int
+    first_s: float
+    last_s: float
+    value: float
+    indices: tuple[int, ...] = field(default_factory=tuple)
+    revolutions: tuple[int, ...] = field(default_factory=tuple)
+
+    @property
+    def trusted(self) -> bool:
+        """Return False when the fault can change a comparison's verdict (:data:`UNTRUSTED`)."""
+        return self.fault not in UNTRUSTED
+
+    def line(self) -> str:
+        """Return the verdict line's text: ``"tor2: 3.1 % of samples clipped ...; not trusted"``."""
+        return f"{self.channel}: {self.text}" + ("" if self.trusted else "; not trusted")
+
+    def record(self) -> dict[str, Any]:
+        """Return the finding as plain JSON values (alignment.json, netCDF attributes)."""
+        return {"channel": self.channel, "fault": self.fault, "text": self.text,
+                "samples": self.samples, "first_sample": self.first_sample,
+                "last_sample": self.last_sample, "first_s": self.first_s,
+                "last_s": self.last_s, "value": self.value, "indices": list(self.indices),
+                "revolutions": list(self.revolutions), "trusted": self.trusted}
+
+
+def runs_of(mask: ArrayLike) -> tuple[IntArray, IntArray]:
+    """Return the start and stop (exclusive) index of every run of True in ``mask``."""
+    m = np.concatenate(([False], np.asarray(mask, dtype=bool), [False]))
+    change = np.flatnonzero(m[1:] != m[:-1])
+    return change[0::2], change[1::2]
+
+
+def quantum(x: FloatArray) -> float:
+    """Return the quantisation step of a recorded channel (file unit; 0 for unquantised data).
+
+    The smallest positive difference between the distinct values of up to 20,000 samples,
+    accepted when most differences between neighbouring samples are whole multiples of it.
+    """
+    part = x[np.isfinite(x)][:20_000]
+    steps = np.diff(np.unique(part))
+    steps = steps[steps > 0]
+    if steps.size == 0:
+        return 0.0
+    q = float(steps.min())
+    d = np.abs(np.diff(part))
+    whole = np.abs(d / q - np.round(d / q)) < 0.01
+    return q if np.mean(whole) > 0.9 else 0.0
+
+
+def channel_range(attrs: Mapping[str, Any], module: str | None) -> tuple[float, float] | None:
+    """Return a channel's input range (file unit) from its attributes or its module, if known."""
+    for low, high in (("valid_min", "valid_max"), ("range_min", "range_max")):
+        if low in attrs and high in attrs:
+            return float(attrs[low]), float(attrs[high])
+    if module:
+        for name, limit in MODULE_RANGES.items():
+            if name.replace("NI ", "") in module:
+                return -limit, limit
+    return None
+
+
+def _finding(channel: str, fault: str, text: str, time: FloatArray, hit: IntArray,
+             value: float, **extra: Any) -> Finding:
+    """Build a finding over the affected samples ``hit`` (sorted indices)."""
+    return Finding(channel, fault, text, int(hit.size), int(hit[0]), int(hit[-1]),
+                   float(time[hit[0]]), float(time[hit[-1]]), float(value), **extra)
+
+
+def _fmt(value: float, unit: str) -> str:
+    return f"{value:.3g} {unit}".strip()
+
+
+def _clipping(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, unit: str,
+              limits: tuple[float, float] | None, q: float) -> list[Finding]:
+    usable = x[ok]
+    hits, levels = [], []
+    for level in (float(usable.max()), float(usable.min())):
+        at = ok & (np.abs(x - level) <= 0.5 * q)
+        starts, stops = runs_of(at)
+        long = (stops - starts) >= _CLIP_RUN
+        hit = np.concatenate([np.arange(a, b) for a, b in zip(starts[long], stops[long],
+                                                               strict=True)] or [[]])
+        if hit.size >= _CLIP_MIN:
+            hits.append(hit.astype(np.int64))
+            levels.append(level)
+    if not hits:
+        return []
+    hit = np.sort(np.concatenate(hits))
+    limit = ""
+    if limits is not None and all(min(abs(level - lim) for lim in limits) <= 0.01 * (
+            limits[1] - limits[0]) for level in levels):
+        limit = " (the range limit)"
+    where = " and ".join(_fmt(level, unit) for level in levels)
+    share = 100.0 * hit.size / max(int(ok.sum()), 1)
+    return [_finding(channel, "clipping",
+                     f"{share:.2g} % of samples clipped at {where}{limit}, "
+                     f"{time[hit[0]]:.3f}-{time[hit[-1]]:.3f} s", time, hit,
+                     max(levels, key=abs))]
+
+
+def _flat(x: FloatArray, ok: BoolArray, time: FloatArray, fs: float, channel: str, unit: str,
+          q: float, clipped: BoolArray) -> list[Finding]:
+    still = ok[1:] & ok[:-1] & (np.abs(np.diff(x)) <= q)
+    starts, stops = runs_of(still)
+    shortest = max(int(_FLAT_S * fs), _FLAT_MIN)
+    out = []
+    for a, b in zip(starts, stops + 1, strict=True):  # b: one past the run's last sample
+        if b - a < shortest or clipped[a:b].mean() > 0.5:
+            continue
+        hit = np.arange(a, b)
+        out.append(_finding(channel, "flat line",
+                            f"flat at {_fmt(float(x[a]), unit)} for {(b - a) / fs:.3g} s "
+                            f"({b - a} samples from {time[a]:.3f} s)", time, hit, float(x[a])))
+    return out
+
+
+def _spikes(x: FloatArray, ok: BoolArray, time: FloatArray, fs: float, channel: str,
+            unit: str, q: float) -> list[Finding]:
+    filled = np.where(ok, x, np.nan)
+    base = np.full(x.size, np.nan)
+    for a, b in zip(*runs_of(ok), strict=True):  # each stretch of neighbouring samples alone
+        base[a:b] = median_filter(x[a:b], size=_SPIKE_WINDOW, mode="nearest")
+    residual = filled - base
+    # the scale is the noise (third differences): a median's residual is 0 on any monotone
+    # stretch, so its own spread says nothing
+    # per noise window, so that a noisy stretch is not taken for spikes
+    width = max(int(_NOISE_WINDOW_S * fs), 20)
+    noise, _ = _window_noise(x, ok, width)
+    if not np.isfinite(noise).any():
+        return []
+    noise = np.where(np.isfinite(noise), noise, np.nanmax(noise))
+    # the loudest of each window and its neighbours: a noisy stretch starts inside a window
+    noise = np.maximum(noise, np.maximum(np.r_[noise[1:], noise[-1]], np.r_[noise[0], noise[:-1]]))
+    local = np.repeat(noise, width)
+    local = np.concatenate((local, np.full(max(x.size - local.size, 0), local[-1])))[:x.size]
+    threshold = np.maximum(_SPIKE_SIGMAS * local, 4.0 * q)
+    with np.errstate(invalid="ignore"):
+        hit = np.flatnonzero((np.abs(residual) > threshold) & (threshold > 0))
+    if hit.size == 0:
+        return []
+    worst = float(residual[hit][np.argmax(np.abs(residual[hit]))])
+    return [_finding(channel, "spikes",
+                     f"{hit.size} spikes up to {_fmt(worst, unit)} ({hit.size} samples, first at "
+                     f"{time[hit[0]]:.3f} s)", time, hit, worst,
+                     indices=tuple(int(i) for i in hit[:_MAX_LISTED]))]
+
+
+def _window_noise(x: FloatArray, ok: BoolArray, width: int) -> tuple[FloatArray, IntArray]:
+    """Robust noise rms per window from third differences (white noise: var = 20 sigma^2)."""
+    d3 = np.diff(x, 3)
+    use = ok[3:] & ok[2:-1] & ok[1:-2] & ok[:-3]
+    starts = np.arange(0, d3.size - width + 1, width)
+    noise = np.full(starts.size, np.nan)
+    for n, a in enumerate(starts):
+        part = d3[a:a + width][use[a:a + width]]
+        if part.size >= width // 2:
+            noise[n] = 1.4826 * float(np.median(np.abs(part - np.median(part)))) / np.sqrt(20.0)
+    return noise, starts
+
+
+def _noise(x: FloatArray, ok: BoolArray, time: FloatArray, fs: float, channel: str,
+           unit: str, q: float) -> list[Finding]:
+    width = max(int(_NOISE_WINDOW_S * fs), 20)
+    noise, starts = _window_noise(x, ok, width)
+    finite = noise[np.isfinite(noise)]
+    if finite.size < 4:
+        return []
+    floor = max(float(np.percentile(finite, _NOISE_PERCENTILE)), q / np.sqrt(12.0), 1e-300)
+    loud = np.nan_to_num(noise, nan=0.0) > _NOISE_FACTOR * floor
+    out = []
+    for a, b in zip(*runs_of(loud), strict=True):
+        if b - a < _NOISE_RUN:
+            continue
+        hit = np.arange(starts[a], min(starts[b - 1] + width + 3, x.size))
+        ratio = float(np.nanmedian(noise[a:b]) / floor)
+        out.append(_finding(channel, "noise",
+                            f"noise {ratio:.3g} times the channel's floor "
+                            f"({_fmt(floor, unit)} rms) from {time[hit[0]]:.3f} to "
+                            f"{time[hit[-1]]:.3f} s", time, hit, ratio))
+    return out
+
+
+def _zero_drift(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, unit: str,
+                period_samples: float | None, segment: ArrayLike | None) -> list[Finding]:
+    if not period_samples or period_samples < 4:
+        return []
+    block = round(period_samples)
+    count = x.size // block
+    if count < 4:
+        return []
+    values = np.where(ok, x, np.nan)[:count * block].reshape(count, block)
+    full = np.mean(np.isfinite(values), axis=1) > 0.95
+    if segment is not None:  # a revolution across a gap is no whole revolution
+        seg = np.asarray(segment)[:count * block].reshape(count, block)
+        full &= seg.min(axis=1) == seg.max(axis=1)
+    if full.sum() < 4:
+        return []
+    means = np.nanmean(values[full], axis=1)
+    centres = (np.flatnonzero(full) + 0.5) * block / 1.0
+    t = np.interp(centres, np.arange(time.size), time)
+    slope, intercept = np.polyfit(t - t.mean(), means, 1)
+    residual = means - (intercept + slope * (t - t.mean()))
+    span_t = float(time[np.flatnonzero(ok)[-1]] - time[np.flatnonzero(ok)[0]])
+    drift = float(slope) * span_t
+    scale = 1.4826 * float(np.median(np.abs(residual)))  # robust: a revolution may be odd
+    se = scale / float(np.sqrt(np.sum((t - t.mean()) ** 2))) * span_t
+    usable = x[ok]
+    span = float(np.percentile(usable, 99.5) - np.percentile(usable, 0.5))
+    if abs(drift) <= max(_DRIFT_SHARE * span, _DRIFT_SIGMAS * se):
+        return []
+    hit = np.flatnonzero(ok)
+    return [_finding(channel, "zero drift",
+                     f"zero drift {_fmt(drift, unit)} over {span_t:.3g} s "
+                     f"({100.0 * abs(drift) / max(span, 1e-300):.2g} % of the signal's span)",
+                     time, hit, drift)]
+
+
+def analog_health(x: ArrayLike, time: ArrayLike, *, channel: str, fs: float, unit: str = "",
+                  valid: ArrayLike | None = None, segment: ArrayLike | None = None,
+                  limits: tuple[float, float] | None = None,
+                  period_samples: float | None = None) -> list[Finding]:
+    """Return the health findings of one analog channel.
+
+    Parameters
+    ----------
+    x : array_like
+        Samples in the file's unit.
+    time : array_like
+        Sample times in s.
+    channel : str
+        Name used in the findings.
+    fs : float
+        Sampling rate in Hz.
+    unit : str, optional
+        The samples' unit, for the texts.
+    valid : array_like of bool, optional
+        Usable samples (the stream's ``valid``).
+    segment : array_like of int, optional
+        Gap-free segment of each sample: spikes and noise are not judged across a gap.
+    limits : (float, float), optional
+        The channel's input range (:func:`channel_range`).
+    period_samples : float, optional
+        Samples per revolution: the zero drift is judged on whole revolutions (no drift check
+        without it).
+
+    Returns
+    -------
+    list of Finding
+        Clipping, flat line, spikes, noise and zero drift findings, in that order.
+    """
+    data = np.asarray(x, dtype=np.float64)
+    t = np.asarray(time, dtype=np.float64)
+    ok = np.isfinite(data) if valid is None else np.asarray(valid, bool) & np.isfinite(data)
+    if ok.sum() < 20:
+        return []
+    q = quantum(data[ok])
+    clipping = _clipping(data, ok, t, channel, unit, limits, q)
+    clipped = np.zeros(data.size, dtype=bool)
+    for found in clipping:
+        clipped[found.first_sample:found.last_sample + 1] = True
+    findings = [*clipping, *_flat(data, ok, t, fs, channel, unit, q, clipped)]
+    stuck = clipped.copy()
+    for found in findings:
+        stuck[found.first_sample:found.last_sample + 1] = True
+    moving = ok & ~stuck
+    if segment is not None:  # the samples on either side of a gap are not neighbours
+        seg = np.asarray(segment)
+        for b in np.flatnonzero(seg[1:] != seg[:-1]) + 1:
+            moving[max(b - 3, 0):b + 3] = False
+    findings += _spikes(data, moving, t, fs, channel, unit, q)
+    findings += _noise(data, moving, t, fs, channel, unit, q)
+    findings += _zero_drift(data, moving, t, channel, unit, period_samples, segment)
+    return findings
+

@@ -1,0 +1,234 @@
+"""Sensor health of counters and pulse channels: count jumps and glitches, changing pulse widths.
+
+- **count jump**: a step between two samples that departs from the local count rate (the median
+  step over 101 samples) by more than 8 counts and 10 robust sigmas of the steps, not undone by
+  the next step (counts lost or gained: the angle is off from there on);
+- **count glitch**: such a step undone within 3 samples (an electrical glitch);
+- **pulse width**: the pulses' mark widths (less a pattern repeating every 2, 3 or 4 pulses
+  when that leaves clearly less scatter), split where two constant widths fit best (least
+  absolute deviations); reported when the medians before and after differ by more than 5 % and
+  8 robust sigmas.
+
+Findings are :class:`~rigval.processing.health.Finding` records (docs/processing.md, "Sensor
+health").
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.ndimage import median_filter
+
+from rigval.acquisition.errors import DataError
+from rigval.processing.arrays import FloatArray, IntArray
+from rigval.processing.encoder import remove_index_resets, unwrap_counts
+from rigval.processing.health import Finding
+from rigval.processing.pulses import detect_edges
+
+__all__ = ["counter_health", "pulse_health"]
+
+logger = logging.getLogger(__name__)
+
+#: Count anomalies: running-median length (samples), least departure (counts), robust sigmas,
+#: and how many samples later a glitch is undone at most.
+_RATE_WINDOW, _JUMP_COUNTS, _JUMP_SIGMAS, _GLITCH_SAMPLES = 101, 8.0, 10.0, 3
+#: Pulse widths: least relative change, robust sigmas, fewest pulses on each side.
+_WIDTH_SHARE, _WIDTH_SIGMAS, _WIDTH_SIDE = 0.05, 8.0, 3
+
+
+def _running_median(x: FloatArray, width: int) -> FloatArray:
+    """Median of ``width`` samples around each sample (the ends repeated)."""
+    return median_filter(x, size=width, mode="nearest")
+
+
+def _without_pattern(relative: FloatArray, turn: IntArray, part: IntArray, repeat: int,
+                     split: int) -> FloatArray:
+    """Return relative widths less the pattern that repeats every ``repeat`` turns.
+
+    A shaft whose speed varies within the revolution of another (the lifting shaft turning
+    twice per main revolution) gives pulse widths that alternate; each pulse's class is its
+    whole period count modulo the repeat (a missing pulse keeps the count) within its gap-free
+    ``part`` (a restart's new time stamp may not keep the count across a gap). A class's
+    pattern is its median's offset from the centre of its side of ``split`` (the mean of the
+    class medians there), averaged over both sides: a step at ``split`` is not absorbed, and a
+    wrong split makes no step.
+    """
+    after = np.arange(relative.size) >= split
+    less = relative.copy()
+    classes = part * repeat + turn % repeat
+    sides = [side for side in (~after, after) if side.any()]
+    # each side's centre: the mean of its classes' medians (a median of alternating widths
+    # would jump between the two kinds)
+    medians = {(c, n): float(np.median(relative[(classes == c) & side]))
+               for c in np.unique(classes) for n, side in enumerate(sides)
+               if ((classes == c) & side).any()}
+    centre = [np.mean([m for (_, n), m in medians.items() if n == k]) for k in range(len(sides))]
+    for c in np.unique(classes):
+        # the class's offset from the centre of its side, averaged over the sides it is on
+        less[classes == c] -= np.mean([m - centre[n] for (k, n), m in medians.items()
+                                       if k == c])
+    return less
+
+
+def _step(d: FloatArray) -> tuple[int, float, float]:
+    """Return where two constant levels fit ``d`` best, the step between them and its error.
+
+    The split minimises the absolute deviations from each side's median (a pulse put on the
+    wrong side costs its whole difference); the step is the difference of the medians, its
+    standard error from the robust scatter about them.
+    """
+    splits = np.arange(_WIDTH_SIDE, d.size - _WIDTH_SIDE + 1)
+    cost = [np.abs(d[:k] - np.median(d[:k])).sum() + np.abs(d[k:] - np.median(d[k:])).sum()
+            for k in splits]
+    k = int(splits[int(np.argmin(cost))])
+    before, after = d[:k], d[k:]
+    sigma = 1.4826 * float(np.median(np.abs(np.concatenate(
+        (before - np.median(before), after - np.median(after))))))
+    return k, float(np.median(after) - np.median(before)), sigma * np.sqrt(
+        1.0 / before.size + 1.0 / after.size)
+
+
+def counter_health(counts: ArrayLike, time: ArrayLike, *, channel: str,
+                   counts_per_rev: float | None = None, valid: ArrayLike | None = None
+                   ) -> list[Finding]:
+    """Return count-jump and count-glitch findings of an encoder counter.
+
+    Parameters
+    ----------
+    counts : array_like
+        Counter values as recorded (32-bit wraps and index reloads are removed first).
+    time : array_like
+        Sample times in s.
+    channel : str
+        Name used in the findings.
+    counts_per_rev : float, optional
+        Counts per revolution (removes index reloads; revolutions of the findings).
+    valid : array_like of bool, optional
+        Usable samples.
+
+    Returns
+    -------
+    list of Finding
+        One ``"count jump"`` and one ``"count glitch"`` finding at most, each listing its
+        samples and revolutions.
+    """
+    raw = np.asarray(counts)
+    t = np.asarray(time, dtype=np.float64)
+    ok = np.ones(raw.size, bool) if valid is None else np.asarray(valid, dtype=bool)
+    if ok.sum() < _RATE_WINDOW:
+        return []
+    cumulative = unwrap_counts(np.where(ok, raw, 0).astype(np.int64))
+    if counts_per_rev:
+        cumulative, _ = remove_index_resets(cumulative, counts_per_rev)
+    step = np.diff(cumulative).astype(np.float64)
+    usable = ok[1:] & ok[:-1]
+    rate = _running_median(np.where(usable, step, np.nan_to_num(np.median(step[usable]))),
+                           _RATE_WINDOW)
+    departure = np.where(usable, step - rate, 0.0)
+    spread = 1.4826 * float(np.median(np.abs(departure[usable])))
+    threshold = max(_JUMP_COUNTS, _JUMP_SIGMAS * spread)
+    odd = np.flatnonzero(np.abs(departure) > threshold)
+    glitches, jumps = [], []
+    used: set[int] = set()
+    for k in odd:
+        if k in used:
+            continue
+        later = odd[(odd > k) & (odd <= k + _GLITCH_SAMPLES)]
+        undone = [j for j in later if abs(departure[k] + departure[j]) <= threshold]
+        if undone:
+            glitches.append((int(k) + 1, float(departure[k])))
+            used.update((int(k), int(undone[0])))
+        else:
+            jumps.append((int(k) + 1, float(departure[k])))
+            used.add(int(k))
+    turn = (cumulative - cumulative[0]) / counts_per_rev if counts_per_rev else None
+    out = []
+    for fault, found in (("count jump", jumps), ("count glitch", glitches)):
+        if not found:
+            continue
+        where = np.array([i for i, _ in found], dtype=np.int64)
+        sizes = [round(s) for _, s in found]
+        revs = (tuple(int(np.floor(turn[i])) for i in where[:50]) if turn is not None else ())
+        listed = ", ".join(f"{s:+d} counts at {t[i]:.3f} s" for i, s in found[:3]
+                           for s in [round(s)])
+        more = f" and {len(found) - 3} more" if len(found) > 3 else ""
+        out.append(Finding(channel, fault, f"{len(found)} {fault}{'s' if len(found) > 1 else ''}"
+                                           f": {listed}{more}", where.size, int(where[0]),
+                           int(where[-1]), float(t[where[0]]), float(t[where[-1]]),
+                           float(sizes[0]), tuple(int(i) for i in where[:50]), revs))
+    return out
+
+
+def pulse_health(x: ArrayLike, time: ArrayLike, *, channel: str,
+                 valid: ArrayLike | None = None, segment: ArrayLike | None = None
+                 ) -> list[Finding]:
+    """Return a ``"pulse width"`` finding when the pulses' mark width changes.
+
+    Parameters
+    ----------
+    x : array_like
+        Pulse channel samples (rising edge first; a high pulse on a low level).
+    time : array_like
+        Sample times in s.
+    channel : str
+        Name used in the findings.
+    valid, segment : array_like, optional
+        The stream's ``valid`` and ``segment`` (no edge across a gap).
+
+    Returns
+    -------
+    list of Finding
+        At most one finding: the pulses after the change (their indices as revolutions).
+    """
+    t = np.asarray(time, dtype=np.float64)
+    try:
+        rises = detect_edges(x, t, polarity="rising", valid=valid, segment=segment)
+        falls = detect_edges(x, t, polarity="falling", valid=valid, segment=segment)
+    except DataError as error:  # a channel without two levels has no pulses
+        logger.info("%s: no pulses to check (%s)", channel, error)
+        return []
+    if rises.size < 2 * _WIDTH_SIDE + 1:
+        return []
+    period = float(np.median(np.diff(rises)))
+    nxt = np.searchsorted(falls, rises)
+    has = nxt < falls.size
+    width = np.full(rises.size, np.nan)
+    width[has] = falls[nxt[has]] - rises[has]
+    # pulses off the grid of whole periods (spurious ones) are left out; a missing pulse
+    # keeps the count of periods
+    turns = (rises - rises[0]) / period
+    # the grid's phase is that of most pulses (the first one may be spurious)
+    angle = 2 * np.pi * turns
+    turns -= float(np.angle(np.mean(np.exp(1j * angle)))) / (2 * np.pi)
+    on_grid = np.abs(turns - np.round(turns)) < 0.2
+    width[(width <= 0) | (width >= 0.9 * period) | ~on_grid] = np.nan
+    good = np.flatnonzero(np.isfinite(width))
+    if good.size < 2 * _WIDTH_SIDE + 1:
+        return []
+    turn = np.round(turns[good]).astype(np.int64)
+    part = (np.zeros(good.size, dtype=np.int64) if segment is None else np.asarray(segment)[
+        np.clip(np.searchsorted(t, rises[good]), 0, t.size - 1)].astype(np.int64))
+    relative = width[good] / np.median(width[good])
+    split, _, _ = _step(relative)
+    # a pattern repeating every 2-4 pulses is taken out when it leaves clearly less scatter
+    chosen, scatter = relative, np.inf
+    for repeat in range(1, 5):
+        less = _without_pattern(relative, turn, part, repeat, split)
+        k, jump, _ = _step(less)
+        spread = float(np.median(np.abs(less - np.where(np.arange(less.size) < k, np.median(
+            less[:k]), np.median(less[k:])))))
+        if spread < 0.7 * scatter:
+            chosen, scatter = less, spread
+    k, jump, se = _step(chosen)
+    if abs(jump) <= max(_WIDTH_SHARE, _WIDTH_SIGMAS * se):
+        return []
+    pulses = good[k:]
+    first, last = np.searchsorted(t, rises[pulses[0]]), np.searchsorted(t, rises[pulses[-1]])
+    return [Finding(channel, "pulse width",
+                    f"pulse width changes by {100.0 * jump:+.3g} % from pulse "
+                    f"{int(pulses[0])} ({rises[pulses[0]]:.3f} s) on: {pulses.size} of "
+                    f"{rises.size} pulses", int(pulses.size), int(first), int(last),
+                    float(rises[pulses[0]]), float(rises[pulses[-1]]), jump,
+                    revolutions=tuple(int(p) for p in pulses[:50]))]
