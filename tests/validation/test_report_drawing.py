@@ -12,12 +12,10 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from rigval.validation.beside import can_fork
 from rigval.validation.report import drawing
 from rigval.validation.report.page import Page, svg_text
 
-needs_fork = pytest.mark.skipif(not can_fork(),
-                                reason="no fork here, or one CPU: everything is drawn here")
+needs_fork = pytest.mark.usefixtures("forks_beside")
 
 
 def _curves(seed: int, count: int):
