@@ -50,6 +50,8 @@ _CLIP_RUN, _CLIP_MIN = 3, 6
 _FLAT_S, _FLAT_MIN = 0.1, 50
 #: Spikes: running-median length and threshold in robust sigmas.
 _SPIKE_WINDOW, _SPIKE_SIGMAS = 5, 12.0
+#: Samples the spike search takes at a time (bounds its working arrays: 8 MiB of float64).
+_BLOCK = 1 << 20
 #: Noise: window (s), threshold over the floor, floor percentile, fewest windows in a row.
 _NOISE_WINDOW_S, _NOISE_FACTOR, _NOISE_PERCENTILE, _NOISE_RUN = 0.25, 3.0, 20.0, 2
 #: Zero drift: share of the signal's span and standard errors it must exceed.
@@ -163,9 +165,9 @@ def _fmt(value: float, unit: str) -> str:
 
 def _clipping(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, unit: str,
               limits: tuple[float, float] | None, q: float) -> list[Finding]:
-    usable = x[ok]
     hits, levels = [], []
-    for level in (float(usable.max()), float(usable.min())):
+    for level in (float(np.max(x, where=ok, initial=-np.inf)),
+                  float(np.min(x, where=ok, initial=np.inf))):
         at = ok & (np.abs(x - level) <= 0.5 * q)
         starts, stops = runs_of(at)
         long = (stops - starts) >= _CLIP_RUN
@@ -207,11 +209,6 @@ def _flat(x: FloatArray, ok: BoolArray, time: FloatArray, fs: float, channel: st
 
 def _spikes(x: FloatArray, ok: BoolArray, time: FloatArray, fs: float, channel: str,
             unit: str, q: float) -> list[Finding]:
-    filled = np.where(ok, x, np.nan)
-    base = np.full(x.size, np.nan)
-    for a, b in zip(*runs_of(ok), strict=True):  # each stretch of neighbouring samples alone
-        base[a:b] = median_filter(x[a:b], size=_SPIKE_WINDOW, mode="nearest")
-    residual = filled - base
     # the scale is the noise (third differences): a median's residual is 0 on any monotone
     # stretch, so its own spread says nothing
     # per noise window, so that a noisy stretch is not taken for spikes
@@ -222,18 +219,43 @@ def _spikes(x: FloatArray, ok: BoolArray, time: FloatArray, fs: float, channel: 
     noise = np.where(np.isfinite(noise), noise, np.nanmax(noise))
     # the loudest of each window and its neighbours: a noisy stretch starts inside a window
     noise = np.maximum(noise, np.maximum(np.r_[noise[1:], noise[-1]], np.r_[noise[0], noise[:-1]]))
-    local = np.repeat(noise, width)
-    local = np.concatenate((local, np.full(max(x.size - local.size, 0), local[-1])))[:x.size]
-    threshold = np.maximum(_SPIKE_SIGMAS * local, 4.0 * q)
-    with np.errstate(invalid="ignore"):
-        hit = np.flatnonzero((np.abs(residual) > threshold) & (threshold > 0))
+    hits = [_block_spikes(x, lo, hi, a, b, noise, width, q)
+            for a, b in zip(*runs_of(ok), strict=True)  # each stretch of neighbours alone
+            for lo, hi in _blocks(a, b)]
+    hit = np.concatenate([h for h, _ in hits] or [np.zeros(0, np.int64)])
     if hit.size == 0:
         return []
-    worst = float(residual[hit][np.argmax(np.abs(residual[hit]))])
+    worst = max((w for h, w in hits if h.size), key=abs)
     return [_finding(channel, "spikes",
                      f"{hit.size} spikes up to {_fmt(worst, unit)} ({hit.size} samples, first at "
                      f"{time[hit[0]]:.3f} s)", time, hit, worst,
                      indices=tuple(int(i) for i in hit[:_MAX_LISTED]))]
+
+
+def _blocks(a: int, b: int) -> list[tuple[int, int]]:
+    """Split samples ``a ... b - 1`` into blocks of at most ``_BLOCK`` samples."""
+    return [(lo, min(lo + _BLOCK, b)) for lo in range(a, b, _BLOCK)]
+
+
+def _block_spikes(x: FloatArray, lo: int, hi: int, a: int, b: int, noise: FloatArray,
+                  width: int, q: float) -> tuple[IntArray, float]:
+    """Return the spikes among samples ``lo ... hi - 1`` of the stretch ``a ... b - 1``.
+
+    The running median sees the block with half its window of neighbours on either side (as
+    far as the stretch goes), so the block's values equal those of the whole stretch's median;
+    the threshold is ``_SPIKE_SIGMAS`` times the noise of the sample's window. Returns the
+    spikes' indices and the largest residual (0 without spikes).
+    """
+    half = _SPIKE_WINDOW // 2
+    start, stop = max(lo - half, a), min(hi + half, b)
+    base = median_filter(x[start:stop], size=_SPIKE_WINDOW, mode="nearest")[lo - start:hi - start]
+    residual = x[lo:hi] - base
+    local = noise[np.minimum(np.arange(lo, hi) // width, noise.size - 1)]
+    threshold = np.maximum(_SPIKE_SIGMAS * local, 4.0 * q)
+    at = np.flatnonzero((np.abs(residual) > threshold) & (threshold > 0))
+    if at.size == 0:
+        return at.astype(np.int64), 0.0
+    return (at + lo).astype(np.int64), float(residual[at][np.argmax(np.abs(residual[at]))])
 
 
 def _window_noise(x: FloatArray, ok: BoolArray, width: int) -> tuple[FloatArray, IntArray]:
@@ -279,14 +301,14 @@ def _zero_drift(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, un
     count = x.size // block
     if count < 4:
         return []
-    values = np.where(ok, x, np.nan)[:count * block].reshape(count, block)
-    full = np.mean(np.isfinite(values), axis=1) > 0.95
+    sums, counts = _revolution_sums(x, ok, block, count)
+    full = counts / block > 0.95
     if segment is not None:  # a revolution across a gap is no whole revolution
         seg = np.asarray(segment)[:count * block].reshape(count, block)
         full &= seg.min(axis=1) == seg.max(axis=1)
     if full.sum() < 4:
         return []
-    means = np.nanmean(values[full], axis=1)
+    means = sums[full] / counts[full]
     centres = (np.flatnonzero(full) + 0.5) * block / 1.0
     t = np.interp(centres, np.arange(time.size), time)
     slope, intercept = np.polyfit(t - t.mean(), means, 1)
@@ -295,8 +317,8 @@ def _zero_drift(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, un
     drift = float(slope) * span_t
     scale = 1.4826 * float(np.median(np.abs(residual)))  # robust: a revolution may be odd
     se = scale / float(np.sqrt(np.sum((t - t.mean()) ** 2))) * span_t
-    usable = x[ok]
-    span = float(np.percentile(usable, 99.5) - np.percentile(usable, 0.5))
+    low, high = np.percentile(x[ok], [0.5, 99.5])
+    span = float(high - low)
     if abs(drift) <= max(_DRIFT_SHARE * span, _DRIFT_SIGMAS * se):
         return []
     hit = np.flatnonzero(ok)
@@ -304,6 +326,21 @@ def _zero_drift(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, un
                      f"zero drift {_fmt(drift, unit)} over {span_t:.3g} s "
                      f"({100.0 * abs(drift) / max(span, 1e-300):.2g} % of the signal's span)",
                      time, hit, drift)]
+
+
+def _revolution_sums(x: FloatArray, ok: BoolArray, block: int, count: int
+                     ) -> tuple[FloatArray, IntArray]:
+    """Return the sum and the number of the usable samples of each of ``count`` revolutions.
+
+    Revolution ``k`` is samples ``k * block ... (k + 1) * block - 1``; worked a few revolutions
+    at a time, so that no copy of the whole channel is made.
+    """
+    rows = max(_BLOCK // block, 1)
+    values = x[:count * block].reshape(count, block)
+    usable = ok[:count * block].reshape(count, block)
+    sums = np.concatenate([np.where(usable[k:k + rows], values[k:k + rows], 0.0).sum(axis=1)
+                           for k in range(0, count, rows)])
+    return sums, usable.sum(axis=1)
 
 
 def analog_health(x: ArrayLike, time: ArrayLike, *, channel: str, fs: float, unit: str = "",

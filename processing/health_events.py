@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike
 from scipy.ndimage import median_filter
 
 from rigval.acquisition.errors import DataError
-from rigval.processing.arrays import FloatArray, IntArray
+from rigval.processing.arrays import BoolArray, FloatArray, IntArray
 from rigval.processing.encoder import remove_index_resets, unwrap_counts
 from rigval.processing.health import Finding
 from rigval.processing.pulses import detect_edges
@@ -34,6 +34,8 @@ logger = logging.getLogger(__name__)
 #: Count anomalies: running-median length (samples), least departure (counts), robust sigmas,
 #: and how many samples later a glitch is undone at most.
 _RATE_WINDOW, _JUMP_COUNTS, _JUMP_SIGMAS, _GLITCH_SAMPLES = 101, 8.0, 10.0, 3
+#: Count steps the running rate takes at a time (bounds its working arrays).
+_BLOCK = 1 << 20
 #: Pulse widths: least relative change, robust sigmas, fewest pulses on each side.
 _WIDTH_SHARE, _WIDTH_SIGMAS, _WIDTH_SIDE = 0.05, 8.0, 3
 
@@ -41,6 +43,31 @@ _WIDTH_SHARE, _WIDTH_SIGMAS, _WIDTH_SIDE = 0.05, 8.0, 3
 def _running_median(x: FloatArray, width: int) -> FloatArray:
     """Median of ``width`` samples around each sample (the ends repeated)."""
     return median_filter(x, size=width, mode="nearest")
+
+
+def _plural(noun: str, count: int) -> str:
+    """Return the ending of ``noun`` for ``count`` ("es" after a sibilant)."""
+    if count == 1:
+        return ""
+    return "es" if noun.endswith(("ch", "sh", "s", "x")) else "s"
+
+
+def _rate_departure(step: IntArray, usable: BoolArray, typical: float) -> FloatArray:
+    """Return each count step minus the running median rate around it (0 where not usable).
+
+    Unusable steps enter the median as ``typical``. Worked in blocks of ``_BLOCK`` steps, each
+    with half the median's window of neighbours on either side, so the values equal those of
+    one median over the whole record without its full-length temporaries.
+    """
+    half = _RATE_WINDOW // 2
+    departure = np.zeros(step.size)
+    for lo in range(0, step.size, _BLOCK):
+        hi = min(lo + _BLOCK, step.size)
+        start, stop = max(lo - half, 0), min(hi + half, step.size)
+        filled = np.where(usable[start:stop], step[start:stop], typical)
+        rate = _running_median(filled, _RATE_WINDOW)[lo - start:hi - start]
+        departure[lo:hi] = np.where(usable[lo:hi], step[lo:hi] - rate, 0.0)
+    return departure
 
 
 def _without_pattern(relative: FloatArray, turn: IntArray, part: IntArray, repeat: int,
@@ -122,11 +149,9 @@ def counter_health(counts: ArrayLike, time: ArrayLike, *, channel: str,
     cumulative = unwrap_counts(np.where(ok, raw, 0).astype(np.int64))
     if counts_per_rev:
         cumulative, _ = remove_index_resets(cumulative, counts_per_rev)
-    step = np.diff(cumulative).astype(np.float64)
+    step = np.diff(cumulative)
     usable = ok[1:] & ok[:-1]
-    rate = _running_median(np.where(usable, step, np.nan_to_num(np.median(step[usable]))),
-                           _RATE_WINDOW)
-    departure = np.where(usable, step - rate, 0.0)
+    departure = _rate_departure(step, usable, float(np.nan_to_num(np.median(step[usable]))))
     spread = 1.4826 * float(np.median(np.abs(departure[usable])))
     threshold = max(_JUMP_COUNTS, _JUMP_SIGMAS * spread)
     odd = np.flatnonzero(np.abs(departure) > threshold)
@@ -143,18 +168,19 @@ def counter_health(counts: ArrayLike, time: ArrayLike, *, channel: str,
         else:
             jumps.append((int(k) + 1, float(departure[k])))
             used.add(int(k))
-    turn = (cumulative - cumulative[0]) / counts_per_rev if counts_per_rev else None
+    def turn(i: int) -> int:
+        return int(np.floor((cumulative[i] - cumulative[0]) / counts_per_rev))
     out = []
     for fault, found in (("count jump", jumps), ("count glitch", glitches)):
         if not found:
             continue
         where = np.array([i for i, _ in found], dtype=np.int64)
         sizes = [round(s) for _, s in found]
-        revs = (tuple(int(np.floor(turn[i])) for i in where[:50]) if turn is not None else ())
+        revs = tuple(turn(i) for i in where[:50]) if counts_per_rev else ()
         listed = ", ".join(f"{s:+d} counts at {t[i]:.3f} s" for i, s in found[:3]
                            for s in [round(s)])
         more = f" and {len(found) - 3} more" if len(found) > 3 else ""
-        out.append(Finding(channel, fault, f"{len(found)} {fault}{'s' if len(found) > 1 else ''}"
+        out.append(Finding(channel, fault, f"{len(found)} {fault}{_plural(fault, len(found))}"
                                            f": {listed}{more}", where.size, int(where[0]),
                            int(where[-1]), float(t[where[0]]), float(t[where[-1]]),
                            float(sizes[0]), tuple(int(i) for i in where[:50]), revs))

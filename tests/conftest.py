@@ -83,3 +83,17 @@ def chromium_probe() -> Callable[..., object]:
     """``probe(page, script, tmp_path, *chromium_args)``: run a probe script in headless Chromium
     on a copy of ``page`` and return the JSON it wrote (skips when Chromium is absent)."""
     return _chromium_probe
+
+
+@pytest.fixture
+def forks_beside() -> None:
+    """Skip unless :func:`rigval.validation.beside.can_fork` holds now, when the test runs.
+
+    Decided at run time, not at collection: an earlier test (a Dask cluster, say) may have left a
+    thread running in this process, and with a second thread ``beside`` rightly refuses to fork.
+    """
+    from rigval.validation.beside import can_fork
+
+    if not can_fork():
+        pytest.skip("no fork here now: no fork start method, one CPU, or another thread runs "
+                    "in this test process")

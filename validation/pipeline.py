@@ -234,22 +234,43 @@ class _Aligned:
     drives: xr.Dataset | None
 
 
-def _align(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, read: _Read) -> _Aligned:
-    """Put the streams on the reference timeline; keep what the later stages need."""
+@dataclass(frozen=True)
+class _Clocks:
+    """The align stage's first output: the streams on the reference timeline and phi_F(t)."""
+
+    inputs: _Inputs
+    streams: dict[str, xr.Dataset]
+    drives: xr.Dataset | None
+    diagnostics: Mapping[str, StreamAlignment]
+    main: MainAngle
+    history: list[str]
+
+
+def _align(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, read: _Read) -> _Clocks:
+    """Put the streams on the reference timeline; keep only the channels later stages take.
+
+    The compared channels stay in the streams (every channel when the output keeps them); the
+    drives' encoders go apart, for the model; pulses and device clocks are let go.
+    """
     # the device clocks go into the output only with [output] aligned
     aligned, diagnostics, main = align_streams(settings, read.converted,
                                                device_time=scene.output.aligned)
     history = [line for ds in aligned.values()
                for line in str(ds.attrs.get("history", "")).splitlines()]
-    reference = aligned[settings.reference]
-    drives = reference[[*plan.drives, "valid", "segment"]] if plan.drives else None
+    drives = (aligned[settings.reference][[*plan.drives, "valid", "segment"]]
+              if plan.drives else None)
     if not plan.whole:
         aligned = {name: ds[[*sorted(plan.kept_after_alignment(name)), "valid", "segment"]]
                    for name, ds in aligned.items()}
-    # the reference times of the comparison grid; phi_F(t) itself is not needed after
-    times = angle_grid(main.time, main.phi, scene.angle.points_per_revolution)
-    return _Aligned(read.inputs, _Timeline(aligned, diagnostics, _grid(scene, main), times,
-                                           history), drives)
+    return _Clocks(read.inputs, aligned, drives, diagnostics, main, history)
+
+
+def _grids(scene: Scene, clocks: _Clocks) -> _Aligned:
+    """Return the timeline with the grids of phi_F; phi_F(t) itself is let go."""
+    times = angle_grid(clocks.main.time, clocks.main.phi, scene.angle.points_per_revolution)
+    timeline = _Timeline(clocks.streams, clocks.diagnostics, _grid(scene, clocks.main), times,
+                         clocks.history)
+    return _Aligned(clocks.inputs, timeline, clocks.drives)
 
 
 @dataclass(frozen=True)
@@ -511,6 +532,7 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
             run = _read(scene, plan, watch)
         with watch.stage("align"):
             run = _align(scene, plan, settings, run)
+            run = _grids(scene, run)
         with watch.stage("model"):
             run = _model(scene, run)
         with watch.stage("angle"):

@@ -115,3 +115,34 @@ def test_alternating_pulse_widths_are_no_change():
         if k != 7:
             x[(t >= 0.4 + k) & (t < 0.4 + k + (0.030 if k % 2 else 0.033))] = 1.0
     assert pulse_health(x, t, channel="opt3") == []
+
+
+def test_spikes_found_in_blocks_equal_the_whole_stretch_median(monkeypatch):
+    """The block-wise spike search equals the running median over each whole stretch."""
+    from scipy.ndimage import median_filter
+
+    from rigval.processing import health
+
+    monkeypatch.setattr(health, "_BLOCK", 4096)  # many block edges, some inside the gaps' runs
+    rng = np.random.default_rng(11)
+    n, fs, q = 60_007, 2000.0, 1e-5
+    x = np.round((np.sin(np.arange(n) / fs * 7) + rng.normal(0, 1e-3, n)) / q) * q
+    spikes = rng.choice(n, 30, replace=False)
+    x[spikes] += rng.choice([-1, 1], 30) * rng.uniform(0.05, 0.5, 30)
+    ok = np.ones(n, bool)
+    ok[rng.choice(n, 50, replace=False)] = False
+    found = health._spikes(x, ok, np.arange(n) / fs, fs, "c", "V", q)
+
+    width = max(int(health._NOISE_WINDOW_S * fs), 20)
+    noise, _ = health._window_noise(x, ok, width)
+    noise = np.maximum(noise, np.maximum(np.r_[noise[1:], noise[-1]], np.r_[noise[0], noise[:-1]]))
+    base = np.full(n, np.nan)
+    for a, b in zip(*health.runs_of(ok), strict=True):
+        base[a:b] = median_filter(x[a:b], size=health._SPIKE_WINDOW, mode="nearest")
+    local = noise[np.minimum(np.arange(n) // width, noise.size - 1)]
+    with np.errstate(invalid="ignore"):
+        expected = np.flatnonzero(np.abs(x - base) > np.maximum(health._SPIKE_SIGMAS * local,
+                                                                4.0 * q))
+    assert expected.size >= 25  # most injected spikes stand out (a few hit invalid samples)
+    assert found and found[0].samples == expected.size
+    assert found[0].indices == tuple(int(i) for i in expected[:len(found[0].indices)])

@@ -9,7 +9,7 @@ import pytest
 
 from rigval.validation.beside import beside, can_fork
 
-needs_fork = pytest.mark.skipif(not can_fork(), reason="no fork here, or one CPU")
+needs_fork = pytest.mark.usefixtures("forks_beside")
 
 
 @needs_fork

@@ -83,6 +83,25 @@ def test_outputs_carry_the_diagnosis(rig_scene: Path, tmp_path: Path) -> None:
     assert result.diagnosis.pairs[0].sentence in html
 
 
+def test_rigidity_json_is_written_from_the_diagnosis_without_a_second_analysis(
+        rig_scene: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from rigval.validation.diagnosis.rigidity import evidence_record
+    from rigval.validation.pipeline import run_scene
+    from rigval.validation.report import run_report
+
+    result = attach_diagnosis(run_scene(rig_scene))
+    assert set(result.diagnosis.rigidity) == {c.name for c in result.comparisons}
+
+    def again(_result: object) -> None:
+        raise AssertionError("rigidity analysed a second time")
+
+    monkeypatch.setattr(run_report, "run_rigidity", again)
+    path = run_report.write_rigidity(result, tmp_path)
+    written = json.loads(path.read_text(encoding="utf-8"))
+    expected = {name: evidence_record(e) for name, e in result.diagnosis.rigidity.items()}
+    assert written == json.loads(json.dumps(expected))
+
+
 @pytest.mark.parametrize(("table", "message"), [
     ('comparisons = ["tor1", "nope"]\nu_measurement_rel = 0.01', "no comparison named"),
     ('comparisons = ["tor1", "tor1"]\nu_measurement_rel = 0.01', "two comparison names"),

@@ -28,7 +28,7 @@ from rigval.validation.diagnosis.causes import (
     independent_sets,
     subset,
 )
-from rigval.validation.diagnosis.rigidity import run_rigidity
+from rigval.validation.diagnosis.rigidity import RigidityEvidence, run_rigidity
 from rigval.validation.diagnosis.symmetry import (
     AxialBending,
     PairShares,
@@ -191,12 +191,16 @@ class Diagnosis:
     explained : mapping of str to numpy.ndarray
         Per comparison, what the chosen causes add to its residual over phi_F, ``(n,)``
         (zeros without a chosen cause), signal units.
+    rigidity : mapping of str to RigidityEvidence
+        The rigidity evidence whose resonances entered the attribution, per comparison whose
+        aligned stream the run kept (empty when the modes were given): ``rigidity.json``.
     """
 
     causes: Mapping[str, CauseStatement]
     pairs: tuple[PairStatement, ...]
     attributions: Mapping[str, Attribution]
     explained: Mapping[str, np.ndarray]
+    rigidity: Mapping[str, RigidityEvidence] = dataclasses.field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         """Return the diagnosis as JSON-ready values (metrics.json's ``diagnosis``; NaN as None)."""
@@ -313,10 +317,11 @@ def attach_diagnosis(result: ValidationResult,
         The result with its ``diagnosis``.
     """
     start = time.perf_counter()
+    rigidity = run_rigidity(result) if modes is None else {}
     if modes is None:
         modes = {name: [(r.frequency_hz, r.damping) for r in evidence.resonances]
-                 for name, evidence in run_rigidity(result).items()}
-    diagnosis = diagnose(result, modes)
+                 for name, evidence in rigidity.items()}
+    diagnosis = dataclasses.replace(diagnose(result, modes), rigidity=rigidity)
     result.tree["/why"] = xr.DataTree(diagnosis.dataset())
     logger.info("diagnosis: %.3f s", time.perf_counter() - start)
     return dataclasses.replace(result, diagnosis=diagnosis)

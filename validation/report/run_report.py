@@ -89,8 +89,9 @@ def write_rigidity(result: ValidationResult, out_dir: Path) -> Path:
 
     See :func:`rigval.validation.diagnosis.rigidity.evidence_record` and docs/diagnosis.md.
     """
+    found = result.diagnosis.rigidity if result.diagnosis is not None else {}
     document = {name: evidence_record(evidence)
-                for name, evidence in run_rigidity(result).items()}
+                for name, evidence in (found or run_rigidity(result)).items()}
     return write_text_atomic(out_dir / "rigidity.json", json.dumps(document, indent=1) + "\n")
 
 
