@@ -55,3 +55,17 @@ def test_verdict_first_everywhere(sample, tmp_path):
     files = write_campaign_report([outcome], tmp_path / "campaign")
     page = files.html.read_text(encoding="utf-8")
     assert "model error detected (|E| &gt; k u_val) in 0 of 1 validated runs" in page
+
+
+def test_figures_started_before_the_diagnosis_equal_those_drawn_after_it(sample):
+    """validate_scene starts the page's figures before the diagnosis (a child draws beside it):
+    no figure may show the diagnosis, so both orders give the same SVG texts."""
+    from rigval.validation.diagnosis.explain import attach_diagnosis
+    from rigval.validation.report.run_report import start_figures
+
+    early = start_figures(sample)
+    diagnosed = attach_diagnosis(sample)
+    assert diagnosed.diagnosis is not None
+    before, after = early.texts(), start_figures(diagnosed).texts()
+    assert sum(len(group) for group in after) >= 10
+    assert before == after

@@ -34,7 +34,7 @@ from rigval.validation.health import health_dataset
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
 from rigval.validation.report import plots
-from rigval.validation.report.drawing import FigureGroup, draw_svgs
+from rigval.validation.report.drawing import Drawing, FigureGroup
 from rigval.validation.report.page import Page
 from rigval.validation.report.why import why_section
 from rigval.validation.results import ComparisonResult, ValidationResult
@@ -44,11 +44,11 @@ from rigval.validation.version import rigval_version
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["write_metrics", "write_netcdf", "write_report"]
+__all__ = ["start_figures", "write_metrics", "write_netcdf", "write_report"]
 
 logger = logging.getLogger(__name__)
 
-#: The page's figures drawn as SVG text (:func:`_draw_figures`), by group name.
+#: The page's figures drawn as SVG text (:func:`start_figures`), by group name.
 _Figures = dict[str, list[str]]
 
 #: Scores in each comparison's main table (all scores follow in a folded table).
@@ -374,12 +374,29 @@ def _mechanism_sketch(result: ValidationResult) -> list[Figure]:
                              configuration=result.configuration)]
 
 
-def _draw_figures(result: ValidationResult) -> _Figures:
-    """Draw every figure of the page as SVG text; a forked child draws the comparisons.
+#: The page's figure groups, in the order :func:`start_figures` hands them to the drawing; the
+#: first (the comparisons', about half the drawing) is drawn by a forked child where it helps.
+_FIGURE_GROUPS = ("comparisons", "pulse_edges", "clock_residuals", "stream_coverage", "sketch",
+                  "points", "support_forces")
 
-    The comparisons' figures (one reused figure redrawn per comparison) are about half the
-    drawing; :func:`rigval.validation.report.drawing.draw_svgs` draws them beside the others
-    where it can.
+
+def start_figures(result: ValidationResult) -> Drawing:
+    """Start drawing the page's figures as SVG text; a forked child draws the comparisons'.
+
+    No figure shows the diagnosis, so the drawing may start before
+    :func:`rigval.validation.diagnosis.explain.attach_diagnosis` and the child draw beside it
+    (:func:`rigval.validation.run.validate.validate_scene`); :func:`write_report` collects the
+    figures.
+
+    Parameters
+    ----------
+    result : ValidationResult
+        The validation, with or without its diagnosis.
+
+    Returns
+    -------
+    rigval.validation.report.drawing.Drawing
+        Hand it to :func:`write_report` of the same run.
     """
     predictions, alignment = result.predictions, result.alignment
     groups: dict[str, FigureGroup] = {
@@ -392,8 +409,7 @@ def _draw_figures(result: ValidationResult) -> _Figures:
         "support_forces": lambda: ([plots.plot_support_forces(predictions)]
                                    if "support_force" in predictions else []),
     }
-    drawn = draw_svgs(list(groups.values()), background=[0])
-    return dict(zip(groups, drawn, strict=True))
+    return Drawing([groups[name] for name in _FIGURE_GROUPS], background=[0])
 
 
 def _numerics(page: Page, result: ValidationResult) -> None:
@@ -425,14 +441,14 @@ def _reproduction(page: Page, result: ValidationResult) -> None:
     page.preformatted(scene.text)
 
 
-def _build_page(result: ValidationResult) -> Page:
+def _build_page(result: ValidationResult, drawing: Drawing) -> Page:
     status = "PASSED" if result.passed else "FAILED"
     # SVG figures: text as text (see page.figure_svg), about a third less drawing time than PNG
     page = Page(f"rigval validation: {result.scene.title}",
                 subtitle=f"{status} · {len(result.comparisons)} comparisons · "
                          f"{result.n_cycles} revolutions at {result.speed_rev_s:.3f} rev/s",
                 figure_format="svg")
-    figures = _draw_figures(result)
+    figures = dict(zip(_FIGURE_GROUPS, drawing.texts(), strict=True))
     _summary(page, result, status)
     why_section(page, result)
     for drawn_section in (_comparisons, _alignment, _predictions):
@@ -442,7 +458,8 @@ def _build_page(result: ValidationResult) -> Page:
     return page
 
 
-def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
+def write_report(result: ValidationResult, out_dir: str | Path,
+                 figures: Drawing | None = None) -> list[Path]:
     """Write the report folder of a validation and return the files written.
 
     Parameters
@@ -451,6 +468,9 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
         The validation (see :func:`rigval.validation.pipeline.run_scene`).
     out_dir : str or pathlib.Path
         The folder; created if needed, files in it are overwritten.
+    figures : Drawing, optional
+        The page's figures, started by :func:`start_figures` on this run (also before its
+        diagnosis); default: started here.
 
     Returns
     -------
@@ -461,7 +481,8 @@ def write_report(result: ValidationResult, out_dir: str | Path) -> list[Path]:
         ``outputs``).
     """
     out = Path(out_dir)
-    page = _build_page(result)  # everything that can fail before the first file is written
+    drawing = start_figures(result) if figures is None else figures
+    page = _build_page(result, drawing)  # everything that can fail before the first file is written
     # all files in a hidden folder first, moved in at the end: no half-written report folder
     with staged_folder(out) as stage:
         staged = write_metrics(result, stage)

@@ -5,7 +5,9 @@ everything the report needs; :func:`validate_scene` adds why the model disagrees
 (:func:`rigval.validation.diagnosis.explain.attach_diagnosis`: the diagnosis package reads the
 pipeline's results, so the pipeline does not call it) and writes the folder from that result alone
 (:func:`rigval.validation.report.run_report.write_report`) and returns the result with the files
-written. The pipeline itself never imports the report package (docs/architecture.md).
+written. The figures no diagnosis enters are started first, so that a forked child draws the
+comparisons' figures while this process diagnoses. The pipeline itself never imports the report
+package (docs/architecture.md).
 """
 
 from __future__ import annotations
@@ -13,9 +15,10 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+from rigval.acquisition.threads import single_blas_thread
 from rigval.validation.diagnosis.explain import attach_diagnosis
 from rigval.validation.pipeline import run_scene
-from rigval.validation.report.run_report import write_report
+from rigval.validation.report.run_report import start_figures, write_report
 from rigval.validation.results import ValidationResult
 
 __all__ = ["validate_scene"]
@@ -37,5 +40,8 @@ def validate_scene(scene_path: str | Path, out_dir: str | Path) -> ValidationRes
         With ``passed``, ``metric_rows()``, ``outputs`` (files written), ``inputs`` (files read),
         ``speed_rev_s`` and ``diagnosis``.
     """
-    result = attach_diagnosis(run_scene(scene_path))
-    return dataclasses.replace(result, outputs=tuple(write_report(result, out_dir)))
+    result = run_scene(scene_path)
+    figures = start_figures(result)  # no figure shows the diagnosis: drawn beside it
+    with single_blas_thread():  # the child keeps the other core: BLAS threads would wait
+        result = attach_diagnosis(result)
+    return dataclasses.replace(result, outputs=tuple(write_report(result, out_dir, figures)))
