@@ -63,6 +63,7 @@ def write_identification(identification: Any, out_dir: Path) -> list[Path]:
         folders' files.
     """
     from rigval.acquisition.outputs import write_text_atomic
+    from rigval.acquisition.threads import single_blas_thread
     from rigval.model.mechanism import load_mechanism
     from rigval.model.mechanism_text import apply_parameters, mechanism_toml
     from rigval.validation.beside import beside
@@ -82,10 +83,12 @@ def write_identification(identification: Any, out_dir: Path) -> list[Path]:
         "identified.json")))
     json_path = out_dir / "identified.json"
     write_text_atomic(json_path, json.dumps(identification.as_dict(), indent=2) + "\n")
-    # the nominal report folder is written beside the identified run (a forked child)
-    nominal_report = beside(lambda: write_report(nominal, out_dir / "nominal"))
-    identified = run_scene(dataclasses.replace(scene, mechanism=mechanism_path.resolve()))
-    identified_files = write_report(identified, out_dir / "identified")
+    # the nominal report folder is written beside the identified run (a forked child); both
+    # processes keep a core busy, so BLAS threads would only wait for each other
+    with single_blas_thread():
+        nominal_report = beside(lambda: write_report(nominal, out_dir / "nominal"))
+        identified = run_scene(dataclasses.replace(scene, mechanism=mechanism_path.resolve()))
+        identified_files = write_report(identified, out_dir / "identified")
     written = [json_path, mechanism_path, *nominal_report.result(), *identified_files]
     written.insert(0, _page(identification, identified).write(out_dir / "report.html"))
     return written
