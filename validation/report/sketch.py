@@ -121,7 +121,7 @@ def sketch_mechanism(mechanism: Mechanism, *, time: float = 0.0,
     if free:
         ax.plot(*np.array([positions[p] for p in free]).T, "o", color="#1b1f24", ms=4, zorder=4)
     marked = set(highlight)
-    for point in marked & set(names):
+    for point in (p for p in names if p in marked):  # in the names' order: the same SVG every run
         ax.plot(*positions[point], "o", color=_HIGHLIGHT, ms=8, zorder=5)
     for driver in mechanism.drivers:
         pin = next((j.name for j in mechanism.joints
