@@ -1,4 +1,5 @@
-"""Every real NI file in shared/realdata reads; values, lengths and time axes are checked.
+"""Every real NI file of the test data (``realdata_dir`` fixture) reads; values, lengths and time
+axes are checked.
 
 TDMS values and lengths are compared with nptdms; time axes with the files' own wf_* properties
 read through nptdms (``raw_timestamps=True`` keeps sub-microsecond start times). LVM values are
