@@ -43,6 +43,7 @@ from rigval.acquisition.detect import checked_path, source_checksum
 from rigval.acquisition.devices import get_device, module_attrs
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
 from rigval.acquisition.schema import Channel, stream_dataset, string_table_attrs
+from rigval.acquisition.time_fallbacks import LOCAL_TIME_AS_UTC, TimeFallback, time_fallback_attrs
 from rigval.acquisition.units import split_name_and_unit, udunits
 from rigval.acquisition.warn import warn_data
 
@@ -317,7 +318,8 @@ def _data_block(lines: list[str], rows: list[list[str]], end: int) -> tuple[int,
 
 
 def _parse_datetimes(cells: Sequence[str], time_format: str | None, timezone: str | None,
-                     where: Mapping[str, Any], notes: list[str] | None = None) -> np.ndarray:
+                     where: Mapping[str, Any], notes: list[TimeFallback] | None = None
+                     ) -> np.ndarray:
     """Parse absolute time cells into naive UTC datetime64[ns].
 
     Cells without a UTC offset are local times in ``timezone`` (a DST fall-back inside a column
@@ -358,12 +360,12 @@ def _parse_datetimes(cells: Sequence[str], time_format: str | None, timezone: st
                                 ) from None
         stamps = stamps.dt.tz_convert("UTC").dt.tz_localize(None)
     elif notes is not None:
-        notes.append("local date-times without a zone taken as UTC (pass timezone=...)")
+        notes.append(TimeFallback("local date-times without a zone", LOCAL_TIME_AS_UTC))
     return stamps.to_numpy().astype("datetime64[ns]")
 
 
 def _header_start(header: Mapping[str, str], time_format: str | None, timezone: str | None,
-                  where: Mapping[str, Any], notes: list[str]) -> np.datetime64 | None:
+                  where: Mapping[str, Any], notes: list[TimeFallback]) -> np.datetime64 | None:
     """Return a start time found in the header block, or None."""
     candidates = [v for k, v in header.items() if _START_KEYS.search(k) and v]
     date = next((v for k, v in header.items() if k.lower() in ("date", "datum")), None)
@@ -600,7 +602,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     else:
         lines, layout, real, middle, complete = fast
     n_mid = middle.line.size  # clean rows parsed in blocks, not in lines
-    notes: list[str] = []
+    notes: list[TimeFallback] = []
     t_index = _time_column(layout.names, time_column, where)
     width = len(layout.names)
     if t_index is None and fs is None:  # before any cell is converted
@@ -715,13 +717,13 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     else:
         assert fs is not None  # checked before the cells were converted
         time = np.arange(n) / fs
-        notes.append(f"no time column: t = i / {fs} Hz")
+        notes.append(TimeFallback("no time column", f"t = i / {fs} Hz"))
     del middle, into, table  # every value is in values and time now
     if start is None:
         start = _header_start(layout.header, time_format, timezone, where, notes)
     if start is None:
         start = _EPOCH_1904
-        notes.append("no start time in the file: start_time unknown (1904-01-01)")
+        notes.append(TimeFallback("no start time in the file", "start_time unknown (1904-01-01)"))
     if time.size < 1:
         raise DataFileError("the data block is empty", where=where)
     fs_nominal = fs if fs is not None else _rate_of(time)
@@ -753,9 +755,9 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
             attrs.update(module_attrs(module, fs_nominal, where={**where, "channel": column}))
         result[column] = Channel(data, udunits(unit_text), column, column, "none", attrs)
     for note in notes:
-        logger.info("%s: %s", file, note)
+        logger.info("%s: %s", file, note.text())
     attrs = {"source_format": "csv", "delimiter": layout.delimiter, "decimal": layout.decimal,
-             **string_table_attrs("text_header", layout.header), "time_fallbacks": "\n".join(notes),
+             **string_table_attrs("text_header", layout.header), **time_fallback_attrs(notes),
              "first_sample": lo, "samples_in_file": int(time.size)}
     if profile is not None:
         attrs.update(profile.stream_attrs())
