@@ -69,11 +69,8 @@ def draw_svgs(groups: Sequence[FigureGroup], background: Iterable[int] = ()
 
     Parameters
     ----------
-    groups : sequence of callables
-        Each returns an iterable of figures (see :data:`FigureGroup`).
-    background : iterable of int
-        Indices of the groups drawn by a forked child where one helps; otherwise this
-        process draws them after the others.
+    groups, background
+        As for :class:`Drawing`; this makes one and collects its texts at once.
 
     Returns
     -------
