@@ -4,8 +4,9 @@
   its value type and count, the real channels beside it read as written;
 - a segment whose data index claims 0 values of a channel while the segment holds data is read
   as nptdms reads it, with a DataWarning giving the counts;
-- a CSV of one row of 20,000 values is read column by column (values as written) or refused
-  at once with the reason, before any cell is converted.
+- a CSV of one row of 20,000 values is read as one channel (values as written, see
+  ``test_csv_row.py``) or, without a rate, refused at once with the reason, before any cell is
+  converted.
 """
 
 from __future__ import annotations
@@ -151,10 +152,11 @@ def test_one_wide_row_with_rate_reads_every_value(tmp_path: Path) -> None:
     path = tmp_path / "row.csv"
     values = np.random.default_rng(4).normal(size=20_000) * 1e3
     _wide_row(path, values)
-    streams, _ = _read(path, fs=10.0)
+    streams, texts = _read(path, fs=10.0)
     (stream,) = streams.values()
-    got = np.array([stream.variables[f"column {k}"].values[0] for k in range(values.size)])
-    np.testing.assert_array_equal(got, values)  # 17 digits: exact round trip
+    np.testing.assert_array_equal(stream["row 0"].values, values)  # 17 digits: exact round trip
+    np.testing.assert_array_equal(stream["time"].values, np.arange(values.size) / 10.0)
+    assert any("read as one channel 'row 0' of 20000 samples" in t for t in texts), texts
 
 
 def test_few_wide_rows_keep_text_and_empty_cells_apart(tmp_path: Path) -> None:
