@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from rigval.acquisition.errors import ConfigError, DataFileError
+from rigval.acquisition.time_fallbacks import LOCAL_TIME_AS_UTC, TimeFallback
 
 __all__ = ["header_start", "parse_datetimes"]
 
@@ -27,7 +28,8 @@ _LOCALE_FORMATS = ("%d.%m.%Y %H:%M:%S.%f", "%d.%m.%Y %H:%M:%S", "%m/%d/%Y %I:%M:
 
 
 def parse_datetimes(cells: Sequence[str], time_format: str | None, timezone: str | None,
-                    where: Mapping[str, Any], notes: list[str] | None = None) -> np.ndarray:
+                    where: Mapping[str, Any], notes: list[TimeFallback] | None = None
+                    ) -> np.ndarray:
     """Parse absolute time cells into naive UTC datetime64[ns].
 
     Cells without a UTC offset are local times in ``timezone`` (a DST fall-back inside a column
@@ -68,12 +70,12 @@ def parse_datetimes(cells: Sequence[str], time_format: str | None, timezone: str
                                 ) from None
         stamps = stamps.dt.tz_convert("UTC").dt.tz_localize(None)
     elif notes is not None:
-        notes.append("local date-times without a zone taken as UTC (pass timezone=...)")
+        notes.append(TimeFallback("local date-times without a zone", LOCAL_TIME_AS_UTC))
     return stamps.to_numpy().astype("datetime64[ns]")
 
 
 def header_start(header: Mapping[str, str], time_format: str | None, timezone: str | None,
-                  where: Mapping[str, Any], notes: list[str]) -> np.datetime64 | None:
+                  where: Mapping[str, Any], notes: list[TimeFallback]) -> np.datetime64 | None:
     """Return a start time found in the header block, or None."""
     candidates = [v for k, v in header.items() if _START_KEYS.search(k) and v]
     date = next((v for k, v in header.items() if k.lower() in ("date", "datum")), None)

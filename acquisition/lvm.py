@@ -40,6 +40,7 @@ from rigval.acquisition.devices import get_device, module_attrs
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
 from rigval.acquisition.schema import Channel, stream_dataset, string_table_attrs
 from rigval.acquisition.text_csv import read_text
+from rigval.acquisition.time_fallbacks import LOCAL_TIME_AS_UTC, TimeFallback, time_fallback_attrs
 from rigval.acquisition.timebase import exact_increment
 from rigval.acquisition.units import udunits
 from rigval.acquisition.warn import warn_data
@@ -478,7 +479,8 @@ def read_lvm(path: str | os.PathLike[str], *, channels: Sequence[str] | None = N
     return result
 
 
-def _segment_times(col: _Column, fs: float | None, notes: list[str], file: Path) -> np.ndarray:
+def _segment_times(col: _Column, fs: float | None, notes: list[TimeFallback],
+                   file: Path) -> np.ndarray:
     """Return the time axis of one column in s since its segment's X0."""
     n = col.values.size
     where = {"file": str(file), "channel": col.name, "segment": col.segment}
@@ -501,14 +503,15 @@ def _segment_times(col: _Column, fs: float | None, notes: list[str], file: Path)
     if dt is not None:
         exact = exact_increment(dt, decimals=6)
         if exact is not None:
-            notes.append(f"Delta_X {dt!r} rounded to 6 decimals: using {exact!r} s")
+            notes.append(TimeFallback(f"Delta_X {dt!r} rounded to 6 decimals",
+                                      f"using {exact!r} s"))
             dt = exact
         time = x0 + np.arange(n) * dt
         if _increasing(time):
             return time
         problem = f"X0 + i * Delta_X (X0 = {x0!r}, Delta_X = {dt!r}) does not increase"
     if fs is not None and fs > 0 and np.isfinite(fs):
-        notes.append(f"no usable X values or Delta_X: t = i / {fs} Hz")
+        notes.append(TimeFallback("no usable X values or Delta_X", f"t = i / {fs} Hz"))
         return np.arange(n) / fs
     if problem is None and col.dt is not None:
         problem = f"Delta_X = {col.dt!r} is not a positive interval"
@@ -527,15 +530,16 @@ def _stream(parts: list[list[_Column]], lvm: LvmFile, file: Path, fs: float | No
             time_range: tuple[float | None, float | None] | None, profile: Any,
             modules: Mapping[str, str] | None, sha: str, timezone: str | None) -> xr.Dataset:
     """Build one stream from the same channels in one or more segments."""
-    notes: list[str] = []
+    notes: list[TimeFallback] = []
     if timezone is None:
-        notes.append("LVM Date/Time are the writing PC's local time; taken as UTC "
-                     "(pass timezone=...)")
+        notes.append(TimeFallback("LVM Date/Time are the writing PC's local time",
+                                  LOCAL_TIME_AS_UTC))
     times: list[np.ndarray] = []
     first = parts[0][0]
     start = first.start if first.start is not None else _EPOCH_1904
     if first.start is None:
-        notes.append("no Date/Time in the header: start_time unknown (1904-01-01)")
+        notes.append(TimeFallback("no Date/Time in the header",
+                                  "start_time unknown (1904-01-01)"))
     end = -np.inf
     for k, cols in enumerate(parts):
         t = _segment_times(cols[0], fs, notes, file)
@@ -589,9 +593,9 @@ def _stream(parts: list[list[_Column]], lvm: LvmFile, file: Path, fs: float | No
         name = col.name if col.name not in channels else f"{col.name} ({j})"
         channels[name] = Channel(data, udunits(col.unit), col.name, col.name, "none", attrs)
     for note in notes:
-        logger.info("%s: %s", file, note)
+        logger.info("%s: %s", file, note.text())
     attrs = {"source_format": "lvm", **string_table_attrs("lvm_header", lvm.tags),
-             "time_fallbacks": "\n".join(sorted(set(notes))), "first_sample": lo,
+             **time_fallback_attrs(notes), "first_sample": lo,
              "samples_in_file": int(time.size), "lvm_segments": len(parts)}
     if profile is not None:
         attrs.update(profile.stream_attrs())

@@ -2,9 +2,10 @@
 
 A stream's ``start_time`` attribute is always UTC (ISO 8601 with ``Z``, docs/formats.md). LVM
 and CSV files hold the writing PC's local time without a zone; read without a ``timezone``
-option, that local time is *taken as* UTC and the reader says so in ``time_fallbacks``. Showing
-such a time with a ``Z`` makes two devices of one run look an hour or more apart, so
-:func:`start_time_text` shows it as what it is. Standard library only: ``rigval info`` imports
+option, that local time is *taken as* UTC and the reader says so in its time fallbacks
+(:func:`rigval.acquisition.time_fallbacks.taken_as_utc`). Showing such a time with a ``Z``
+makes two devices of one run look an hour or more apart, so :func:`start_time_text` shows it
+as what it is. Standard library only: ``rigval info`` imports
 this before any data is read.
 """
 
@@ -12,22 +13,8 @@ from __future__ import annotations
 
 import datetime as dt
 import zoneinfo
-from collections.abc import Sequence
 
-__all__ = ["start_time_text", "taken_as_utc"]
-
-
-def taken_as_utc(time_fallbacks: str | Sequence[str]) -> bool:
-    """Return whether a reader took local date-times without a zone as UTC.
-
-    Parameters
-    ----------
-    time_fallbacks : str or sequence of str
-        The stream's ``time_fallbacks`` attribute (notes one a line) or its notes; the text and
-        CSV readers' note for a missing zone asks for the ``timezone`` option.
-    """
-    notes = time_fallbacks if isinstance(time_fallbacks, str) else "\n".join(time_fallbacks)
-    return "timezone" in notes
+__all__ = ["start_time_text"]
 
 
 def start_time_text(start_time: str, *, zone_unknown: bool = False,

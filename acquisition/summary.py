@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -58,7 +59,8 @@ def _describe_tdms(path: Path, **options: Any) -> dict[str, Any]:
             "samples": tb.length,
             "duration_s": (float(tb.times(tb.length - 1)[0]) + tb.dt) if tb.length else 0.0,
             "start_time": str(np.datetime_as_string(plan.start_time, unit="ns")) + "Z",
-            "gaps": gaps, "time_fallbacks": plan.notes, "channels": channels,
+            "gaps": gaps, "time_fallbacks": [asdict(f) for f in plan.fallbacks],
+            "channels": channels,
         })
     return {"segments": layout.segments, "tdms_version": layout.version,
             "big_endian": layout.big_endian, "daqmx_raw": layout.daqmx,
@@ -68,13 +70,14 @@ def _describe_tdms(path: Path, **options: Any) -> dict[str, Any]:
 def _describe_stream(name: str, ds: xr.Dataset) -> dict[str, Any]:
     """Describe a stream Dataset read from a text file."""
     from rigval.acquisition.schema import stream_gaps
+    from rigval.acquisition.time_fallbacks import time_fallbacks
 
     duration = float(ds.time[-1]) + 1.0 / ds.attrs["fs_nominal"] if ds.sizes["time"] else 0.0
     return {
         "name": name, "fs_hz": ds.attrs["fs_nominal"], "samples": int(ds.sizes["time"]),
         "duration_s": duration, "start_time": ds.attrs["start_time"],
         "gaps": stream_gaps(ds),
-        "time_fallbacks": [n for n in str(ds.attrs.get("time_fallbacks", "")).split("\n") if n],
+        "time_fallbacks": [asdict(f) for f in time_fallbacks(ds.attrs)],
         "channels": [{"name": str(v), "samples": int(ds.sizes["time"]),
                       "units": ds[v].attrs.get("units_in_file", ds[v].attrs["units"]),
                       "empty_cells": ds[v].attrs.get("empty_cells", 0)}

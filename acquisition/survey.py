@@ -28,7 +28,7 @@ import xarray as xr
 from rigval.acquisition.devices import MODULES, rate_divider
 from rigval.acquisition.errors import UnitError
 from rigval.acquisition.reader import read
-from rigval.acquisition.start_time import taken_as_utc
+from rigval.acquisition.time_fallbacks import taken_as_utc, time_fallbacks
 from rigval.acquisition.units import dimension, factor_or_none
 
 __all__ = ["BRIDGE_UNITS", "ChannelGuess", "StreamGuess", "classify_channel", "counts_per_pulse",
@@ -345,7 +345,7 @@ def _guess_stream(name: str, path: Path, ds: xr.Dataset, index: int) -> StreamGu
     return StreamGuess(name, path, fmt, reader, fs, int(time.size),
                        str(ds.attrs.get("start_time", "")), gaps, device, why, tuple(channels),
                        pulses, counts,
-                       taken_as_utc(str(ds.attrs.get("time_fallbacks", ""))))
+                       taken_as_utc(time_fallbacks(ds.attrs)))
 
 
 def _index_period(counts: np.ndarray) -> tuple[int, int, str]:

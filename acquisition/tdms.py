@@ -49,6 +49,7 @@ from rigval.acquisition.tdms_plan import (
     raise_empty,
     warn_about_plans,
 )
+from rigval.acquisition.time_fallbacks import time_fallback_attrs
 
 __all__ = ["TdmsStreamPlan", "iter_tdms", "plan_tdms", "read_tdms", "warn_about_plans"]
 
@@ -204,7 +205,7 @@ def _build(layout: TdmsLayout, plan: TdmsStreamPlan, data: Mapping[str, np.ndarr
         "source_format": "tdms",
         "tdms_group": plan.group,
         "tdms_version": layout.version,
-        "time_fallbacks": "\n".join(plan.notes),
+        **time_fallback_attrs(plan.fallbacks),
         "first_sample": start,
         "samples_in_file": plan.timebase.length,
     }

@@ -5,7 +5,7 @@ rigval builds the time axis itself from ``wf_start_time``, ``wf_start_offset`` a
 become gaps and fallbacks are explicit:
 
 ==============================  ==========================================================
-file says                       rigval does (and records in ``time_fallbacks``)
+file says                       rigval does (and records as a ``TimeFallback``)
 ==============================  ==========================================================
 no ``wf_start_offset``          offset 0 s (SignalExpress, LabVIEW Biomedical)
 no ``wf_increment``             the ``fs`` option, else sample index with a DataWarning
@@ -36,6 +36,7 @@ import numpy as np
 
 from rigval.acquisition.errors import ChannelNotFoundError, DataFileError
 from rigval.acquisition.tdms_layout import ChannelLayout, TdmsLayout, TdmsStamp, object_path_parts
+from rigval.acquisition.time_fallbacks import TimeFallback
 from rigval.acquisition.timebase import Block, TimeBase, exact_increment
 from rigval.acquisition.warn import warn_data
 
@@ -59,6 +60,8 @@ _EPOCH_1904 = TdmsStamp(0, 0)
 _MAX_OFFSET_S = 1e7
 #: A ``wf_increment`` outside these bounds (s: 1 THz, about 115 days) is taken as damage.
 _MIN_DT_S, _MAX_DT_S = 1e-12, 1e7
+#: The fallbacks that are warned about (the others are logged): no interval, a restart moved.
+_SAMPLE_INDEX, _PLACED_AFTER = "time is the sample index", "placed right after it"
 
 
 @dataclass
@@ -69,7 +72,7 @@ class _ChannelTime:
     relative: bool
     blocks: list[tuple[int, int, float]]  # (first index, n, seconds since first sample)
     dt: float
-    notes: list[str]
+    fallbacks: list[tuple[str, str]]  # (reason, what was used instead)
 
 
 @dataclass
@@ -92,8 +95,8 @@ class TdmsStreamPlan:
         Absolute time of the first sample (naive UTC, ns).
     fs_nominal : float
         1 / dt, Hz.
-    notes : list of str
-        Time-axis fallbacks applied.
+    fallbacks : tuple of TimeFallback
+        Time-axis fallbacks applied, sorted (channel ``""``: all of the stream's channels).
     lengths : dict
         Variable name -> values readable from the file (before cropping to whole samples).
     expected : dict
@@ -111,7 +114,7 @@ class TdmsStreamPlan:
     timebase: TimeBase
     start_time: np.datetime64
     fs_nominal: float
-    notes: list[str]
+    fallbacks: tuple[TimeFallback, ...]
     lengths: dict[str, int]
     expected: dict[str, int]
     attrs: dict[str, Any] = field(default_factory=dict)
@@ -127,7 +130,7 @@ def _is_decimated(group: str, properties: Mapping[str, Any]) -> bool:
 def _channel_time(layout: ChannelLayout, fs: float | None, group_props: Mapping[str, Any],
                   root_props: Mapping[str, Any]) -> _ChannelTime:
     """Build a channel's blocks from its time marks, applying and noting the fallbacks."""
-    notes: list[str] = []
+    notes: list[tuple[str, str]] = []
     props = layout.properties
     first_marks: dict[str, Any] = {}
     for _, marks in layout.time_marks:
@@ -137,27 +140,27 @@ def _channel_time(layout: ChannelLayout, fs: float | None, group_props: Mapping[
     if _finite(dt_raw, None) is None or not _MIN_DT_S <= dt_raw <= _MAX_DT_S:
         if fs is not None:
             dt = 1.0 / fs
-            notes.append(f"no usable wf_increment ({dt_raw!r}): dt = 1/fs from the fs option")
+            notes.append((f"no usable wf_increment ({dt_raw!r})", "dt = 1/fs from the fs option"))
         else:
             dt = 1.0
-            notes.append(f"no usable wf_increment ({dt_raw!r}): time is the sample index")
+            notes.append((f"no usable wf_increment ({dt_raw!r})", _SAMPLE_INDEX))
     else:
         dt = float(dt_raw)
         exact = exact_increment(dt)
         if exact is not None:
-            notes.append(f"wf_increment {dt!r} rounded in the file: using {exact!r} s "
-                         f"({1.0 / exact:.9g} Hz)")
+            notes.append((f"wf_increment {dt!r} rounded in the file",
+                          f"using {exact!r} s ({1.0 / exact:.9g} Hz)"))
             dt = exact
     offset = _finite(first_marks.get("wf_start_offset"), None)
     if offset is None:
-        notes.append("no wf_start_offset: taken as 0 s")
+        notes.append(("no wf_start_offset", "taken as 0 s"))
         offset = 0.0
     elif abs(offset) > _MAX_OFFSET_S:
-        notes.append(f"wf_start_offset {offset!r} s is implausible: taken as 0 s")
+        notes.append((f"wf_start_offset {offset!r} s is implausible", "taken as 0 s"))
         offset = 0.0
     t0 = first_marks.get("wf_start_time")
     if isinstance(t0, TdmsStamp) and not t0.in_range():
-        notes.append(f"wf_start_time out of range ({t0.seconds} s since 1904): ignored")
+        notes.append((f"wf_start_time out of range ({t0.seconds} s since 1904)", "ignored"))
         t0 = None
     relative = not isinstance(t0, TdmsStamp) or t0.is_zero()
     start: TdmsStamp | None = None
@@ -167,16 +170,29 @@ def _channel_time(layout: ChannelLayout, fs: float | None, group_props: Mapping[
                             ("DateTime", root_props)):
             if isinstance(source.get(key), TdmsStamp) and source[key].in_range():
                 start = source[key]
-                notes.append(f"{what}: start_time from {key}")
+                notes.append((what, f"start_time from {key}"))
                 break
         else:
-            notes.append(f"{what}: start_time unknown (1904-01-01)")
+            notes.append((what, "start_time unknown (1904-01-01)"))
     else:
         start = t0
     blocks = _blocks(layout, dt, float(offset), notes)
     if start is not None and not relative:
         start = _add_seconds(start, float(offset))
     return _ChannelTime(start, relative, blocks, dt, notes)
+
+
+def _fallbacks(members: Mapping[str, _ChannelTime]) -> tuple[TimeFallback, ...]:
+    """Return a stream's fallbacks: once when every channel has one, else once per channel."""
+    found = {pair for info in members.values() for pair in info.fallbacks}
+    records = []
+    for reason, used in found:
+        having = [name for name, info in members.items() if (reason, used) in info.fallbacks]
+        if len(having) == len(members):
+            records.append(TimeFallback(reason, used))
+        else:
+            records.extend(TimeFallback(reason, used, name) for name in having)
+    return tuple(sorted(records))
 
 
 def _finite(value: Any, default: float | None) -> float | None:
@@ -195,7 +211,7 @@ def _add_seconds(stamp: TdmsStamp, seconds: float) -> TdmsStamp:
 
 
 def _blocks(layout: ChannelLayout, dt: float, offset0: float,
-            notes: list[str]) -> list[tuple[int, int, float]]:
+            notes: list[tuple[str, str]]) -> list[tuple[int, int, float]]:
     """Split a channel at restarts (a later segment with a new ``wf_start_time``)."""
     starts: list[tuple[int, float]] = [(0, 0.0)]
     t0: TdmsStamp | None = None
@@ -220,9 +236,9 @@ def _blocks(layout: ChannelLayout, dt: float, offset0: float,
         if abs(declared - expected) <= 0.5 * dt:
             continue
         if declared < expected:
-            notes.append(f"restart at sample {index}: its wf_start_time lies "
-                         f"{expected - declared:.6g} s before the end of the previous block; "
-                         "placed right after it")
+            notes.append((f"restart at sample {index}: its wf_start_time lies "
+                          f"{expected - declared:.6g} s before the end of the previous block",
+                          _PLACED_AFTER))
             declared = expected
         starts.append((index, at + declared))
     blocks = []
@@ -425,11 +441,13 @@ def _plan(layout: TdmsLayout, group: str, members: list[tuple[str, _ChannelTime]
                   key=lambda info: info.start.seconds_since(first) if info.start else 0.0)
     names: dict[str, str] = {}
     offsets: dict[str, float] = {}
+    times: dict[str, _ChannelTime] = {}
     for path, info in members:
         name = object_path_parts(path)[1]
         if name in names:
             name = path
         names[name] = path
+        times[name] = info
         offset = 0.0
         if not info.relative and info.start is not None and ref.start is not None:
             offset = round(info.start.seconds_since(ref.start), 12)
@@ -441,12 +459,12 @@ def _plan(layout: TdmsLayout, group: str, members: list[tuple[str, _ChannelTime]
         count = max(0, min(count, n - first))
         blocks.append(Block(first, count, at, ref.dt))
     start = ref.start if ref.start is not None else _EPOCH_1904
-    notes = sorted({note for _, info in members for note in info.notes})
     fs_nominal = 1.0 / ref.dt
     name = group if not several else f"{group}@{fs_nominal:.6g}Hz"
     return TdmsStreamPlan(
         name=name, group=group, channels=names, offsets=offsets, timebase=TimeBase(blocks),
-        start_time=start.to_datetime64(), fs_nominal=fs_nominal, notes=notes, lengths=lengths,
+        start_time=start.to_datetime64(), fs_nominal=fs_nominal, fallbacks=_fallbacks(times),
+        lengths=lengths,
         expected={k: layout.channels[p].expected_length for k, p in names.items()},
         attrs={"relative_time": int(ref.relative)},
     )
@@ -504,13 +522,13 @@ def warn_about_plans(layout: TdmsLayout, plans: list[TdmsStreamPlan]) -> None:
                   stacklevel=3)
     for plan in plans:
         _warn_truncation(layout, plan)
-        for note in plan.notes:
-            if "time is the sample index" in note or "restart at sample" in note:
-                warn_data(f"stream {plan.name!r}: {note}",
+        for fallback in plan.fallbacks:
+            if fallback.used in (_SAMPLE_INDEX, _PLACED_AFTER):
+                warn_data(f"stream {plan.name!r}: {fallback.text()}",
                                           where={"file": str(layout.path)},
                                           hint="pass fs=... if the rate is known", stacklevel=3)
             else:
-                logger.info("%s, stream %r: %s", layout.path, plan.name, note)
+                logger.info("%s, stream %r: %s", layout.path, plan.name, fallback.text())
         for name, path in plan.channels.items():
             scale = _unsupported_scale(layout.channels[path].properties)
             if scale is not None:

@@ -46,6 +46,7 @@ from rigval.acquisition.detect import checked_path, source_checksum
 from rigval.acquisition.devices import get_device, module_attrs
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
 from rigval.acquisition.schema import Channel, stream_dataset, string_table_attrs
+from rigval.acquisition.time_fallbacks import TimeFallback, time_fallback_attrs
 from rigval.acquisition.units import split_name_and_unit, udunits
 from rigval.acquisition.warn import warn_data
 
@@ -426,8 +427,9 @@ def _read_columns(lines: list[str], numbers_of: list[int], real: np.ndarray, lay
                   middle: Middle, *, t_index: int | None, lost: dict[str, list[int]],
                   start: np.datetime64 | None, fs: float | None, time_units: str | None,
                   time_format: str | None, timezone: str | None, where: Mapping[str, Any],
-                  notes: list[str]) -> tuple[dict[int, np.ndarray], dict[int, int], np.ndarray,
-                                             np.datetime64 | None]:
+                  notes: list[TimeFallback]
+                  ) -> tuple[dict[int, np.ndarray], dict[int, int], np.ndarray,
+                             np.datetime64 | None]:
     """Read the data rows as one channel per column (see :func:`read_csv`).
 
     Parameters
@@ -452,7 +454,7 @@ def _read_columns(lines: list[str], numbers_of: list[int], real: np.ndarray, lay
         As for :func:`read_csv`.
     where : mapping
         The file, for messages.
-    notes : list of str
+    notes : list of TimeFallback
         Fallbacks taken, appended to.
 
     Returns
@@ -551,7 +553,7 @@ def _read_columns(lines: list[str], numbers_of: list[int], real: np.ndarray, lay
     else:
         assert fs is not None  # checked before the cells were converted
         time = np.arange(n) / fs
-        notes.append(f"no time column: t = i / {fs} Hz")
+        notes.append(TimeFallback("no time column", f"t = i / {fs} Hz"))
     return values, text_cells, time, start
 
 
@@ -642,7 +644,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     else:
         lines, layout, real, middle, complete = fast
     n_mid = middle.line.size  # clean rows parsed in blocks, not in lines
-    notes: list[str] = []
+    notes: list[TimeFallback] = []
     t_index = _time_column(layout.names, time_column, where)
     width = len(layout.names)
     if t_index is None and fs is None:  # before any cell is converted
@@ -682,7 +684,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         layout = replace(layout, names=[row.name], units=[row.unit])
         values, text_cells = {0: row.values}, {0: row.text_cells}
         time = np.arange(row.values.size) / fs
-        notes.append(f"one row read as one channel: t = i / {fs} Hz")
+        notes.append(TimeFallback("no time column", f"t = i / {fs} Hz (one row, one channel)"))
     else:
         values, text_cells, time, start = _read_columns(
             lines, numbers_of, real, layout, middle, t_index=t_index, lost=lost, start=start,
@@ -693,7 +695,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         start = header_start(layout.header, time_format, timezone, where, notes)
     if start is None:
         start = _EPOCH_1904
-        notes.append("no start time in the file: start_time unknown (1904-01-01)")
+        notes.append(TimeFallback("no start time in the file", "start_time unknown (1904-01-01)"))
     if time.size < 1:
         raise DataFileError("the data block is empty", where=where)
     fs_nominal = fs if fs is not None else _rate_of(time)
@@ -725,9 +727,9 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
             attrs.update(module_attrs(module, fs_nominal, where={**where, "channel": column}))
         result[column] = Channel(data, udunits(unit_text), column, column, "none", attrs)
     for note in notes:
-        logger.info("%s: %s", file, note)
+        logger.info("%s: %s", file, note.text())
     attrs = {"source_format": "csv", "delimiter": layout.delimiter, "decimal": layout.decimal,
-             **string_table_attrs("text_header", layout.header), "time_fallbacks": "\n".join(notes),
+             **string_table_attrs("text_header", layout.header), **time_fallback_attrs(notes),
              "first_sample": lo, "samples_in_file": int(time.size)}
     if profile is not None:
         attrs.update(profile.stream_attrs())

@@ -115,11 +115,17 @@ null_offset = "none"
     return text
 
 
-def _index_comment(draw: RigDraw) -> str:
-    """Return a comment for a Z-reloaded main counter (the scene format has no key for it yet)."""
-    if not draw.encoders["enc1"].index_reset:
-        return ""
-    return "# the counter reloads 0 at every index (Z) pulse: counts run 0 ... 8191\n"
+def _encoder(name: str, draw: RigDraw) -> str:
+    """Return an encoder channel's table, noting an index that reloads the counter (no key yet)."""
+    encoder = draw.encoders[name]
+    reload = (f"# the counter reloads 0 at every index (Z) pulse: counts run 0 ... "
+              f"{encoder.counts_per_rev - 1}\n" if encoder.index_reset else "")
+    return f"""[streams.cdaq.channels.{name}]
+source = "{name}"
+module = "NI 9411"
+sensor = "encoder"
+counts_per_rev = {encoder.counts_per_rev}
+{reload}"""
 
 
 def _comparison(name: str, measured: str, model: str, scale: float, thresholds: str,
@@ -193,18 +199,8 @@ poisson = {bridge.poisson!r}
 youngs_modulus = {bridge.youngs_modulus!r}
 null_offset = "none"                   # bridge nulled with the machine at rest before the run
 {_face_gauges(draw)}
-[streams.cdaq.channels.enc1]
-source = "enc1"
-module = "NI 9411"
-sensor = "encoder"
-counts_per_rev = {draw.encoders['enc1'].counts_per_rev}
-{_index_comment(draw)}
-[streams.cdaq.channels.enc2]
-source = "enc2"
-module = "NI 9411"
-sensor = "encoder"
-counts_per_rev = {draw.encoders['enc2'].counts_per_rev}
-
+{_encoder("enc1", draw)}
+{_encoder("enc2", draw)}
 [streams.cdaq.channels.opt1]
 source = "opt1"
 module = "NI 9215"

@@ -32,6 +32,9 @@ def test_info_json_and_csv_gaps(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert stream["samples"] == 5
     assert stream["gaps"][0]["missing_samples"] == 7
     assert stream["channels"][0]["units"] == "V/V"
+    assert stream["time_fallbacks"] == [{"reason": "no start time in the file",
+                                         "used": "start_time unknown (1904-01-01)",
+                                         "channel": ""}]
 
 
 def test_info_reports_unreadable_files_and_goes_on(tmp_path: Path, realdata_dir: Path,

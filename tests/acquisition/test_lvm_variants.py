@@ -10,6 +10,7 @@ import pytest
 from rigval.acquisition import read, read_stream
 from rigval.acquisition.errors import DataFileError
 from rigval.acquisition.schema import parse_start_time
+from rigval.acquisition.time_fallbacks import TimeFallback, time_fallbacks
 
 FILE_HEADER = ("LabVIEW Measurement\t\nWriter_Version\t2\nReader_Version\t2\nSeparator\tTab\n"
                "Decimal_Separator\t{dec}\nMulti_Headings\tYes\nX_Columns\t{x}\n"
@@ -55,7 +56,8 @@ def test_segments_decimal_comma_and_rounded_delta_x(tmp_path: Path) -> None:
     assert ds.attrs["gap_count"] == 1
     assert ds.attrs["lvm_segments"] == 2
     assert parse_start_time(ds.attrs["start_time"]) == np.datetime64("2026-11-21T06:00:01")
-    assert "rounded to 6 decimals" in ds.attrs["time_fallbacks"]
+    assert TimeFallback("Delta_X 0.000977 rounded to 6 decimals",
+                        f"using {1 / 1024!r} s") in time_fallbacks(ds.attrs)
 
 
 def test_multi_x_columns_with_two_rates_give_two_streams(tmp_path: Path) -> None:

@@ -1,4 +1,5 @@
-"""Every real NI file in shared/realdata reads; values, lengths and time axes are checked.
+"""Every real NI file of the test data (``realdata_dir`` fixture) reads; values, lengths and time
+axes are checked.
 
 TDMS values and lengths are compared with nptdms; time axes with the files' own wf_* properties
 read through nptdms (``raw_timestamps=True`` keeps sub-microsecond start times). LVM values are
@@ -16,6 +17,7 @@ from nptdms import TdmsFile
 from rigval.acquisition import read, read_stream
 from rigval.acquisition.errors import DataWarning
 from rigval.acquisition.schema import check_stream, parse_start_time
+from rigval.acquisition.time_fallbacks import TimeFallback, time_fallbacks
 
 TDMS_FILES = ["npTDMS/Digital_Input.tdms", "npTDMS/raw1.tdms", "npTDMS/big_endian.tdms",
               "npTDMS/raw_timestamps.tdms", "nidaqmx-python/data_ai.tdms",
@@ -89,7 +91,7 @@ def test_signalexpress_decimated_groups_are_skipped_and_missing_offset_noted(
     (name, ds), = streams.items()
     assert name.endswith("All Data")
     assert ds.sizes["time"] == 20000
-    assert "no wf_start_offset" in ds.attrs["time_fallbacks"].split("\n")[0]
+    assert time_fallbacks(ds.attrs)[0] == TimeFallback("no wf_start_offset", "taken as 0 s")
     everything = read(path, include_decimated=True)
     assert sorted(ds.sizes["time"] for ds in everything.values()) == [8, 400, 20000]
 

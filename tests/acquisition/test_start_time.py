@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from rigval.acquisition.start_time import start_time_text, taken_as_utc
+from rigval.acquisition.start_time import start_time_text
+from rigval.acquisition.time_fallbacks import LOCAL_TIME_AS_UTC, TimeFallback, taken_as_utc
 from rigval.sample_data import runs_dir
 from rigval.validation.cli import main
 
@@ -25,8 +26,11 @@ def test_start_time_text() -> None:
             == "2026-03-11T09:07:23.506000+01:00 (Europe/Berlin)")
     assert (start_time_text("2026-07-01T10:00:00.000000000Z", timezone="Europe/Berlin")
             == "2026-07-01T12:00:00+02:00 (Europe/Berlin)")
-    assert taken_as_utc(["local date-times without a zone taken as UTC (pass timezone=...)"])
-    assert not taken_as_utc("")
+    assert taken_as_utc([TimeFallback("no wf_start_offset", "taken as 0 s"),
+                         TimeFallback("local date-times without a zone", LOCAL_TIME_AS_UTC)])
+    assert not taken_as_utc([TimeFallback("no start time in the file",
+                                          "start_time unknown (1904-01-01)")])
+    assert not taken_as_utc(())
 
 
 def _first_local_time(csv: Path) -> str:

@@ -17,6 +17,7 @@ from rigval.acquisition.errors import (
     DataWarning,
 )
 from rigval.acquisition.schema import parse_start_time, stream_gaps
+from rigval.acquisition.time_fallbacks import TimeFallback, time_fallbacks
 
 T0 = np.datetime64("2026-11-21T05:00:00.123456", "ns")  # TdmsWriter keeps microseconds
 FS = 50_000 / 31  # an NI 9237 rate
@@ -115,7 +116,8 @@ def test_increment_rounded_to_six_digits_is_replaced_by_the_exact_one(write_tdms
                       [[ChannelObject("task", "x", np.zeros(96_001), props)]])
     ds = read_stream(path)
     assert ds.time.values[-1] == pytest.approx(1.0, abs=1e-12)  # not 1.0000032
-    assert "rounded" in ds.attrs["time_fallbacks"]
+    assert TimeFallback("wf_increment 1.04167e-05 rounded in the file",
+                        f"using {1 / 96_000!r} s (96000 Hz)") in time_fallbacks(ds.attrs)
 
 
 def test_start_offset_is_part_of_the_start_time(write_tdms, tmp_path: Path) -> None:

@@ -18,6 +18,7 @@ from rigval.acquisition.errors import (
     DataWarning,
 )
 from rigval.acquisition.schema import parse_start_time, string_table
+from rigval.acquisition.time_fallbacks import TimeFallback, taken_as_utc, time_fallbacks
 
 FS = 50_000 / 31
 
@@ -46,7 +47,8 @@ def test_rig_style_european_csv_reads_back_exactly(tmp_path: Path) -> None:
     assert ds["tor3"].attrs["units"] == "V/V"
     assert ds["tor3"].attrs["rate_divider"] == 31
     assert ds.attrs["start_time"].startswith("1904-01-01")
-    assert "no start time" in ds.attrs["time_fallbacks"]
+    assert TimeFallback("no start time in the file",
+                        "start_time unknown (1904-01-01)") in time_fallbacks(ds.attrs)
 
 
 def test_jump_in_the_time_column_is_a_gap_never_filled(tmp_path: Path) -> None:
@@ -176,7 +178,7 @@ def test_local_times_across_the_autumn_dst_change(tmp_path: Path) -> None:
     with pytest.raises(DataFileError, match="does not increase"):
         read_stream(path)  # without the zone the repeated hour runs backwards
     path.write_text("Zeit;v\n25.10.2026 04:00:00,000;1\n25.10.2026 04:00:00,500;2\n")
-    assert "taken as UTC" in read_stream(path).attrs["time_fallbacks"]
+    assert taken_as_utc(time_fallbacks(read_stream(path).attrs))
 
 
 @settings(max_examples=30, suppress_health_check=[HealthCheck.function_scoped_fixture])

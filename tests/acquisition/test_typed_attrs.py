@@ -11,11 +11,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+from nptdms import ChannelObject
 
 from rigval.acquisition import read_stream
 from rigval.acquisition.channel_map import sensor_attrs
 from rigval.acquisition.errors import DataError
 from rigval.acquisition.schema import string_table, string_table_attrs
+from rigval.acquisition.time_fallbacks import TimeFallback, time_fallback_attrs, time_fallbacks
 
 
 def _round_trip(ds: xr.Dataset, path: Path) -> xr.Dataset:
@@ -74,3 +76,38 @@ def test_sensor_parameters_are_typed_channel_attributes_after_a_round_trip(tmp_p
     assert list(back["sensor_params"]) == list(params)
     assert int(back["sensor_counts_per_rev"]) == 2048 and back["sensor_edge"] == "rising"
     assert back["sensor_index_reset"] == 1 and back["sensor_slope"] == 2.5e-3
+
+
+def test_time_fallbacks_are_records_per_stream_or_channel_after_a_round_trip(
+        write_tdms, tmp_path: Path) -> None:
+    start = np.datetime64("2026-11-21T05:00:00.123456", "ns")
+    common = {"wf_increment": 1.04167e-05, "wf_start_time": start}
+    path = write_tdms(tmp_path / "two.tdms", [[
+        ChannelObject("task", "a", np.zeros(960), {**common, "wf_start_offset": 0.0}),
+        ChannelObject("task", "b", np.ones(960), common)]])  # only b lacks wf_start_offset
+    ds = read_stream(path)
+    expected = (TimeFallback("no wf_start_offset", "taken as 0 s", channel="b"),
+                TimeFallback("wf_increment 1.04167e-05 rounded in the file",
+                             f"using {1 / 96_000!r} s (96000 Hz)"))  # both channels: channel ""
+    assert time_fallbacks(ds.attrs) == expected
+    assert all(isinstance(v, list) and all(isinstance(s, str) for s in v)
+               for k, v in ds.attrs.items() if k.startswith("time_fallback"))
+    assert time_fallbacks(_round_trip(ds, tmp_path / "two.nc").attrs) == expected
+
+
+@pytest.mark.parametrize("count", [0, 1, 3])
+def test_time_fallback_attrs_round_trip_none_one_and_several(tmp_path: Path,
+                                                             count: int) -> None:
+    records = [TimeFallback(f"reason {k}: with a colon", f"used {k}", f"ch {k}" * (k % 2))
+               for k in range(count)]
+    ds = xr.Dataset({"x": ("time", np.zeros(2))},
+                    attrs=time_fallback_attrs([*reversed(records), *records]))  # repeats kept once
+    assert time_fallbacks(ds.attrs) == tuple(records)
+    assert time_fallbacks(_round_trip(ds, tmp_path / "t.nc").attrs) == tuple(records)
+
+
+def test_time_fallbacks_of_unequal_length_name_the_attributes() -> None:
+    attrs = {"time_fallback_reason": ["a", "b"], "time_fallback_used": ["x", "y"],
+             "time_fallback_channel": "c"}
+    with pytest.raises(DataError, match=r"differ in length.*'channel': 1"):
+        time_fallbacks(attrs)

@@ -29,7 +29,7 @@ PENDULUM_DRIVERS = [
 
 
 def file_law(t, theta0, omega, harmonics):
-    """The mechanism file's law evaluated directly (design 4.1)."""
+    """The mechanism file's law evaluated directly (docs/mechanism.md, *`[[drivers]]`*)."""
     theta = theta0 + omega * t
     speed = np.full_like(t, omega)
     accel = np.zeros_like(t)

@@ -1,5 +1,5 @@
-"""The result contract (design 3.3): names, dims, units, subsets, stages skipped, sampled drives,
-and evaluation over one revolution of the main drive."""
+"""The result contract (docs/model.md, *Result contract*): names, dims, units, subsets, stages
+skipped, sampled drives, and evaluation over one revolution of the main drive."""
 
 from __future__ import annotations
 

@@ -1,8 +1,8 @@
 """Diagnosis sweep of ``rigval bench``: what naming a model error's cause costs, against its error.
 
-The virtual rig runs the pendulum with its arm A 8 % heavier (the departure ``mass_scale A=1.08``,
-432 kg instead of 400 kg) at 1 rev/s (20 s, seed 1; ``--quick``: 10 s); the run is validated
-once with the nominal mechanism file. Choices: the attribution of every comparison
+The virtual rig runs the pendulum with its arm A 8 % heavier (432 kg instead of 400 kg,
+:mod:`rigval.validation.bench.heavy_arm`) at 1 rev/s; the run is validated once with the nominal
+mechanism file. Choices: the attribution of every comparison
 (:func:`rigval.validation.diagnosis.explain.diagnose`, the baseline: it names A.mass among every
 cause it considers) and ``rigval identify`` told to fit A.mass and A.inertia (it is given the
 cause). The error is that of the arm's mass change against the rig's truth, relative to it
@@ -17,6 +17,7 @@ import math
 import tempfile
 from pathlib import Path
 
+from rigval.validation.bench.heavy_arm import ARM_MASS_KG, HEAVIER_BY, heavy_arm_scene
 from rigval.validation.bench.rows import BenchRow, measure, with_baseline
 
 __all__ = ["diagnosis_rows"]
@@ -24,7 +25,7 @@ __all__ = ["diagnosis_rows"]
 logger = logging.getLogger(__name__)
 
 #: The rig's arm mass change, kg (400 kg times 0.08).
-TRUTH_KG = 32.0
+TRUTH_KG = ARM_MASS_KG * (HEAVIER_BY - 1.0)
 BASELINE = "attribution of every comparison (diagnose)"
 METRIC = "relative error of the arm's mass change (A.mass, +32 kg) against the rig's truth"
 
@@ -35,25 +36,20 @@ def diagnosis_rows(quick: bool) -> list[BenchRow]:
     Parameters
     ----------
     quick : bool
-        A 10 s run instead of 20 s.
+        Diagnose a 10 s run instead of a 20 s one.
 
     Returns
     -------
     list of BenchRow
     """
-    from rigval.sample_data import RigSettings, simulate_rig
-    from rigval.sample_data.departures import Departures
     from rigval.validation.diagnosis.explain import diagnose
     from rigval.validation.identify import identify
     from rigval.validation.pipeline import run_scene
 
-    duration = 10.0 if quick else 20.0
-    case = f"virtual rig, arm A +8 % (432 kg), 1 rev/s, {duration:g} s, 9 comparisons"
     with tempfile.TemporaryDirectory() as tmp:
-        files = simulate_rig(Path(tmp), RigSettings(
-            speed=1.0, duration=duration, seed=1,
-            departures=Departures(mass_scale=(("A", 1.08),))))
-        result = run_scene(files.path("scene.toml"))
+        scene, duration = heavy_arm_scene(Path(tmp), speed=1.0, quick=quick)
+        case = f"virtual rig, arm A +8 % (432 kg), 1 rev/s, {duration:g} s, 9 comparisons"
+        result = run_scene(scene)
         attribution = measure(lambda: diagnose(result), 3)
         cause = attribution.value.causes["torque_F"]
         found = cause.value if cause.cause == "A.mass" else math.nan
@@ -63,7 +59,7 @@ def diagnosis_rows(quick: bool) -> list[BenchRow]:
         rows = []
         for choice, change, run in ((BASELINE, found, attribution),
                                     ("rigval identify A.mass, A.inertia (cause given)",
-                                     values["A.mass"] - 400.0, fitted)):
+                                     values["A.mass"] - ARM_MASS_KG, fitted)):
             error = float(abs(change - TRUTH_KG) / TRUTH_KG)
             logger.info("%s: error %.3g in %.2f s", choice, error, run.time_s)
             rows.append(BenchRow(stage="diagnosis", case=case, choice=choice, metric=METRIC,

@@ -35,7 +35,8 @@ def add_parser(subparsers: Any) -> None:
 
 def _print_text(info: dict[str, Any], timezone: str | None) -> None:
     """Print one file's description as indented text (start times as :func:`start_time_text`)."""
-    from rigval.acquisition.start_time import start_time_text, taken_as_utc
+    from rigval.acquisition.start_time import start_time_text
+    from rigval.acquisition.time_fallbacks import TimeFallback, taken_as_utc
 
     head = f"{info['file']}: {info['format'].upper()}, {info['bytes']} bytes"
     if info["format"] == "tdms":
@@ -48,15 +49,16 @@ def _print_text(info: dict[str, Any], timezone: str | None) -> None:
     for group in info.get("skipped_groups", []):
         print(f"  skipped group (decimated): {group}")
     for stream in info["streams"]:
+        fallbacks = [TimeFallback(**record) for record in stream["time_fallbacks"]]
         start = start_time_text(stream["start_time"], timezone=timezone,
-                                zone_unknown=taken_as_utc(stream["time_fallbacks"]))
+                                zone_unknown=taken_as_utc(fallbacks))
         print(f"  stream {stream['name']!r}: {stream['fs_hz']:.9g} Hz, {stream['samples']} "
               f"samples, {stream['duration_s']:.6g} s, start {start}")
         for gap in stream["gaps"]:
             print(f"    gap after {gap['after_s']:.6f} s: {gap['duration_s']:.6g} s, "
                   f"{gap['missing_samples']} samples missing")
-        for note in stream["time_fallbacks"]:
-            print(f"    time: {note}")
+        for fallback in fallbacks:
+            print(f"    time: {fallback.text()}")
         for channel in stream["channels"]:
             line = (f"    {channel['name']!r}: {channel['samples']} samples, "
                     f"units {channel['units'] or '-'!r}")
