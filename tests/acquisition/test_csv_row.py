@@ -144,3 +144,15 @@ def test_time_range_counts_only_the_window(tmp_path: Path) -> None:
     np.testing.assert_array_equal(stream["time"].values, np.arange(50, 501) / 100.0)
     assert invalid_counts(stream) == {TEXT: 1}
     assert int((~stream["valid"]).sum()) == 1 and np.isnan(stream["row 0"].values[50])
+
+
+def test_labelled_row_under_header_lines_in_european_format(tmp_path: Path) -> None:
+    cells = [f"{v:.6f}" for v in np.random.default_rng(16).normal(size=3000)]
+    path = tmp_path / "drehmoment.csv"
+    path.write_text("Datum;21.11.2026\nZeit;06:00:00\nDrehmoment [N m];"
+                    + ";".join(c.replace(".", ",") for c in cells) + "\r\n", encoding="ascii")
+    stream, _ = _read(path, fs=100.0)
+    expected = np.array([float(c) for c in cells])  # the decimals as written
+    np.testing.assert_array_equal(stream["Drehmoment"].values, expected)
+    assert stream["Drehmoment"].attrs["units"] == "N m"
+    assert stream.attrs["start_time"] == "2026-11-21T06:00:00.000000000Z"
