@@ -43,8 +43,8 @@ def convert_cells(cells: np.ndarray | list[str], decimal: str
     if decimal == ",":
         stripped = stripped.str.replace(",", ".", regex=False)
     numbers = pd.to_numeric(stripped.replace("", np.nan), errors="coerce").to_numpy(float)
-    bad = np.isnan(numbers) & ~stripped.str.match(NUMBER.pattern, case=False).to_numpy(bool) \
-        & (stripped != "").to_numpy()
+    bad = np.isnan(numbers) & (stripped != "").to_numpy()  # text, or a nan cell: look closer
+    bad[bad] = ~stripped[bad].str.match(NUMBER.pattern, case=False).to_numpy(bool)
     return stripped.to_numpy(dtype=object), numbers, bad
 
 
