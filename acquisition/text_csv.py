@@ -18,7 +18,8 @@ Every guess can be overridden by an option:
   ``t0``, ``wf_start_time`` or ``Date`` + ``Time``, else 1904-01-01 (unknown) with a note.
 
 Jumps in the time column (restarts, dropouts) are kept as gaps. Empty cells become NaN, counted per
-channel in the attribute ``empty_cells``.
+channel in the attribute ``empty_cells``. A data block of one row without a names row is a waveform
+written as a row: one channel of ``fs`` samples per second (:mod:`rigval.acquisition.csv_row`).
 """
 
 from __future__ import annotations
