@@ -46,14 +46,14 @@ def _describe_tdms(path: Path, **options: Any) -> dict[str, Any]:
         channels = []
         for name, obj in plan.channels.items():
             props = layout.channels[obj].properties
-            channels.append({
-                "name": name, "path": obj, "samples": plan.lengths[name],
+            channels.extend({  # a complex channel is read as its parts: their names
+                "name": shown, "path": obj, "samples": plan.lengths[name],
                 "expected_samples": plan.expected[name],
                 "units": str(props.get("unit_string", "")),
                 "time_offset_s": plan.offsets[name],
                 "scaled_by_nptdms": bool(props.get("NI_Number_Of_Scales"))
                 and props.get("NI_Scaling_Status") != "scaled",
-            })
+            } for shown in [f"{name}.{part}" for part in plan.parts.get(name, ())] or [name])
         streams.append({
             "name": plan.name, "group": plan.group, "fs_hz": plan.fs_nominal,
             "samples": tb.length,

@@ -176,7 +176,7 @@ def _read_values(tdms: TdmsFile, path: str, start: int, count: int, file: Path) 
         raise DataFileError(f"cannot read channel data: {type(error).__name__}: {error}",
                             where={"file": str(file), "channel": path},
                             hint="the file may be damaged; see 'rigval info'") from error
-    if data.dtype.kind not in "iufb":
+    if data.dtype.kind not in "iufbc":
         raise DataFileError(f"channel holds {data.dtype} values, not numbers",
                             where={"file": str(file), "channel": path})
     return data
@@ -192,8 +192,14 @@ def _build(layout: TdmsLayout, plan: TdmsStreamPlan, data: Mapping[str, np.ndarr
         path = plan.channels[name]
         props = layout.channels[path].properties
         units, attrs = _channel_attrs(layout, plan, name, profile, modules)
-        channels[name] = Channel(values, units, str(props.get("NI_ChannelName", name)), path,
-                                 _scaling_text(props), attrs)
+        long_name = str(props.get("NI_ChannelName", name))
+        for part in plan.parts.get(name, ()):  # a complex channel: one real variable per part
+            channels[f"{name}.{part}"] = Channel(
+                np.ascontiguousarray(getattr(values, part)), units,
+                f"{long_name} ({part} part)", path, _scaling_text(props),
+                {**attrs, "complex_part": part, "complex_type": str(values.dtype)})
+        if name not in plan.parts:
+            channels[name] = Channel(values, units, long_name, path, _scaling_text(props), attrs)
     attrs: dict[str, Any] = {
         **plan.attrs,
         "source_format": "tdms",

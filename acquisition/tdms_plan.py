@@ -40,7 +40,7 @@ from rigval.acquisition.time_fallbacks import TimeFallback
 from rigval.acquisition.timebase import Block, TimeBase, exact_increment
 from rigval.acquisition.warn import warn_data
 
-__all__ = ["TdmsStreamPlan", "plan_tdms", "raise_empty", "warn_about_plans"]
+__all__ = ["COMPLEX_PARTS", "TdmsStreamPlan", "plan_tdms", "raise_empty", "warn_about_plans"]
 
 logger = logging.getLogger(__name__)
 
@@ -49,6 +49,10 @@ _NUMERIC_TYPES = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 0x19, 0x1A, 0xFFFFFFFF}
 _UNREAD_TYPES = {0: "void", 11: "extended float", 0x1B: "extended float with unit",
                  0x20: "text", 0x21: "boolean", 0x44: "timestamp", 0x08000C: "complex64",
                  0x10000D: "complex128"}
+_COMPLEX_TYPES = {0x08000C, 0x10000D}
+_READ_TYPES = _NUMERIC_TYPES | _COMPLEX_TYPES
+#: The real variables a complex channel is read as: ``<channel>.real`` and ``<channel>.imag``.
+COMPLEX_PARTS = ("real", "imag")
 _SUPPORTED_SCALES = {"Linear", "Polynomial", "RTD", "Strain", "Table", "Thermistor",
                      "Thermocouple", "Add", "Subtract", "AdvancedAPI"}
 _EPOCH_1904 = TdmsStamp(0, 0)
@@ -99,6 +103,8 @@ class TdmsStreamPlan:
         Variable name -> values the file announces.
     attrs : dict
         Further stream attributes.
+    parts : dict
+        Variable name of a complex channel -> the parts to read (of :data:`COMPLEX_PARTS`).
     """
 
     name: str
@@ -112,6 +118,7 @@ class TdmsStreamPlan:
     lengths: dict[str, int]
     expected: dict[str, int]
     attrs: dict[str, Any] = field(default_factory=dict)
+    parts: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
 
 def _is_decimated(group: str, properties: Mapping[str, Any]) -> bool:
@@ -266,30 +273,53 @@ def _select_groups(layout: TdmsLayout, group: str | Sequence[str] | None,
 
 
 def _match_channels(layout: TdmsLayout, groups: list[str],
-                    channels: Sequence[str] | None) -> list[str]:
-    """Return the object paths of the numeric channels to read."""
+                    channels: Sequence[str] | None) -> dict[str, tuple[str, ...]]:
+    """Return the object paths of the channels to read, each with the complex parts to read.
+
+    A real channel has no parts (``()``); a complex channel is asked for by its name (both
+    parts) or as ``<name>.real`` / ``<name>.imag``.
+    """
     candidates = [p for p in layout.channels if object_path_parts(p)[0] in groups]
     if channels is None:
         _warn_unread(layout, [p for p in candidates
-                              if layout.channels[p].data_type not in _NUMERIC_TYPES])
-        return [p for p in candidates if layout.channels[p].data_type in _NUMERIC_TYPES
-                and layout.channels[p].expected_length > 0]
-    chosen = []
+                              if layout.channels[p].data_type not in _READ_TYPES])
+        return {p: _parts(layout, p) for p in candidates
+                if layout.channels[p].data_type in _READ_TYPES
+                and layout.channels[p].expected_length > 0}
+    chosen: dict[str, tuple[str, ...]] = {}
     for wanted in channels:
-        hits = [p for p in candidates
-                if wanted in (p, object_path_parts(p)[1], "/".join(object_path_parts(p)))]
+        parts: tuple[str, ...] | None = None
+        hits = _hits(candidates, wanted)
+        stem, _, part = wanted.rpartition(".")
+        if not hits and part in COMPLEX_PARTS:
+            hits = [p for p in _hits(candidates, stem)
+                    if layout.channels[p].data_type in _COMPLEX_TYPES]
+            parts = (part,)
         if not hits:
             raise ChannelNotFoundError(
                 f"channel {wanted!r} not in the file", where={"file": str(layout.path)},
                 available=[object_path_parts(p)[1] for p in candidates],
-                hint="name a channel as written in the file, or as 'group/channel'")
+                hint="a complex channel C is read as 'C.real' and 'C.imag'")
         if len(hits) > 1:
             raise ChannelNotFoundError(
                 f"channel {wanted!r} is in several groups", where={"file": str(layout.path)},
                 available=["/".join(object_path_parts(p)) for p in hits],
                 hint="name it as 'group/channel'")
-        chosen.append(hits[0])
+        path = hits[0]
+        whole = _parts(layout, path) if parts is None else parts
+        chosen[path] = tuple(p for p in COMPLEX_PARTS if p in chosen.get(path, ()) + whole)
     return chosen
+
+
+def _hits(candidates: list[str], wanted: str) -> list[str]:
+    """Return the object paths named by ``wanted``: a path, a channel or ``group/channel``."""
+    return [p for p in candidates
+            if wanted in (p, object_path_parts(p)[1], "/".join(object_path_parts(p)))]
+
+
+def _parts(layout: TdmsLayout, path: str) -> tuple[str, ...]:
+    """Return the parts a channel is read as: both for a complex channel, none for a real one."""
+    return COMPLEX_PARTS if layout.channels[path].data_type in _COMPLEX_TYPES else ()
 
 
 def _type_name(data_type: int | None) -> str:
@@ -300,20 +330,19 @@ def _type_name(data_type: int | None) -> str:
 
 
 def _warn_unread(layout: TdmsLayout, paths: list[str]) -> None:
-    """Warn about channels holding values that are not real numbers (complex, text, time stamps).
+    """Warn about channels holding values that are not numbers (text, time stamps, booleans).
 
     Such a channel is not read; the DataWarning names each one with its value type and count,
-    so that nothing is left out silently (a complex RF capture, for example).
+    so that nothing is left out silently. Complex channels are read (as their two parts).
     """
     unread = [f"{'/'.join(object_path_parts(p))} ({_type_name(layout.channels[p].data_type)}, "
               f"{layout.channels[p].length} values)"
               for p in paths if layout.channels[p].length > 0]
     if unread:
-        warn_data(f"{len(unread)} channel(s) hold values that are not real numbers and are not "
+        warn_data(f"{len(unread)} channel(s) hold values that are not numbers and are not "
                   f"read: {'; '.join(unread)}", where={"file": str(layout.path)},
-                  hint="rigval reads real numeric waveforms; export the real and imaginary "
-                  "parts (or magnitude and phase) as numeric channels to use them",
-                  stacklevel=4)
+                  hint="rigval reads numeric waveforms; export them as numeric channels to use "
+                  "them", stacklevel=4)
 
 
 def plan_tdms(layout: TdmsLayout, *, group: str | Sequence[str] | None = None,
@@ -346,11 +375,11 @@ def plan_tdms(layout: TdmsLayout, *, group: str | Sequence[str] | None = None,
     for path in paths:
         channel = layout.channels[path]
         group_name, name = object_path_parts(path)[:2]
-        if channel.data_type not in _NUMERIC_TYPES:
+        if channel.data_type not in _READ_TYPES:
             raise DataFileError(f"channel {name!r} holds {_type_name(channel.data_type)} values "
-                                f"({channel.length}), not real numeric samples",
+                                f"({channel.length}), not numeric samples",
                                 where={"file": str(layout.path), "channel": path},
-                                hint="rigval reads numeric waveforms only")
+                                hint="rigval reads numeric waveforms (real or complex) only")
         info = _channel_time(channel, fs, layout.group_properties.get(group_name, {}),
                              layout.root_properties)
         pending.setdefault(group_name, []).append((path, info))
@@ -369,6 +398,7 @@ def plan_tdms(layout: TdmsLayout, *, group: str | Sequence[str] | None = None,
             if len(streams) > 1 and rates.count(1.0 / stream[0][1].dt) > 1:
                 # several streams at one rate differ in length: say so in the name
                 plan.name = f"{plan.name}[{max(plan.expected.values())}]"
+            plan.parts = {n: paths[p] for n, p in plan.channels.items() if paths[p]}
             plans.append(plan)
     names = [p.name for p in plans]
     for plan in plans:

@@ -18,7 +18,8 @@ Every guess can be overridden by an option:
   ``t0``, ``wf_start_time`` or ``Date`` + ``Time``, else 1904-01-01 (unknown) with a note.
 
 Jumps in the time column (restarts, dropouts) are kept as gaps. Empty cells become NaN, counted per
-channel in the attribute ``empty_cells``.
+channel in the attribute ``empty_cells``. A data block of one row without a names row is a waveform
+written as a row: one channel of ``fs`` samples per second (:mod:`rigval.acquisition.csv_row`).
 """
 
 from __future__ import annotations
@@ -28,9 +29,8 @@ import io
 import logging
 import os
 import re
-import zoneinfo
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -39,11 +39,15 @@ import pandas as pd
 import xarray as xr
 
 from rigval.acquisition.csv_blocks import Middle, is_clean_row, parse_middle, split_file
+from rigval.acquisition.csv_cells import NUMBER as _NUMBER
+from rigval.acquisition.csv_cells import convert_table, split_rows
+from rigval.acquisition.csv_row import read_row
+from rigval.acquisition.csv_time import header_start, parse_datetimes
 from rigval.acquisition.detect import checked_path, source_checksum
 from rigval.acquisition.devices import get_device, module_attrs
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataFileError
 from rigval.acquisition.schema import Channel, stream_dataset, string_table_attrs
-from rigval.acquisition.time_fallbacks import LOCAL_TIME_AS_UTC, TimeFallback, time_fallback_attrs
+from rigval.acquisition.time_fallbacks import TimeFallback, time_fallback_attrs
 from rigval.acquisition.units import split_name_and_unit, udunits
 from rigval.acquisition.warn import warn_data
 
@@ -52,17 +56,10 @@ __all__ = ["CsvLayout", "read_csv", "read_text", "read_text_lines", "sniff_csv"]
 logger = logging.getLogger(__name__)
 
 _DELIMITERS = (";", "\t", ",", "|")
-_NUMBER = re.compile(r"^\s*([-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?|[-+]?(nan|inf|infinity))"
-                     r"\s*$", re.IGNORECASE)
 _COMMA_NUMBER = re.compile(r"^\s*[-+]?\d*,\d+([eE][-+]?\d+)?\s*$")
 _TIME_NAMES = re.compile(r"^(time|zeit|t|x_value|timestamp|zeitstempel|datetime|date|datum|"
                          r"relative time|elapsed time)\b", re.IGNORECASE)
 _DATE_TIME = re.compile(r"^\s*\d{1,4}[-./]\d{1,2}[-./]\d{1,4}[ T]\d{1,2}:\d{2}")
-_START_KEYS = re.compile(r"(start|t0|wf_start_time|beginn|trigger)", re.IGNORECASE)
-_LOCALE_FORMATS = ("%d.%m.%Y %H:%M:%S.%f", "%d.%m.%Y %H:%M:%S", "%m/%d/%Y %I:%M:%S.%f %p",
-                   "%m/%d/%Y %I:%M:%S %p", "%m/%d/%Y %H:%M:%S.%f", "%m/%d/%Y %H:%M:%S",
-                   "%Y/%m/%d %H:%M:%S.%f", "%Y/%m/%d %H:%M:%S", "%d/%m/%Y %H:%M:%S.%f",
-                   "%d/%m/%Y %H:%M:%S")
 _EPOCH_1904 = np.datetime64("1904-01-01T00:00:00", "ns")
 _SAMPLE_ROWS = 200  # first data rows that decide the decimal separator
 _TAIL_WINDOW = 400  # last lines whose data rows decide the data's width
@@ -87,6 +84,8 @@ class CsvLayout:
     skipped : tuple of int
         Indices of lines at or after ``data_start`` that are not data rows (a text line inside
         the data, a footer such as ``Statistics``); the reader drops and reports them.
+    names_row : int or None
+        Index of the line holding the column names (None: the file has none).
     """
 
     delimiter: str
@@ -96,6 +95,7 @@ class CsvLayout:
     units: list[str | None]
     header: dict[str, str]
     skipped: tuple[int, ...] = ()
+    names_row: int | None = None
 
 
 def read_text_lines(path: Path, encoding: str | None = None) -> list[str]:
@@ -175,7 +175,8 @@ def _is_data(fields: list[str]) -> bool:
     if not cells:
         return False
     numeric = sum(bool(_NUMBER.match(c)) for c in cells)
-    return numeric >= max(1, len(cells) - 1) and (numeric >= len(cells) / 2)
+    text = max(1, len(cells) // 100)  # one text cell; 1 % in a row of >= 200 (a waveform row)
+    return numeric >= max(1, len(cells) - text) and (numeric >= len(cells) / 2)
 
 
 def _all_numbers(fields: list[str]) -> bool:
@@ -190,15 +191,19 @@ def _guess_delimiter(lines: list[str]) -> str:
 
     A decimal comma splits data rows too, but into cells that are not numbers (``"000000;1"``);
     counting data rows, not equal field counts, keeps one ragged or cut row from tipping the
-    choice. Ties go to the first of ``;``, tab, ``,``, ``|``.
+    choice. Ties go to the first of ``;``, tab, ``,``, ``|``. When no delimiter gives a row of
+    numbers only (a single data row holding a text cell), rows that are mostly numbers count.
     """
     tail = [ln for ln in lines[-200:] if ln.strip()]
-    best, best_score = ",", 0
-    for delimiter in _DELIMITERS:
-        score = sum(1 for ln in tail
-                    if len(fields := _split(ln, delimiter)) > 1 and _all_numbers(fields))
-        if score > best_score:
-            best, best_score = delimiter, score
+    for is_row in (_all_numbers, _is_data):
+        best, best_score = ",", 0
+        for delimiter in _DELIMITERS:
+            score = sum(1 for ln in tail
+                        if len(fields := _split(ln, delimiter)) > 1 and is_row(fields))
+            if score > best_score:
+                best, best_score = delimiter, score
+        if best_score:
+            break
     return best
 
 
@@ -276,7 +281,8 @@ def sniff_csv(lines: list[str], *, delimiter: str | None = None, decimal: str | 
         if cells and cells[0]:
             key = cells[0].rstrip(":=").strip()
             header[key] = delimiter.join(c for c in cells[1:] if c).strip()
-    return CsvLayout(delimiter, decimal, data_start, names, units, header, tuple(sorted(skipped)))
+    return CsvLayout(delimiter, decimal, data_start, names, units, header, tuple(sorted(skipped)),
+                     header_row)
 
 
 def _data_block(lines: list[str], rows: list[list[str]], end: int) -> tuple[int, set[int]]:
@@ -315,72 +321,6 @@ def _data_block(lines: list[str], rows: list[list[str]], end: int) -> tuple[int,
     if data_start == end:  # no data at all: report nothing as skipped
         return end, set()
     return data_start, {j for j in skipped if j >= data_start}
-
-
-def _parse_datetimes(cells: Sequence[str], time_format: str | None, timezone: str | None,
-                     where: Mapping[str, Any], notes: list[TimeFallback] | None = None
-                     ) -> np.ndarray:
-    """Parse absolute time cells into naive UTC datetime64[ns].
-
-    Cells without a UTC offset are local times in ``timezone`` (a DST fall-back inside a column
-    is resolved from the order of the cells); without ``timezone`` they are taken as UTC, noted
-    in ``notes``.
-    """
-    texts = pd.Series([c.strip() for c in cells])
-    if time_format is None and texts.str.match(r"^\d{4}-\d{2}-\d{2}[T ]").all():
-        stamps = pd.to_datetime(texts.str.replace(",", ".", regex=False), format="ISO8601")
-    else:
-        stamps = None
-        for fmt in ([time_format] if time_format else list(_LOCALE_FORMATS)):
-            try:
-                stamps = pd.to_datetime(texts.str.replace(",", ".", regex=False)
-                                        if fmt.endswith("%f") or "%f " in fmt else texts,
-                                        format=fmt)
-                break
-            except (ValueError, TypeError):
-                continue
-        if stamps is None:
-            raise DataFileError(f"cannot parse time cells like {texts.iloc[0]!r}", where=where,
-                                hint="pass time_format=... (strftime codes)")
-    if getattr(stamps.dt, "tz", None) is not None:
-        stamps = stamps.dt.tz_convert("UTC").dt.tz_localize(None)
-    elif timezone:
-        try:
-            zone = zoneinfo.ZoneInfo(timezone)
-        except (zoneinfo.ZoneInfoNotFoundError, ValueError):
-            raise ConfigError(f"unknown time zone {timezone!r}",
-                              where={**where, "key": "timezone"},
-                              hint="use an IANA name like 'Europe/Berlin'") from None
-        try:
-            stamps = stamps.dt.tz_localize(
-                zone, ambiguous="infer" if len(stamps) > 1 else "raise", nonexistent="raise")
-        except ValueError as error:  # pandas' AmbiguousTimeError / NonExistentTimeError
-            raise DataFileError(f"local times do not map to UTC in {timezone}: {error}",
-                                where=where, hint="check the time zone and the DST change"
-                                ) from None
-        stamps = stamps.dt.tz_convert("UTC").dt.tz_localize(None)
-    elif notes is not None:
-        notes.append(TimeFallback("local date-times without a zone", LOCAL_TIME_AS_UTC))
-    return stamps.to_numpy().astype("datetime64[ns]")
-
-
-def _header_start(header: Mapping[str, str], time_format: str | None, timezone: str | None,
-                  where: Mapping[str, Any], notes: list[TimeFallback]) -> np.datetime64 | None:
-    """Return a start time found in the header block, or None."""
-    candidates = [v for k, v in header.items() if _START_KEYS.search(k) and v]
-    date = next((v for k, v in header.items() if k.lower() in ("date", "datum")), None)
-    clock = next((v for k, v in header.items() if k.lower() in ("time", "zeit", "uhrzeit")), None)
-    if date and clock:
-        candidates.append(f"{date.replace('/', '-')}T{clock.replace(',', '.')}"
-                          if re.match(r"^\d{4}[/-]", date) else f"{date} {clock}")
-    for text in candidates:
-        try:
-            return _parse_datetimes([text], time_format, timezone, where, notes)[0]
-        except ConfigError:
-            raise
-        except (DataFileError, ValueError):
-            continue
-    return None
 
 
 def _time_column(names: list[str], option: str | int | None,
@@ -430,47 +370,6 @@ def _drop_bad_times(table: pd.DataFrame, line_of: np.ndarray, t_index: int,
     keep = numeric.to_numpy()
     lost["time cell not a number"] = [int(n) for n in line_of[~keep]]
     return table[keep].reset_index(drop=True), line_of[keep]
-
-
-def _split_rows(lines: list[str], delimiter: str, width: int) -> pd.DataFrame:
-    """Split a few wide data lines into a table of text cells, as ``pandas.read_csv`` would.
-
-    The cells are split on the delimiter only (no quoting, as the per-line path reads), missing
-    cells of a short row are empty strings.
-    """
-    cells = np.full((len(lines), width), "", dtype=object)
-    for row, line in enumerate(lines):
-        parts = line.split(delimiter)
-        cells[row, :len(parts)] = parts
-    return pd.DataFrame(cells, dtype=object, copy=False)
-
-
-def _convert_cells(table: pd.DataFrame, columns: list[int], decimal: str
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Convert the text cells of ``columns`` to numbers in one pass over all of them.
-
-    One pass, not one per column: a table of one row and 20,000 columns costs what a table of
-    20,000 rows and one column costs.
-
-    Returns
-    -------
-    cells : numpy.ndarray of object, shape (rows, len(columns))
-        The stripped cells (empty string for a missing cell).
-    numbers : numpy.ndarray of float, shape (rows, len(columns))
-        Their values; NaN for empty cells and text.
-    bad : numpy.ndarray of bool, shape (rows, len(columns))
-        True for cells holding text that is not a number (``nan`` and ``inf`` are numbers).
-    """
-    shape = (len(table), len(columns))
-    flat = pd.Series(table[columns].to_numpy(dtype=object).ravel(), dtype=object)
-    cells = flat.fillna("").astype(str).str.strip()
-    if decimal == ",":
-        cells = cells.str.replace(",", ".", regex=False)
-    numbers = pd.to_numeric(cells.replace("", np.nan), errors="coerce").to_numpy(float)
-    bad = np.isnan(numbers) & ~cells.str.match(_NUMBER.pattern, case=False).to_numpy(bool) \
-        & (cells != "").to_numpy()
-    return (cells.to_numpy(dtype=object).reshape(shape), numbers.reshape(shape),
-            bad.reshape(shape))
 
 
 def _fast_path(file: Path, encoding: str | None, sniff: dict[str, Any]
@@ -523,6 +422,150 @@ def _fast_path(file: Path, encoding: str | None, sniff: dict[str, Any]
             return None
         layout = whole
     return lines, layout, np.concatenate(numbers), middle, pieces.complete
+
+
+def _read_columns(lines: list[str], numbers_of: list[int], real: np.ndarray, layout: CsvLayout,
+                  middle: Middle, *, t_index: int | None, lost: dict[str, list[int]],
+                  start: np.datetime64 | None, fs: float | None, time_units: str | None,
+                  time_format: str | None, timezone: str | None, where: Mapping[str, Any],
+                  notes: list[TimeFallback]
+                  ) -> tuple[dict[int, np.ndarray], dict[int, int], np.ndarray,
+                             np.datetime64 | None]:
+    """Read the data rows as one channel per column (see :func:`read_csv`).
+
+    Parameters
+    ----------
+    lines : list of str
+        The lines read one by one.
+    numbers_of : list of int
+        Indices into ``lines`` of the data rows.
+    real : numpy.ndarray of int
+        0-based line number in the file of each entry of ``lines``.
+    layout : CsvLayout
+        The file's layout.
+    middle : Middle
+        The rows parsed in blocks by the fast path (taken over: emptied).
+    t_index : int or None
+        The time column.
+    lost : dict
+        Reason -> 1-based numbers of the lines not read; completed here, then warned about.
+    start : numpy.datetime64 or None
+        The start time given by the caller.
+    fs, time_units, time_format, timezone : optional
+        As for :func:`read_csv`.
+    where : mapping
+        The file, for messages.
+    notes : list of TimeFallback
+        Fallbacks taken, appended to.
+
+    Returns
+    -------
+    values : dict of int to numpy.ndarray
+        The samples of each column read, by column index.
+    text_cells : dict of int to int
+        Cells holding text, by column index.
+    time : numpy.ndarray
+        Sample times in s since the first sample.
+    start : numpy.datetime64 or None
+        The start time (None: not found yet).
+    """
+    width = len(layout.names)
+    n_mid = middle.line.size
+    line_of = real[np.array(numbers_of, dtype=np.int64)] + 1  # 1-based line number of each row
+    body = "\n".join(lines[k] for k in numbers_of)
+    fields = max((lines[k].count(layout.delimiter) + 1 for k in numbers_of), default=width)
+    if len(numbers_of) < fields:  # few wide rows: pandas' parser costs per column
+        table = split_rows([lines[k] for k in numbers_of], layout.delimiter,
+                            max(fields, width))
+    else:
+        try:
+            table = pd.read_csv(io.StringIO(body), sep=layout.delimiter, decimal=layout.decimal,
+                                header=None, names=list(range(max(fields, width))),
+                                index_col=False, dtype=str, keep_default_na=False,
+                                quoting=csv.QUOTE_NONE, skip_blank_lines=False, engine="c")
+        except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as error:
+            raise DataFileError(f"cannot split the data rows: {error}", where=where,
+                                hint="pass delimiter=... and header_row=...") from None
+    if len(table) != line_of.size:
+        raise DataFileError(f"{len(table)} table rows from {line_of.size} data lines",
+                            where=where, hint="pass delimiter=... and header_row=...")
+    extra = np.zeros(len(table), dtype=bool)
+    for k in range(width, table.shape[1]):
+        extra |= (table[k].fillna("").str.strip() != "").to_numpy()
+    if extra.sum() > max(1, 0.1 * (len(table) + n_mid)):
+        raise DataFileError(f"{int(extra.sum())} data rows hold more than the {width} fields "
+                            "the header names", where=where,
+                            hint="check delimiter=... and header_row=...")
+    if extra.any():
+        lost["more fields than the names row"] = [int(n) for n in line_of[extra]]
+        table, line_of = table[~extra].reset_index(drop=True), line_of[~extra]
+    if t_index is not None:
+        table, line_of = _drop_bad_times(table, line_of, t_index, lost, n_mid)
+    into = np.searchsorted(middle.line, line_of - 1)  # where table rows go among the middle's
+    _warn_lost(lost, where)
+    values: dict[int, np.ndarray] = {}
+    text_cells: dict[int, int] = {}
+    columns = [k for k in range(width) if k != t_index]
+    all_cells, all_numbers, all_bad = convert_table(table, columns, layout.decimal)
+    for j, k in enumerate(columns):
+        cells, bad_mask = all_cells[:, j], all_bad[:, j]
+        numbers = (np.insert(middle.values[k], into, all_numbers[:, j]) if middle.values[k].size
+                   else all_numbers[:, j].copy())  # no middle: nothing to insert into
+        middle.values[k] = numbers[:0]  # taken over: freed
+        bad = int(np.count_nonzero(bad_mask))
+        if bad and bad == np.count_nonzero(cells != "") + n_mid:
+            warn_data(f"column {layout.names[k]!r} holds no numbers ({bad} text cells such as "
+                      f"{cells[bad_mask][0]!r}): not read", where=where,
+                      hint=f"check decimal={layout.decimal!r} and delimiter", stacklevel=3)
+            continue
+        if bad:
+            first = int(line_of[np.flatnonzero(bad_mask)[0]])
+            warn_data(f"column {layout.names[k]!r}: {bad} cell(s) are not numbers (first on "
+                      f"line {first}: {cells[bad_mask][0]!r}); read as NaN",
+                      where={**where, "channel": layout.names[k]},
+                      hint=f"check decimal={layout.decimal!r} and delimiter", stacklevel=3)
+            text_cells[k] = bad
+        if numbers.size and not np.isfinite(numbers).any():
+            warn_data(f"column {layout.names[k]!r} holds no finite value ({numbers.size} NaN "
+                      "or empty cells): kept as NaN", where={**where, "channel": layout.names[k]},
+                      hint="check the channel's wiring or export settings", stacklevel=3)
+        values[k] = numbers
+    n = len(table) + n_mid
+    if t_index is not None:
+        cells = table[t_index].fillna("").str.strip()
+        if cells.str.match(_NUMBER.pattern, case=False).all():
+            seconds = pd.to_numeric(cells.str.replace(",", ".", regex=False)).to_numpy(float)
+            seconds = np.insert(middle.values[t_index], into, seconds)
+            unit = (time_units or layout.units[t_index] or "s").strip()
+            scale = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}.get(unit)
+            if scale is None:
+                raise ConfigError(f"time column unit {unit!r} is not s, ms or us",
+                                  where={**where, "key": "time_units"})
+            seconds = seconds * scale
+            time = seconds - seconds[0]
+            if start is None:
+                start = header_start(layout.header, time_format, timezone, where, notes)
+                if start is not None and seconds[0] != 0.0:
+                    start = start + np.timedelta64(round(seconds[0] * 1e9), "ns")
+        else:
+            stamps = parse_datetimes(cells.tolist(), time_format, timezone, where, notes)
+            start = stamps[0] if start is None else start
+            time = (stamps - stamps[0]).astype(np.int64) / 1e9
+    else:
+        assert fs is not None  # checked before the cells were converted
+        time = np.arange(n) / fs
+        notes.append(TimeFallback("no time column", f"t = i / {fs} Hz"))
+    return values, text_cells, time, start
+
+
+def _warn_lost(lost: Mapping[str, list[int]], where: Mapping[str, Any]) -> None:
+    """Warn once per reason about the lines not read (1-based line numbers)."""
+    for reason, numbers in lost.items():
+        if numbers:
+            warn_data(f"{len(numbers)} line(s) not read: {reason} (lines "
+                      f"{numbers[:10]}{' ...' if len(numbers) > 10 else ''})", where=where,
+                      hint="the file was edited, damaged or cut short; the other rows are read",
+                      stacklevel=4)
 
 
 def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
@@ -610,8 +653,10 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         raise DataFileError(
             "no time column found and no fs given", where=where,
             hint="pass time_column=... or fs=... (Hz)" + (
-                f"; the data are one row of {width} values: rigval reads channels as columns, "
-                "so a waveform written as one row must be transposed first" if rows == 1 else ""))
+                f"; the data are one row of {width} values: with fs it is read as one channel "
+                "(a names row above it makes it one sample of each named channel)"
+                if rows == 1 else ""))
+    row_case = t_index is None and layout.names_row is None and n_mid == 0  # see csv_row
     lost: dict[str, list[int]] = {"not a data row (text line, footer)":
                                   [int(real[k]) + 1 for k in layout.skipped]}
     numbers_of = [k for k in range(layout.data_start, len(lines))
@@ -620,107 +665,35 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         last = numbers_of[-1]
         previous = len(_split(lines[numbers_of[-2]], layout.delimiter)) if len(numbers_of) > 1 \
             else width
-        if not complete and last == len(lines) - 1:
+        if not complete and last == len(lines) - 1 and not (row_case and len(numbers_of) == 1):
             lost["last line without its line end (file cut mid-line)"] = [int(real[last]) + 1]
             numbers_of.pop()
         elif len(_split(lines[last], layout.delimiter)) < min(previous, width):
             lost["last line with fewer fields than the line before it"] = [int(real[last]) + 1]
             numbers_of.pop()
-    line_of = real[np.array(numbers_of, dtype=np.int64)] + 1  # 1-based line number of each row
-    body = "\n".join(lines[k] for k in numbers_of)
-    fields = max((lines[k].count(layout.delimiter) + 1 for k in numbers_of), default=width)
-    if len(numbers_of) < fields:  # few wide rows: pandas' parser costs per column
-        table = _split_rows([lines[k] for k in numbers_of], layout.delimiter,
-                            max(fields, width))
-    else:
-        try:
-            table = pd.read_csv(io.StringIO(body), sep=layout.delimiter, decimal=layout.decimal,
-                                header=None, names=list(range(max(fields, width))),
-                                index_col=False, dtype=str, keep_default_na=False,
-                                quoting=csv.QUOTE_NONE, skip_blank_lines=False, engine="c")
-        except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as error:
-            raise DataFileError(f"cannot split the data rows: {error}", where=where,
-                                hint="pass delimiter=... and header_row=...") from None
-    if len(table) != line_of.size:
-        raise DataFileError(f"{len(table)} table rows from {line_of.size} data lines",
-                            where=where, hint="pass delimiter=... and header_row=...")
-    extra = np.zeros(len(table), dtype=bool)
-    for k in range(width, table.shape[1]):
-        extra |= (table[k].fillna("").str.strip() != "").to_numpy()
-    if extra.sum() > max(1, 0.1 * (len(table) + n_mid)):
-        raise DataFileError(f"{int(extra.sum())} data rows hold more than the {width} fields "
-                            "the header names", where=where,
-                            hint="check delimiter=... and header_row=...")
-    if extra.any():
-        lost["more fields than the names row"] = [int(n) for n in line_of[extra]]
-        table, line_of = table[~extra].reset_index(drop=True), line_of[~extra]
-    if t_index is not None:
-        table, line_of = _drop_bad_times(table, line_of, t_index, lost, n_mid)
-    into = np.searchsorted(middle.line, line_of - 1)  # where table rows go among the middle's
-    for reason, numbers in lost.items():
-        if numbers:
-            warn_data(f"{len(numbers)} line(s) not read: {reason} (lines "
-                      f"{numbers[:10]}{' ...' if len(numbers) > 10 else ''})", where=where,
-                      hint="the file was edited, damaged or cut short; the other rows are read",
-                      stacklevel=2)
-    values: dict[int, np.ndarray] = {}
-    text_cells: dict[int, int] = {}
-    columns = [k for k in range(width) if k != t_index]
-    all_cells, all_numbers, all_bad = _convert_cells(table, columns, layout.decimal)
-    for j, k in enumerate(columns):
-        cells, bad_mask = all_cells[:, j], all_bad[:, j]
-        numbers = (np.insert(middle.values[k], into, all_numbers[:, j]) if middle.values[k].size
-                   else all_numbers[:, j].copy())  # no middle: nothing to insert into
-        middle.values[k] = numbers[:0]  # taken over: freed
-        bad = int(np.count_nonzero(bad_mask))
-        if bad and bad == np.count_nonzero(cells != "") + n_mid:
-            warn_data(f"column {layout.names[k]!r} holds no numbers ({bad} text cells such as "
-                      f"{cells[bad_mask][0]!r}): not read", where=where,
-                      hint=f"check decimal={layout.decimal!r} and delimiter", stacklevel=2)
-            continue
-        if bad:
-            first = int(line_of[np.flatnonzero(bad_mask)[0]])
-            warn_data(f"column {layout.names[k]!r}: {bad} cell(s) are not numbers (first on "
-                      f"line {first}: {cells[bad_mask][0]!r}); read as NaN",
-                      where={**where, "channel": layout.names[k]},
-                      hint=f"check decimal={layout.decimal!r} and delimiter", stacklevel=2)
-            text_cells[k] = bad
-        if numbers.size and not np.isfinite(numbers).any():
-            warn_data(f"column {layout.names[k]!r} holds no finite value ({numbers.size} NaN "
-                      "or empty cells): kept as NaN", where={**where, "channel": layout.names[k]},
-                      hint="check the channel's wiring or export settings", stacklevel=2)
-        values[k] = numbers
-    n = len(table) + n_mid
     start = None if start_time is None else np.datetime64(
         pd.Timestamp(start_time).tz_localize(None) if pd.Timestamp(start_time).tzinfo is None
         else pd.Timestamp(start_time).tz_convert("UTC").tz_localize(None), "ns")
-    if t_index is not None:
-        cells = table[t_index].fillna("").str.strip()
-        if cells.str.match(_NUMBER.pattern, case=False).all():
-            seconds = pd.to_numeric(cells.str.replace(",", ".", regex=False)).to_numpy(float)
-            seconds = np.insert(middle.values[t_index], into, seconds)
-            unit = (time_units or layout.units[t_index] or "s").strip()
-            scale = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}.get(unit)
-            if scale is None:
-                raise ConfigError(f"time column unit {unit!r} is not s, ms or us",
-                                  where={**where, "key": "time_units"})
-            seconds = seconds * scale
-            time = seconds - seconds[0]
-            if start is None:
-                start = _header_start(layout.header, time_format, timezone, where, notes)
-                if start is not None and seconds[0] != 0.0:
-                    start = start + np.timedelta64(round(seconds[0] * 1e9), "ns")
-        else:
-            stamps = _parse_datetimes(cells.tolist(), time_format, timezone, where, notes)
-            start = stamps[0] if start is None else start
-            time = (stamps - stamps[0]).astype(np.int64) / 1e9
-    else:
+    row = None
+    if row_case and len(numbers_of) == 1:
         assert fs is not None  # checked before the cells were converted
-        time = np.arange(n) / fs
-        notes.append(TimeFallback("no time column", f"t = i / {fs} Hz"))
-    del middle, into, table  # every value is in values and time now
+        _warn_lost(lost, where)
+        k = numbers_of[0]
+        row = read_row(lines[k], delimiter=layout.delimiter, decimal=layout.decimal,
+                       cut=not complete and k == len(lines) - 1, line_number=int(real[k]) + 1,
+                       fs=fs, where=where)
+        layout = replace(layout, names=[row.name], units=[row.unit])
+        values, text_cells = {0: row.values}, {0: row.text_cells}
+        time = np.arange(row.values.size) / fs
+        notes.append(TimeFallback("no time column", f"t = i / {fs} Hz (one row, one channel)"))
+    else:
+        values, text_cells, time, start = _read_columns(
+            lines, numbers_of, real, layout, middle, t_index=t_index, lost=lost, start=start,
+            fs=fs, time_units=time_units, time_format=time_format, timezone=timezone,
+            where=where, notes=notes)
+    del middle  # every value is in values and time now
     if start is None:
-        start = _header_start(layout.header, time_format, timezone, where, notes)
+        start = header_start(layout.header, time_format, timezone, where, notes)
     if start is None:
         start = _EPOCH_1904
         notes.append(TimeFallback("no start time in the file", "start_time unknown (1904-01-01)"))
@@ -764,5 +737,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
     stream = stream_dataset(
         time[lo:hi], result, device=profile.name if profile else "unknown",
         start_time=start, source_file=file, source_sha256=source_checksum(file, checksum),
-        fs_nominal=float(fs_nominal), attrs=attrs)
+        fs_nominal=float(fs_nominal), attrs=attrs,
+        valid=row.reason[lo:hi] == 0 if row is not None and row.reason[lo:hi].any() else None,
+        invalid_counts=None if row is None else row.invalid_counts(lo, hi))
     return {name or file.stem: stream}

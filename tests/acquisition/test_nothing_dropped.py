@@ -1,11 +1,12 @@
 """Nothing dropped silently (issue 26, item 3), each defect reproduced on a file written here.
 
-- a complex-valued TDMS channel (an NI RF capture's "Polar Graph") is named in a DataWarning with
-  its value type and count, the real channels beside it read as written;
+- a complex-valued TDMS channel (an NI RF capture's "Polar Graph") is read as its real and
+  imaginary parts (``test_tdms_complex.py``); an intact file gets no warning of unread channels;
 - a segment whose data index claims 0 values of a channel while the segment holds data is read
   as nptdms reads it, with a DataWarning giving the counts;
-- a CSV of one row of 20,000 values is read column by column (values as written) or refused
-  at once with the reason, before any cell is converted.
+- a CSV of one row of 20,000 values is read as one channel (values as written, see
+  ``test_csv_row.py``) or, without a rate, refused at once with the reason, before any cell is
+  converted.
 """
 
 from __future__ import annotations
@@ -31,33 +32,7 @@ def _read(path: Path, **options: object) -> tuple[dict, list[str]]:
     return streams, [str(w.message) for w in caught if issubclass(w.category, DataWarning)]
 
 
-# --- complex channels ----------------------------------------------------------------------
-
-@pytest.mark.parametrize("dtype, type_name", [(np.complex128, "complex128"),
-                                              (np.complex64, "complex64")])
-def test_complex_channel_is_named_with_its_count(tmp_path: Path, dtype: type,
-                                                 type_name: str) -> None:
-    path = tmp_path / "rf_capture.tdms"
-    n = 1000
-    polar = (np.cos(np.arange(n) * 0.01) + 1j * np.sin(np.arange(n) * 0.01)).astype(dtype)
-    amplitude = np.abs(polar).astype(float) * 2.5
-    with TdmsWriter(path) as writer:
-        writer.write_segment([RootObject(), GroupObject("RF"),
-                              ChannelObject("RF", "Polar Graph", polar[:600],
-                                            properties={"wf_increment": 1e-6}),
-                              ChannelObject("RF", "amplitude", amplitude[:600],
-                                            properties={"wf_increment": 1e-6})])
-        writer.write_segment([ChannelObject("RF", "Polar Graph", polar[600:]),
-                              ChannelObject("RF", "amplitude", amplitude[600:])])
-    assert TdmsFile.read(path)["RF"]["Polar Graph"][:].size == n  # nptdms reads it: data exist
-    streams, texts = _read(path)
-    (stream,) = streams.values()
-    np.testing.assert_array_equal(stream["amplitude"].values, amplitude)
-    assert "Polar Graph" not in stream
-    named = [t for t in texts if "RF/Polar Graph" in t]
-    assert len(named) == 1, texts
-    assert f"({type_name}, {n} values)" in named[0]
-
+# --- complex channels: read as their parts, see test_tdms_complex.py ----------------------
 
 def test_intact_real_file_gets_no_unread_warning(tmp_path: Path) -> None:
     path = tmp_path / "plain.tdms"
@@ -65,21 +40,7 @@ def test_intact_real_file_gets_no_unread_warning(tmp_path: Path) -> None:
         writer.write_segment([GroupObject("g"), ChannelObject("g", "a", np.arange(50.0),
                                                                properties={"wf_increment": 0.1})])
     _, texts = _read(path)
-    assert not [t for t in texts if "not real numbers" in t or "announces 0 values" in t]
-
-
-def test_complex_channel_asked_for_by_name_is_an_error_naming_it(tmp_path: Path) -> None:
-    path = tmp_path / "rf_only.tdms"
-    with TdmsWriter(path) as writer:
-        writer.write_segment([GroupObject("RF"), ChannelObject(
-            "RF", "Polar Graph", np.ones(64, dtype=np.complex128),
-            properties={"wf_increment": 1e-6})])
-    with pytest.raises(DataFileError, match=r"complex128 values \(64\)") as info:
-        read(path, channels=["Polar Graph"], checksum=False)
-    assert "Polar Graph" in str(info.value)
-    with pytest.raises(DataFileError, match=r"Polar Graph \(64 values\)"), \
-            pytest.warns(DataWarning, match=r"RF/Polar Graph \(complex128, 64 values\)"):
-        read(path, checksum=False)  # nothing numeric left: the error lists what is there
+    assert not [t for t in texts if "are not read" in t or "announces 0 values" in t]
 
 
 # --- a value count zeroed in the metadata --------------------------------------------------
@@ -151,10 +112,11 @@ def test_one_wide_row_with_rate_reads_every_value(tmp_path: Path) -> None:
     path = tmp_path / "row.csv"
     values = np.random.default_rng(4).normal(size=20_000) * 1e3
     _wide_row(path, values)
-    streams, _ = _read(path, fs=10.0)
+    streams, texts = _read(path, fs=10.0)
     (stream,) = streams.values()
-    got = np.array([stream.variables[f"column {k}"].values[0] for k in range(values.size)])
-    np.testing.assert_array_equal(got, values)  # 17 digits: exact round trip
+    np.testing.assert_array_equal(stream["row 0"].values, values)  # 17 digits: exact round trip
+    np.testing.assert_array_equal(stream["time"].values, np.arange(values.size) / 10.0)
+    assert any("read as one channel 'row 0' of 20000 samples" in t for t in texts), texts
 
 
 def test_few_wide_rows_keep_text_and_empty_cells_apart(tmp_path: Path) -> None:
