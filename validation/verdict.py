@@ -236,7 +236,9 @@ def run_verdict(result: ValidationResult) -> dict[str, Any]:
         ``worst`` (the comparison with the largest ``E / (k u_val)``), ``comparisons`` (one
         :func:`comparison_verdict` each, comparisons without ``vv20.curve`` scores left out)
         ``why`` (per comparison with a detected error, its most likely cause in words from
-        ``result.diagnosis``; the worst one's ends the statement) and ``family``: the run's
+        ``result.diagnosis``; the worst one's ends the statement), ``modes`` (per comparison
+        without a detected error whose residual is mostly a found structural mode, the mode in
+        words; named at the statement's end) and ``family``: the run's
         statements taken together (``k`` from :func:`family_k` for their number ``tests``,
         ``detected`` and ``detected_on`` at that ``k``).
         The ISO rating is the similarity score beside it.
@@ -262,9 +264,16 @@ def run_verdict(result: ValidationResult) -> dict[str, Any]:
                                          else "not detected"))
     if worst["comparison"] in why:
         statement += f"; why {worst['comparison']}: {why[worst['comparison']]}"
+    modes = {name: c.phrase for name, c in causes.items()
+             if name not in why and c.kind == "mode" and math.isfinite(c.residual_share)}
+    if modes:
+        statement += "; a structural mode holds most of the residual in " + ", ".join(
+            f"{name} ({100 * c.residual_share:.0f} % at "
+            f"{c.meaning.removeprefix('structural mode at ')})"
+            for name, c in causes.items() if name in modes)
     return {"detected": bool(detected), "statement": statement,
             "detected_on": [row["comparison"] for row in detected], "worst": worst["comparison"],
-            "comparisons": rows, "why": why, "family": family}
+            "comparisons": rows, "why": why, "modes": modes, "family": family}
 
 
 def family_k(tests: int, level: float = FAMILY_LEVEL) -> float:

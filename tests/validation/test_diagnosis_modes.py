@@ -9,28 +9,53 @@ speed, and no mode at all. The 40-seed sweeps are in benchmarks/diagnosis_modes.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from rigval.sample_data import RigSettings, simulate_rig
 from rigval.sample_data.departures import Departures
+from rigval.validation.diagnosis.explain import (
+    MODE_SHARE,
+    CauseStatement,
+    Diagnosis,
+    _mode_statement,
+    diagnose,
+)
 from rigval.validation.diagnosis.modes import Resonance
 from rigval.validation.diagnosis.residual import ResidualSeries, residual_series
 from rigval.validation.diagnosis.rigidity import RigidityEvidence, rigidity_evidence
 from rigval.validation.diagnosis.spectra import residual_spectra, welch_runs
 from rigval.validation.pipeline import run_scene
+from rigval.validation.results import ValidationResult
+
+
+def _validated(folder: Path, settings: RigSettings) -> ValidationResult:
+    """Simulate a run and validate it keeping the aligned streams."""
+    files = simulate_rig(folder, settings)
+    scene = files.path("scene.toml")
+    scene.write_text(scene.read_text() + "\n[output]\naligned = true\n")
+    return run_scene(scene)
 
 
 def rig_evidence(folder: Path, settings: RigSettings,
                  names: tuple[str, ...] = ("str1",)) -> dict[str, RigidityEvidence]:
     """Simulate a run, validate it keeping the aligned streams, return the named evidence."""
-    files = simulate_rig(folder, settings)
-    scene = files.path("scene.toml")
-    scene.write_text(scene.read_text() + "\n[output]\naligned = true\n")
-    result = run_scene(scene)
+    result = _validated(folder, settings)
     return {name: rigidity_evidence(residual_series(result, name)) for name in names}
+
+
+def rig_diagnosis(folder: Path, settings: RigSettings, names: tuple[str, ...] = ("str1",)
+                  ) -> tuple[dict[str, RigidityEvidence], Diagnosis]:
+    """As :func:`rig_evidence`, and the run's diagnosis with the named comparisons' modes."""
+    result = _validated(folder, settings)
+    evidence = {name: rigidity_evidence(residual_series(result, name)) for name in names}
+    modes = {name: [(r.frequency_hz, r.damping) for r in item.resonances]
+             for name, item in evidence.items()}
+    return evidence, diagnose(result, modes, evidence)
 
 
 def _near(resonances: tuple[Resonance, ...], hz: float, rel: float = 0.02) -> Resonance | None:
@@ -44,7 +69,8 @@ def _near(resonances: tuple[Resonance, ...], hz: float, rel: float = 0.02) -> Re
 def test_mode_is_found_with_its_frequency_and_damping(tmp_path, speed, mode_hz, damping, seed):
     settings = RigSettings(speed=speed, duration=14.0, seed=seed, departures=Departures(
         mode_body="B", mode_hz=mode_hz, mode_damping=damping, mode_level=0.05))
-    evidence = rig_evidence(tmp_path, settings)["str1"]
+    everything, diagnosis = rig_diagnosis(tmp_path, settings)
+    evidence = everything["str1"]
     found = _near(evidence.resonances, mode_hz)
     assert found is not None, evidence.sentence
     assert len(evidence.resonances) == 1, evidence.sentence
@@ -54,14 +80,25 @@ def test_mode_is_found_with_its_frequency_and_damping(tmp_path, speed, mode_hz, 
     assert abs(found.frequency_hz - mode_hz) < 4.0 * found.u_frequency_hz + 0.02
     assert 0.5 * damping < found.damping < 2.0 * damping
     assert "structural mode" in evidence.sentence
+    # str1's disagreement is named the mode: its share of the residual's variance against a
+    # second measure of it, the residual's non-synchronous share (the rig's mode is rung
+    # between the orders; the rest of str1's residual is its small synchronous model-form misfit)
+    statement = diagnosis.causes["str1"]
+    assert statement.kind == "mode", statement.sentence
+    assert f"{found.frequency_hz:.1f}" in statement.sentence
+    assert statement.residual_share > MODE_SHARE
+    spectra = evidence.spectra
+    nonsynchronous = spectra.variance_nonsynchronous / spectra.variance_residual
+    assert abs(statement.residual_share - nonsynchronous) < 2.0 * statement.std + 0.05
 
 
 def test_no_mode_no_resonance(tmp_path):
-    evidence = rig_evidence(tmp_path, RigSettings(speed=1.2, duration=14.0, seed=13),
-                            names=("str1", "acc1"))
+    evidence, diagnosis = rig_diagnosis(tmp_path, RigSettings(speed=1.2, duration=14.0,
+                                                              seed=13), names=("str1", "acc1"))
     for item in evidence.values():
         assert item.resonances == (), item.sentence
         assert item.explained > 0.999
+    assert not [s for s in diagnosis.causes.values() if s.kind == "mode"]
 
 
 def _series(t, measured, model, phi, speed, run=None):
@@ -107,3 +144,50 @@ def test_order_response_is_the_mode_beyond_quasi_static_at_each_order():
     h = 1.0 / complex(1.0 - r**2, 2 * 0.03 * r)
     expected = 3.0 * np.real((h - 1.0) * np.exp(1j * 5 * angle))
     np.testing.assert_allclose(res.order_response(curve, 1.0), expected, atol=1e-12)
+
+
+def test_variance_below_is_the_peaks_integral_up_to_a_frequency():
+    res = Resonance(20.0, 0.1, 0.02, 0.001, 1.0, 0.1, 0.5, 100.0, 20.0)
+    # all of it far above the mode: the closed-form integral A pi zeta f_n (= variance)
+    assert res.variance_below(1e5) == pytest.approx(res.variance, rel=1e-4)
+    # a second method: the trapezoid over a fine grid of the fitted PSD
+    f = np.linspace(0.0, 25.0, 2_000_001)
+    r = f / 20.0
+    psd = res.peak_psd * (2 * 0.02) ** 2 / ((1 - r**2) ** 2 + (2 * 0.02 * r) ** 2)
+    assert res.variance_below(25.0) == pytest.approx(np.trapezoid(psd, f), rel=1e-6)
+    assert res.variance_below(20.0) < res.variance_below(25.0) < res.variance
+
+
+def _evidence(residual_variance: float, *resonances: Resonance):
+    spectra = SimpleNamespace(variance_residual=residual_variance, upper_hz=40.0)
+    return SimpleNamespace(spectra=spectra, resonances=resonances)
+
+
+def _statement(kind: str = "parameter") -> CauseStatement:
+    return CauseStatement("str1", False, False, "A.mass", kind, "kg", "mechanism parameter",
+                          1.0, 0.5, 0.01, 0.005, 0.4, "gain str1", 0.3, "", math.nan)
+
+
+@pytest.mark.parametrize(("share", "named"), [(0.45, False), (0.55, True)])
+def test_a_mode_is_named_only_when_it_holds_most_of_the_residual(share, named):
+    mode = Resonance(20.0, 0.1, 0.02, 0.001, 1.0, 0.05, 0.5, 100.0, 20.0)
+    evidence = _evidence(mode.variance_below(40.0) / share, mode)
+    statement = _mode_statement(_statement(), evidence)
+    if not named:
+        assert statement == _statement()
+        return
+    assert statement.kind == "mode" and statement.significant
+    assert statement.residual_share == pytest.approx(share)
+    # variance ~ amplitude^2: the share's relative uncertainty is twice the amplitude's
+    assert statement.std == pytest.approx(share * 2 * 0.05)
+    # the attribution's own best (a parameter) becomes the other class's best
+    assert (statement.alternative, statement.alternative_weight) == ("A.mass", 0.4)
+    assert "no model error detected in the revolution mean" in statement.sentence
+    assert "structural mode at 20.0 +- 0.1 Hz" in statement.sentence
+    assert f"{100 * share:.0f} +- {100 * share * 0.1:.0f} %" in statement.sentence
+
+
+def test_a_gain_keeps_its_parameter_alternative_when_a_mode_is_named():
+    mode = Resonance(20.0, 0.1, 0.02, 0.001, 1.0, 0.05, 0.5, 100.0, 20.0)
+    statement = _mode_statement(_statement("gain"), _evidence(mode.variance, mode))
+    assert statement.kind == "mode" and statement.alternative == "gain str1"

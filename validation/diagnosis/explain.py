@@ -38,9 +38,16 @@ from rigval.validation.diagnosis.symmetry import (
 from rigval.validation.results import ValidationResult
 from rigval.validation.scene_types import SymmetrySpec
 
-__all__ = ["CauseStatement", "Diagnosis", "PairStatement", "attach_diagnosis", "diagnose"]
+__all__ = ["MODE_SHARE", "CauseStatement", "Diagnosis", "PairStatement", "attach_diagnosis",
+           "diagnose"]
 
 logger = logging.getLogger(__name__)
+
+#: A found mode is named a comparison's most likely cause when it holds more than this share of
+#: the residual's variance (measured minus model, below the rigidity evidence's upper
+#: frequency): most of the disagreement is then the mode, whether or not the revolution mean
+#: shows it (a mode rung between the orders averages out of the mean).
+MODE_SHARE = 0.5
 
 
 @dataclasses.dataclass(frozen=True)
@@ -72,6 +79,10 @@ class CauseStatement:
         A cause the data cannot tell apart from it (``""``: none).
     correlation : float
         Whitened correlation of the two signatures (NaN without one).
+    residual_share : float
+        For a found mode named because it holds most of the residual (:data:`MODE_SHARE`):
+        its share of the residual's variance below the rigidity evidence's upper frequency
+        (1); NaN otherwise.
     """
 
     comparison: str
@@ -90,6 +101,7 @@ class CauseStatement:
     alternative_weight: float
     confusable_with: str
     correlation: float
+    residual_share: float = math.nan
 
     @property
     def phrase(self) -> str:
@@ -103,6 +115,9 @@ class CauseStatement:
             return f"a lag of {1e3 * v:+.2f} +- {1e3 * s:.2f} ms ({self.meaning})"
         if self.kind == "offset":
             return f"an offset of {v:+.3g} +- {s:.2g} {self.unit}"
+        if self.kind == "mode" and math.isfinite(self.residual_share):
+            return (f"the {self.meaning}, holding {100 * v:.0f} +- {100 * s:.0f} % of the "
+                    "residual's variance")
         if self.kind == "mode":
             return f"the {self.meaning} (participation {v:.2f} +- {s:.2f})"
         if math.isfinite(self.relative):
@@ -131,6 +146,9 @@ class CauseStatement:
     @property
     def sentence(self) -> str:
         """The verdict's sentence for this comparison."""
+        if not self.detected and math.isfinite(self.residual_share):
+            return (f"{self.comparison}: no model error detected in the revolution mean; "
+                    f"most of its residual is {self.phrase}")
         if not self.detected:
             return f"{self.comparison}: no model error detected"
         return f"{self.comparison}: error detected; {self.explanation}"
@@ -255,11 +273,12 @@ def _typed(values: Sequence[Any]) -> np.ndarray:
 
 def _unit(name: str) -> str:
     return "1" if name in ("relative", "relative_std", "weight", "alternative_weight",
-                           "correlation", "detected", "significant") else ""
+                           "correlation", "detected", "significant", "residual_share") else ""
 
 
 def diagnose(result: ValidationResult,
-             modes: Mapping[str, Sequence[tuple[float, float]]] | None = None) -> Diagnosis:
+             modes: Mapping[str, Sequence[tuple[float, float]]] | None = None,
+             rigidity: Mapping[str, RigidityEvidence] | None = None) -> Diagnosis:
     """Attribute every comparison's residual and measure the scene's symmetry pairs.
 
     Parameters
@@ -268,6 +287,9 @@ def diagnose(result: ValidationResult,
         The validated run.
     modes : mapping of str to sequence of (float, float), optional
         Per comparison, modes found in its residual (natural frequency Hz, damping ratio).
+    rigidity : mapping of str to RigidityEvidence, optional
+        Per comparison, its rigidity evidence: a resonance holding more than
+        :data:`MODE_SHARE` of the residual's variance is named its most likely cause.
 
     Returns
     -------
@@ -288,6 +310,9 @@ def diagnose(result: ValidationResult,
         kinds = {c.name: c.kind for c in part[1]}
         causes[comparison.name] = _statement(comparison.name, detected(comparison),
                                              attributions[key], set(touching), kinds)
+        evidence = (rigidity or {}).get(comparison.name)
+        if evidence is not None:
+            causes[comparison.name] = _mode_statement(causes[comparison.name], evidence)
         explained[comparison.name] = sum(
             (f.value * touching[f.name].effect[comparison.name]
              for f in attributions[key].found if f.name in touching),
@@ -321,7 +346,7 @@ def attach_diagnosis(result: ValidationResult,
     if modes is None:
         modes = {name: [(r.frequency_hz, r.damping) for r in evidence.resonances]
                  for name, evidence in rigidity.items()}
-    diagnosis = dataclasses.replace(diagnose(result, modes), rigidity=rigidity)
+    diagnosis = dataclasses.replace(diagnose(result, modes, rigidity), rigidity=rigidity)
     result.tree["/why"] = xr.DataTree(diagnosis.dataset())
     logger.info("diagnosis: %.3f s", time.perf_counter() - start)
     return dataclasses.replace(result, diagnosis=diagnosis)
@@ -352,6 +377,38 @@ def _statement(name: str, is_detected: bool, attribution: Attribution, touching:
                           found.meaning, found.value, found.std, found.relative,
                           found.relative_std, weight, other.name if other else "",
                           other.weight if other else 0.0, confusable[0], confusable[1])
+
+
+def _mode_statement(statement: CauseStatement, evidence: RigidityEvidence) -> CauseStatement:
+    """Return the statement naming the found mode that holds most of the residual, or as it was.
+
+    The share is the mode's variance below the evidence's upper frequency over the residual's
+    variance there; its standard uncertainty follows the amplitude's (variance ~ amplitude^2).
+    """
+    residual = evidence.spectra.variance_residual
+    if not evidence.resonances or not residual > 0.0:
+        return statement
+    upper = evidence.spectra.upper_hz
+    shares = [min(r.variance_below(upper) / residual, 1.0) for r in evidence.resonances]
+    best = int(np.argmax(shares))
+    if shares[best] <= MODE_SHARE:
+        return statement
+    mode, share = evidence.resonances[best], shares[best]
+    u_share = 2.0 * share * mode.u_amplitude / mode.amplitude if mode.amplitude > 0 else math.nan
+    meaning = (f"structural mode at {mode.frequency_hz:.1f} +- "
+               f"{max(mode.u_frequency_hz, 0.05):.1f} Hz, damping about "
+               f"{100.0 * mode.damping:.1g} %")
+    # the other class's best: the attribution's best parameter (its own statement's cause when
+    # that was a parameter)
+    keep_other = statement.kind != "parameter"
+    return dataclasses.replace(
+        statement, significant=True,
+        cause=f"mode {mode.frequency_hz:.3g} Hz {statement.comparison}",
+        kind="mode", unit="1", meaning=meaning, value=share, std=u_share, relative=math.nan,
+        relative_std=math.nan, weight=math.nan,
+        alternative=statement.alternative if keep_other else statement.cause,
+        alternative_weight=statement.alternative_weight if keep_other else statement.weight,
+        confusable_with="", correlation=math.nan, residual_share=share)
 
 
 def _pair(result: ValidationResult, spec: SymmetrySpec) -> PairStatement:

@@ -25,6 +25,7 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.integrate import quad
 from scipy.optimize import minimize, minimize_scalar
 
 from rigval.processing.arrays import FloatArray
@@ -86,6 +87,17 @@ class Resonance:
     def peak_psd(self) -> float:
         """Height of the peak above the floor, signal units squared per Hz."""
         return self.variance / (np.pi * self.damping * self.frequency_hz)
+
+    def variance_below(self, upper_hz: float) -> float:
+        """Return the resonance's variance between 0 and ``upper_hz`` (signal units squared).
+
+        The fitted peak's integral over that band; :attr:`variance` is its integral over all
+        frequencies (the two differ by the tail above ``upper_hz``).
+        """
+        value, _ = quad(lambda f: float(_resonance_shape(np.array(f), self.frequency_hz,
+                                                         self.damping)),
+                        0.0, upper_hz, points=[min(self.frequency_hz, upper_hz)], limit=200)
+        return self.peak_psd * value
 
     def order_response(self, curve: FloatArray, speed_rev_s: float) -> FloatArray:
         """Return what this mode adds to a periodic load: ``(H - 1)`` applied to its orders.
