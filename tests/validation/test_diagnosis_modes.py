@@ -9,12 +9,15 @@ speed, and no mode at all. The 40-seed sweeps are in benchmarks/diagnosis_modes.
 
 from __future__ import annotations
 
+import html
+import json
 import math
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+import xarray as xr
 
 from rigval.sample_data import RigSettings, simulate_rig
 from rigval.sample_data.departures import Departures
@@ -23,6 +26,7 @@ from rigval.validation.diagnosis.explain import (
     CauseStatement,
     Diagnosis,
     _mode_statement,
+    attach_diagnosis,
     diagnose,
 )
 from rigval.validation.diagnosis.modes import Resonance
@@ -30,7 +34,11 @@ from rigval.validation.diagnosis.residual import ResidualSeries, residual_series
 from rigval.validation.diagnosis.rigidity import RigidityEvidence, rigidity_evidence
 from rigval.validation.diagnosis.spectra import residual_spectra, welch_runs
 from rigval.validation.pipeline import run_scene
+from rigval.validation.report.page import Page
+from rigval.validation.report.run_report import write_metrics, write_netcdf
+from rigval.validation.report.why import why_section
 from rigval.validation.results import ValidationResult
+from rigval.validation.verdict import run_verdict
 
 
 def _validated(folder: Path, settings: RigSettings) -> ValidationResult:
@@ -191,3 +199,29 @@ def test_a_gain_keeps_its_parameter_alternative_when_a_mode_is_named():
     mode = Resonance(20.0, 0.1, 0.02, 0.001, 1.0, 0.05, 0.5, 100.0, 20.0)
     statement = _mode_statement(_statement("gain"), _evidence(mode.variance, mode))
     assert statement.kind == "mode" and statement.alternative == "gain str1"
+
+
+def test_a_named_mode_reaches_the_verdict_metrics_netcdf_and_report(tmp_path):
+    settings = RigSettings(speed=1.0, duration=14.0, seed=14, departures=Departures(
+        mode_body="B", mode_hz=21.4, mode_damping=0.02, mode_level=0.05))
+    result = attach_diagnosis(_validated(tmp_path / "rig", settings))
+    statement = result.diagnosis.causes["str1"]
+    assert statement.kind == "mode", statement.sentence
+    write_metrics(result, tmp_path)
+    write_netcdf(result, tmp_path / "run.nc")
+    document = json.loads((tmp_path / "metrics.json").read_text(encoding="utf-8"))
+    written = document["diagnosis"]["attribution"]["str1"]
+    assert written["residual_share"] == pytest.approx(statement.residual_share, rel=1e-12)
+    assert written["sentence"] == statement.sentence
+    verdict = run_verdict(result)
+    if not statement.detected:
+        assert verdict["modes"]["str1"] == statement.phrase
+        assert f"str1 ({100 * statement.residual_share:.0f} % at" in verdict["statement"]
+    with xr.open_datatree(tmp_path / "run.nc") as tree:
+        group = tree["/why"].to_dataset()
+        shares = group["cause_residual_share"]
+        assert shares.dtype.kind == "f" and shares.attrs["units"] == "1"
+        assert float(shares.sel(comparison="str1")) == pytest.approx(statement.residual_share)
+    page = Page("why")
+    why_section(page, result)
+    assert html.escape(statement.sentence) in page.render()

@@ -2,9 +2,9 @@
 
 Written from ``result.diagnosis`` (:mod:`rigval.validation.diagnosis.explain`): the attribution
 table (cause, size with its standard uncertainty, evidence weight, the other class's best, a
-cause the data cannot tell apart), the residual's order spectrum of each comparison with a
-detected error beside what the chosen causes explain, and the ``[[symmetry]]`` pairs. The
-method: docs/diagnosis.md.
+cause the data cannot tell apart), the sentence of each comparison whose residual is mostly a
+found mode, the residual's order spectrum of each comparison with a detected error beside what
+the chosen causes explain, and the ``[[symmetry]]`` pairs. The method: docs/diagnosis.md.
 """
 
 from __future__ import annotations
@@ -143,6 +143,10 @@ def why_section(page: Page, result: ValidationResult) -> None:
     if not detected:
         page.paragraph("No model error detected: the candidates below are listed for the record.",
                        css_class="ok")
+    for comparison in result.comparisons:
+        statement = diagnosis.causes[comparison.name]
+        if not statement.detected and math.isfinite(statement.residual_share):
+            page.paragraph(statement.sentence)
     page.table(_attribution_rows(diagnosis), caption="attribution: the most likely cause of "
                "each comparison's residual")
     if detected:
