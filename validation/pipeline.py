@@ -99,7 +99,7 @@ from rigval.validation.stage_settings import (
 )
 from rigval.validation.verdict import carried_uncertainty, with_common_gain
 
-__all__ = ["STAGES", "run_scene"]
+__all__ = ["STAGES", "Measurement", "run_scene", "run_scene_kept"]
 
 logger = logging.getLogger(__name__)
 
@@ -496,6 +496,9 @@ STAGES = ("read", "align", "model", "angle", "numerics", "compare")
 def run_scene(scene: Scene | str | Path) -> ValidationResult:
     """Validate one scene: read, align, model, angle domain, numerics, compare.
 
+    :func:`run_scene_kept` does the same and keeps the measurement, to validate it against
+    another mechanism without reading and aligning it again.
+
     Each stage takes the output of the one before and hands on what the later ones need, so
     what a stage consumed (the converted streams, the drives' encoders, the compared channels)
     is let go as the next stage's output replaces it.
@@ -521,6 +524,72 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         For data that cannot be read, aligned or modelled (``DataFileError``, ``DataError``,
         ``AlignmentError``, ``ModelError``).
     """
+    return _run(scene, keep=False)[0]
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """A validated run's measurement, kept to validate it against another mechanism.
+
+    Holds what the model, numerics and compare stages take (the timeline's grids, the drives'
+    encoders, the measured revolutions), so that :meth:`against` runs those three stages only:
+    the measured side does not depend on the mechanism.
+    """
+
+    scene: Scene
+    drives: xr.Dataset | None
+    measured: _Measured
+
+    def against(self, mechanism: Path) -> ValidationResult:
+        """Validate the same measurement against another mechanism file.
+
+        Parameters
+        ----------
+        mechanism : pathlib.Path
+            A mechanism of the same bodies, joints and drives (its parameters changed, as
+            ``rigval identify`` writes it).
+
+        Returns
+        -------
+        ValidationResult
+            As :func:`run_scene` of the scene with that mechanism gives it; its stage times
+            are the model, numerics and compare stages only.
+        """
+        scene = dataclasses.replace(self.scene, mechanism=mechanism)
+        watch = _Stopwatch()
+        with scene_errors(scene):
+            with watch.stage("model"):
+                model = _model(scene, _Aligned(self.measured.inputs, self.measured.timeline,
+                                               self.drives)).model
+            measured = dataclasses.replace(self.measured, model=model)
+            with watch.stage("numerics"):
+                numerics = _numerics(scene, model)
+            with watch.stage("compare"):
+                results = _compare_all(scene, measured, numerics)
+        return _result(scene, watch, measured, numerics, results)
+
+
+def run_scene_kept(scene: Scene | str | Path) -> tuple[ValidationResult, Measurement]:
+    """Validate one scene as :func:`run_scene` does, and keep its measurement.
+
+    The measurement holds the drives' encoders and the measured revolutions beside the result
+    (``rigval identify`` validates the identified mechanism with it).
+
+    Returns
+    -------
+    result : ValidationResult
+        As :func:`run_scene` returns it.
+    measurement : Measurement
+        For :meth:`Measurement.against`.
+    """
+    result, measurement = _run(scene, keep=True)
+    assert measurement is not None
+    return result, measurement
+
+
+def _run(scene: Scene | str | Path, *, keep: bool
+         ) -> tuple[ValidationResult, Measurement | None]:
+    """Run the stages of a run; with ``keep`` return its measurement too."""
     watch = _Stopwatch()
     with watch.stage("read"):
         if not isinstance(scene, Scene):
@@ -533,6 +602,7 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         with watch.stage("align"):
             run = _align(scene, plan, settings, run)
             run = _grids(scene, run)
+        drives = run.drives if keep else None
         with watch.stage("model"):
             run = _model(scene, run)
         with watch.stage("angle"):
@@ -541,7 +611,8 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
             numerics = _numerics(scene, run.model)
         with watch.stage("compare"):
             results = _compare_all(scene, run, numerics)
-    return _result(scene, watch, run, numerics, results)
+    result = _result(scene, watch, run, numerics, results)
+    return result, Measurement(scene, drives, run) if keep else None
 
 
 def _result(scene: Scene, watch: _Stopwatch, measured: _Measured, numerics: _Numerics,

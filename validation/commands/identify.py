@@ -46,7 +46,8 @@ def add_parser(subparsers: Any) -> None:
     add_out_option(parser)
 
 
-def write_identification(identification: Any, out_dir: Path) -> list[Path]:
+def write_identification(identification: Any, out_dir: Path, measurement: Any = None
+                         ) -> list[Path]:
     """Write ``identified.json``, ``mechanism.toml`` and the re-validation reports.
 
     Parameters
@@ -55,6 +56,9 @@ def write_identification(identification: Any, out_dir: Path) -> list[Path]:
         The result of :func:`rigval.validation.identify.identify`.
     out_dir : pathlib.Path
         Output folder (created).
+    measurement : rigval.validation.pipeline.Measurement, optional
+        The nominal run's kept measurement: the identified mechanism is validated against it
+        without reading and aligning the files again (default: the scene is run again).
 
     Returns
     -------
@@ -87,7 +91,9 @@ def write_identification(identification: Any, out_dir: Path) -> list[Path]:
     # processes keep a core busy, so BLAS threads would only wait for each other
     with single_blas_thread():
         nominal_report = beside(lambda: write_report(nominal, out_dir / "nominal"))
-        identified = run_scene(dataclasses.replace(scene, mechanism=mechanism_path.resolve()))
+        identified = (measurement.against(mechanism_path.resolve()) if measurement is not None
+                      else run_scene(dataclasses.replace(scene,
+                                                         mechanism=mechanism_path.resolve())))
         identified_files = write_report(identified, out_dir / "identified")
     written = [json_path, mechanism_path, *nominal_report.result(), *identified_files]
     written.insert(0, _page(identification, identified).write(out_dir / "report.html"))
@@ -144,14 +150,16 @@ def _page(identification: Any, identified: Any) -> Any:
 def run(args: argparse.Namespace) -> int:
     """Identify, write the outputs and print the parameters; return 0."""
     from rigval.validation.identify import identify
+    from rigval.validation.pipeline import run_scene_kept
 
     parameters = ("auto" if args.parameters.strip() == "auto"
                   else [p.strip() for p in args.parameters.split(",") if p.strip()])
     comparisons = (None if args.comparisons is None
                    else [c.strip() for c in args.comparisons.split(",") if c.strip()])
-    identification = identify(args.scene, parameters, friction=args.friction,
-                              comparisons=comparisons)
-    write_identification(identification, args.out)
+    nominal, measurement = run_scene_kept(args.scene)
+    identification = identify(nominal.scene, parameters, friction=args.friction,
+                              comparisons=comparisons, result=nominal)
+    write_identification(identification, args.out, measurement)
     stream = sys.stdout
     for name, value, std, nom, unit in zip(identification.names, identification.value,
                                            identification.std, identification.nominal,
