@@ -400,8 +400,8 @@ def _resample(scene: Scene, comparison: ComparisonSpec, signal: MeasuredSignal, 
     """
     fs, valid, segment = signal.fs, signal.valid, signal.segment
     values = signal.take_values()
-    diagnosis[comparison.name] = diagnosis_signal(signal.time.to_numpy() - signal.delay_s,
-                                                  values, segment, valid, fs)
+    diagnosis[comparison.name] = diagnosis_signal(signal.time.to_numpy(), values, segment, valid,
+                                                  fs, delay_s=signal.delay_s)
     corner = comparison.lowpass_hz
     if corner is not None and corner < 0.45 * fs:
         values = zero_phase(values, fs, corner, segment=segment, valid=valid)
