@@ -57,6 +57,7 @@ import xarray as xr
 
 from rigval.acquisition.detect import source_checksum
 from rigval.acquisition.errors import DataError
+from rigval.acquisition.heap import release_free_heap
 from rigval.model.balance import energy_residual
 from rigval.model.drives import law_angles_at_reference
 from rigval.model.mechanism import load_mechanism
@@ -134,6 +135,7 @@ class _Stopwatch:
         finally:
             self._book()
             self._running.pop()
+            release_free_heap()  # what the stage freed is not left idle beside the next one
             logger.info("stage %s: %.3f s (process CPU %.1f s, peak memory %s)", name,
                         self.seconds[name], time.process_time(), _peak_memory())
 
