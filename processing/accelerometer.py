@@ -129,23 +129,23 @@ def invert_highpass(y: ArrayLike, fs: float, corner_hz: float,
     if y.size == 0:
         return y.copy()
     # z = [z0, z0 + cumsum(((1 - d - c1) y[:-1] + c1 y[1:]) / (1 - c1))], returned as y + z:
-    # the increments a chunk at a time and z in place (two whole-record arrays instead of
-    # seven; the same operations, identical values)
-    increments = np.empty(y.size - 1)
-    chunk = 1 << 20
+    # a chunk at a time into the one output array (no whole-record temporary); the running
+    # sum goes on from the last chunk's, added in the same order (identical values)
+    out = np.empty(y.size)
+    out[0] = initial_state + y[0]
+    chunk, total = 1 << 20, None
     for lo in range(0, y.size - 1, chunk):
         hi = min(lo + chunk, y.size - 1)
         part = (1.0 - decay - c1) * y[lo:hi]
         part += c1 * y[lo + 1:hi + 1]
         part /= 1.0 - c1
-        increments[lo:hi] = part
-    z = np.empty(y.size)
-    z[0] = initial_state
-    np.cumsum(increments, out=z[1:])
-    del increments
-    z[1:] += initial_state
-    z += y
-    return z
+        running = np.cumsum(part if total is None else np.concatenate(([total], part)))
+        running = running if total is None else running[1:]
+        total = running[-1]
+        running += initial_state
+        running += y[lo + 1:hi + 1]
+        out[lo + 1:hi + 1] = running
+    return out
 
 
 def charge_chain_voltage(acceleration: ArrayLike, *, charge_sensitivity: float,

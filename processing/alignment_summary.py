@@ -266,17 +266,21 @@ def segment_table(stream: xr.Dataset, clock: ClockModel, edges: StreamPulses | N
     u95 = dict(zip(clock.segments, clock.offsets_u95_s or (0.0,) * len(clock.segments),
                    strict=True))
     rows = []
-    for s in np.unique(segment):
+    # a segment's values at the starts of its runs: no sorted copy of the whole record
+    starts = np.concatenate(([0], np.flatnonzero(segment[1:] != segment[:-1]) + 1))
+    for s in np.unique(segment[starts]) if segment.size else ():
         mine = segment == s
+        first, last = int(np.argmax(mine)), segment.size - 1 - int(np.argmax(mine[::-1]))
+        samples = int(np.count_nonzero(mine))
         aligned = int(s) in offsets
         n_edges = int(np.count_nonzero(edges.segment == s)) if edges is not None else 0
         rows.append({
             "segment": int(s), "clock_group": fitted_groups.get(int(s)),
-            "device_time_s": [float(device_time[mine][0]), float(device_time[mine][-1])],
-            "samples": int(mine.sum()),
+            "device_time_s": [float(device_time[first]), float(device_time[last])],
+            "samples": samples,
             "clock_offset_s": offsets.get(int(s)), "clock_offset_u95_s": u95.get(int(s)),
-            "samples_dropped": 0 if aligned else int(mine.sum()),
+            "samples_dropped": 0 if aligned else samples,
             "dropped_because": "" if aligned else _dropped_because(
-                n_edges, (float(device_time[mine][0] + clock.offsets_s[0]),
-                          float(device_time[mine][-1] + clock.offsets_s[0])), events)})
+                n_edges, (float(device_time[first] + clock.offsets_s[0]),
+                          float(device_time[last] + clock.offsets_s[0])), events)})
     return tuple(rows)

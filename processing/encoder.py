@@ -137,6 +137,11 @@ def unwrap_counts(raw: ArrayLike, bits: int = 32) -> IntArray:
     return counts
 
 
+#: Reloads above which :func:`remove_index_resets` corrects through one whole-record array
+#: (fewer: range by range, without it).
+_MANY_RESETS = 100_000
+
+
 def remove_index_resets(counts: ArrayLike, counts_per_rev: float,
                         ) -> tuple[IntArray, IntArray]:
     """Undo the counter reloads a Z index pulse causes (DAQmx ``CI.Encoder.ZIndexEnable``).
@@ -161,12 +166,25 @@ def remove_index_resets(counts: ArrayLike, counts_per_rev: float,
         the one before, at the cumulative count ``cumulative[i] - counts[i] + reload value``.
     """
     c = np.asarray(counts, dtype=np.int64)
-    steps = np.diff(c)
-    resets = np.flatnonzero(np.abs(steps) > counts_per_rev / 2) + 1
-    correction = np.zeros(c.size, dtype=np.int64)
-    revolutions = np.round(steps[resets - 1] / counts_per_rev).astype(np.int64)
-    correction[resets] = -revolutions * round(counts_per_rev)
-    return c + np.cumsum(correction), resets.astype(np.int64)
+    chunk = 1 << 20  # the steps a chunk at a time; reloads are few (memory)
+    found, turns = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    for lo in range(0, c.size - 1, chunk):
+        steps = np.diff(c[lo:lo + chunk + 1])
+        at = np.flatnonzero(np.abs(steps) > counts_per_rev / 2)
+        found.append(lo + 1 + at)
+        turns.append(np.round(steps[at] / counts_per_rev).astype(np.int64))
+    resets = np.concatenate(found)
+    fix = -np.concatenate(turns) * round(counts_per_rev)
+    if resets.size > _MANY_RESETS:  # a noisy counter: one cumulative correction array
+        correction = np.zeros(c.size, dtype=np.int64)
+        correction[resets] = fix
+        return c + np.cumsum(correction, out=correction), resets
+    total = np.cumsum(fix)
+    cumulative = c.copy()
+    for k, start in enumerate(resets):  # each reload's correction holds until the next one
+        stop = resets[k + 1] if k + 1 < resets.size else c.size
+        cumulative[start:stop] += total[k]
+    return cumulative, resets
 
 
 def decode_quadrature(a: ArrayLike, b: ArrayLike, decoding: QuadratureDecoding = "x4",

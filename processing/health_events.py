@@ -23,6 +23,7 @@ from scipy.ndimage import median_filter
 
 from rigval.acquisition.errors import DataError
 from rigval.processing.arrays import BoolArray, FloatArray, IntArray
+from rigval.processing.block_median import exact_median
 from rigval.processing.encoder import remove_index_resets, unwrap_counts
 from rigval.processing.health import Finding
 from rigval.processing.pulses import detect_edges
@@ -52,22 +53,43 @@ def _plural(noun: str, count: int) -> str:
     return "es" if noun.endswith(("ch", "sh", "s", "x")) else "s"
 
 
-def _rate_departure(step: IntArray, usable: BoolArray, typical: float) -> FloatArray:
+def _steps(cumulative: IntArray, lo: int, hi: int) -> IntArray:
+    """Return count steps ``lo ... hi - 1`` (step ``k`` from sample ``k`` to ``k + 1``)."""
+    return np.diff(cumulative[lo:hi + 1])
+
+
+def _rate_departure(cumulative: IntArray, usable: BoolArray, typical: float) -> FloatArray:
     """Return each count step minus the running median rate around it (0 where not usable).
 
     Unusable steps enter the median as ``typical``. Worked in blocks of ``_BLOCK`` steps, each
     with half the median's window of neighbours on either side, so the values equal those of
-    one median over the whole record without its full-length temporaries.
+    one median over the whole record without its full-length temporaries (the steps
+    themselves are taken from ``cumulative`` block by block).
     """
     half = _RATE_WINDOW // 2
-    departure = np.zeros(step.size)
-    for lo in range(0, step.size, _BLOCK):
-        hi = min(lo + _BLOCK, step.size)
-        start, stop = max(lo - half, 0), min(hi + half, step.size)
-        filled = np.where(usable[start:stop], step[start:stop], typical)
+    size = cumulative.size - 1
+    departure = np.zeros(size)
+    for lo in range(0, size, _BLOCK):
+        hi = min(lo + _BLOCK, size)
+        start, stop = max(lo - half, 0), min(hi + half, size)
+        step = _steps(cumulative, start, stop)
+        filled = np.where(usable[start:stop], step, typical)
         rate = _running_median(filled, _RATE_WINDOW)[lo - start:hi - start]
-        departure[lo:hi] = np.where(usable[lo:hi], step[lo:hi] - rate, 0.0)
+        departure[lo:hi] = np.where(usable[lo:hi], step[lo - start:hi - start] - rate, 0.0)
     return departure
+
+
+def _blocks(size: int) -> list[tuple[int, int]]:
+    """Split ``0 ... size - 1`` into blocks of at most ``_BLOCK``."""
+    return [(lo, min(lo + _BLOCK, size)) for lo in range(0, size, _BLOCK)]
+
+
+def _filled_counts(raw: np.ndarray, ok: BoolArray) -> IntArray:
+    """Return the counter values as int64, 0 where not usable, filled a block at a time."""
+    counts = np.empty(raw.size, np.int64)
+    for lo, hi in _blocks(raw.size):
+        counts[lo:hi] = np.where(ok[lo:hi], raw[lo:hi], 0)
+    return counts
 
 
 def _without_pattern(relative: FloatArray, turn: IntArray, part: IntArray, repeat: int,
@@ -146,15 +168,17 @@ def counter_health(counts: ArrayLike, time: ArrayLike, *, channel: str,
     ok = np.ones(raw.size, bool) if valid is None else np.asarray(valid, dtype=bool)
     if ok.sum() < _RATE_WINDOW:
         return []
-    cumulative = unwrap_counts(np.where(ok, raw, 0).astype(np.int64))
+    cumulative = unwrap_counts(_filled_counts(raw, ok))
     if counts_per_rev:
         cumulative, _ = remove_index_resets(cumulative, counts_per_rev)
-    step = np.diff(cumulative)
     usable = ok[1:] & ok[:-1]
-    departure = _rate_departure(step, usable, float(np.nan_to_num(np.median(step[usable]))))
-    spread = 1.4826 * float(np.median(np.abs(departure[usable])))
+    steps = _blocks(usable.size)  # the medians exact, a block at a time (memory)
+    typical = exact_median(_steps(cumulative, lo, hi)[usable[lo:hi]] for lo, hi in steps)
+    departure = _rate_departure(cumulative, usable, float(np.nan_to_num(typical)))
+    spread = 1.4826 * exact_median(np.abs(departure[lo:hi][usable[lo:hi]]) for lo, hi in steps)
     threshold = max(_JUMP_COUNTS, _JUMP_SIGMAS * spread)
-    odd = np.flatnonzero(np.abs(departure) > threshold)
+    odd = np.concatenate([lo + np.flatnonzero(np.abs(departure[lo:hi]) > threshold)
+                          for lo, hi in steps] or [np.zeros(0, np.int64)])
     glitches, jumps = [], []
     used: set[int] = set()
     for k in odd:

@@ -581,11 +581,34 @@ def time_edges(x: ArrayLike, time: ArrayLike, edges: ArrayLike, *, fs: float,
     low, high = state_levels(data, mask=ok)
     if polarity == "falling":
         data, low, high = -data, -high, -low
-    flat = ok & (np.abs(data - low) < 0.1 * (high - low))
-    quiet = data[flat]
-    noise = 1.4826 * float(np.median(np.abs(quiet - np.median(quiet)))) if quiet.size else 0.0
+    noise = _low_level_noise(data, ok, low, high)
     fit = fit_edges(data, t, given, fs=fs, low=low, high=high, noise=noise)
     return EdgeTiming(fit.times, fit.bounds_s, fit.shape)
+
+
+def _low_level_noise(x: FloatArray, ok: BoolArray, low: float, high: float) -> float:
+    """Return the robust noise rms (1.4826 MAD) of the usable samples near the low level.
+
+    The samples within 10 % of the level span from ``low`` (unit of ``x``); found a chunk at a
+    time and copied once, both medians taken in place on that copy (memory; the medians are
+    order statistics, so the values equal those of whole-record temporaries). 0 without such
+    samples.
+    """
+    band = 0.1 * (high - low)
+    near = [ok[lo:lo + _LEVEL_CHUNK] & (np.abs(x[lo:lo + _LEVEL_CHUNK] - low) < band)
+            for lo in range(0, x.size, _LEVEL_CHUNK)]
+    quiet = np.empty(sum(int(m.sum()) for m in near))
+    if quiet.size == 0:
+        return 0.0
+    filled = 0
+    for k, mask in enumerate(near):
+        part = x[k * _LEVEL_CHUNK:(k + 1) * _LEVEL_CHUNK][mask]
+        quiet[filled:filled + part.size] = part
+        filled += part.size
+    centre = np.median(quiet, overwrite_input=True)
+    np.subtract(quiet, centre, out=quiet)
+    np.abs(quiet, out=quiet)
+    return 1.4826 * float(np.median(quiet, overwrite_input=True))
 
 
 def _sample_switched(x: FloatArray, time: FloatArray, edges: FloatArray, polarity: str,

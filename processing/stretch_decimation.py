@@ -12,10 +12,11 @@ import logging
 
 import numpy as np
 import xarray as xr
-from scipy.signal import decimate
 
 from rigval.acquisition.errors import DataError
-from rigval.processing.arrays import FloatArray
+from rigval.processing.arrays import FloatArray, IntArray
+from rigval.processing.blocked_decimation import EDGE, decimate_stretch
+from rigval.processing.filters import contiguous_runs
 
 __all__ = ["EDGE", "UPPER_HZ", "decimated_runs", "diagnosis_signal"]
 
@@ -24,10 +25,8 @@ logger = logging.getLogger(__name__)
 #: Upper end of the band the diagnosis analyses by default (Hz): the first modes of a machine
 #: of this size (docs/diagnosis.md); the kept signal's rate is at least four times it.
 UPPER_HZ = 40.0
-
-
-#: Output samples dropped at each end of a decimated stretch (the FIR's half length).
-EDGE = 10
+#: Samples whose stretch numbers are counted at a time (:func:`_stretch_numbers`).
+_COUNT_BLOCK = 1 << 20
 
 
 def decimated_runs(values: FloatArray, run: np.ndarray, q: int) -> tuple[FloatArray, np.ndarray,
@@ -39,20 +38,15 @@ def decimated_runs(values: FloatArray, run: np.ndarray, q: int) -> tuple[FloatAr
     (:func:`scipy.signal.decimate`, 20 q + 1 taps) sees each stretch less its straight line
     from end to end, added back after, and the :data:`EDGE` output samples at each end, where
     the filter reaches past the stretch, are dropped: a large signal cut at a gap would
-    otherwise ring there.
+    otherwise ring there (:func:`~rigval.processing.blocked_decimation.decimate_stretch`).
     """
     out, runs, index = [], [], []
     for k in np.unique(run):
         where = np.flatnonzero(run == k)
         if where.size < 64 * q:
             continue
-        x = values[where]
-        if q > 1:
-            line = np.linspace(x[0], x[-1], x.size)
-            y = (decimate(x - line, q, ftype="fir", zero_phase=True) + line[::q])[EDGE:-EDGE]
-            taken = where[::q][EDGE:EDGE + y.size]
-        else:
-            y, taken = x, where
+        y, taken = _decimated(values[where], q)
+        taken = where[taken]
         out.append(y)
         runs.append(np.full(y.size, k))
         index.append(taken)
@@ -62,14 +56,40 @@ def decimated_runs(values: FloatArray, run: np.ndarray, q: int) -> tuple[FloatAr
     return np.concatenate(out), np.concatenate(runs), np.concatenate(index)
 
 
+def _decimated(x: FloatArray, q: int) -> tuple[FloatArray, IntArray]:
+    """Return a stretch decimated by ``q`` less its ends and the index of each output sample."""
+    if q > 1:
+        return decimate_stretch(x, q)
+    return x, np.arange(x.size)
+
+
+def _stretch_numbers(starts: IntArray, usable: np.ndarray, segment: np.ndarray) -> IntArray:
+    """Return the stretch number at each of ``starts`` (sample indices, increasing).
+
+    A new stretch begins at every sample after a segment change or next to an unusable sample:
+    the number is the count of such beginnings up to the sample, counted a block at a time.
+    """
+    numbers = np.zeros(starts.size, np.int64)
+    count = 0
+    for lo in range(1, usable.size, _COUNT_BLOCK):
+        hi = min(lo + _COUNT_BLOCK, usable.size)
+        step = (segment[lo:hi] != segment[lo - 1:hi - 1]) | ~usable[lo:hi] | ~usable[lo - 1:hi - 1]
+        total = np.cumsum(step)
+        inside = (starts >= lo) & (starts < hi)
+        numbers[inside] = count + total[starts[inside] - lo]
+        count += int(total[-1])
+    return numbers
+
+
 def diagnosis_signal(time: FloatArray, values: FloatArray, segment: np.ndarray,
-                     valid: np.ndarray, fs: float, upper_hz: float = UPPER_HZ) -> xr.Dataset:
+                     valid: np.ndarray, fs: float, upper_hz: float = UPPER_HZ, *,
+                     delay_s: float = 0.0) -> xr.Dataset:
     """Return a measured signal decimated for the diagnosis, its gap-free stretches numbered.
 
     Parameters
     ----------
     time : numpy.ndarray
-        Reference time of each sample's input (module delay removed), s.
+        Reference time of each sample, s (the module delay ``delay_s`` not yet removed).
     values : numpy.ndarray
         Measured values (before any low-pass), signal units.
     segment : numpy.ndarray
@@ -80,22 +100,33 @@ def diagnosis_signal(time: FloatArray, values: FloatArray, segment: np.ndarray,
         Sample rate in Hz.
     upper_hz : float, default :data:`UPPER_HZ`
         Highest frequency kept (Hz): the rate becomes at least ``4 upper_hz``.
+    delay_s : float, default 0
+        The module's input delay, s: taken off the kept samples' times.
 
     Returns
     -------
     xarray.Dataset
         ``measured`` (signal units) and ``stretch`` (int) over ``time`` (s), attribute ``fs``
         (Hz); empty when no stretch is long enough.
+
+    Notes
+    -----
+    The stretches are the runs of usable samples within one segment, each decimated as
+    :func:`decimated_runs` does, without copying the channel (memory).
     """
     usable = valid & np.isfinite(values)
-    step = np.concatenate([[False], (np.diff(segment) != 0) | ~usable[1:] | ~usable[:-1]])
-    stretch = np.cumsum(step)
-    where = np.flatnonzero(usable)
     q = max(int(fs // (4.0 * upper_hz)), 1)
-    try:
-        out, runs, index = decimated_runs(values[where], stretch[where], q)
-    except DataError:
-        out, runs, index = np.zeros(0), np.zeros(0, int), np.zeros(0, int)
-    return xr.Dataset({"measured": ("time", out), "stretch": ("time", runs.astype(np.int32))},
-                      coords={"time": ("time", time[where][index], {"units": "s"})},
+    stretches = [(a, b) for a, b in contiguous_runs(values.size, segment, usable)
+                 if b - a >= 64 * q]
+    numbers = _stretch_numbers(np.array([a for a, _ in stretches], np.int64), usable, segment)
+    out, runs, index = [np.zeros(0)], [np.zeros(0, np.int32)], [np.zeros(0, np.int64)]
+    for (a, b), k in zip(stretches, numbers, strict=True):
+        y, taken = _decimated(values[a:b], q)
+        out.append(y)
+        runs.append(np.full(y.size, k, np.int32))
+        index.append(taken + a)
+    at = np.concatenate(index)
+    return xr.Dataset({"measured": ("time", np.concatenate(out)),
+                       "stretch": ("time", np.concatenate(runs))},
+                      coords={"time": ("time", time[at] - delay_s, {"units": "s"})},
                       attrs={"fs": fs / q})

@@ -57,6 +57,7 @@ import xarray as xr
 
 from rigval.acquisition.detect import source_checksum
 from rigval.acquisition.errors import DataError
+from rigval.acquisition.heap import release_free_heap
 from rigval.model.balance import energy_residual
 from rigval.model.drives import law_angles_at_reference
 from rigval.model.mechanism import load_mechanism
@@ -134,6 +135,7 @@ class _Stopwatch:
         finally:
             self._book()
             self._running.pop()
+            release_free_heap()  # what the stage freed is not left idle beside the next one
             logger.info("stage %s: %.3f s (process CPU %.1f s, peak memory %s)", name,
                         self.seconds[name], time.process_time(), _peak_memory())
 
@@ -400,8 +402,8 @@ def _resample(scene: Scene, comparison: ComparisonSpec, signal: MeasuredSignal, 
     """
     fs, valid, segment = signal.fs, signal.valid, signal.segment
     values = signal.take_values()
-    diagnosis[comparison.name] = diagnosis_signal(signal.time.to_numpy() - signal.delay_s,
-                                                  values, segment, valid, fs)
+    diagnosis[comparison.name] = diagnosis_signal(signal.time.to_numpy(), values, segment, valid,
+                                                  fs, delay_s=signal.delay_s)
     corner = comparison.lowpass_hz
     if corner is not None and corner < 0.45 * fs:
         values = zero_phase(values, fs, corner, segment=segment, valid=valid)

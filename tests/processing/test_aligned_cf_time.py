@@ -65,3 +65,17 @@ def test_reference_stream_and_common_timeline_use_the_reference_origin(tmp_path:
     np.testing.assert_array_equal(decoded["time"].to_numpy()[:3],
                                   start + np.array([0, 10, 20], dtype="timedelta64[ms]"))
     assert decoded["dev_x"].attrs["segment_clock_offset_s"] == LAG  # one entry comes back scalar
+
+
+def test_aligned_time_index_shares_the_time_array() -> None:
+    """The index over the reference times is no second copy of them; same values and labels."""
+    ref, dev = _stream(REF_START, "ref"), _stream(DEV_START, "dev")
+    clock = clock_fit.ClockModel((0,), (LAG,), 1e-5, 0.0, 10, 10)
+    aligned = clock_fit.align_stream(dev, clock, name="dev",
+                                     reference_start=ref.attrs["start_time"])
+    expected = clock.to_reference(dev["time"].to_numpy(), dev["segment"].to_numpy())
+    values = aligned["time"].to_numpy()
+    np.testing.assert_array_equal(values, expected)
+    assert np.shares_memory(aligned.xindexes["time"].index.to_numpy(), values)
+    assert float(aligned.sel(time=expected[7])["x"]) == float(dev["x"][7])
+    np.testing.assert_array_equal(aligned["device_time"].to_numpy(), dev["time"].to_numpy())

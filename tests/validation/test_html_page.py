@@ -82,3 +82,17 @@ def test_format_value() -> None:
     assert format_value(3) == "3"
     assert format_value(1234567.0, 3) == "1.23e+06"
     assert format_value(float("nan")) == "–"
+
+
+def test_written_page_equals_the_rendered_text(tmp_path) -> None:
+    """The page written part by part is the whole rendered text, as UTF-8."""
+    page = Page("Sommer \u00e9t\u00e9 \u2013 run", subtitle="one")
+    page.section("first")
+    page.paragraph("\u03c6_F in \u00b0")
+    page.figure(_figure(), caption="overlay", fmt="svg")
+    page.raw("<p>last</p>")
+    path = page.write(tmp_path / "page.html")
+    stamp = re.compile(r"\d{4}-\d\d-\d\d \d\d:\d\d UTC")
+    assert stamp.sub("T", path.read_bytes().decode("utf-8")) == stamp.sub("T", page.render())
+    assert Page("empty").write(tmp_path / "empty.html").read_text(encoding="utf-8").endswith(
+        "</html>\n")

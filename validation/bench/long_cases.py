@@ -33,8 +33,9 @@ __all__ = ["DURATIONS_S", "QUICK_DURATIONS_S", "Usage", "long_rows", "run_measur
 
 logger = logging.getLogger(__name__)
 
-#: Record lengths of ``rigval bench --long`` (s).
-DURATIONS_S = (20.0, 200.0, 2000.0, 3600.0)
+#: Record lengths of ``rigval bench --long`` (s): up to four hours, where memory that grows with
+#: the record shows first.
+DURATIONS_S = (20.0, 200.0, 2000.0, 3600.0, 14400.0)
 #: With ``--quick``.
 QUICK_DURATIONS_S = (20.0, 200.0)
 #: Bound of the clock offset error of WLS #1 (s): 0.1 ms, 0.036 deg at 1 rev/s.

@@ -25,7 +25,7 @@ import io
 import math
 import numbers
 import re
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
@@ -35,7 +35,7 @@ from typing import Any, Literal
 from matplotlib import rc_context
 from matplotlib.figure import Figure
 
-from rigval.acquisition.outputs import write_text_atomic
+from rigval.acquisition.outputs import atomic_output
 
 __all__ = ["STATUS_CLASSES", "STYLE_SHEET", "Link", "Page", "escape", "figure_data_uri",
            "figure_svg", "format_value", "prefix_ids", "style_sheet", "svg_text"]
@@ -342,21 +342,31 @@ class Page:
 
     def render(self) -> str:
         """Return the whole page as an HTML5 document."""
+        return "".join(self._pieces())
+
+    def _pieces(self) -> Iterator[str]:
+        """Yield the page's text in order: head, each part (newline-separated), footer."""
         sub = f'<p class="subtitle">{escape(self.subtitle)}</p>' if self.subtitle else ""
         toc = ""
         if self.contents and self._toc:
             items = "".join(f'<li><a href="#{a}">{escape(t)}</a></li>' for a, t in self._toc)
             toc = f"<nav><ol>{items}</ol></nav>"
         stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
-        return (
-            '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
-            '<meta name="viewport" content="width=device-width, initial-scale=1">'
-            f"<title>{escape(self.title)}</title><style>{style_sheet()}</style></head>"
-            f"<body><main><header><h1>{escape(self.title)}</h1>{sub}</header>{toc}"
-            + "\n".join(self._parts)
-            + f"<footer>Written by rigval on {stamp}.</footer></main></body></html>\n"
-        )
+        yield ('<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+               '<meta name="viewport" content="width=device-width, initial-scale=1">'
+               f"<title>{escape(self.title)}</title><style>{style_sheet()}</style></head>"
+               f"<body><main><header><h1>{escape(self.title)}</h1>{sub}</header>{toc}")
+        for n, part in enumerate(self._parts):
+            yield f"\n{part}" if n else part
+        yield f"<footer>Written by rigval on {stamp}.</footer></main></body></html>\n"
 
     def write(self, path: str | Path) -> Path:
-        """Render the page and write it to ``path`` (UTF-8, temporary name, then renamed)."""
-        return write_text_atomic(path, self.render())
+        """Render the page and write it to ``path`` (UTF-8, temporary name, then renamed).
+
+        Written part by part, so that the page is never held whole as text and as bytes
+        (a long run's page holds a hundred megabytes of figures).
+        """
+        final = Path(path)
+        with atomic_output(final) as temporary, temporary.open("w", encoding="utf-8") as file:
+            file.writelines(self._pieces())
+        return final

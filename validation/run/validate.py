@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+from rigval.acquisition.heap import release_free_heap
 from rigval.acquisition.threads import single_blas_thread
 from rigval.validation.diagnosis.explain import attach_diagnosis
 from rigval.validation.pipeline import run_scene
@@ -41,6 +42,7 @@ def validate_scene(scene_path: str | Path, out_dir: str | Path) -> ValidationRes
         ``speed_rev_s`` and ``diagnosis``.
     """
     result = run_scene(scene_path)
+    release_free_heap()  # the pipeline's freed memory, before the diagnosis's large arrays
     figures = start_figures(result)  # no figure shows the diagnosis: drawn beside it
     with single_blas_thread():  # the child keeps the other core: BLAS threads would wait
         result = attach_diagnosis(result)
