@@ -61,10 +61,10 @@ _IMPERFECTIONS: dict[str, tuple[str, type | None, str]] = {
                        "probability of a missing optical pulse"),
     "spurious-pulses": ("spurious_pulses_per_minute", float,
                         "spurious optical pulses per minute per sensor"),
-    "noise": ("noise", float, "scale of all sensor noise (1 = typical)"),
     "torque-split": ("torque_split", float, "bound of |share - 0.5| of each shaft pair's torque"),
     "bridge-drift": ("bridge_drift", float,
                      "scale of bridge zero offsets and thermal drift (1 = typical)"),
+    "noise": ("noise", float, "scale of all sensor noise (1 = typical)"),
     "speed-wander": ("speed_wander", float,
                      "relative speed wander that makes cycles uneven (0: an exactly periodic "
                      "drive)"),
