@@ -42,7 +42,7 @@ from rigval.acquisition.tdms_layout import (
 )
 from rigval.acquisition.tdms_log import captured_nptdms_messages
 
-__all__ = ["DaqmxChannel", "DaqmxSelection", "daqmx_selection", "read_daqmx"]
+__all__ = ["DAQMX_DTYPES", "DaqmxChannel", "DaqmxSelection", "daqmx_selection", "read_daqmx"]
 
 logger = logging.getLogger(__name__)
 
