@@ -21,11 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigval.processing.arrays import FloatArray
 from rigval.acquisition.devices import ni9237_input_delay
 from rigval.acquisition.errors import ConfigError
+from rigval.processing.arrays import FloatArray
 
-__all__ = ["ANTI_ALIAS_BAND", "MODULES", "ClockSegment", "DeviceClock", "Module", "dropout_segments"]
+__all__ = ["ANTI_ALIAS_BAND", "MODULES", "ClockSegment", "DeviceClock", "Module",
+           "dropout_segments"]
 
 logger = logging.getLogger(__name__)
 

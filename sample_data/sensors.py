@@ -21,9 +21,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import erf, sici
 
-from rigval.processing.arrays import FloatArray
 from rigval.acquisition.errors import ConfigError
 from rigval.processing.accelerometer import charge_chain_voltage
+from rigval.processing.arrays import FloatArray
 from rigval.processing.bridge import bridge_ratio
 from rigval.processing.torsion import rosette_bridge_ratio, shear_strain_from_torque
 from rigval.sample_data.drive import DriveMotion
