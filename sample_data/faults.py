@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from rigval.acquisition.errors import ConfigError
-from rigval.sample_data.stream_records import Stream, StreamPiece
+from rigval.sample_data.devices import Stream, StreamPiece
 
 __all__ = ["FAULT_KINDS", "Fault", "FaultInjector"]
 

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rigval.sample_data.devices import Stream
 from rigval.sample_data.rig import RigDraw, RigSettings, RunFiles
-from rigval.sample_data.stream_records import Stream
 
 __all__ = ["LAB_TIMEZONE", "local_time", "note_text", "scene_text"]
 

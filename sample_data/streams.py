@@ -39,10 +39,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rigval.processing.arrays import FloatArray
-from rigval.sample_data.devices import MODULES, DeviceClock
+from rigval.sample_data.devices import MODULES, DeviceClock, SampledChannel, Stream, StreamPiece
 from rigval.sample_data.rig import RigDraw
 from rigval.sample_data.sensors import PulseTrain, optical_pulses
-from rigval.sample_data.stream_records import SampledChannel, Stream, StreamPiece
 from rigval.sample_data.truth import TruthGrid, frame_vibration
 
 __all__ = ["DEVICE_NAMES", "stream_pieces"]
