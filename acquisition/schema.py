@@ -41,6 +41,7 @@ import pandas as pd
 import xarray as xr
 
 from rigval.acquisition.errors import DataError
+from rigval.acquisition.stream_attrs import attr_list
 from rigval.acquisition.timebase import TimeBase
 
 __all__ = [
@@ -196,11 +197,8 @@ def cf_time_attrs(start_time: str, long_name: str) -> dict[str, str]:
 
 
 def _attr_array(ds: xr.Dataset, name: str, dtype: Any) -> np.ndarray:
-    """Return an array attribute as a 1-D array (netCDF returns one-element arrays as scalars)."""
-    value = ds.attrs.get(name, ())
-    if isinstance(value, str):
-        value = [value]
-    return np.atleast_1d(np.asarray(value, dtype=dtype)).reshape(-1)
+    """Return an array attribute as a 1-D array of ``dtype`` (entries as ``attr_list`` gives)."""
+    return np.asarray(attr_list(ds.attrs, name), dtype=dtype).reshape(-1)
 
 
 def stream_gaps(ds: xr.Dataset) -> list[dict[str, float | int]]:
@@ -259,10 +257,9 @@ def string_table(attrs: Mapping[str, Any], prefix: str) -> dict[str, str]:
     DataError
         When the keys and values differ in number (a file edited by hand).
     """
-    keys, values = (np.atleast_1d(np.asarray(attrs.get(f"{prefix}_{part}", ()), dtype=object))
-                    .reshape(-1) for part in ("keys", "values"))
-    if keys.size != values.size:
-        raise DataError(f"{prefix}_keys has {keys.size} entries, {prefix}_values {values.size}",
+    keys, values = (attr_list(attrs, f"{prefix}_{part}") for part in ("keys", "values"))
+    if len(keys) != len(values):
+        raise DataError(f"{prefix}_keys has {len(keys)} entries, {prefix}_values {len(values)}",
                         where={"attribute": f"{prefix}_keys"},
                         hint="both attributes must list one entry per header line")
     return {str(k): str(v) for k, v in zip(keys, values, strict=True)}

@@ -41,7 +41,8 @@ PULSE_MID_FRACTION = 0.02
 #: Largest fraction of a pulse channel's samples in its less frequent level.
 PULSE_DUTY = 0.35
 
-BRIDGE_UNITS = ("V/V", "mV/V")
+#: Units of a bridge channel that holds the bridge ratio (the excitation divided out).
+BRIDGE_UNITS: tuple[str, ...] = ("V/V", "mV/V")
 #: Name fragments of transducers in volts and the unit they suggest.
 _NAME_UNITS = (("torque", "N m"), ("tor", "N m"), ("force", "N"), ("load", "N"),
                ("press", "Pa"), ("acc", "m s-2"), ("disp", "m"), ("pos", "m"))

@@ -42,7 +42,7 @@ from rigval.acquisition.tdms_layout import (
 )
 from rigval.acquisition.tdms_log import captured_nptdms_messages
 
-__all__ = ["DaqmxChannel", "DaqmxSelection", "daqmx_selection", "read_daqmx"]
+__all__ = ["DAQMX_DTYPES", "DaqmxChannel", "DaqmxSelection", "daqmx_selection", "read_daqmx"]
 
 logger = logging.getLogger(__name__)
 
@@ -231,10 +231,9 @@ def daqmx_selection(layout: TdmsLayout,
 
     Parameters
     ----------
-    layout : TdmsLayout
-        From :func:`~rigval.acquisition.tdms_layout.scan_tdms`.
-    ranges : mapping of str to (int, int)
-        Object path -> range of value indexes ``(start, stop)`` wanted.
+    layout, ranges
+        As for :func:`~rigval.acquisition.tdms_direct.plain_selection`: the scanned file and
+        object path -> range of value indexes ``(start, stop)`` wanted.
 
     Returns
     -------
@@ -309,27 +308,22 @@ def read_daqmx(file: Path, layout: TdmsLayout, selection: DaqmxSelection,
 
     Parameters
     ----------
-    file : pathlib.Path
-        The ``.tdms`` file.
-    layout : TdmsLayout
-        Its structure (from :func:`~rigval.acquisition.tdms_layout.scan_tdms`).
+    file, layout, checksum
+        As for :func:`~rigval.acquisition.tdms_direct.read_plain`: the ``.tdms`` file, its
+        scanned structure, and whether to hash all of it.
     selection : DaqmxSelection
         From :func:`daqmx_selection`.
-    checksum : bool
-        Hash every byte of the file (to its end, damaged tail included).
 
     Returns
     -------
-    values : dict of str to numpy.ndarray
-        Object path -> the scaled values ``start`` to ``stop - 1`` (physical units of the
-        channel's last scale, e.g. V or m/s^2).
-    sha256 : str or None
-        Hex digest of the whole file, None without ``checksum``.
+    values, sha256
+        As :func:`~rigval.acquisition.tdms_direct.read_plain` returns them, the values scaled
+        (physical units of each channel's last scale, e.g. V or m/s^2).
 
     Raises
     ------
     DataFileError
-        If the file cannot be read or ends before the values the scan found (it changed).
+        As :func:`~rigval.acquisition.tdms_direct.read_plain` does.
     """
     huge = use_huge_pages(sum(8 * (c.stop - c.start) for c in selection.channels))
     raw = {(sid, c.path): _raw_array(c, sid, huge) for c in selection.channels for sid in c.scalers}

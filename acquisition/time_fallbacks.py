@@ -19,6 +19,7 @@ from dataclasses import astuple, dataclass, fields
 from typing import Any
 
 from rigval.acquisition.errors import DataError
+from rigval.acquisition.stream_attrs import attr_list
 
 __all__ = ["LOCAL_TIME_AS_UTC", "TimeFallback", "taken_as_utc", "time_fallback_attrs",
            "time_fallbacks"]
@@ -92,7 +93,8 @@ def time_fallbacks(attrs: Mapping[str, Any]) -> tuple[TimeFallback, ...]:
     DataError
         When the three attributes differ in length (a file edited by hand).
     """
-    columns = [_strings(attrs.get(f"time_fallback_{part}", ())) for part in _PARTS]
+    columns = [[str(entry) for entry in attr_list(attrs, f"time_fallback_{part}")]
+               for part in _PARTS]
     lengths = {part: len(column) for part, column in zip(_PARTS, columns, strict=True)}
     if len(set(lengths.values())) > 1:
         raise DataError(f"the time_fallback attributes differ in length: {lengths}",
@@ -101,8 +103,3 @@ def time_fallbacks(attrs: Mapping[str, Any]) -> tuple[TimeFallback, ...]:
     return tuple(TimeFallback(*row) for row in zip(*columns, strict=True))
 
 
-def _strings(value: Any) -> list[str]:
-    """Return an attribute as a list of str: a plain string (netCDF's one entry) or an array."""
-    if isinstance(value, str) or getattr(value, "ndim", 1) == 0:
-        return [str(value)]
-    return [str(v) for v in value]

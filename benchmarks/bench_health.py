@@ -133,10 +133,10 @@ def main(argv: list[str]) -> None:
     print(f"\n{'fault':<14} {'seeds':>5} {'found with its place':>21}")
     for kind, hits in found.items():
         print(f"{kind:<14} {len(hits):>5} {100.0 * np.mean(hits):>20.1f} %")
-    print(f"clean runs with any finding: {sum(bool(a) for a in clean_alarms)} of "
-          f"{len(clean_alarms)}; faulted runs with a finding on an unfaulted channel: "
-          f"{sum(bool(a) for a in other_alarms)} of {len(other_alarms)} "
-          f"(15 channels per clean run, 7 unfaulted per faulted run)")
+    print(f"clean runs with any finding (15 channels each): "
+          f"{sum(bool(a) for a in clean_alarms)} of {len(clean_alarms)}")
+    print(f"faulted runs with a finding on an unfaulted channel (7 each): "
+          f"{sum(bool(a) for a in other_alarms)} of {len(other_alarms)}")
 
 
 if __name__ == "__main__":

@@ -44,12 +44,8 @@ def angular_accelerations(system: LoopSystem, z: np.ndarray, lu: BatchLU, omega:
 
     Parameters
     ----------
-    system : LoopSystem
-        Reduced constraints.
-    z : numpy.ndarray
-        (n, n_bodies) unit phasors of the body angles.
-    lu : BatchLU
-        Factors of ``J_u``.
+    system, z, lu
+        As for :func:`angular_velocities`.
     omega : numpy.ndarray
         (n, n_bodies) angular velocities, rad/s.
     alpha_d : numpy.ndarray

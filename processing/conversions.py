@@ -57,6 +57,34 @@ def _channel(ds: xr.Dataset, name: str) -> xr.DataArray:
     return ds[name]
 
 
+def _volts(ds: xr.Dataset, channel: str, sensor: str) -> tuple[xr.DataArray, NDArray[np.float64]]:
+    """Return a channel in volts: the variable and a float64 copy of its values in V.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Stream holding the channel.
+    channel : str
+        Channel in V or mV (``units`` attribute).
+    sensor : str
+        The sensor the error names (``"accelerometer"``, ``"IEPE"``).
+
+    Raises
+    ------
+    UnitError
+        When the channel is not in a unit of voltage.
+    """
+    var = _channel(ds, channel)
+    units = str(var.attrs.get("units", ""))
+    per_volt = factor_or_none(units, "V")
+    if per_volt is None:
+        raise UnitError(f"{sensor} channel {channel!r} has units {units!r}, expected V or mV",
+                        where={"channel": channel})
+    volts = var.to_numpy().astype(np.float64)  # a copy the caller may scale and centre in place
+    volts *= per_volt
+    return var, volts
+
+
 def bridge_ratio_values(ds: xr.Dataset, channel: str, *, excitation_voltage: float | None = None,
                         unstrained: Null = None) -> NDArray[np.float64]:
     """Return the offset-nulled bridge ratio Vr (V/V) of a bridge channel.
@@ -304,14 +332,7 @@ def acceleration_channel(ds: xr.Dataset, channel: str, *, charge_sensitivity: fl
     xarray.Dataset
         Copy of ``ds`` with the acceleration variable (NaN at invalid samples).
     """
-    var = _channel(ds, channel)
-    units = str(var.attrs.get("units", ""))
-    per_volt = factor_or_none(units, "V")
-    if per_volt is None:
-        raise UnitError(f"accelerometer channel {channel!r} has units {units!r}, expected V or "
-                        "mV", where={"channel": channel})
-    volts = var.to_numpy().astype(np.float64)  # a copy: scaled and centred in place (memory)
-    volts *= per_volt
+    var, volts = _volts(ds, channel, "accelerometer")
     fs = float(ds.attrs["fs_nominal"])
     out = np.full(volts.shape, np.nan)
     for start, stop in contiguous_runs(volts.size, ds["segment"].to_numpy(),
@@ -413,13 +434,7 @@ def iepe_acceleration_channel(ds: xr.Dataset, channel: str, *, sensitivity: floa
     name : str, optional
         Output variable; default ``<channel>_acceleration``.
     """
-    var = _channel(ds, channel)
-    units = str(var.attrs.get("units", ""))
-    per_volt = factor_or_none(units, "V")
-    if per_volt is None:
-        raise UnitError(f"IEPE channel {channel!r} has units {units!r}, expected V or mV",
-                        where={"channel": channel})
-    volts = var.to_numpy().astype(np.float64) * per_volt
+    var, volts = _volts(ds, channel, "IEPE")
     accel = transducers.iepe_acceleration(volts, sensitivity=sensitivity)
     return _with_variable(ds, name or f"{channel}_acceleration", accel, var, channel,
                           units="m s-2", long_name=f"acceleration from {channel}",

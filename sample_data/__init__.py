@@ -26,11 +26,12 @@ from rigval.acquisition.lazy import lazy_exports
 
 #: The rig's names, imported on first use (numpy, xarray and the model), so that ``runs_dir``
 #: stays light.
-_LAZY = {"Fault": "faults", "Imperfections": "rig", "RigSettings": "rig", "run_stem": "rig", "RunFiles": "rig",
-         "simulate_rig": "simulate", "RunTruth": "truthfile", "load_truth": "truthfile"}
+_LAZY = {"Fault": "faults", "Imperfections": "rig", "RigSettings": "rig", "run_stem": "rig",
+         "RunFiles": "rig", "simulate_rig": "simulate", "RunTruth": "truthfile",
+         "load_truth": "truthfile"}
 
-__all__ = ["Fault", "Imperfections", "RigSettings", "RunFiles", "RunTruth", "load_truth", "run_stem",
-           "runs_dir", "shipped_runs", "simulate_rig"]
+__all__ = ["Fault", "Imperfections", "RigSettings", "RunFiles", "RunTruth", "load_truth",
+           "run_stem", "runs_dir", "shipped_runs", "simulate_rig"]
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())
 

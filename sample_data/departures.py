@@ -143,10 +143,9 @@ class Departures:
         if self.lag_channel is not None and self.lag_channel not in LAG_CHANNELS:
             raise ConfigError(f"cannot lag channel {self.lag_channel!r}",
                               where={"key": "lag_channel"}, hint=f"use one of {LAG_CHANNELS}")
-        if self.lag_channel == "str2" or self.lag_channel == "str3":
-            if self.rod_bending <= 0:
-                raise ConfigError(f"{self.lag_channel} exists only with rod_bending > 0",
-                                  where={"key": "lag_channel"})
+        if self.lag_channel in ("str2", "str3") and self.rod_bending <= 0:
+            raise ConfigError(f"{self.lag_channel} exists only with rod_bending > 0",
+                              where={"key": "lag_channel"})
         if abs(self.lag_s) > 0.5:
             raise ConfigError(f"lag_s must be within +-0.5 s, got {self.lag_s}",
                               where={"key": "lag_s"})

@@ -11,6 +11,10 @@ NI 9237 (delta-sigma) the delay is ``(40 + 5/512) / fs + 4.5 us`` (NI KB, docs/r
 [NI-9237]) and its anti-alias filter band-limits the signal to 0.45 fs (an edge becomes a
 sine-integral step, 10-90 % rise of about one sample period, with the filter's ringing); the
 NI 9215 (SAR) has neither, the NI 9411 digital input (encoders) a delay of 500 ns.
+
+What a device records is a :class:`Stream` of :class:`SampledChannel` (written a
+:class:`StreamPiece` at a time): :mod:`rigval.sample_data.streams` fills them,
+:mod:`rigval.sample_data.faults` alters them, :mod:`rigval.sample_data.simulate` writes them.
 """
 
 from __future__ import annotations
@@ -21,11 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigval.processing.arrays import FloatArray
 from rigval.acquisition.devices import ni9237_input_delay
 from rigval.acquisition.errors import ConfigError
+from rigval.processing.arrays import FloatArray
 
-__all__ = ["ANTI_ALIAS_BAND", "MODULES", "ClockSegment", "DeviceClock", "Module", "dropout_segments"]
+__all__ = ["ANTI_ALIAS_BAND", "MODULES", "ClockSegment", "DeviceClock", "Module", "SampledChannel",
+           "Stream", "StreamPiece", "dropout_segments"]
 
 logger = logging.getLogger(__name__)
 
@@ -206,3 +211,84 @@ def dropout_segments(true_start: float, duration: float, fs_true: float, n_dropo
         return tuple(segments)
     return tuple(ClockSegment(float(true_start + a), int(np.floor((b - a) * fs_true)), float(e))
                  for a, b, e in zip(starts, stops, errors, strict=True))
+
+
+@dataclass(frozen=True)
+class SampledChannel:
+    """One channel as its device recorded it.
+
+    Parameters
+    ----------
+    name : str
+        Channel name.
+    module : str
+        Module model (key of :data:`~rigval.sample_data.devices.MODULES`).
+    unit : str or None
+        Unit string in the file (None for counters).
+    raw : list of numpy.ndarray
+        Raw codes or counts, one array per gap-free segment.
+    slope : float
+        Scale from raw to ``unit``.
+    delay : float
+        Module input delay in s.
+    truth : numpy.ndarray or None
+        Physical truth at the sample instants (segments concatenated), or None where the truth is
+        kept elsewhere (pulses: edge lists; encoders: the drive law).
+    truth_unit : str or None
+        UDUNITS unit of ``truth``.
+    """
+
+    name: str
+    module: str
+    unit: str | None
+    raw: list[NDArray]
+    slope: float
+    delay: float
+    truth: FloatArray | None
+    truth_unit: str | None
+
+
+@dataclass(frozen=True)
+class Stream:
+    """One device's record: its clock and its channels.
+
+    Parameters
+    ----------
+    name : str
+        ``"cdaq"``, ``"wls1"`` or ``"wls2"``.
+    device : str
+        Device model.
+    clock : DeviceClock
+        Sample clock and segments.
+    channels : tuple of SampledChannel
+        Channels in file order.
+    """
+
+    name: str
+    device: str
+    clock: DeviceClock
+    channels: tuple[SampledChannel, ...]
+
+
+@dataclass(frozen=True)
+class StreamPiece:
+    """The samples of one stream within one window of true time.
+
+    Parameters
+    ----------
+    stream : str
+        Stream name.
+    parts : tuple of (int, int)
+        For each gap-free segment the window touches: the segment's index and the index of the
+        piece's first sample within it, in time order.
+    raw : mapping of str to list of numpy.ndarray
+        Raw codes or counts per channel, one array per entry of ``parts``.
+    truth : mapping of str to numpy.ndarray
+        Physical truth at the piece's samples (parts concatenated) of the analog channels that
+        have one.
+    """
+
+    stream: str
+    parts: tuple[tuple[int, int], ...]
+    raw: dict[str, list[NDArray]]
+    truth: dict[str, FloatArray]

@@ -21,10 +21,10 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-from rigval.processing.arrays import FloatArray
 from rigval.model.laws import DriveLaw, Harmonic
+from rigval.processing.arrays import FloatArray
 
 __all__ = ["DriveMotion", "Harmonic", "SpeedWander"]
 

@@ -23,14 +23,12 @@ from __future__ import annotations
 import dataclasses
 import logging
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from rigval.acquisition.errors import ConfigError
-
-if TYPE_CHECKING:  # streams imports the rig settings, which hold faults
-    from rigval.sample_data.streams import Stream, StreamPiece
+from rigval.sample_data.devices import Stream, StreamPiece
 
 __all__ = ["FAULT_KINDS", "Fault", "FaultInjector"]
 

@@ -340,9 +340,11 @@ def draw_rig(settings: RigSettings,
         name: ChargeAccelerometer(_round(rng.uniform(9.5, 10.5), 2), gain, 0.1, 5e-4 * noise)
         for name, gain in (("acc1", 10.0), ("acc2", 10.0), ("acc3", 100.0))}
     drift = imp.bridge_drift
-    str1 = StrainBridge("half_i", _round(rng.uniform(2.0, 2.1), 2), 0.3, 210e9, 1.9e-3, 2.5,
-                        rng.uniform(-1.0, 1.0) * 2e-7 * drift,
-                        rng.uniform(-1.0, 1.0) * 4e-7 * drift, 60.0, 1e-7 * noise)
+    str1 = StrainBridge(bridge_type="half_i", gauge_factor=_round(rng.uniform(2.0, 2.1), 2),
+                        poisson=0.3, youngs_modulus=210e9, area=1.9e-3, excitation=2.5,
+                        zero_offset=rng.uniform(-1.0, 1.0) * 2e-7 * drift,
+                        drift_total=rng.uniform(-1.0, 1.0) * 4e-7 * drift,
+                        drift_time_constant=60.0, noise_rms=1e-7 * noise)
     gauge_factor_shafts = _round(rng.uniform(2.0, 2.1), 2)
     torsion = {}
     departures = settings.departures
@@ -351,11 +353,13 @@ def draw_rig(settings: RigSettings,
         share = 0.5 + rng.uniform(-1.0, 1.0) * imp.torque_split
         share = share if split is None else split
         for name, part in ((first, share), (second, 1.0 - share)):
-            torsion[name] = TorsionBridge(gauge_factor_shafts, 0.100, 0.060, 80e9, 2.5, part,
-                                          3e-5 * rng.uniform(0.5, 1.0),
-                                          rng.uniform(-1.0, 1.0) * 5e-7 * drift,
-                                          rng.uniform(-1.0, 1.0) * 1e-6 * drift, 90.0,
-                                          2e-7 * noise)
+            torsion[name] = TorsionBridge(
+                gauge_factor=gauge_factor_shafts, outer_diameter=0.100, inner_diameter=0.060,
+                shear_modulus=80e9, excitation=2.5, share=part,
+                bending_strain=3e-5 * rng.uniform(0.5, 1.0),
+                zero_offset=rng.uniform(-1.0, 1.0) * 5e-7 * drift,
+                drift_total=rng.uniform(-1.0, 1.0) * 1e-6 * drift, drift_time_constant=90.0,
+                noise_rms=2e-7 * noise)
     encoders = {"enc1": Encoder(8192, drive.theta_f0 + rng.uniform(0.0, 2.0 * np.pi),
                                 settings.index_reset),
                 "enc2": Encoder(8192, drive.theta_h0 + rng.uniform(0.0, 2.0 * np.pi), False)}

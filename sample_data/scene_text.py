@@ -12,14 +12,11 @@ import datetime
 import logging
 import zoneinfo
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from rigval.sample_data.devices import Stream
 from rigval.sample_data.rig import RigDraw, RigSettings, RunFiles
-
-if TYPE_CHECKING:
-    from rigval.sample_data.streams import Stream
 
 __all__ = ["LAB_TIMEZONE", "local_time", "note_text", "scene_text"]
 
@@ -48,12 +45,13 @@ def _stated(draw: RigDraw, name: str, true_value: float) -> float:
 
 def _accelerometer(name: str, draw: RigDraw) -> str:
     sensor = draw.accelerometers[name]
+    sensitivity = _stated(draw, name, sensor.charge_sensitivity)
     return f"""
 [streams.cdaq.channels.{name}]
 source = "{name}"
 module = "NI 9215"
 sensor = "charge_accelerometer"
-charge_sensitivity = {_stated(draw, name, sensor.charge_sensitivity)!r}   # pC/g, calibration certificate
+charge_sensitivity = {sensitivity!r}   # pC/g, calibration certificate
 amplifier_gain = {sensor.amplifier_gain * 1e-3!r}   # V/pC
 highpass_hz = {sensor.highpass_hz!r}
 correct_highpass = true

@@ -21,14 +21,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import erf, sici
 
-from rigval.processing.arrays import FloatArray
 from rigval.acquisition.errors import ConfigError
 from rigval.processing.accelerometer import charge_chain_voltage
+from rigval.processing.arrays import FloatArray
 from rigval.processing.bridge import bridge_ratio
 from rigval.processing.torsion import rosette_bridge_ratio, shear_strain_from_torque
 from rigval.sample_data.drive import DriveMotion
 
 __all__ = [
+    "BridgeErrors",
     "ChargeAccelerometer",
     "Encoder",
     "OpticalSensor",
@@ -81,13 +82,39 @@ class ChargeAccelerometer:
                                     highpass_hz=self.highpass_hz)
 
 
-def _thermal_drift(t: FloatArray, total: float, time_constant: float) -> FloatArray:
-    """Return ``total (1 - exp(-t / time_constant))`` for t >= 0 (0 before), any unit."""
-    return total * -np.expm1(-np.clip(t, 0.0, None) / time_constant)
+@dataclass(frozen=True, kw_only=True)
+class BridgeErrors:
+    """What a strain-gauge bridge adds to its exact ratio: imbalance, thermal drift and noise.
+
+    Parameters
+    ----------
+    zero_offset : float
+        Residual bridge imbalance after the pre-run offset null, in V/V.
+    drift_total : float
+        Final value of the slow thermal drift in V/V.
+    drift_time_constant : float
+        Time constant of the thermal drift in s.
+    noise_rms : float
+        Noise in V/V rms.
+    """
+
+    zero_offset: float
+    drift_total: float
+    drift_time_constant: float
+    noise_rms: float
+
+    def drifted(self, exact: FloatArray, t: ArrayLike) -> FloatArray:
+        """Return the exact ratio (V/V) plus the zero offset and the drift at true times t (s).
+
+        The drift is ``drift_total (1 - exp(-t / drift_time_constant))`` for t >= 0, 0 before.
+        """
+        elapsed = np.clip(np.asarray(t, dtype=np.float64), 0.0, None)
+        return exact + self.zero_offset + self.drift_total * -np.expm1(
+            -elapsed / self.drift_time_constant)
 
 
-@dataclass(frozen=True)
-class StrainBridge:
+@dataclass(frozen=True, kw_only=True)
+class StrainBridge(BridgeErrors):
     """Axial strain gauges in an NI bridge configuration (rod B: half bridge I on the neutral axis).
 
     Parameters
@@ -104,14 +131,8 @@ class StrainBridge:
         Cross-section of the rod in m^2.
     excitation : float
         Bridge excitation in V.
-    zero_offset : float
-        Residual bridge imbalance after the pre-run offset null, in V/V.
-    drift_total : float
-        Final value of the slow thermal drift in V/V.
-    drift_time_constant : float
-        Time constant of the thermal drift in s.
-    noise_rms : float
-        Noise in V/V rms.
+    zero_offset, drift_total, drift_time_constant, noise_rms : float
+        As for :class:`BridgeErrors`.
     gauge_resistance : float, default 120
         Gauge resistance in ohm.
     """
@@ -122,10 +143,6 @@ class StrainBridge:
     youngs_modulus: float
     area: float
     excitation: float
-    zero_offset: float
-    drift_total: float
-    drift_time_constant: float
-    noise_rms: float
     gauge_resistance: float = 120.0
 
     def strain(self, axial_force: ArrayLike) -> FloatArray:
@@ -137,13 +154,11 @@ class StrainBridge:
         exact = bridge_ratio(self.strain(axial_force), self.bridge_type,  # type: ignore[arg-type]
                              gauge_factor=self.gauge_factor, poisson=self.poisson,
                              gauge_resistance=self.gauge_resistance)
-        t = np.asarray(t, dtype=np.float64)
-        return exact + self.zero_offset + _thermal_drift(t, self.drift_total,
-                                                         self.drift_time_constant)
+        return self.drifted(exact, t)
 
 
-@dataclass(frozen=True)
-class TorsionBridge:
+@dataclass(frozen=True, kw_only=True)
+class TorsionBridge(BridgeErrors):
     """Two +-45 degree rosettes 180 degrees apart in a full bridge (NI Full Bridge I) on a shaft.
 
     Parameters
@@ -162,7 +177,7 @@ class TorsionBridge:
         Amplitude of the once-per-revolution rotating bending strain at the rosettes (1); the full
         bridge cancels it to second order.
     zero_offset, drift_total, drift_time_constant, noise_rms : float
-        As for :class:`StrainBridge` (V/V, V/V, s, V/V rms).
+        As for :class:`BridgeErrors` (V/V, V/V, s, V/V rms).
     poisson : float, default 0.3
         Poisson ratio of the shaft (1).
     """
@@ -174,10 +189,6 @@ class TorsionBridge:
     excitation: float
     share: float
     bending_strain: float
-    zero_offset: float
-    drift_total: float
-    drift_time_constant: float
-    noise_rms: float
     poisson: float = 0.3
 
     def ratio(self, drive_torque: ArrayLike, shaft_angle: ArrayLike, t: ArrayLike) -> FloatArray:
@@ -189,9 +200,7 @@ class TorsionBridge:
         bending = self.bending_strain * np.sin(np.asarray(shaft_angle, dtype=np.float64))
         exact = rosette_bridge_ratio(gamma, "full", gauge_factor=self.gauge_factor,
                                      poisson=self.poisson, bending_strain=bending)
-        t = np.asarray(t, dtype=np.float64)
-        return exact + self.zero_offset + _thermal_drift(t, self.drift_total,
-                                                         self.drift_time_constant)
+        return self.drifted(exact, t)
 
 
 @dataclass(frozen=True)

@@ -39,11 +39,12 @@ from rigval.acquisition.json_values import json_ready
 from rigval.acquisition.outputs import write_text_atomic
 from rigval.model.mechanism import load_mechanism
 from rigval.sample_data.departures import departed_grid
+from rigval.sample_data.devices import Stream, StreamPiece
 from rigval.sample_data.drive import DriveMotion, Harmonic
 from rigval.sample_data.faults import FaultInjector
 from rigval.sample_data.rig import RigDraw, RigSettings, RunFiles, draw_rig, run_stem
 from rigval.sample_data.scene_text import local_time, note_text, scene_text
-from rigval.sample_data.streams import Stream, StreamPiece, stream_pieces
+from rigval.sample_data.streams import stream_pieces
 from rigval.sample_data.tdms_writer import Acquisition, DaqmxTdmsWriter, RawChannel
 from rigval.sample_data.truth import TruthGrid, model_truth
 from rigval.sample_data.writers import (
@@ -316,8 +317,9 @@ def _scaled_mechanism(path: Path, mass_scale: tuple[tuple[str, float], ...]
     bodies = {body["name"]: body for body in data.get("bodies", [])}
     for name, factor in mass_scale:
         if name not in bodies:
-            raise ConfigError(f"no body {name!r} to make heavier", where={
-                "file": str(path), "key": f"mass_scale.{name}"}, hint=f"use one of {sorted(bodies)}")
+            raise ConfigError(f"no body {name!r} to make heavier",
+                              where={"file": str(path), "key": f"mass_scale.{name}"},
+                              hint=f"use one of {sorted(bodies)}")
         bodies[name]["mass"] = bodies[name]["mass"] * factor
     return data
 

@@ -39,12 +39,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rigval.processing.arrays import FloatArray
-from rigval.sample_data.devices import MODULES, DeviceClock
+from rigval.sample_data.devices import MODULES, DeviceClock, SampledChannel, Stream, StreamPiece
 from rigval.sample_data.rig import RigDraw
 from rigval.sample_data.sensors import PulseTrain, optical_pulses
 from rigval.sample_data.truth import TruthGrid, frame_vibration
 
-__all__ = ["DEVICE_NAMES", "SampledChannel", "Stream", "StreamPiece", "stream_pieces"]
+__all__ = ["DEVICE_NAMES", "stream_pieces"]
 
 logger = logging.getLogger(__name__)
 
@@ -57,63 +57,6 @@ DEVICE_NAMES = {"cdaq": "cDAQ-9172", "wls1": "WLS-9163", "wls2": "WLS-9163"}
 _FULL_SCALE = {"NI 9215": 10.0, "NI 9237": 0.025}
 #: File unit of an analog channel by module.
 _FILE_UNIT = {"NI 9215": "Volts", "NI 9237": "V/V"}
-
-
-@dataclass(frozen=True)
-class SampledChannel:
-    """One channel as its device recorded it.
-
-    Parameters
-    ----------
-    name : str
-        Channel name.
-    module : str
-        Module model (key of :data:`~rigval.sample_data.devices.MODULES`).
-    unit : str or None
-        Unit string in the file (None for counters).
-    raw : list of numpy.ndarray
-        Raw codes or counts, one array per gap-free segment.
-    slope : float
-        Scale from raw to ``unit``.
-    delay : float
-        Module input delay in s.
-    truth : numpy.ndarray or None
-        Physical truth at the sample instants (segments concatenated), or None where the truth is
-        kept elsewhere (pulses: edge lists; encoders: the drive law).
-    truth_unit : str or None
-        UDUNITS unit of ``truth``.
-    """
-
-    name: str
-    module: str
-    unit: str | None
-    raw: list[NDArray]
-    slope: float
-    delay: float
-    truth: FloatArray | None
-    truth_unit: str | None
-
-
-@dataclass(frozen=True)
-class Stream:
-    """One device's record: its clock and its channels.
-
-    Parameters
-    ----------
-    name : str
-        ``"cdaq"``, ``"wls1"`` or ``"wls2"``.
-    device : str
-        Device model.
-    clock : DeviceClock
-        Sample clock and segments.
-    channels : tuple of SampledChannel
-        Channels in file order.
-    """
-
-    name: str
-    device: str
-    clock: DeviceClock
-    channels: tuple[SampledChannel, ...]
 
 
 def _accelerometer_grids(draw: RigDraw, grid: TruthGrid) -> tuple[TruthGrid, TruthGrid]:
@@ -221,30 +164,6 @@ def _plans(draw: RigDraw, grid: TruthGrid, physical: TruthGrid, volts: TruthGrid
         plans = {stream: [replace(p, lag=draw.lags.get(p.name, 0.0)) for p in channels]
                  for stream, channels in plans.items()}
     return plans
-
-
-@dataclass(frozen=True)
-class StreamPiece:
-    """The samples of one stream within one window of true time.
-
-    Parameters
-    ----------
-    stream : str
-        Stream name.
-    parts : tuple of (int, int)
-        For each gap-free segment the window touches: the segment's index and the index of the
-        piece's first sample within it, in time order.
-    raw : mapping of str to list of numpy.ndarray
-        Raw codes or counts per channel, one array per entry of ``parts``.
-    truth : mapping of str to numpy.ndarray
-        Physical truth at the piece's samples (parts concatenated) of the analog channels that
-        have one.
-    """
-
-    stream: str
-    parts: tuple[tuple[int, int], ...]
-    raw: dict[str, list[NDArray]]
-    truth: dict[str, FloatArray]
 
 
 def _windows(clock: DeviceClock, window_s: float | None) -> list[list[tuple[int, int, int]]]:

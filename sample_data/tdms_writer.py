@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rigval.acquisition.errors import ConfigError
+from rigval.acquisition.tdms_daqmx import DAQMX_DTYPES
 from rigval.acquisition.tdms_layout import (
     DAQMX_FORMAT_CHANGING,
     DAQMX_TYPE,
@@ -44,9 +45,9 @@ __all__ = ["Acquisition", "DaqmxTdmsWriter", "RawChannel", "write_daqmx_tdms"]
 logger = logging.getLogger(__name__)
 
 _VERSION = 4713
-#: Scaler data type codes (nptdms daqmx.DAQMX_TYPES).
-_SCALER_CODES = {np.dtype("<u1"): 0, np.dtype("<i1"): 1, np.dtype("<u2"): 2,
-                 np.dtype("<i2"): 3, np.dtype("<u4"): 4, np.dtype("<i4"): 5}
+#: Raw integer type (8 to 32 bits, as NI's ADCs write) -> its DAQmx scaler data type code.
+_SCALER_CODES = {np.dtype(name): code for code, name in DAQMX_DTYPES.items()
+                 if np.dtype(name).kind in "iu" and np.dtype(name).itemsize <= 4}
 _EPOCH_1904 = np.datetime64("1904-01-01T00:00:00", "ns")
 
 

@@ -34,12 +34,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy.interpolate import CubicSpline
 from scipy.signal import lsim
 
-from rigval.processing.arrays import FloatArray
 from rigval.acquisition.errors import DataError
+from rigval.processing.arrays import FloatArray
 from rigval.sample_data.drive import DriveMotion
 
 __all__ = ["TruthGrid", "frame_vibration", "model_truth"]
@@ -102,7 +102,8 @@ class TruthGrid:
         return TruthGrid(self.t[i0:i1], {k: v[i0:i1] for k, v in self.values.items()})
 
 
-def model_truth(mechanism_path: str | Path | Mapping[str, Any], drive: DriveMotion, t: ArrayLike) -> TruthGrid:
+def model_truth(mechanism_path: str | Path | Mapping[str, Any], drive: DriveMotion,
+                t: ArrayLike) -> TruthGrid:
     """Solve the mechanism along the true drive motion and return the truth grid.
 
     Parameters

@@ -48,13 +48,13 @@ def _shared_subfolder(shared_dir: Path, name: str, what: str) -> Path:
 
 @pytest.fixture(scope="session")
 def realdata_dir(shared_dir: Path) -> Path:
-    """``shared/realdata``: byte copies of NI-written files."""
+    """``$RIGVAL_SHARED/realdata``: byte copies of NI-written files."""
     return _shared_subfolder(shared_dir, "realdata", "the real NI files")
 
 
 @pytest.fixture(scope="session")
 def mechanisms_dir(shared_dir: Path) -> Path:
-    """``shared/mechanisms``: the project's reference mechanism files."""
+    """``$RIGVAL_SHARED/mechanisms``: the project's reference mechanism files."""
     return _shared_subfolder(shared_dir, "mechanisms", "the reference mechanism files")
 
 

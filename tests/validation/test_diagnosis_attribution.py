@@ -12,9 +12,8 @@ from rigval.validation.diagnosis.attribution import (
     attribute,
     order_coefficients,
 )
+from tests.validation.revolution_grid import PHI, N
 
-N = 360
-PHI = np.arange(N) * 2.0 * np.pi / N
 #: A model curve of a few orders, like a drive torque (signal units).
 MODEL = 100.0 * np.sin(PHI) + 40.0 * np.cos(2.0 * PHI + 0.3) + 15.0 * np.sin(3.0 * PHI - 1.0)
 SLOPE = (100.0 * np.cos(PHI) - 80.0 * np.sin(2.0 * PHI + 0.3)

@@ -7,9 +7,7 @@ import pytest
 
 from rigval.acquisition.errors import DataError
 from rigval.validation.diagnosis.symmetry import axial_bending, pair_shares
-
-N = 360
-PHI = np.arange(N) * 2.0 * np.pi / N
+from tests.validation.revolution_grid import PHI, N
 
 
 def _load(shift: float = 0.0) -> np.ndarray:

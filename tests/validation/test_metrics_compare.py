@@ -24,18 +24,16 @@ from rigval.validation.metrics.compare import (
     sprague_geers,
     vv20,
 )
-
-N = 360
-THETA = np.arange(N) * 2 * np.pi / N
+from tests.validation.revolution_grid import PHI, N
 
 
 def wave(lag_deg: float = 0.0) -> np.ndarray:
-    theta = THETA - np.radians(lag_deg)
+    theta = PHI - np.radians(lag_deg)
     return np.sin(theta) + 0.5 * np.sin(2 * theta + 1.0) + 0.2 * np.cos(5 * theta)
 
 
 def test_compare_identical_signals_scores_perfect():
-    scores = compare(wave(), wave(), THETA)
+    scores = compare(wave(), wave(), PHI)
     assert scores["iso18571_periodic.rating"] == 1.0
     assert scores["iso18571_periodic.grade"] == "excellent"
     assert scores["sprague_geers.magnitude"] == 0.0
@@ -48,7 +46,7 @@ def test_compare_identical_signals_scores_perfect():
 
 
 def test_compare_names_and_units():
-    scores = compare(wave(), 1.1 * wave(7.0), THETA)
+    scores = compare(wave(), 1.1 * wave(7.0), PHI)
     prefixes = {key.split(".")[0] for key in scores}
     assert prefixes == set(DEFAULT_METRICS)
     assert all(isinstance(value, int | float | str) for value in scores.values())
@@ -61,14 +59,14 @@ def test_compare_names_and_units():
 
 
 def test_compare_runs_every_metric_and_accepts_dataarrays():
-    measured = xr.DataArray(wave(), dims="angle", coords={"angle": THETA})
-    model = xr.DataArray(wave(3.0), dims="angle", coords={"angle": THETA})
+    measured = xr.DataArray(wave(), dims="angle", coords={"angle": PHI})
+    model = xr.DataArray(wave(3.0), dims="angle", coords={"angle": PHI})
     scores = compare(measured, model, metrics=METRICS, normaliser="rms",
                      uncertainty={"u_measurement_rel": 0.02})
     assert scores["iso18571.shift"] == pytest.approx(3.0)
     assert scores["nrmse.normaliser"] == "rms"
     assert scores["vv20.peak.u_data"] == pytest.approx(0.02 * np.abs(wave()).max())
-    shifted = model.assign_coords(angle=THETA + 0.01)
+    shifted = model.assign_coords(angle=PHI + 0.01)
     with pytest.raises(DataError, match="different 'angle' coordinates"):
         compare(measured, shifted)
 
@@ -88,7 +86,7 @@ def test_compare_bad_requests():
 def test_baseline_of_scaled_cycles():
     factors = np.array([0.9, 1.0, 1.05, 1.2, 0.95])
     cycles = factors[:, None] * wave()
-    result = baseline(cycles, angle=THETA, metrics=("sprague_geers", "nrmse"))
+    result = baseline(cycles, angle=PHI, metrics=("sprague_geers", "nrmse"))
     mean_factor = factors.mean()
     expected = factors / mean_factor - 1  # Sprague-Geers M of each cycle against the mean
     np.testing.assert_allclose(result.per_cycle["sprague_geers.magnitude"], expected, atol=1e-12)
@@ -105,7 +103,7 @@ def test_baseline_of_scaled_cycles():
 def test_baseline_against_a_given_mean_and_dataarray_cycles():
     rng = np.random.default_rng(2)
     values = wave() + 0.02 * rng.normal(size=(8, N))
-    cycles = xr.DataArray(values.T, dims=("angle", "cycle"), coords={"angle": THETA})
+    cycles = xr.DataArray(values.T, dims=("angle", "cycle"), coords={"angle": PHI})
     result = baseline(cycles, mean=wave(), metrics=("circular_lag", "pearson_r"))
     direct = [compare(wave(), cycle, metrics=("pearson_r",))["pearson_r"] for cycle in values]
     np.testing.assert_allclose(result.per_cycle["pearson_r"], direct, atol=1e-15)
@@ -143,7 +141,7 @@ def test_orientation():
 
 
 def test_vv20_features_closed_form():
-    measured, model = 2.0 * np.sin(THETA), 2.5 * np.sin(THETA)
+    measured, model = 2.0 * np.sin(PHI), 2.5 * np.sin(PHI)
     result = vv20(measured, model, u_num=0.01, u_input={"peak": 0.1, "rms": 0.05},
                   u_measurement=0.03, u_measurement_rel=0.02)
     peak, rms = result.peak, result.rms
@@ -161,9 +159,9 @@ def test_vv20_features_closed_form():
 
 def test_vv20_unresolved_and_random_part_from_cycles():
     amplitudes = np.array([1.9, 2.0, 2.1, 2.0])
-    cycles = amplitudes[:, None] * np.sin(THETA)
+    cycles = amplitudes[:, None] * np.sin(PHI)
     as_data_array = xr.DataArray(cycles.T, dims=("angle", "cycle"))
-    result = vv20(cycles.mean(axis=0), 2.02 * np.sin(THETA), cycles=as_data_array, k=2.0)
+    result = vv20(cycles.mean(axis=0), 2.02 * np.sin(PHI), cycles=as_data_array, k=2.0)
     random_peak = np.std(amplitudes, ddof=1) / 2
     assert result.peak.u_data == pytest.approx(random_peak)
     assert result.rms.u_data == pytest.approx(random_peak / np.sqrt(2))

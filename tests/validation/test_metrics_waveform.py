@@ -11,9 +11,7 @@ from hypothesis import strategies as st
 
 from rigval.acquisition.errors import ConfigError, DataError
 from rigval.validation.metrics import waveform as wf
-
-N = 360
-THETA = np.arange(N) * 2 * np.pi / N
+from tests.validation.revolution_grid import PHI, N
 
 
 def wave(lag_deg: float = 0.0, n: int = N) -> np.ndarray:
@@ -41,7 +39,7 @@ def test_sprague_geers_pure_scaling(measured, k, periodic):
 @given(st.floats(0.0, 180.0))
 def test_sprague_geers_phase_of_shifted_sinusoid(angle_deg):
     phi = np.radians(angle_deg)
-    scores = wf.sprague_geers(np.sin(THETA), np.sin(THETA - phi), periodic=True)
+    scores = wf.sprague_geers(np.sin(PHI), np.sin(PHI - phi), periodic=True)
     assert scores.phase == pytest.approx(phi / np.pi, abs=1e-7)
     assert scores.magnitude == pytest.approx(0.0, abs=1e-12)
     # an interval whose both ends are samples: the trapezoid rule is exact as well
@@ -116,7 +114,7 @@ def test_pearson_ignores_scale_and_offset(measured, k, offset):
 
 
 def test_pearson_matches_numpy_and_is_symmetric():
-    a, b = wave(), wave(40) + 0.1 * np.cos(9 * THETA)
+    a, b = wave(), wave(40) + 0.1 * np.cos(9 * PHI)
     r = wf.pearson_r(a, b).pearson_r
     assert r == pytest.approx(np.corrcoef(a, b)[0, 1], abs=1e-14)
     assert r == pytest.approx(wf.pearson_r(b, a).pearson_r, abs=1e-15)
@@ -125,8 +123,8 @@ def test_pearson_matches_numpy_and_is_symmetric():
 
 
 def test_peak_error_value_and_angle():
-    degrees = np.degrees(THETA)
-    scores = wf.peak_error(np.sin(THETA), 1.1 * np.sin(THETA - np.radians(10)), degrees,
+    degrees = np.degrees(PHI)
+    scores = wf.peak_error(np.sin(PHI), 1.1 * np.sin(PHI - np.radians(10)), degrees,
                         period=360.0)
     assert scores.measured_peak == pytest.approx(1.0)
     assert scores.model_peak == pytest.approx(1.1)
@@ -136,9 +134,9 @@ def test_peak_error_value_and_angle():
 
 
 def test_peak_error_wraps_shift_and_keeps_polarity():
-    degrees = np.degrees(THETA)
+    degrees = np.degrees(PHI)
     measured = -np.exp(-((degrees - 355) / 5) ** 2) - np.exp(-((degrees + 5) / 5) ** 2)
-    model = 0.8 * np.roll(measured, 10) + 0.85 * np.sin(THETA) ** 40  # larger positive bump
+    model = 0.8 * np.roll(measured, 10) + 0.85 * np.sin(PHI) ** 40  # larger positive bump
     scores = wf.peak_error(measured, model, degrees, period=360.0)
     assert scores.measured_at == 355.0 and scores.model_at == 5.0
     assert scores.shift == 10.0  # not -350
@@ -147,13 +145,13 @@ def test_peak_error_wraps_shift_and_keeps_polarity():
 
 
 def test_peak_error_uses_dataarray_coordinate():
-    measured = xr.DataArray(np.sin(THETA), dims="angle", coords={"angle": THETA})
+    measured = xr.DataArray(np.sin(PHI), dims="angle", coords={"angle": PHI})
     assert wf.peak_error(measured, measured).measured_at == pytest.approx(np.pi / 2)
 
 
 @pytest.mark.parametrize("samples", [-90, -1, 0, 7, 179])
 def test_circular_lag_of_whole_samples(samples):
-    lag = wf.circular_lag(wave(), np.roll(wave(), samples), THETA)
+    lag = wf.circular_lag(wave(), np.roll(wave(), samples), PHI)
     assert lag.lag_deg == pytest.approx(samples * 360 / N, abs=1e-9)
     assert lag.correlation == pytest.approx(1.0, abs=1e-12)
 
@@ -174,13 +172,13 @@ def test_circular_lag_of_odd_length_and_noisy_signal():
 
 
 def test_circular_lag_checks_the_angle_grid():
-    on_grid = xr.DataArray(wave(), dims="angle", coords={"angle": np.degrees(THETA)})
+    on_grid = xr.DataArray(wave(), dims="angle", coords={"angle": np.degrees(PHI)})
     with pytest.raises(DataError, match="degrees"):
         wf.circular_lag(on_grid, wave())
     with pytest.raises(DataError, match="repeats the first"):
         wf.circular_lag(wave(0, N + 1), wave(0, N + 1), np.linspace(0, 2 * np.pi, N + 1))
     with pytest.raises(DataError, match="degrees"):
-        wf.circular_lag(wave(), wave(), np.degrees(THETA))
+        wf.circular_lag(wave(), wave(), np.degrees(PHI))
     with pytest.raises(DataError, match="constant"):
         wf.circular_lag(np.ones(N), wave())
 

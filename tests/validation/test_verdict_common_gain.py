@@ -7,9 +7,7 @@ import pytest
 
 from rigval.acquisition.errors import ConfigError
 from rigval.validation.metrics.vv20 import common_gain, vv20_curve
-
-N = 360
-PHI = np.arange(N) * 2 * np.pi / N
+from tests.validation.revolution_grid import PHI
 
 
 def test_curve_gain_and_its_own_uncertainty_closed_form():

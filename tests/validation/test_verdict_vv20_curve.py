@@ -8,9 +8,7 @@ import pytest
 from rigval.acquisition.errors import ConfigError
 from rigval.validation.metrics.compare import compare
 from rigval.validation.metrics.vv20 import CURVE_PARTS, vv20_curve
-
-N = 360
-PHI = np.arange(N) * 2 * np.pi / N
+from tests.validation.revolution_grid import PHI, N
 
 
 def test_gain_error_against_calibration():

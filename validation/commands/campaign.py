@@ -35,6 +35,9 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("scenes", nargs="+", type=scene_file, metavar="SCENE",
                         help="scene files, one per run")
     add_out_option(parser, "campaign folder")
+    parser.add_argument("--title", default="rigval campaign", help="title of the summary page")
+    parser.add_argument("--force", action="store_true",
+                        help="recompute every run, even those that are up to date")
     parser.add_argument("--workers", type=_positive_int, metavar="N",
                         help="runs at a time: worker processes of the embedded Dask cluster or "
                              "child processes (default: CPUs, at most the runs; 1 child "
@@ -43,9 +46,6 @@ def add_parser(subparsers: Any) -> None:
                         help='"local" (default with Dask: an embedded cluster), "processes" '
                              '(default without Dask: a child process per run), "none" (one run '
                              'after the other here), or an existing cluster (tcp://host:8786)')
-    parser.add_argument("--force", action="store_true",
-                        help="recompute every run, even those that are up to date")
-    parser.add_argument("--title", default="rigval campaign", help="title of the summary page")
     parser.add_argument("--no-progress", action="store_true", help="no progress line")
 
 

@@ -278,10 +278,8 @@ def nrmse(measured: Any, model: Any, normaliser: Normaliser = "range") -> NrmseS
 
     Parameters
     ----------
-    measured : array_like or xarray.DataArray
-        Reference signal (any units).
-    model : array_like or xarray.DataArray
-        Model signal on the same grid, same units.
+    measured, model
+        As for :func:`sprague_geers`.
     normaliser : {"range", "rms", "peak"}
         ``max - min``, ``sqrt(mean(m^2))`` or ``max |m|`` of the measured signal.
 
@@ -307,10 +305,8 @@ def nrmse_many(measured: np.ndarray, models: np.ndarray,
 
     Parameters
     ----------
-    measured : numpy.ndarray
-        Reference signal, shape ``(n,)``, finite.
-    models : numpy.ndarray
-        Model signals, shape ``(m, n)``, finite, in the reference's units.
+    measured, models
+        As for :func:`magnitude_phase_many`.
     normaliser : {"range", "rms", "peak"}
         As for :func:`nrmse`.
 
@@ -350,10 +346,8 @@ def pearson_r(measured: Any, model: Any) -> PearsonScores:
 
     Parameters
     ----------
-    measured : array_like or xarray.DataArray
-        Reference signal (any units).
-    model : array_like or xarray.DataArray
-        Model signal on the same grid.
+    measured, model
+        As for :func:`sprague_geers` (the units may differ).
 
     Returns
     -------
@@ -374,10 +368,8 @@ def pearson_r_many(measured: np.ndarray, models: np.ndarray) -> dict[str, np.nda
 
     Parameters
     ----------
-    measured : numpy.ndarray
-        Reference signal, shape ``(n,)``, finite.
-    models : numpy.ndarray
-        Model signals, shape ``(m, n)``, finite.
+    measured, models
+        As for :func:`magnitude_phase_many` (the units may differ).
 
     Returns
     -------
@@ -389,11 +381,8 @@ def pearson_r_many(measured: np.ndarray, models: np.ndarray) -> dict[str, np.nda
     DataError
         For a constant signal (the row is named).
     """
-    dm = measured - measured.mean()
-    dc = models - models.mean(axis=1, keepdims=True)
-    norm = np.sqrt((dm @ dm) * row_dot(dc, dc))
-    _require_nonzero(norm, "the {} signal is constant: Pearson r undefined",
-                     "compare a signal that varies", measured_zero=not dm.any())
+    dm, dc, norm = _demeaned(measured, models, "the {} signal is constant: Pearson r undefined",
+                             "compare a signal that varies")
     return {"pearson_r": np.clip(row_dot(dc, dm) / norm, -1.0, 1.0)}
 
 
@@ -406,10 +395,8 @@ def peak_error(measured: Any, model: Any, x: Any = None, *,
 
     Parameters
     ----------
-    measured : array_like or xarray.DataArray
-        Reference signal (any units).
-    model : array_like or xarray.DataArray
-        Model signal on the same grid, same units.
+    measured, model
+        As for :func:`sprague_geers`.
     x : array_like, optional
         Abscissa of the samples (time in s or angle in rad or degrees). Defaults to a DataArray's
         coordinate, else the sample index.
@@ -438,10 +425,8 @@ def peak_error_many(measured: np.ndarray, models: np.ndarray, abscissa: np.ndarr
 
     Parameters
     ----------
-    measured : numpy.ndarray
-        Reference signal, shape ``(n,)``, finite.
-    models : numpy.ndarray
-        Model signals, shape ``(m, n)``, finite, in the reference's units.
+    measured, models
+        As for :func:`magnitude_phase_many`.
     abscissa : numpy.ndarray
         Abscissa of the samples, shape ``(n,)``.
     period : float, optional
@@ -534,11 +519,8 @@ def circular_lag_many(measured: np.ndarray, models: np.ndarray) -> dict[str, np.
         For a constant signal (the row is named).
     """
     n = measured.size
-    dm = measured - measured.mean()
-    dc = models - models.mean(axis=1, keepdims=True)
-    norm = np.sqrt((dm @ dm) * row_dot(dc, dc))
-    _require_nonzero(norm, "a constant signal has no lag ({} signal)",
-                     "compare signals that vary over the revolution", measured_zero=not dm.any())
+    dm, dc, norm = _demeaned(measured, models, "a constant signal has no lag ({} signal)",
+                             "compare signals that vary over the revolution")
     spectrum = np.conj(np.fft.rfft(dm)) * np.fft.rfft(dc, axis=1)
     whole = np.argmax(np.fft.irfft(spectrum, n, axis=1), axis=1).astype(np.float64)
     orders = np.arange(spectrum.shape[1])
@@ -658,6 +640,36 @@ def _phase_error(i_mm: float, i_cc: np.ndarray, i_mc: np.ndarray) -> np.ndarray:
     """``arccos(I_mc / sqrt(I_mm I_cc)) / pi``, the cosine clipped to [-1, 1] against rounding."""
     cosine = np.clip(i_mc / np.sqrt(i_mm * i_cc), -1.0, 1.0)
     return np.arccos(cosine) / np.pi
+
+
+def _demeaned(measured: np.ndarray, models: np.ndarray, message: str,
+              hint: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return the demeaned signals and, per row, the product of their L2 norms.
+
+    Parameters
+    ----------
+    measured : numpy.ndarray
+        Reference signal, shape ``(n,)``, finite (signal units).
+    models : numpy.ndarray
+        Model signals, shape ``(m, n)``, finite, in the reference's units.
+    message, hint : str
+        Of the DataError raised for a constant signal (as for :func:`_require_nonzero`).
+
+    Returns
+    -------
+    demeaned_measured : numpy.ndarray
+        ``measured`` minus its mean, shape ``(n,)``.
+    demeaned_models : numpy.ndarray
+        Each row minus its own mean, shape ``(m, n)``.
+    norm : numpy.ndarray
+        ``|demeaned_measured| |demeaned_model|`` per row, shape ``(m,)`` (signal units squared).
+    """
+    demeaned_measured = measured - measured.mean()
+    demeaned_models = models - models.mean(axis=1, keepdims=True)
+    norm = np.sqrt((demeaned_measured @ demeaned_measured)
+                   * row_dot(demeaned_models, demeaned_models))
+    _require_nonzero(norm, message, hint, measured_zero=not demeaned_measured.any())
+    return demeaned_measured, demeaned_models, norm
 
 
 def _require_nonzero(values: np.ndarray, message: str, hint: str, *,
