@@ -290,6 +290,9 @@ def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunctio
         (run_dir / MANIFEST_NAME).unlink(missing_ok=True)  # invalid until this run completes
         with _local_dask(), run_context(name), \
                 warnings.catch_warnings(record=True) as caught:
+            # every warning of this run is recorded, whatever filters or "once" registries
+            # earlier work in this process left behind
+            warnings.simplefilter("always")
             report = validate(scene, run_dir)
         outcome = RunOutcome(
             name=name, scene=scene, run_dir=run_dir,
@@ -311,11 +314,14 @@ def run_one(scene: str | Path, run_dir: str | Path, *, validate: ValidateFunctio
 
 
 def _run_warnings(caught: Sequence[warnings.WarningMessage]) -> tuple[RunWarning, ...]:
-    """Return recorded warnings as :class:`RunWarning` (classes that do not pickle: UserWarning)."""
-    kept = []
+    """Return recorded warnings as :class:`RunWarning`, each distinct one once, in order.
+
+    Classes that do not pickle become UserWarning.
+    """
+    kept: dict[RunWarning, None] = {}
     for item in caught:
         category = item.category if _picklable(item.category) else UserWarning
-        kept.append(RunWarning(category, " ".join(str(item.message).split())))
+        kept.setdefault(RunWarning(category, " ".join(str(item.message).split())))
     return tuple(kept)
 
 
