@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from collections.abc import Mapping, Sequence
+import math
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,9 +26,11 @@ from rigval.processing.errors import AlignmentError
 
 __all__ = [
     "OUTLIER_SIGMAS",
+    "SLOPES_HELD",
     "Match",
     "match_events",
     "match_segment",
+    "pairwise_slope_median",
     "robust_inliers",
     "without_strays",
 ]
@@ -179,19 +182,67 @@ def _theil_sen(x: FloatArray, y: FloatArray) -> tuple[float, FloatArray]:
 
     The slope is the median of the pairwise slopes; the residuals are centred on their median.
     """
-    # The pairwise slopes row by row into one array (no index or difference arrays of all
-    # pairs: an hour's 3600 events per segment made those 0.5 GB); the same values and median.
-    n = x.size
-    slopes = np.empty(n * (n - 1) // 2)
-    start = 0
-    for i in range(n - 1):
-        row = slopes[start:start + n - 1 - i]
-        np.subtract(y[i + 1:], y[i], out=row)
-        row /= x[i + 1:] - x[i]
-        start += row.size
-    slope = float(np.median(slopes, overwrite_input=True))
+    slope = pairwise_slope_median(x, y)
     res = y - slope * x
     return slope, res - np.median(res)
+
+
+#: Pairwise slopes held at once when their median is taken: above, it is selected pass by pass
+#: (:func:`pairwise_slope_median`; an hour's 7000 events of one segment have 24.5 M slopes).
+SLOPES_HELD = 2_000_000
+
+
+def _slope_rows(x: FloatArray, y: FloatArray, rows: range) -> Iterator[FloatArray]:
+    """Yield row i's slopes ``(y[j] - y[i]) / (x[j] - x[i])``, ``j > i``, for i in ``rows``."""
+    for i in rows:
+        row = np.subtract(y[i + 1:], y[i])
+        row /= x[i + 1:] - x[i]
+        yield row
+
+
+def pairwise_slope_median(x: FloatArray, y: FloatArray) -> float:
+    """Return the median of all pairwise slopes, exactly as numpy.median of them all.
+
+    Up to :data:`SLOPES_HELD` slopes they are taken at once. Beyond, the median is selected
+    without holding them: the slopes of every k-th row bracket the median, one pass counts the
+    slopes below the bracket and keeps those inside it, and the middle ranks are picked from
+    those (the bracket is widened and the pass repeated if the middle lies outside it).
+
+    Parameters
+    ----------
+    x, y : numpy.ndarray
+        ``(n,)`` abscissae (distinct) and ordinates.
+
+    Returns
+    -------
+    float
+        The median slope (NaN if any slope is NaN, as numpy.median gives it).
+    """
+    n = x.size
+    total = n * (n - 1) // 2
+    if total <= SLOPES_HELD:
+        return float(np.median(np.concatenate([*_slope_rows(x, y, range(n - 1)), []])))
+    ranks = ((total - 1) // 2, total // 2)
+    stride = max(1, (total + SLOPES_HELD - 1) // SLOPES_HELD)
+    sample = np.sort(np.concatenate(list(_slope_rows(x, y, range(0, n - 1, stride)))))
+    if np.isnan(sample[-1]):
+        return math.nan
+    half = max(8, int(8.0 * math.sqrt(sample.size)))  # about 16 sigma of the median's rank
+    middle = sample.size // 2
+    while True:
+        low = sample[max(middle - half, 0)] if middle - half > 0 else -np.inf
+        high = sample[middle + half] if middle + half < sample.size else np.inf
+        below, inside = 0, []
+        for row in _slope_rows(x, y, range(n - 1)):
+            if np.isnan(row).any():
+                return math.nan
+            below += int(np.count_nonzero(row < low))
+            inside.append(row[(row >= low) & (row <= high)])
+        kept = np.sort(np.concatenate(inside))
+        if below <= ranks[0] and ranks[1] < below + kept.size:
+            return float(np.mean(kept[[ranks[0] - below, ranks[1] - below]]))
+        logger.debug("pairwise slope median outside its bracket: widened")
+        half *= 4
 
 
 def _line_fit(x: FloatArray, y: FloatArray) -> FloatArray:
