@@ -221,7 +221,8 @@ def pairwise_slope_median(x: FloatArray, y: FloatArray) -> float:
     n = x.size
     total = n * (n - 1) // 2
     if total <= SLOPES_HELD:
-        return float(np.median(np.concatenate([*_slope_rows(x, y, range(n - 1)), []])))
+        rows = list(_slope_rows(x, y, range(n - 1)))
+        return float(np.median(np.concatenate(rows) if rows else np.zeros(0)))
     ranks = ((total - 1) // 2, total // 2)
     stride = max(1, (total + SLOPES_HELD - 1) // SLOPES_HELD)
     sample = np.sort(np.concatenate(list(_slope_rows(x, y, range(0, n - 1, stride)))))

@@ -69,8 +69,7 @@ def _rate_departure(cumulative: IntArray, usable: BoolArray, typical: float) -> 
     half = _RATE_WINDOW // 2
     size = cumulative.size - 1
     departure = np.zeros(size)
-    for lo in range(0, size, _BLOCK):
-        hi = min(lo + _BLOCK, size)
+    for lo, hi in _blocks(size):
         start, stop = max(lo - half, 0), min(hi + half, size)
         step = _steps(cumulative, start, stop)
         filled = np.where(usable[start:stop], step, typical)

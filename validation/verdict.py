@@ -264,16 +264,15 @@ def run_verdict(result: ValidationResult) -> dict[str, Any]:
                                          else "not detected"))
     if worst["comparison"] in why:
         statement += f"; why {worst['comparison']}: {why[worst['comparison']]}"
-    modes = {name: c.phrase for name, c in causes.items()
-             if name not in why and c.kind == "mode" and math.isfinite(c.residual_share)}
+    modes = {name: c for name, c in causes.items() if name not in why and c.mode_holds_residual}
     if modes:
         statement += "; a structural mode holds most of the residual in " + ", ".join(
             f"{name} ({100 * c.residual_share:.0f} % at "
-            f"{c.meaning.removeprefix('structural mode at ')})"
-            for name, c in causes.items() if name in modes)
+            f"{c.meaning.removeprefix('structural mode at ')})" for name, c in modes.items())
     return {"detected": bool(detected), "statement": statement,
             "detected_on": [row["comparison"] for row in detected], "worst": worst["comparison"],
-            "comparisons": rows, "why": why, "modes": modes, "family": family}
+            "comparisons": rows, "why": why,
+            "modes": {name: c.phrase for name, c in modes.items()}, "family": family}
 
 
 def family_k(tests: int, level: float = FAMILY_LEVEL) -> float:

@@ -104,6 +104,11 @@ class CauseStatement:
     residual_share: float = math.nan
 
     @property
+    def mode_holds_residual(self) -> bool:
+        """Whether the cause is a found mode named for holding most of the residual."""
+        return self.kind == "mode" and math.isfinite(self.residual_share)
+
+    @property
     def phrase(self) -> str:
         """The cause in words with its size, e.g. ``"a gain of +3.1 +- 0.4 % (calibration)"``."""
         if not self.cause:
@@ -115,7 +120,7 @@ class CauseStatement:
             return f"a lag of {1e3 * v:+.2f} +- {1e3 * s:.2f} ms ({self.meaning})"
         if self.kind == "offset":
             return f"an offset of {v:+.3g} +- {s:.2g} {self.unit}"
-        if self.kind == "mode" and math.isfinite(self.residual_share):
+        if self.mode_holds_residual:
             return (f"the {self.meaning}, holding {100 * v:.0f} +- {100 * s:.0f} % of the "
                     "residual's variance")
         if self.kind == "mode":
@@ -146,7 +151,7 @@ class CauseStatement:
     @property
     def sentence(self) -> str:
         """The verdict's sentence for this comparison."""
-        if not self.detected and math.isfinite(self.residual_share):
+        if not self.detected and self.mode_holds_residual:
             return (f"{self.comparison}: no model error detected in the revolution mean; "
                     f"most of its residual is {self.phrase}")
         if not self.detected:

@@ -145,7 +145,7 @@ def why_section(page: Page, result: ValidationResult) -> None:
                        css_class="ok")
     for comparison in result.comparisons:
         statement = diagnosis.causes[comparison.name]
-        if not statement.detected and math.isfinite(statement.residual_share):
+        if not statement.detected and statement.mode_holds_residual:
             page.paragraph(statement.sentence)
     page.table(_attribution_rows(diagnosis), caption="attribution: the most likely cause of "
                "each comparison's residual")
