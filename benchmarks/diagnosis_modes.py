@@ -57,7 +57,7 @@ def main(argv: list[str]) -> None:
             everything, diagnosis = rig_diagnosis(Path(folder), settings)
         evidence, cause = everything["str1"], diagnosis.causes["str1"]
         near = [r for r in evidence.resonances if abs(r.frequency_hz / hz - 1.0) <= 0.02]
-        named += bool(near) and cause.cause == f"mode {near[0].frequency_hz:.3g} Hz str1"
+        named += bool(near) and cause.name == f"mode {near[0].frequency_hz:.3g} Hz str1"
         if near:
             found += 1
             r = near[0]
@@ -67,7 +67,7 @@ def main(argv: list[str]) -> None:
               + (", ".join(f"{r.frequency_hz:.2f}+-{r.u_frequency_hz:.2f} Hz "
                            f"zeta {r.damping:.4f}+-{r.u_damping:.4f} LR {r.likelihood_ratio:.0f}"
                            for r in evidence.resonances) or "none")
-              + f"; cause {cause.cause or '-'} ({cause.kind or '-'})", flush=True)
+              + f"; cause {cause.name or '-'} ({cause.kind or '-'})", flush=True)
         settings = RigSettings(speed=speed, duration=duration, seed=2000 + seed)
         with tempfile.TemporaryDirectory() as folder:
             evidence, diagnosis = rig_diagnosis(Path(folder), settings, NAMES)

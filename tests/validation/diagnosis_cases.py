@@ -9,7 +9,6 @@ beside the truth. ``tests/validation/test_diagnosis_rig.py`` runs a few seeds;
 
 from __future__ import annotations
 
-import dataclasses
 import re
 from pathlib import Path
 from typing import Any
@@ -82,7 +81,7 @@ def run_case(case: str, seed: int, folder: Path, *, duration: float = 20.0) -> d
                          if comparison_verdict(c)["detected"]],
             "ratios": {c.name: comparison_verdict(c)["ratio"] for c in result.comparisons},
             "family": run_verdict(result)["family"],
-            "causes": {name: {**dataclasses.asdict(s), "sentence": s.sentence}
+            "causes": {name: {**s.record(), "sentence": s.sentence}
                        for name, s in diagnosis.causes.items()},
             "pair": None if pair is None else pair.as_dict(),
             "truth": {"gain": gain, **departures.record()}}

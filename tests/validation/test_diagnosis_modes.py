@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import html
 import json
-import math
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -172,8 +171,9 @@ def _evidence(residual_variance: float, *resonances: Resonance):
 
 
 def _statement(kind: str = "parameter") -> CauseStatement:
-    return CauseStatement("str1", False, False, "A.mass", kind, "kg", "mechanism parameter",
-                          1.0, 0.5, 0.01, 0.005, 0.4, "gain str1", 0.3, "", math.nan)
+    return CauseStatement("A.mass", kind, "kg", "mechanism parameter", 1.0, 0.5, 0.01, 0.005,
+                          comparison="str1", detected=False, significant=False, weight=0.4,
+                          alternative="gain str1", alternative_weight=0.3)
 
 
 @pytest.mark.parametrize(("share", "named"), [(0.45, False), (0.55, True)])

@@ -52,7 +52,7 @@ def diagnosis_rows(quick: bool) -> list[BenchRow]:
         result = run_scene(scene)
         attribution = measure(lambda: diagnose(result), 3)
         cause = attribution.value.causes["torque_F"]
-        found = cause.value if cause.cause == "A.mass" else math.nan
+        found = cause.value if cause.name == "A.mass" else math.nan
         fitted = measure(lambda: identify(result.scene, ["A.mass", "A.inertia"],
                                           result=result), 1)
         values = dict(zip(fitted.value.names, fitted.value.value, strict=True))

@@ -21,7 +21,13 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.json_values import json_ready
-from rigval.validation.diagnosis.attribution import Attribution, Evidence, Found, attribute
+from rigval.validation.diagnosis.attribution import (
+    Attribution,
+    Evidence,
+    Found,
+    Sized,
+    attribute,
+)
 from rigval.validation.diagnosis.causes import (
     attribution_problem,
     detected,
@@ -51,24 +57,21 @@ MODE_SHARE = 0.5
 
 
 @dataclasses.dataclass(frozen=True)
-class CauseStatement:
-    """The most likely cause of one comparison's residual.
+class CauseStatement(Sized):
+    """The most likely cause of one comparison's residual: a sized cause and its standing.
 
     Attributes
     ----------
+    name, kind, unit, meaning, value, std, relative, relative_std
+        The cause as :class:`~rigval.validation.diagnosis.attribution.Sized` (``name``
+        ``"gain torque_F"``, ``"A.mass"``; ``""`` and NaN sizes without one). metrics.json
+        and the netCDF group ``/why`` call the name ``cause`` (:meth:`record`).
     comparison : str
         The comparison.
     detected : bool
         The V&V 20 verdict detects a model error in it.
     significant : bool
         The cause passed the attribution's selection (else it is only the best candidate).
-    cause, kind, unit, meaning : str
-        The cause (``"gain torque_F"``, ``"A.mass"``; ``""`` without one), its kind, its
-        coefficient's unit, what it stands for.
-    value, std : float
-        Its fitted size and standard uncertainty in ``unit``.
-    relative, relative_std : float
-        Relative to the nominal value (parameters; NaN otherwise).
     weight : float
         Its share of the evidence among single causes (1).
     alternative : str
@@ -88,20 +91,17 @@ class CauseStatement:
     comparison: str
     detected: bool
     significant: bool
-    cause: str
-    kind: str
-    unit: str
-    meaning: str
-    value: float
-    std: float
-    relative: float
-    relative_std: float
     weight: float
-    alternative: str
-    alternative_weight: float
-    confusable_with: str
-    correlation: float
+    alternative: str = ""
+    alternative_weight: float = 0.0
+    confusable_with: str = ""
+    correlation: float = math.nan
     residual_share: float = math.nan
+
+    def record(self) -> dict[str, Any]:
+        """Return the fields by name, the cause's as ``cause``: metrics.json and ``/why``."""
+        fields = dataclasses.asdict(self)
+        return {"comparison": fields.pop("comparison"), "cause": fields.pop("name"), **fields}
 
     @property
     def mode_holds_residual(self) -> bool:
@@ -111,7 +111,7 @@ class CauseStatement:
     @property
     def phrase(self) -> str:
         """The cause in words with its size, e.g. ``"a gain of +3.1 +- 0.4 % (calibration)"``."""
-        if not self.cause:
+        if not self.name:
             return "no candidate"
         v, s = self.value, self.std
         if self.kind == "gain":
@@ -126,14 +126,14 @@ class CauseStatement:
         if self.kind == "mode":
             return f"the {self.meaning} (participation {v:.2f} +- {s:.2f})"
         if math.isfinite(self.relative):
-            return (f"{self.cause} {100 * self.relative:+.1f} +- {100 * self.relative_std:.1f} %"
+            return (f"{self.name} {100 * self.relative:+.1f} +- {100 * self.relative_std:.1f} %"
                     f" ({v:+.3g} +- {s:.2g} {self.unit}), a mechanism parameter")
-        return f"{self.cause} {v:+.3g} +- {s:.2g} {self.unit}, a mechanism parameter"
+        return f"{self.name} {v:+.3g} +- {s:.2g} {self.unit}, a mechanism parameter"
 
     @property
     def explanation(self) -> str:
         """The most likely cause in words, e.g. ``"most likely A.mass +8.0 +- 0.2 % ..."``."""
-        if not self.cause:
+        if not self.name:
             return "no candidate cause acts on it"
         if not self.significant:
             return (f"no single cause stands out (closest: {self.phrase}, weight "
@@ -228,7 +228,7 @@ class Diagnosis:
     def as_dict(self) -> dict[str, Any]:
         """Return the diagnosis as JSON-ready values (metrics.json's ``diagnosis``; NaN as None)."""
         return json_ready({
-            "attribution": {name: {**dataclasses.asdict(c), "sentence": c.sentence}
+            "attribution": {name: {**c.record(), "sentence": c.sentence}
                             for name, c in self.causes.items()},
             "symmetry": [{"name": p.spec.name, "kind": p.spec.kind,
                           "comparisons": list(p.spec.comparisons),
@@ -241,12 +241,12 @@ class Diagnosis:
         """Return the diagnosis as typed variables (the netCDF group ``/why``)."""
         names = list(self.causes)
         ds = xr.Dataset(coords={"comparison": names})
-        for field in dataclasses.fields(CauseStatement):
-            if field.name == "comparison":
+        records = [self.causes[n].record() for n in names]
+        for field in records[0] if records else ():
+            if field == "comparison":
                 continue
-            values = [getattr(self.causes[n], field.name) for n in names]
-            ds[f"cause_{field.name}"] = ("comparison", _typed(values), {
-                "units": _unit(field.name), "long_name": f"attribution: {field.name}"})
+            ds[f"cause_{field}"] = ("comparison", _typed([r[field] for r in records]), {
+                "units": _unit(field), "long_name": f"attribution: {field}"})
         ds["cause_sentence"] = ("comparison", np.array([self.causes[n].sentence for n in names],
                                                        dtype=object), {"long_name": "verdict"})
         ds["explained"] = (("comparison", "angle"), np.array([self.explained[n] for n in names]),
@@ -364,24 +364,23 @@ def _statement(name: str, is_detected: bool, attribution: Attribution, touching:
     best: Evidence | None = ranked[0] if ranked else None
     top: Found | Evidence | None = found or best
     if top is None:
-        return CauseStatement(name, is_detected, False, "", "", "", "", math.nan, math.nan,
-                              math.nan, math.nan, 0.0, "", 0.0, "", math.nan)
+        return CauseStatement("", "", "", "", math.nan, math.nan, math.nan, math.nan,
+                              comparison=name, detected=is_detected, significant=False,
+                              weight=0.0)
     kind = kinds[top.name]
     weight = next((e.weight for e in attribution.candidates if e.name == top.name), 0.0)
     other = next((e for e in ranked if (e.kind == "parameter") != (kind == "parameter")), None)
     confusable = next(((b if a == top.name else a, r) for a, b, r in attribution.confusable
                        if top.name in (a, b)), ("", math.nan))
+    # chosen: sized with the other chosen causes; else the best single cause, sized alone
+    size = {field.name: getattr(top, field.name) for field in dataclasses.fields(Sized)}
     if found is None:
-        # the best single cause, not chosen: its size fitted alone
-        assert isinstance(top, Evidence)
-        return CauseStatement(name, is_detected, False, top.name, kind, top.unit, top.meaning,
-                              top.value, top.std, top.relative, top.relative_std, weight,
-                              other.name if other else "", other.weight if other else 0.0,
-                              confusable[0], confusable[1])
-    return CauseStatement(name, is_detected, True, found.name, found.kind, found.unit,
-                          found.meaning, found.value, found.std, found.relative,
-                          found.relative_std, weight, other.name if other else "",
-                          other.weight if other else 0.0, confusable[0], confusable[1])
+        size["kind"] = kind
+    return CauseStatement(**size, comparison=name, detected=is_detected,
+                          significant=found is not None, weight=weight,
+                          alternative=other.name if other else "",
+                          alternative_weight=other.weight if other else 0.0,
+                          confusable_with=confusable[0], correlation=confusable[1])
 
 
 def _mode_statement(statement: CauseStatement, evidence: RigidityEvidence) -> CauseStatement:
@@ -408,10 +407,10 @@ def _mode_statement(statement: CauseStatement, evidence: RigidityEvidence) -> Ca
     keep_other = statement.kind != "parameter"
     return dataclasses.replace(
         statement, significant=True,
-        cause=f"mode {mode.frequency_hz:.3g} Hz {statement.comparison}",
+        name=f"mode {mode.frequency_hz:.3g} Hz {statement.comparison}",
         kind="mode", unit="1", meaning=meaning, value=share, std=u_share, relative=math.nan,
         relative_std=math.nan, weight=math.nan,
-        alternative=statement.alternative if keep_other else statement.cause,
+        alternative=statement.alternative if keep_other else statement.name,
         alternative_weight=statement.alternative_weight if keep_other else statement.weight,
         confusable_with="", correlation=math.nan, residual_share=share)
 

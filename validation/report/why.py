@@ -29,14 +29,14 @@ MAX_DRAWN = 6
 
 
 def _size(statement: Any) -> str:
-    if not statement.cause or not math.isfinite(statement.value):
+    if not statement.name or not math.isfinite(statement.value):
         return ""
     return statement.phrase
 
 
 def _attribution_rows(diagnosis: Diagnosis) -> list[dict[str, Any]]:
     return [{"comparison": name, "verdict": "detected" if s.detected else "not detected",
-             "most likely cause": s.cause or "-", "chosen": "yes" if s.significant else "no",
+             "most likely cause": s.name or "-", "chosen": "yes" if s.significant else "no",
              "size": _size(s), "weight": round(s.weight, 3),
              "other class's best": s.alternative or "-",
              "its weight": round(s.alternative_weight, 3),
@@ -105,7 +105,7 @@ def plot_residual_orders(comparisons: list[ComparisonResult], diagnosis: Diagnos
         statement = diagnosis.causes[comparison.name]
         if np.any(fitted):
             ax.plot(k, np.hypot(fitted[:, 0], fitted[:, 1]), "o", color="#c0392b", ms=4,
-                    label=f"explained: {statement.cause}")
+                    label=f"explained: {statement.name}")
         ax.set_title(f"{comparison.name}: residual per order of the main shaft", fontsize=9,
                      loc="left")
         ax.set_ylabel(comparison.units, fontsize=8)
