@@ -48,6 +48,7 @@ from rigval.sample_data.streams import stream_pieces
 from rigval.sample_data.tdms_writer import Acquisition, DaqmxTdmsWriter, RawChannel
 from rigval.sample_data.truth import TruthGrid, model_truth
 from rigval.sample_data.writers import (
+    NpyAppender,
     european_csv_head,
     european_csv_rows,
     write_json,
@@ -129,7 +130,8 @@ class _StreamFiles:
     """Writes the pieces of the rig's streams to their files as they come (bounded memory).
 
     The cDAQ and WLS #1 go to DAQmx raw TDMS files, WLS #2 to the European CSV; the truth of
-    every analog channel goes to one temporary ``.npy`` file each (in ``scratch``), copied into
+    every analog channel goes to one temporary ``.npy`` file each (in ``scratch``, written in
+    order, not memory-mapped: :class:`~rigval.sample_data.writers.NpyAppender`), copied into
     the truth ``.npz`` by :meth:`write_truth`.
     """
 
@@ -137,8 +139,7 @@ class _StreamFiles:
                  scratch: Path) -> None:
         self.streams, self.draw, self.files, self.scratch = streams, draw, files, scratch
         self.truth: dict[str, Path] = {}
-        self._truth_arrays: dict[str, np.ndarray] = {}
-        self._filled: dict[str, int] = {}
+        self._truth_files: dict[str, NpyAppender] = {}
         self._tdms: DaqmxTdmsWriter | None = None
         self._csv: Any = None
 
@@ -149,9 +150,8 @@ class _StreamFiles:
             if c.truth_unit is not None:
                 key = f"{name}.{c.name}"
                 self.truth[key] = self.scratch / f"{key}.npy"
-                self._truth_arrays[key] = np.lib.format.open_memmap(
-                    self.truth[key], mode="w+", dtype=np.float32, shape=(n_total,))
-                self._filled[key] = 0
+                self._truth_files[key] = NpyAppender(self.truth[key], n_total,
+                                                     np.dtype(np.float32))
         if name == "wls2":
             clock = stream.clock
             first = clock.segments[0]
@@ -173,9 +173,9 @@ class _StreamFiles:
         if self._csv is not None:
             self._csv.close()
             self._csv = None
-        for array in self._truth_arrays.values():
-            array.flush()
-        self._truth_arrays = {}
+        for file in self._truth_files.values():
+            file.close()
+        self._truth_files = {}
 
     def write(self, piece: StreamPiece, opening: bool) -> None:
         """Write one piece; ``opening``: the first piece of its stream."""
@@ -185,10 +185,7 @@ class _StreamFiles:
         stream = self.streams[piece.stream]
         clock = stream.clock
         for key, values in piece.truth.items():
-            full = f"{piece.stream}.{key}"
-            array = self._truth_arrays[full]
-            array[self._filled[full]:self._filled[full] + values.size] = values
-            self._filled[full] += values.size
+            self._truth_files[f"{piece.stream}.{key}"].append(values)
         for j, (i, k0) in enumerate(piece.parts):
             raw = [piece.raw[c.name][j] for c in stream.channels]
             if self._csv is not None:

@@ -21,8 +21,8 @@ from numpy.typing import NDArray
 
 from rigval.acquisition.outputs import atomic_output, write_text_atomic
 
-__all__ = ["european_csv_head", "european_csv_rows", "write_european_csv", "write_json",
-           "write_npz", "write_npz_from_files"]
+__all__ = ["NpyAppender", "european_csv_head", "european_csv_rows", "write_european_csv",
+           "write_json", "write_npz", "write_npz_from_files"]
 
 logger = logging.getLogger(__name__)
 
@@ -126,6 +126,53 @@ def write_npz(path: str | Path, arrays: Mapping[str, NDArray]) -> Path:
                                       allow_pickle=False)
             archive.writestr(_npy_entry(name), buffer.getvalue())
     return Path(path)
+
+
+class NpyAppender:
+    """A 1-D ``.npy`` file of known length, written front to back piece by piece.
+
+    Equal byte for byte to filling :func:`numpy.lib.format.open_memmap` in order, but the
+    written pages are never mapped into this process: a memory map's dirty pages count in its
+    resident memory until it is closed, so a long record's truth grew it by the file's size.
+
+    Parameters
+    ----------
+    path : Path
+        The file (overwritten).
+    length : int
+        Values the file will hold.
+    dtype : numpy.dtype
+        Their type (little-endian as written).
+    """
+
+    def __init__(self, path: Path, length: int, dtype: np.dtype[Any]) -> None:
+        self.length, self.dtype, self.filled = length, np.dtype(dtype).newbyteorder("<"), 0
+        self._file = path.open("wb")
+        np.lib.format.write_array_header_1_0(self._file, {
+            "descr": np.lib.format.dtype_to_descr(self.dtype), "fortran_order": False,
+            "shape": (length,)})
+
+    def append(self, values: NDArray[Any]) -> None:
+        """Write the next ``values`` (converted to the file's type).
+
+        Raises
+        ------
+        ValueError
+            If they would run past the declared length.
+        """
+        if self.filled + values.size > self.length:
+            raise ValueError(f"{self._file.name}: {self.filled + values.size} values written "
+                             f"into a file declared for {self.length}")
+        np.ascontiguousarray(values, dtype=self.dtype).tofile(self._file)
+        self.filled += values.size
+
+    def close(self) -> None:
+        """Close the file; values never written are zeros (as in a fresh memory map)."""
+        if self.filled < self.length:
+            logger.debug("%s: %d of %d values written, the rest zeros", self._file.name,
+                         self.filled, self.length)
+            np.zeros(self.length - self.filled, dtype=self.dtype).tofile(self._file)
+        self._file.close()
 
 
 def write_npz_from_files(path: str | Path, files: Mapping[str, Path],
