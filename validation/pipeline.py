@@ -76,7 +76,13 @@ from rigval.processing.filters import zero_phase
 from rigval.processing.stream_alignment import AlignmentSettings, MainAngle, align_streams
 from rigval.processing.stretch_decimation import diagnosis_signal
 from rigval.validation.health import HealthLog
-from rigval.validation.metrics.compare import baseline, check_thresholds, compare
+from rigval.validation.metrics.compare import (
+    IsoScores,
+    baseline,
+    check_thresholds,
+    compare,
+    periodic_ratings,
+)
 from rigval.validation.model_run import FINE_FACTOR, grid_error, run_model
 from rigval.validation.note import read_note
 from rigval.validation.read_plan import (
@@ -441,15 +447,18 @@ def _numerics(scene: Scene, model: _Model) -> _Numerics:
                      int(model.fine.sizes["angle"]))
 
 
-def _compare(comparison: ComparisonSpec, units: str, long_name: str, angle: np.ndarray,
-             cycles: np.ndarray, model: np.ndarray, u_num: float,
-             carried: Mapping[str, float] | None = None) -> ComparisonResult:
-    """Score the model against the measured mean, the baseline and the thresholds.
+@dataclass(frozen=True)
+class _Pair:
+    """A comparison's measured side and model, as its metrics take them."""
 
-    ``u_num`` is the numerical uncertainty of the model (signal units) for V&V 20; ``carried``
-    the uncertainties carried from alignment and drives (``u_time`` s, ``speed`` rad/s,
-    ``u_drive_angle`` rad, see :func:`rigval.validation.metrics.vv20.vv20_curve`).
-    """
+    whole: np.ndarray  # the revolutions without gaps, (n_cycles, n)
+    mean: np.ndarray
+    model: np.ndarray  # scaled, offset added
+    offset: float
+
+
+def _pair(comparison: ComparisonSpec, cycles: np.ndarray, model: np.ndarray) -> _Pair:
+    """Return the whole revolutions, their mean, the model scaled and offset as the scene asks."""
     whole = cycles[np.all(np.isfinite(cycles), axis=1)]
     if whole.shape[0] < 2:
         raise DataError(f"{comparison.name}: only {whole.shape[0]} whole revolutions without "
@@ -458,32 +467,56 @@ def _compare(comparison: ComparisonSpec, units: str, long_name: str, angle: np.n
     mean = whole.mean(axis=0)
     model = model * comparison.scale
     offset = float(mean.mean() - model.mean()) if comparison.remove_offset else 0.0
-    model = model + offset
-    scores = compare(mean, model, angle, metrics=(*comparison.metrics, "vv20"),
-                     normaliser=comparison.nrmse_normaliser, cycles=whole,
+    return _Pair(whole, mean, model + offset, offset)
+
+
+def _compare(comparison: ComparisonSpec, units: str, long_name: str, angle: np.ndarray,
+             pair: _Pair, u_num: float, carried: Mapping[str, float] | None = None,
+             iso: tuple[IsoScores, list[IsoScores]] | None = None) -> ComparisonResult:
+    """Score the model against the measured mean, the baseline and the thresholds.
+
+    ``u_num`` is the numerical uncertainty of the model (signal units) for V&V 20; ``carried``
+    the uncertainties carried from alignment and drives (``u_time`` s, ``speed`` rad/s,
+    ``u_drive_angle`` rad, see :func:`rigval.validation.metrics.vv20.vv20_curve`); ``iso`` the
+    model's and the cycles' periodic ISO ratings, rated beforehand with the other comparisons'.
+    """
+    scores = compare(pair.mean, pair.model, angle, metrics=(*comparison.metrics, "vv20"),
+                     normaliser=comparison.nrmse_normaliser, cycles=pair.whole,
                      uncertainty={"u_num": u_num, **dict(carried or {}),
-                                  **comparison.uncertainty})
-    base = baseline(whole, mean, angle=angle, metrics=comparison.metrics,
-                    normaliser=comparison.nrmse_normaliser)
+                                  **comparison.uncertainty},
+                     iso=iso[0] if iso else None)
+    base = baseline(pair.whole, pair.mean, angle=angle, metrics=comparison.metrics,
+                    normaliser=comparison.nrmse_normaliser, iso=iso[1] if iso else None)
     checks = check_thresholds(scores, comparison.thresholds,
                               key_path=f"{comparison.key}.thresholds")
     return ComparisonResult(spec=comparison, units=units, long_name=long_name, angle=angle,
-                            cycles=whole, model=model, offset=offset, scores=scores,
-                            baseline={"median": base.median, "worst": base.worst},
+                            cycles=pair.whole, model=pair.model, offset=pair.offset,
+                            scores=scores, baseline={"median": base.median, "worst": base.worst},
                             checks=tuple(checks))
+
 
 def _compare_all(scene: Scene, measured: _Measured, numerics: _Numerics
                  ) -> tuple[ComparisonResult, ...]:
-    """Score every comparison; the common-gain statement across them."""
+    """Score every comparison; the common-gain statement across them.
+
+    The periodic ISO ratings of all comparisons come first, in shared DTW sweeps
+    (:func:`rigval.validation.metrics.compare.periodic_ratings`).
+    """
     grid, results = measured.timeline.grid, []
+    values = {c.name: model_values(measured.model.chosen, c.model) for c in scene.comparisons}
+    pairs = {c.name: _pair(c, measured.cycles[c.name], values[c.name])
+             for c in scene.comparisons}
+    rated = [c.name for c in scene.comparisons if "iso18571_periodic" in c.metrics]
+    iso = dict(zip(rated, periodic_ratings([(pairs[n].mean, pairs[n].model, pairs[n].whole)
+                                            for n in rated]), strict=True))
     for comparison in scene.comparisons:
-        values = model_values(measured.model.chosen, comparison.model)
-        u_num = numerics.errors[comparison.name] * float(np.ptp(values)) * abs(comparison.scale)
+        name = comparison.name
+        u_num = numerics.errors[name] * float(np.ptp(values[name])) * abs(comparison.scale)
         carried = carried_uncertainty(
             scene, measured.timeline.diagnostics[comparison.measured.stream], grid.speed_rev_s)
         results.append(_compare(comparison, scene.units(comparison.measured),
-                                measured.long_names[comparison.name], grid.angle,
-                                measured.cycles[comparison.name], values, u_num, carried))
+                                measured.long_names[name], grid.angle, pairs[name], u_num,
+                                carried, iso.get(name)))
     return with_common_gain(scene, results)
 
 

@@ -15,8 +15,17 @@ import scipy.optimize
 
 from rigval.acquisition.errors import DataError
 from rigval.processing.dtw import dtw_path, dtw_paths
-from rigval.validation.metrics.compare import DEFAULT_METRICS, baseline, compare
-from rigval.validation.metrics.iso18571 import IsoParameters, iso18571_periodic_many
+from rigval.validation.metrics.compare import (
+    DEFAULT_METRICS,
+    baseline,
+    compare,
+    periodic_ratings,
+)
+from rigval.validation.metrics.iso18571 import (
+    IsoParameters,
+    iso18571_periodic_many,
+    iso18571_periodic_sets,
+)
 from rigval.validation.metrics.waveform import circular_lag_many
 
 _TOLERANCE = 1e-12
@@ -222,3 +231,31 @@ def test_blocked_sweep_matches_full_matrix(seed):
     expected_x, expected_y = _dtw_full(x, y, radius)
     assert ix.tolist() == expected_x.tolist()
     assert iy.tolist() == expected_y.tolist()
+
+
+@pytest.mark.parametrize("rows_per_sweep", [1, 12, 256])
+def test_sets_swept_together_equal_each_set_rated_alone(rows_per_sweep, monkeypatch):
+    """Sets of two sample counts, swept one by one, partly together, all together per count."""
+    monkeypatch.setattr("rigval.validation.metrics.iso18571.ROWS_PER_SWEEP", rows_per_sweep)
+    sets = [_cases(name, n) for name, n in (("random", 40), ("wrap", 45), ("ties", 40),
+                                            ("noise", 45), ("equal", 40))]
+    together = iso18571_periodic_sets(sets)
+    for (reference, models), rated in zip(sets, together, strict=True):
+        assert rated == iso18571_periodic_many(reference, models)  # the same bits
+
+
+def test_periodic_ratings_are_those_compare_and_baseline_compute():
+    rng = np.random.default_rng(7)
+    comparisons = []
+    for name in ("random", "noise", "wrap"):
+        reference, models = _cases(name, 72)
+        cycles = reference + rng.normal(scale=0.1, size=(5, 72))
+        comparisons.append((cycles.mean(axis=0), models[0], cycles))
+    for (mean, model, cycles), (iso_model, iso_cycles) in zip(
+            comparisons, periodic_ratings(comparisons), strict=True):
+        assert compare(mean, model, metrics=("iso18571_periodic",)) == compare(
+            mean, model, metrics=("iso18571_periodic",), iso=iso_model)
+        alone = baseline(cycles, mean, metrics=("iso18571_periodic",))
+        given = baseline(cycles, mean, metrics=("iso18571_periodic",), iso=iso_cycles)
+        for key, values in alone.per_cycle.items():
+            np.testing.assert_array_equal(given.per_cycle[key], values)

@@ -40,6 +40,7 @@ from rigval.validation.metrics.iso18571 import (
     iso18571,
     iso18571_periodic,
     iso18571_periodic_many,
+    iso18571_periodic_sets,
 )
 from rigval.validation.metrics.thresholds import ThresholdCheck, check_thresholds, parse_threshold
 from rigval.validation.metrics.vv20 import VV20Curve, VV20Feature, VV20Scores, vv20, vv20_curve
@@ -93,6 +94,7 @@ __all__ = [
     "parse_threshold",
     "peak_error",
     "pearson_r",
+    "periodic_ratings",
     "russell",
     "score_names",
     "sprague_geers",
@@ -196,7 +198,8 @@ class BaselineScores:
 def compare(measured: Any, model: Any, angle: Any = None, *,
             metrics: Sequence[str] = DEFAULT_METRICS, normaliser: str = "range",
             iso_params: IsoParameters | None = None, cycles: Any = None,
-            uncertainty: Mapping[str, Any] | None = None) -> dict[str, Any]:
+            uncertainty: Mapping[str, Any] | None = None,
+            iso: IsoScores | None = None) -> dict[str, Any]:
     """Run several metrics on a measured and a model signal over one revolution.
 
     Parameters
@@ -219,6 +222,9 @@ def compare(measured: Any, model: Any, angle: Any = None, *,
     uncertainty : mapping, optional
         Keyword arguments of :func:`vv20` (``u_num``, ``u_input``, ``u_measurement``,
         ``u_measurement_rel``, ``k``, ``u_time``, ``speed``, ``u_drive_angle``).
+    iso : IsoScores, optional
+        This pair's ``iso18571_periodic`` rating, computed beforehand (:func:`periodic_ratings`
+        rates a run's comparisons in shared DTW sweeps); default: computed here.
 
     Returns
     -------
@@ -240,7 +246,7 @@ def compare(measured: Any, model: Any, angle: Any = None, *,
     m, c = paired(measured, model)
     angle_deg = np.degrees(revolution_angle(angle, m.size, measured))
     return _score_pair(m, c, angle_deg, metrics=metrics, normaliser=normaliser,
-                       iso_params=iso_params, cycles=cycles, uncertainty=uncertainty)
+                       iso_params=iso_params, cycles=cycles, uncertainty=uncertainty, iso=iso)
 
 
 def _score_key(metric: str, field: str) -> str:
@@ -298,10 +304,11 @@ def _check_options(metrics: Sequence[str], uncertainty: Mapping[str, Any] | None
 
 def _score_pair(m: np.ndarray, c: np.ndarray, angle_deg: np.ndarray, *, metrics: Sequence[str],
                 normaliser: str, iso_params: IsoParameters | None, cycles: Any = None,
-                uncertainty: Mapping[str, Any] | None = None) -> dict[str, Any]:
+                uncertainty: Mapping[str, Any] | None = None,
+                iso: IsoScores | None = None) -> dict[str, Any]:
     """Return the scores of :func:`compare` for a checked pair."""
     runners = {
-        "iso18571_periodic": lambda: iso18571_periodic(m, c, params=iso_params),
+        "iso18571_periodic": lambda: iso or iso18571_periodic(m, c, params=iso_params),
         "iso18571": lambda: iso18571(m, c, dt=360.0 / m.size, params=iso_params),
         "sprague_geers": lambda: sprague_geers(m, c, periodic=True),
         "russell": lambda: russell(m, c, periodic=True),
@@ -318,9 +325,40 @@ def _score_pair(m: np.ndarray, c: np.ndarray, angle_deg: np.ndarray, *, metrics:
     return scores
 
 
+def periodic_ratings(comparisons: Sequence[tuple[Any, Any, Any]], *,
+                     iso_params: IsoParameters | None = None
+                     ) -> list[tuple[IsoScores, list[IsoScores]]]:
+    """Rate each comparison's model and cycles against its measured mean, in shared DTW sweeps.
+
+    The ``iso18571_periodic`` ratings :func:`compare` and :func:`baseline` compute, for several
+    comparisons at once (:func:`~rigval.validation.metrics.iso18571.iso18571_periodic_sets`): a
+    sweep costs about as much for one row as for a few dozen, and a run has two small ones per
+    comparison otherwise. Pass them on as ``compare(..., iso=model)`` and
+    ``baseline(..., iso=cycles)``.
+
+    Parameters
+    ----------
+    comparisons : sequence of (mean, model, cycles)
+        Per comparison, the measured mean over one revolution, the model on its grid and the
+        measured cycles ``(n_cycles, n)``, one unit.
+    iso_params : IsoParameters, optional
+        As for :func:`compare`.
+
+    Returns
+    -------
+    list of (IsoScores, list of IsoScores)
+        Per comparison, the model's rating and each cycle's.
+    """
+    sets = [(mean, np.vstack([np.asarray(model, dtype=np.float64)[np.newaxis],
+                              as_cycles(cycles)]))
+            for mean, model, cycles in comparisons]
+    return [(rated[0], rated[1:]) for rated in iso18571_periodic_sets(sets, params=iso_params)]
+
+
 def baseline(cycles: Any, mean: Any = None, *, angle: Any = None,
              metrics: Sequence[str] = DEFAULT_METRICS, normaliser: str = "range",
-             iso_params: IsoParameters | None = None) -> BaselineScores:
+             iso_params: IsoParameters | None = None,
+             iso: Sequence[IsoScores] | None = None) -> BaselineScores:
     """Score each measured cycle against the measured cycle mean with the metrics of a comparison.
 
     Each cycle takes the model's place in :func:`compare`. The result is the cycle-to-cycle
@@ -339,6 +377,9 @@ def baseline(cycles: Any, mean: Any = None, *, angle: Any = None,
         Shaft angle of the samples, rad (see :func:`compare`).
     metrics, normaliser, iso_params
         As for :func:`compare` (``vv20`` is not a per-cycle metric and is refused).
+    iso : sequence of IsoScores, optional
+        Each cycle's ``iso18571_periodic`` rating against ``mean``, computed beforehand
+        (:func:`periodic_ratings`); default: computed here.
 
     Returns
     -------
@@ -366,7 +407,7 @@ def baseline(cycles: Any, mean: Any = None, *, angle: Any = None,
     reference = array.mean(axis=0) if mean is None else as_signal(mean, "mean")
     reference, _ = paired(reference, array[0])
     per_cycle = _score_cycles(reference, array, angle_deg, metrics=metrics,
-                              normaliser=normaliser, iso_params=iso_params)
+                              normaliser=normaliser, iso_params=iso_params, iso=iso)
     median = {key: float(np.median(values)) for key, values in per_cycle.items()}
     worst, worst_cycle = {}, {}
     for key, values in per_cycle.items():
@@ -382,8 +423,8 @@ def baseline(cycles: Any, mean: Any = None, *, angle: Any = None,
 
 
 def _score_cycles(m: np.ndarray, cycles: np.ndarray, angle_deg: np.ndarray, *,
-                  metrics: Sequence[str], normaliser: str,
-                  iso_params: IsoParameters | None) -> dict[str, np.ndarray]:
+                  metrics: Sequence[str], normaliser: str, iso_params: IsoParameters | None,
+                  iso: Sequence[IsoScores] | None = None) -> dict[str, np.ndarray]:
     """Every numeric score of :func:`compare` for each row of ``cycles`` against ``m``.
 
     The metrics run on all rows at once (their ``*_many`` forms), so the scores are those of
@@ -395,8 +436,8 @@ def _score_cycles(m: np.ndarray, cycles: np.ndarray, angle_deg: np.ndarray, *,
 
     dt = 360.0 / m.size
     runners = {
-        "iso18571_periodic": lambda: records(iso18571_periodic_many(m, cycles,
-                                                                    params=iso_params)),
+        "iso18571_periodic": lambda: records(iso or iso18571_periodic_many(m, cycles,
+                                                                           params=iso_params)),
         "iso18571": lambda: records([iso18571(m, c, dt=dt, params=iso_params) for c in cycles]),
         "sprague_geers": lambda: magnitude_phase_many(m, cycles, kind="sprague_geers",
                                                       periodic=True),

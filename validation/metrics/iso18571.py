@@ -35,8 +35,10 @@ slightly.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import logging
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -49,6 +51,7 @@ from rigval.validation.metrics.core import Scores, paired, revolution_angle, row
 __all__ = [
     "DEFAULT_MAX_SAMPLES",
     "GRADES",
+    "ROWS_PER_SWEEP",
     "IsoParameters",
     "IsoScores",
     "dtw_path",
@@ -56,6 +59,7 @@ __all__ = [
     "iso18571",
     "iso18571_periodic",
     "iso18571_periodic_many",
+    "iso18571_periodic_sets",
 ]
 
 logger = logging.getLogger(__name__)
@@ -74,6 +78,11 @@ _TIE_TOLERANCE = 1e-12
 
 _SLOPE_HALF_WIDTH = 4
 """Half-width of the 9-point moving average applied to the derivatives, samples."""
+
+#: Most rows :func:`iso18571_periodic_sets` sweeps together: sets this large amortise a sweep's
+#: fixed cost (one Python-level step per anti-diagonal) alone.
+ROWS_PER_SWEEP = 256
+
 
 @dataclasses.dataclass(frozen=True)
 class IsoParameters:
@@ -340,6 +349,49 @@ def iso18571_periodic_many(measured: Any, models: Any, angle: Any = None, *,
         If ``models`` is not 2-D or holds no signal, or as :func:`iso18571_periodic`.
     """
     params = params or IsoParameters()
+    reference, stack = _checked_many(measured, models, angle)
+    return _rate_periodic(reference, stack, params, max_samples)
+
+
+def iso18571_periodic_sets(sets: Sequence[tuple[Any, Any]], *,
+                           params: IsoParameters | None = None,
+                           max_samples: int = DEFAULT_MAX_SAMPLES) -> list[list[IsoScores]]:
+    """Rate several sets of model signals, each set against its own measured signal.
+
+    The result equals ``[iso18571_periodic_many(measured, models, ...) for measured, models in
+    sets]``, but sets of one sample count share their DTW sweeps (up to
+    :data:`ROWS_PER_SWEEP` rows a sweep): a sweep's Python-level loop runs once per
+    anti-diagonal whatever the number of rows, so one sweep of a few dozen rows costs about as
+    much as one of a single row. A run's comparisons (each its model and its revolutions
+    against its measured mean) are rated this way.
+
+    Parameters
+    ----------
+    sets : sequence of (measured, models)
+        Per set, the reference signal over one revolution and the signals rated against it,
+        shape ``(m, n)``, as for :func:`iso18571_periodic_many`.
+    params, max_samples
+        As for :func:`iso18571_periodic`.
+
+    Returns
+    -------
+    list of list of IsoScores
+        Per set, one result per row of its ``models``, in order.
+
+    Raises
+    ------
+    DataError
+        As :func:`iso18571_periodic_many`, for the first set that fails.
+    """
+    params = params or IsoParameters()
+    prepared = [_prepared(*_checked_many(measured, models), params, max_samples)
+                for measured, models in sets]
+    errors = _magnitude_errors_circular(prepared, params)
+    return [_rated(p, e, params) for p, e in zip(prepared, errors, strict=True)]
+
+
+def _checked_many(measured: Any, models: Any, angle: Any = None) -> tuple[np.ndarray, np.ndarray]:
+    """Return the checked reference and model stack of :func:`iso18571_periodic_many`."""
     stack = np.asarray(getattr(models, "values", models), dtype=np.float64)
     if stack.ndim != 2 or stack.shape[0] == 0:
         raise DataError(f"models must have shape (m >= 1, n_samples), got {stack.shape}",
@@ -347,12 +399,23 @@ def iso18571_periodic_many(measured: Any, models: Any, angle: Any = None, *,
     pairs = [paired(measured, row) for row in stack]
     reference = pairs[0][0]
     revolution_angle(angle, reference.size, measured)
-    return _rate_periodic(reference, np.array([row for _, row in pairs]), params, max_samples)
+    return reference, np.array([row for _, row in pairs])
 
 
-def _rate_periodic(reference: np.ndarray, comparisons: np.ndarray, params: IsoParameters,
-                   max_samples: int) -> list[IsoScores]:
-    """Periodic ISO rating of each row of ``comparisons`` against ``reference`` (checked inputs)."""
+@dataclasses.dataclass(frozen=True)
+class _Prepared:
+    """A set of signals rated against one reference, up to the DTW (checked, resampled)."""
+
+    reference: np.ndarray
+    comparisons: np.ndarray
+    shifts: np.ndarray
+    #: each row rotated back by its shift: ``rotated[p, i] = comparisons[p, (i + shift_p) % n]``
+    rotated: np.ndarray
+
+
+def _prepared(reference: np.ndarray, comparisons: np.ndarray, params: IsoParameters,
+              max_samples: int) -> _Prepared:
+    """Resample, check, and find each row's circular phase shift (checked inputs)."""
     if reference.size > max_samples:
         logger.info("ISO 18571 periodic: resampling %d samples to %d", reference.size,
                     max_samples)
@@ -362,11 +425,25 @@ def _rate_periodic(reference: np.ndarray, comparisons: np.ndarray, params: IsoPa
     n = reference.size
     limit = int(np.floor(n * params.phase_window))
     shifts = _best_shifts(*_circular_correlation(reference, comparisons, limit))
-    # each model rotated back by its shift: rotated[p, i] = comparisons[p, (i + shift_p) % n]
     rotated = np.take_along_axis(comparisons, (np.arange(n) + shifts[:, np.newaxis]) % n, axis=1)
-    magnitude_errors = _magnitude_errors_circular(reference, rotated, params)
-    return _scores(reference, comparisons, magnitude_errors, _smoothed_slope_circular(reference),
-                   _smoothed_slope_circular(rotated), shifts, shifts * 360.0 / n, params)
+    return _Prepared(reference, comparisons, shifts, rotated)
+
+
+def _rated(prepared: _Prepared, magnitude_errors: list[float],
+           params: IsoParameters) -> list[IsoScores]:
+    """Return the scores of a prepared set, given its rows' DTW magnitude errors."""
+    n = prepared.reference.size
+    return _scores(prepared.reference, prepared.comparisons, np.asarray(magnitude_errors),
+                   _smoothed_slope_circular(prepared.reference),
+                   _smoothed_slope_circular(prepared.rotated), prepared.shifts,
+                   prepared.shifts * 360.0 / n, params)
+
+
+def _rate_periodic(reference: np.ndarray, comparisons: np.ndarray, params: IsoParameters,
+                   max_samples: int) -> list[IsoScores]:
+    """Periodic ISO rating of each row of ``comparisons`` against ``reference`` (checked inputs)."""
+    prepared = _prepared(reference, comparisons, params, max_samples)
+    return _rated(prepared, _magnitude_errors_circular([prepared], params)[0], params)
 
 
 def _sample_spacing(measured: Any, dt: float | None, fs: float | None) -> float:
@@ -541,25 +618,55 @@ def _magnitude_error(reference: np.ndarray, comparison: np.ndarray,
     return _relative_l1(comparison[ix], reference[iy], "magnitude")
 
 
-def _magnitude_errors_circular(reference: np.ndarray, comparisons: np.ndarray,
-                               params: IsoParameters) -> list[float]:
+def _magnitude_errors_circular(sets: Sequence[_Prepared],
+                               params: IsoParameters) -> list[list[float]]:
     """Relative L1 error of each DTW-warped pair over one revolution, free of the path's anchors.
 
-    Both signals are repeated to three revolutions, so that the path's fixed start and end lie a
-    revolution away from the middle one; the path cells whose measured sample lies in the middle
-    revolution are scored. (Two band widths of margin were not enough: on dissimilar signals the
-    anchors still moved E_M by up to 0.3; half a revolution moved it by up to 0.14.) One DTW sweep
-    serves all rows of ``comparisons``.
+    Per set, each rotated row against the set's reference. Both signals are repeated to three
+    revolutions, so that the path's fixed start and end lie a revolution away from the middle
+    one; the path cells whose measured sample lies in the middle revolution are scored. (Two
+    band widths of margin were not enough: on dissimilar signals the anchors still moved E_M by
+    up to 0.3; half a revolution moved it by up to 0.14.) One DTW sweep serves the rows of
+    several sets (:func:`_sweeps`).
     """
-    n = reference.size
-    paths = dtw_paths(np.tile(comparisons, 3), np.tile(reference, 3)[np.newaxis],
-                      _band_radius(n, params), y_from=n)
-    errors = []
-    for comparison, (ix, iy) in zip(comparisons, paths, strict=True):
-        inside = (iy >= n) & (iy < 2 * n)
-        errors.append(_relative_l1(comparison[ix[inside] % n], reference[iy[inside] % n],
-                                   "magnitude"))
+    errors: list[list[float]] = [[] for _ in sets]
+    for sweep in _sweeps(sets):
+        n = sets[sweep[0]].reference.size
+        rows = np.concatenate([np.tile(sets[i].rotated, 3) for i in sweep])
+        # one set: its reference once (dtw_paths spreads it); several: one per row
+        references = (np.tile(sets[sweep[0]].reference, 3)[np.newaxis] if len(sweep) == 1
+                      else np.concatenate([np.broadcast_to(np.tile(sets[i].reference, 3),
+                                                           (sets[i].rotated.shape[0], 3 * n))
+                                           for i in sweep]))
+        paths = dtw_paths(rows, references, _band_radius(n, params), y_from=n)
+        for i in sweep:
+            reference = sets[i].reference
+            for comparison, (ix, iy) in zip(sets[i].rotated,
+                                            itertools.islice(paths, sets[i].rotated.shape[0]),
+                                            strict=True):
+                inside = (iy >= n) & (iy < 2 * n)
+                errors[i].append(_relative_l1(comparison[ix[inside] % n],
+                                              reference[iy[inside] % n], "magnitude"))
     return errors
+
+
+def _sweeps(sets: Sequence[_Prepared]) -> list[list[int]]:
+    """Group the sets into DTW sweeps: one sample count each, filled to :data:`ROWS_PER_SWEEP`.
+
+    A set of more rows than that is a sweep of its own (:func:`rigval.processing.dtw.dtw_paths`
+    bounds its memory batch by batch).
+    """
+    sweeps: list[list[int]] = []
+    filling: dict[int, tuple[list[int], int]] = {}
+    for i, prepared in enumerate(sets):
+        n, count = prepared.reference.size, prepared.rotated.shape[0]
+        members, rows = filling.get(n, ([], ROWS_PER_SWEEP))
+        if not members or rows + count > ROWS_PER_SWEEP:
+            members, rows = [], 0
+            sweeps.append(members)
+        members.append(i)
+        filling[n] = members, rows + count
+    return sweeps
 
 
 def _corridor_scores(reference: np.ndarray, comparisons: np.ndarray,
