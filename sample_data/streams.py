@@ -44,7 +44,7 @@ from rigval.sample_data.rig import RigDraw
 from rigval.sample_data.sensors import PulseTrain, optical_pulses
 from rigval.sample_data.truth import TruthGrid, frame_vibration
 
-__all__ = ["DEVICE_NAMES", "stream_pieces"]
+__all__ = ["DEVICE_NAMES", "SAMPLED_QUANTITIES", "stream_pieces"]
 
 logger = logging.getLogger(__name__)
 
@@ -53,6 +53,10 @@ _Signal = Callable[[FloatArray], FloatArray]
 
 #: Device model of each stream.
 DEVICE_NAMES = {"cdaq": "cDAQ-9172", "wls1": "WLS-9163", "wls2": "WLS-9163"}
+#: The truth grid's quantities the channels are sampled from (:func:`stream_pieces`); the others
+#: (the rod's axis, length and bending moment) serve only the departures before.
+SAMPLED_QUANTITIES = frozenset({"acc_P1_x", "acc_P2_x", "frame_force_P3_x", "rod_B_axial_force",
+                                "rod_B_bending_stress", "torque_theta_F", "torque_theta_H"})
 #: ADC full scale by module: +-10 V (NI 9215), +-25 mV/V (NI 9237).
 _FULL_SCALE = {"NI 9215": 10.0, "NI 9237": 0.025}
 #: File unit of an analog channel by module.
