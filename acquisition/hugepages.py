@@ -45,6 +45,7 @@ blocks of huge-page size are reported to a host.
 
 from __future__ import annotations
 
+import ctypes
 import glob
 import logging
 import mmap
@@ -52,11 +53,12 @@ import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from functools import cache
 
 import numpy as np
 
 __all__ = ["HUGE_MARGIN", "HUGE_RESERVE", "MAPPED_BYTES", "free_block_bytes", "huge_pages_fit",
-           "mapped_empty", "plain_pages", "populate", "use_huge_pages"]
+           "is_mapped", "mapped_empty", "plain_pages", "populate", "use_huge_pages"]
 
 logger = logging.getLogger(__name__)
 
@@ -268,11 +270,37 @@ def mapped_empty(count: int, dtype: np.dtype | str, huge: bool = False) -> np.nd
     return np.frombuffer(area, dtype=dtype, count=count, offset=offset)
 
 
+@cache
+def _madvise() -> Callable[[int, int, int], int] | None:
+    """Return the C library's ``madvise`` (None outside Linux or without it).
+
+    Called through ctypes, it runs without the GIL: the hash thread goes on while the kernel
+    provides pages (``mmap.madvise`` holds the GIL for the whole call).
+    """
+    if sys.platform != "linux":
+        return None
+    try:
+        call = ctypes.CDLL(None, use_errno=True).madvise
+    except (OSError, AttributeError):
+        return None
+    call.argtypes, call.restype = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int], ctypes.c_int
+    return call
+
+
+def is_mapped(array: np.ndarray) -> bool:
+    """Return True if ``array`` lives in a memory map of :func:`mapped_empty`."""
+    base = array.base
+    if isinstance(base, memoryview):  # NumPy 2 keeps the buffer's memoryview as the base
+        base = base.obj
+    return isinstance(base, mmap.mmap)
+
+
 def populate(array: np.ndarray, start: int, stop: int) -> None:
     """Have the kernel provide the pages of values ``start`` to ``stop - 1`` now, in one call.
 
     Does nothing for arrays not made by :func:`mapped_empty` with a memory map, and where the
     kernel lacks ``MADV_POPULATE_WRITE`` (the pages then come one fault at a time, as usual).
+    The call releases the GIL.
 
     Parameters
     ----------
@@ -281,15 +309,14 @@ def populate(array: np.ndarray, start: int, stop: int) -> None:
     start, stop : int
         Range of values about to be written.
     """
-    area = array.base
-    if not (_populate_works[0] and isinstance(area, mmap.mmap) and stop > start):
+    call = _madvise() if _populate_works[0] else None
+    if call is None or stop <= start or not is_mapped(array):
         return
     page = mmap.PAGESIZE
-    skip = array.ctypes.data - np.frombuffer(area, dtype=np.uint8, count=1).ctypes.data
-    first = (skip + start * array.itemsize) // page * page
-    end = min(len(area), -(-(skip + stop * array.itemsize) // page) * page)
-    try:
-        area.madvise(_MADV_POPULATE_WRITE, first, end - first)
-    except OSError as error:  # kernels before 5.14: EINVAL
+    # the map starts on a page and its last page is whole, so the rounded range stays inside it
+    first = (array.ctypes.data + start * array.itemsize) // page * page
+    end = -(-(array.ctypes.data + stop * array.itemsize) // page) * page
+    if call(first, end - first, _MADV_POPULATE_WRITE) != 0:  # kernels before 5.14: EINVAL
         _populate_works[0] = False
-        logger.debug("MADV_POPULATE_WRITE not available (%s): pages come on first touch", error)
+        logger.debug("MADV_POPULATE_WRITE not available (%s): pages come on first touch",
+                     os.strerror(ctypes.get_errno()))

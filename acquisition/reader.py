@@ -9,6 +9,7 @@ refuses files with several.
 
 from __future__ import annotations
 
+import importlib
 import inspect
 import os
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -60,11 +61,10 @@ def read(path: str | os.PathLike[str], *, format: str | None = None,
         Unknown channels or groups (the message lists the available ones).
     """
     kind = detect_format(path) if format is None else format.lower()
-    readers = _readers()
-    if kind not in readers:
+    if kind not in _READERS:
         raise ConfigError(f"unknown format {format!r}", where={"key": "format"},
                           hint=f"use one of {', '.join(FORMATS)} or leave it unset")
-    reader = readers[kind]
+    reader = _reader(kind)
     accepted = inspect.signature(reader).parameters
     unknown = sorted(set(reader_options) - set(accepted))
     if unknown:
@@ -88,19 +88,22 @@ def reader_options(kind: str | None = None) -> set[str]:
     set of str
         Keyword names besides ``path``, ``channels``, ``time_range`` and ``device``.
     """
-    readers = _readers()
-    chosen = readers.values() if kind is None else [readers[kind]]
+    chosen = [_reader(k) for k in _READERS] if kind is None else [_reader(kind)]
     names = {name for reader in chosen for name in inspect.signature(reader).parameters}
     return names - {"path", "channels", "time_range", "device"}
 
 
-def _readers() -> dict[str, Callable[..., dict[str, xr.Dataset]]]:
-    """Return format -> reader function (imported here to keep ``import rigval`` light)."""
-    from rigval.acquisition.lvm import read_lvm
-    from rigval.acquisition.tdms import read_tdms
-    from rigval.acquisition.text_csv import read_csv
+#: Format -> module and name of its reader, imported on first use (``import rigval`` stays
+#: light, and a TDMS read does not import the text readers).
+_READERS = {"tdms": ("rigval.acquisition.tdms", "read_tdms"),
+            "csv": ("rigval.acquisition.text_csv", "read_csv"),
+            "lvm": ("rigval.acquisition.lvm", "read_lvm")}
 
-    return {"tdms": read_tdms, "csv": read_csv, "lvm": read_lvm}
+
+def _reader(kind: str) -> Callable[..., dict[str, xr.Dataset]]:
+    """Return the reader function of format ``kind`` (a key of :data:`_READERS`)."""
+    module, name = _READERS[kind]
+    return getattr(importlib.import_module(module), name)
 
 
 def read_stream(path: str | os.PathLike[str], **options: Any) -> xr.Dataset:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pytest
 
@@ -49,6 +51,29 @@ def test_mapped_arrays_are_plain_writable_arrays_and_populate_keeps_values() -> 
     populate(part, n // 3, n // 2)
     part[n // 3:n // 2] = 2.5
     assert float(part[n // 3:n // 2].sum()) == 2.5 * (n // 2 - n // 3)
+
+
+def _resident_kib() -> int:
+    """Return this process's resident memory (``VmRSS``), KiB."""
+    with open("/proc/self/status") as status:
+        return int(next(line for line in status if line.startswith("VmRSS:")).split()[1])
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="MADV_POPULATE_WRITE is Linux's")
+def test_populate_makes_the_pages_resident_before_they_are_written() -> None:
+    from rigval.acquisition import hugepages
+    from rigval.acquisition.hugepages import is_mapped, mapped_empty, populate
+
+    n = 64 << 17  # 64 MiB of float64
+    array = mapped_empty(n, "<f8")
+    assert is_mapped(array) and not is_mapped(np.empty(n, "<f8"))
+    before = _resident_kib()
+    populate(array, n // 4, n // 4 + (32 << 17))  # 32 MiB in the middle
+    if not hugepages._populate_works[0]:
+        pytest.skip("this kernel has no MADV_POPULATE_WRITE (before 5.14)")
+    grown = _resident_kib() - before
+    assert 31 << 10 <= grown <= 40 << 10  # the 32 MiB asked for (KiB), not the whole map
+    assert not array[n // 4:n // 4 + (32 << 17)].any()  # new pages read as zeros
 
 
 # /proc/buddyinfo as Linux prints it: free blocks of 2**k pages for k = 0..10, per zone.
