@@ -374,11 +374,10 @@ def _mechanism_sketch(result: ValidationResult) -> list[Figure]:
                              configuration=result.configuration)]
 
 
-#: The page's figure groups, in the order :func:`start_figures` hands them to the drawing; the
-#: first (the comparisons', about half the drawing) is drawn by a forked child where it helps.
+#: The page's figure groups, in the order :func:`start_figures` hands them to the drawing.
 _FIGURE_GROUPS = ("comparisons", "pulse_edges", "clock_residuals", "stream_coverage", "sketch",
                   "points", "support_forces")
-#: The figure groups a forked child draws (:func:`start_figures`).
+#: The figure groups a forked child draws where it helps (:func:`start_figures`).
 _DRAWN_BESIDE = ("comparisons", "points", "support_forces")
 
 
