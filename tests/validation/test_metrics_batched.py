@@ -259,3 +259,10 @@ def test_periodic_ratings_are_those_compare_and_baseline_compute():
         given = baseline(cycles, mean, metrics=("iso18571_periodic",), iso=iso_cycles)
         for key, values in alone.per_cycle.items():
             np.testing.assert_array_equal(given.per_cycle[key], values)
+
+
+def test_ratings_of_other_cycles_are_refused():
+    reference, models = _cases("random", 40)
+    ratings = iso18571_periodic_many(reference, models)
+    with pytest.raises(DataError, match="5 ISO ratings given for 6 cycles"):
+        baseline(models, reference, metrics=("iso18571_periodic",), iso=ratings[:5])

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from rigval.acquisition.errors import ConfigError
+from rigval.acquisition.errors import ConfigError, DataError
 from rigval.validation.metrics.core import Scores, as_cycles, as_signal, paired, revolution_angle
 from rigval.validation.metrics.iso18571 import (
     IsoParameters,
@@ -391,7 +391,8 @@ def baseline(cycles: Any, mean: Any = None, *, angle: Any = None,
     ConfigError
         For ``vv20`` or an unknown metric among ``metrics``.
     DataError
-        For fewer than 2 cycles, NaN samples or shapes that do not match.
+        For fewer than 2 cycles, NaN samples, shapes that do not match, or ``iso`` ratings of
+        another number of cycles.
 
     Notes
     -----
@@ -403,6 +404,9 @@ def baseline(cycles: Any, mean: Any = None, *, angle: Any = None,
                           where={"key": "metrics"}, hint="leave vv20 out of the baseline")
     _check_options(metrics, None)
     array = as_cycles(cycles)
+    if iso is not None and len(iso) != array.shape[0]:
+        raise DataError(f"{len(iso)} ISO ratings given for {array.shape[0]} cycles",
+                        where={"key": "iso"}, hint="rate the same cycles (periodic_ratings)")
     angle_deg = np.degrees(revolution_angle(angle, array.shape[1], cycles))
     reference = array.mean(axis=0) if mean is None else as_signal(mean, "mean")
     reference, _ = paired(reference, array[0])
