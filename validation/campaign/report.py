@@ -68,6 +68,11 @@ _METRIC_COLUMNS = ["run", "status", "speed_rev_s", "comparison", "row", "metric"
                    "text", "threshold", "passed"]
 #: Most metrics the speed plot shows (those with thresholds first).
 _MAX_PLOTTED = 6
+#: The speed plot's fixed margins in inches (a layout engine would draw it twice): left, bottom,
+#: above each row (a title of up to two lines), and the legend's column at the right.
+_LEFT_IN, _BOTTOM_IN, _TITLE_IN, _LEGEND_IN = 0.7, 0.55, 0.55, 1.5
+#: Longest panel title on one line; a longer one puts its threshold on a second line.
+_TITLE_CHARS = 36
 
 
 @dataclass(frozen=True)
@@ -154,7 +159,11 @@ def plot_metrics_against_speed(table: pd.DataFrame, *, metrics: Sequence[str] | 
     n = max(len(metrics), 1)
     columns = min(n, 3)
     rows = -(-n // columns)
-    fig = Figure(figsize=(ax_width * columns, 2.8 * rows), layout="constrained")
+    width, height = ax_width * columns + _LEGEND_IN, 2.8 * rows + _TITLE_IN
+    fig = Figure(figsize=(width, height))
+    fig.subplots_adjust(left=_LEFT_IN / width, right=1.0 - _LEGEND_IN / width,
+                        bottom=_BOTTOM_IN / height, top=1.0 - _TITLE_IN / height,
+                        wspace=0.3, hspace=0.55)
     axes = fig.subplots(rows, columns, squeeze=False).ravel()
     for ax in axes[len(metrics):]:
         ax.set_visible(False)
@@ -172,6 +181,8 @@ def plot_metrics_against_speed(table: pd.DataFrame, *, metrics: Sequence[str] | 
         title = metric
         if len(thresholds) == 1:
             title = f"{metric} (pass: {thresholds[0]})"
+            if len(title) > _TITLE_CHARS:
+                title = f"{metric}\n(pass: {thresholds[0]})"
             limit = re.fullmatch(r"\s*[<>]=?\s*([-+0-9.eE]+)\s*", str(thresholds[0]))
             if limit:
                 ax.axhline(float(limit.group(1)), color="0.4", linestyle="--", linewidth=1)
@@ -180,8 +191,9 @@ def plot_metrics_against_speed(table: pd.DataFrame, *, metrics: Sequence[str] | 
         ax.grid(alpha=0.3)
     if len(metrics):
         handles, labels = axes[0].get_legend_handles_labels()
-        fig.legend(handles, labels, loc="outside right upper", fontsize="small",
-                   title="comparison", title_fontsize="small")
+        fig.legend(handles, labels, loc="upper left", fontsize="small", title="comparison",
+                   title_fontsize="small",
+                   bbox_to_anchor=(1.0 - (_LEGEND_IN - 0.15) / width, 1.0 - _TITLE_IN / height))
     return fig
 
 
