@@ -537,6 +537,37 @@ def _time_coordinate(time: FloatArray, attrs: Mapping[str, Any]) -> xr.Coordinat
                           indexes={"time": index})
 
 
+def _fill_unaligned(ref_time: FloatArray, own_time: FloatArray, lost: np.ndarray) -> None:
+    """Give unaligned samples a placeholder reference time, in place, so the axis stays increasing.
+
+    A lost sample's placeholder is its device time (s) plus the offset (reference minus device
+    time, s) interpolated linearly between the aligned samples on either side of its run, or
+    that of the nearest aligned sample beyond the record's ends; zero offset when no sample is
+    aligned. Only the lost samples and the aligned ends of their runs are touched (no
+    whole-record index or offset arrays): equal, value for value, to ``np.interp`` over every
+    aligned sample, which uses the same two neighbours.
+
+    Parameters
+    ----------
+    ref_time : numpy.ndarray
+        Reference times (s), NaN at the lost samples; filled there.
+    own_time : numpy.ndarray
+        Device times (s) of the same samples.
+    lost : numpy.ndarray
+        Boolean mask of the samples without a reference time.
+    """
+    where = np.flatnonzero(lost)
+    if where.size == ref_time.size:
+        ref_time[:] = own_time + 0.0
+        return
+    # first and last sample of each lost run, then their aligned neighbours
+    starts = where[np.concatenate(([True], np.diff(where) > 1))]
+    stops = where[np.concatenate((np.diff(where) > 1, [True]))] + 1
+    anchors = np.unique(np.concatenate((starts[starts > 0] - 1, stops[stops < lost.size])))
+    offset = np.interp(where, anchors, ref_time[anchors] - own_time[anchors])
+    ref_time[where] = own_time[where] + offset
+
+
 def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = None,
                  reference_start: str | None = None, device_time: bool = True) -> xr.Dataset:
     """Put a stream on the reference timeline with its clock model.
@@ -585,12 +616,7 @@ def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = No
                       f"{list(clock.unaligned_segments)} could not be aligned (no matched "
                       "reference pulses) and were marked invalid; alignment.json lists them",
                       DataWarning, stacklevel=2)
-        # Unaligned samples get a placeholder: the device time plus the offset interpolated
-        # from the aligned neighbours, so the coordinate stays increasing.
-        good = np.flatnonzero(~lost)
-        offset = (np.interp(np.arange(ref_time.size), good, ref_time[good] - own_time[good])
-                  if good.size else np.zeros(ref_time.size))
-        ref_time = np.where(lost, own_time + offset, ref_time)
+        _fill_unaligned(ref_time, own_time, lost)
         counts = invalid_counts(stream)
         newly = int(np.count_nonzero(lost & stream["valid"].to_numpy()))
         counts["unaligned segment"] = counts.get("unaligned segment", 0) + newly

@@ -27,6 +27,7 @@ from rigval.processing.errors import AlignmentError
 __all__ = [
     "OUTLIER_SIGMAS",
     "SLOPES_HELD",
+    "SLOPE_BINS",
     "Match",
     "match_events",
     "match_segment",
@@ -200,13 +201,19 @@ def _slope_rows(x: FloatArray, y: FloatArray, rows: range) -> Iterator[FloatArra
         yield row
 
 
+#: Bins of the counting pass of :func:`pairwise_slope_median`: edges from a sample of the slopes,
+#: so that the bins holding the middle ranks keep about ``total / SLOPE_BINS`` slopes.
+SLOPE_BINS = 1024
+
+
 def pairwise_slope_median(x: FloatArray, y: FloatArray) -> float:
     """Return the median of all pairwise slopes, exactly as numpy.median of them all.
 
     Up to :data:`SLOPES_HELD` slopes they are taken at once. Beyond, the median is selected
-    without holding them: the slopes of every k-th row bracket the median, one pass counts the
-    slopes below the bracket and keeps those inside it, and the middle ranks are picked from
-    those (the bracket is widened and the pass repeated if the middle lies outside it).
+    without holding them, in two passes over the slopes row by row: the first counts them in
+    bins whose edges are quantiles of the slopes of every k-th row (:data:`SLOPE_BINS`), the
+    second keeps only those of the bins that hold the middle ranks, from which the middle ranks
+    are picked. A sample of rows far from the median of all only makes those bins fuller.
 
     Parameters
     ----------
@@ -228,22 +235,22 @@ def pairwise_slope_median(x: FloatArray, y: FloatArray) -> float:
     sample = np.sort(np.concatenate(list(_slope_rows(x, y, range(0, n - 1, stride)))))
     if np.isnan(sample[-1]):
         return math.nan
-    half = max(8, int(8.0 * math.sqrt(sample.size)))  # about 16 sigma of the median's rank
-    middle = sample.size // 2
-    while True:
-        low = sample[max(middle - half, 0)] if middle - half > 0 else -np.inf
-        high = sample[middle + half] if middle + half < sample.size else np.inf
-        below, inside = 0, []
-        for row in _slope_rows(x, y, range(n - 1)):
-            if np.isnan(row).any():
-                return math.nan
-            below += int(np.count_nonzero(row < low))
-            inside.append(row[(row >= low) & (row <= high)])
-        kept = np.sort(np.concatenate(inside))
-        if below <= ranks[0] and ranks[1] < below + kept.size:
-            return float(np.mean(kept[[ranks[0] - below, ranks[1] - below]]))
-        logger.debug("pairwise slope median outside its bracket: widened")
-        half *= 4
+    edges = np.unique(sample[::max(1, sample.size // SLOPE_BINS)])
+    del sample
+    # bin b holds the slopes in [edges[b - 1], edges[b]), bin 0 those below edges[0]
+    counts = np.zeros(edges.size + 1, dtype=np.int64)
+    for row in _slope_rows(x, y, range(n - 1)):
+        if np.isnan(row).any():
+            return math.nan
+        counts += np.bincount(np.searchsorted(edges, row, side="right"), minlength=counts.size)
+    cumulative = np.cumsum(counts)
+    first, last = (int(np.searchsorted(cumulative, rank, side="right")) for rank in ranks)
+    below = int(cumulative[first - 1]) if first else 0
+    low = edges[first - 1] if first else -np.inf
+    high = edges[last] if last < edges.size else np.inf
+    kept = np.sort(np.concatenate([row[(row >= low) & (row < high)]
+                                   for row in _slope_rows(x, y, range(n - 1))]))
+    return float(np.mean(kept[[ranks[0] - below, ranks[1] - below]]))
 
 
 def _line_fit(x: FloatArray, y: FloatArray) -> FloatArray:

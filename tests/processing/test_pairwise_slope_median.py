@@ -33,15 +33,16 @@ def test_selected_median_equals_numpys_of_all_slopes(monkeypatch, n, seed):
     assert pairwise_slope_median(x, y) == expected
 
 
-def test_ties_and_a_bracket_that_misses_are_still_exact(monkeypatch):
-    # slopes of only three values: the bracket from a sample of rows can hold no middle rank
-    # on its first pass, and must widen
+def test_ties_and_a_sample_far_from_the_median_are_still_exact(monkeypatch):
+    # slopes of only three values: the bins from a sample of rows have few distinct edges and
+    # the middle ranks fall in a bin of many equal slopes
     x = np.arange(300, dtype=float)
     y = np.where(np.arange(300) % 3 == 0, 2.0 * x, x)
     expected = float(np.median(_all_slopes(x, y)))
     monkeypatch.setattr(event_match, "SLOPES_HELD", 50)
     assert pairwise_slope_median(x, y) == expected
-    # a sample of the first rows only: their slopes lie far from the median of all
+    # a sample of the first rows only: their slopes lie far from the median of all, so the
+    # middle ranks fall in a full bin beyond the sampled edges
     y2 = x.copy()
     y2[:20] = -50.0 * x[:20]
     assert pairwise_slope_median(x, y2) == float(np.median(_all_slopes(x, y2)))
@@ -54,3 +55,14 @@ def test_a_nan_slope_gives_nan_as_numpy_does(monkeypatch):
     monkeypatch.setattr(event_match, "SLOPES_HELD", 100)
     assert math.isnan(pairwise_slope_median(x, y))
     assert math.isnan(float(np.median(_all_slopes(x, y))))
+
+
+@pytest.mark.parametrize("bins", [1, 2, 7])
+def test_few_bins_keep_the_middle_ranks_exact(monkeypatch, bins):
+    # coarse bins: the two middle ranks may lie in different bins, or beyond every edge
+    rng = np.random.default_rng(bins)
+    x = np.sort(rng.uniform(0.0, 10.0, 301))
+    y = 0.5 * x + rng.standard_normal(301)
+    monkeypatch.setattr(event_match, "SLOPES_HELD", 1000)
+    monkeypatch.setattr(event_match, "SLOPE_BINS", bins)
+    assert pairwise_slope_median(x, y) == float(np.median(_all_slopes(x, y)))

@@ -167,25 +167,54 @@ def welch_runs(values: FloatArray, run: np.ndarray, fs: float,
                     float(frequency[1] - frequency[0]), nperseg / fs)
 
 
+#: Samples per block of the order fit: its design rows of a block (2 K + 3 columns, 22 MiB at
+#: K = 40) are built, used and let go before the next (docs/performance.md, long records).
+ORDER_FIT_BLOCK = 2**15
+
+
+def _blocks(n: int, size: int = ORDER_FIT_BLOCK) -> range:
+    """Return the first sample of each block of ``size`` samples of ``n``."""
+    return range(0, n, size)
+
+
+def _design(phi: FloatArray, k: np.ndarray, centre: float, span: float) -> FloatArray:
+    """Design rows at ``phi`` (rad): cos and sin of the orders ``k``, and the slow trend."""
+    u = (phi - centre) / span
+    return np.concatenate([np.cos(np.outer(phi, k)), np.sin(np.outer(phi, k[1:])),
+                           np.column_stack([u, u**2])], axis=1)
+
+
 def _order_fit(phi: FloatArray, values: FloatArray, max_order: int) -> FloatArray:
     """Least-squares Fourier coefficients of ``values`` over phi_F, orders 0 ... max_order.
 
     Returns complex coefficients ``c_k`` with ``values ~ Re(sum c_k exp(i k phi))``. A slow
     trend (a bridge's thermal drift, quadratic in phi_F) is fitted beside them and left out: over
-    whole revolutions a ramp would otherwise leak into every order as a sawtooth.
+    whole revolutions a ramp would otherwise leak into every order as a sawtooth. The normal
+    equations are summed block by block (:data:`ORDER_FIT_BLOCK` samples), so that the design
+    matrix of the whole record is never built; equal to the whole-matrix sums up to their
+    summation order.
     """
     k = np.arange(max_order + 1)
-    u = (phi - phi.mean()) / np.ptp(phi)
-    design = np.concatenate([np.cos(np.outer(phi, k)), np.sin(np.outer(phi, k[1:])),
-                             np.column_stack([u, u**2])], axis=1)
+    centre, span = phi.mean(), np.ptp(phi)
+    columns = 2 * max_order + 3
+    normal, right = np.zeros((columns, columns)), np.zeros(columns)
+    for start in _blocks(phi.size):
+        design = _design(phi[start:start + ORDER_FIT_BLOCK], k, centre, span)
+        normal += design.T @ design
+        right += design.T @ values[start:start + ORDER_FIT_BLOCK]
     # normal equations: the columns are near orthogonal over whole revolutions (fast, stable)
-    coef = np.linalg.solve(design.T @ design, design.T @ values)[:2 * max_order + 1]
+    coef = np.linalg.solve(normal, right)[:2 * max_order + 1]
     return np.concatenate([[coef[0]], coef[1:max_order + 1] - 1j * coef[max_order + 1:]])
 
 
 def _orders_at(coef: FloatArray, phi: FloatArray) -> FloatArray:
+    """Return the order series ``Re(sum c_k exp(i k phi))`` at ``phi`` (rad), block by block."""
     k = np.arange(coef.size)
-    return np.real(np.exp(1j * np.outer(phi, k)) @ coef)
+    out = np.empty(phi.size)
+    for start in _blocks(phi.size):
+        block = phi[start:start + ORDER_FIT_BLOCK]
+        out[start:start + block.size] = np.real(np.exp(1j * np.outer(block, k)) @ coef)
+    return out
 
 
 @dataclass(frozen=True)
@@ -226,8 +255,9 @@ def residual_parts(series: ResidualSeries, upper_hz: float) -> ResidualParts:
     measured, _, _ = decimated_runs(series.measured, series.run, q)
     phi = series.phi[index]
     coef = _order_fit(phi, residual, max(int(upper_hz / series.speed_rev_s), 1))
-    return ResidualParts(series.fs / q, residual, residual - _orders_at(coef, phi), measured,
-                         run, coef)
+    nonsynchronous = _orders_at(coef, phi)
+    np.subtract(residual, nonsynchronous, out=nonsynchronous)
+    return ResidualParts(series.fs / q, residual, nonsynchronous, measured, run, coef)
 
 
 def residual_spectra(series: ResidualSeries, upper_hz: float = 40.0) -> ResidualSpectra:
