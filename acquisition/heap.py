@@ -12,28 +12,13 @@ costs milliseconds. Off glibc (macOS, Windows, musl) it does nothing.
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import logging
-import sys
-from functools import cache
+
+from rigval.acquisition.libc import libc_function
 
 __all__ = ["release_free_heap"]
 
 logger = logging.getLogger(__name__)
-
-
-@cache
-def _malloc_trim():
-    """Return glibc's ``malloc_trim`` (None where the C library has none)."""
-    if not sys.platform.startswith("linux"):
-        return None
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        trim = libc.malloc_trim
-    except (OSError, AttributeError):
-        return None
-    trim.argtypes, trim.restype = [ctypes.c_size_t], ctypes.c_int
-    return trim
 
 
 def release_free_heap() -> bool:
@@ -44,7 +29,7 @@ def release_free_heap() -> bool:
     bool
         glibc's answer (False also where there is no ``malloc_trim``).
     """
-    trim = _malloc_trim()
+    trim = libc_function("malloc_trim", (ctypes.c_size_t,), ctypes.c_int)
     if trim is None:
         return False
     released = bool(trim(0))

@@ -53,9 +53,10 @@ import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from functools import cache
 
 import numpy as np
+
+from rigval.acquisition.libc import libc_function
 
 __all__ = ["HUGE_MARGIN", "HUGE_RESERVE", "MAPPED_BYTES", "free_block_bytes", "huge_pages_fit",
            "is_mapped", "mapped_empty", "plain_pages", "populate", "use_huge_pages"]
@@ -270,23 +271,6 @@ def mapped_empty(count: int, dtype: np.dtype | str, huge: bool = False) -> np.nd
     return np.frombuffer(area, dtype=dtype, count=count, offset=offset)
 
 
-@cache
-def _madvise() -> Callable[[int, int, int], int] | None:
-    """Return the C library's ``madvise`` (None outside Linux or without it).
-
-    Called through ctypes, it runs without the GIL: the hash thread goes on while the kernel
-    provides pages (``mmap.madvise`` holds the GIL for the whole call).
-    """
-    if sys.platform != "linux":
-        return None
-    try:
-        call = ctypes.CDLL(None, use_errno=True).madvise
-    except (OSError, AttributeError):
-        return None
-    call.argtypes, call.restype = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int], ctypes.c_int
-    return call
-
-
 def is_mapped(array: np.ndarray) -> bool:
     """Return True if ``array`` lives in a memory map of :func:`mapped_empty`."""
     base = array.base
@@ -309,7 +293,8 @@ def populate(array: np.ndarray, start: int, stop: int) -> None:
     start, stop : int
         Range of values about to be written.
     """
-    call = _madvise() if _populate_works[0] else None
+    call = (libc_function("madvise", (ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int),
+                          ctypes.c_int) if _populate_works[0] else None)
     if call is None or stop <= start or not is_mapped(array):
         return
     page = mmap.PAGESIZE
