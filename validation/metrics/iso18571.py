@@ -661,7 +661,7 @@ def _sweeps(sets: Sequence[_Prepared]) -> list[list[int]]:
     filling: dict[int, tuple[list[int], int]] = {}
     for i, prepared in enumerate(sets):
         n, count = prepared.reference.size, prepared.rotated.shape[0]
-        members, rows = filling.get(n, ([], ROWS_PER_SWEEP))
+        members, rows = filling.get(n, ([], 0))
         if not members or rows + count > ROWS_PER_SWEEP:
             members, rows = [], 0
             sweeps.append(members)
