@@ -382,7 +382,7 @@ _DRAWN_BESIDE = ("comparisons", "sketch", "points", "support_forces")
 
 
 def start_figures(result: ValidationResult) -> Drawing:
-    """Start drawing the page's figures as SVG text; a forked child draws the comparisons'.
+    """Start drawing the page's figures as SVG text; a forked child draws most of them.
 
     No figure shows the diagnosis, so the drawing may start before
     :func:`rigval.validation.diagnosis.explain.attach_diagnosis` and the child draw beside it

@@ -5,9 +5,9 @@ everything the report needs; :func:`validate_scene` adds why the model disagrees
 (:func:`rigval.validation.diagnosis.explain.attach_diagnosis`: the diagnosis package reads the
 pipeline's results, so the pipeline does not call it) and writes the folder from that result alone
 (:func:`rigval.validation.report.run_report.write_report`) and returns the result with the files
-written. The figures no diagnosis enters are started first, so that a forked child draws the
-comparisons' figures while this process diagnoses. The pipeline itself never imports the report
-package (docs/architecture.md).
+written. The figures no diagnosis enters are started first, so that a forked child draws most
+of them (the comparisons', the sketch, the points' and the support forces') while this process
+diagnoses. The pipeline itself never imports the report package (docs/architecture.md).
 """
 
 from __future__ import annotations
