@@ -5,7 +5,8 @@ every figure drawn as the report embeds it, inline SVG text) once to warm up and
 times, all in this process (no forked child, so that the CPU time is the page's whole cost), and
 prints the minimum and median CPU time per page (``time.process_time``), then the CPU time of
 each figure group of :func:`rigval.validation.report.run_report.start_figures`, averaged over
-the repeats, and which groups a forked child draws when one helps.
+the repeats, and the drawer that draws it in ``rigval validate``
+(:data:`rigval.validation.report.run_report.FIGURE_GROUPS`).
 
 With ``--against FILE``, FILE is another version of ``rigval/validation/report/plots.py`` (for
 instance ``git show 132f4c9:validation/report/plots.py > /tmp/old_plots.py``): the page is then
@@ -22,16 +23,18 @@ import argparse
 import collections
 import importlib.util
 import statistics
+import sys
 import time
 from pathlib import Path
 
 from rigval.sample_data import shipped_runs
-from rigval.validation import beside
 from rigval.validation.diagnosis.explain import attach_diagnosis
 from rigval.validation.pipeline import run_scene
 from rigval.validation.report import plots, run_report
-from rigval.validation.report.drawing import Drawing
+from rigval.validation.report.drawing import draw_texts
 from rigval.validation.results import ValidationResult
+
+PLOTS = "rigval.validation.report.plots"
 
 
 def _page_seconds(result: ValidationResult) -> float:
@@ -48,16 +51,18 @@ def per_group(result: ValidationResult, repeats: int) -> None:
           f"median {statistics.median(pages):.3f} s over {repeats} builds")
     seconds: dict[str, float] = collections.defaultdict(float)
     for _ in range(repeats):
-        drawing = run_report.start_figures(result)
-        for name, group in zip(run_report._FIGURE_GROUPS, drawing._groups, strict=True):
+        groups = run_report._figure_groups(run_report.FigureInputs.of(result))
+        for name, group in groups.items():
             start = time.process_time()
-            Drawing([group]).texts()
+            draw_texts(group())
             seconds[name] += time.process_time() - start
-    beside_names = set(run_report._DRAWN_BESIDE)
-    print(f"figures: {sum(seconds.values()) / repeats:.3f} s CPU per page; by group "
-          "(* drawn by the forked child where one helps):")
+    drawer = {name: k for k, names in enumerate(run_report.FIGURE_GROUPS) for name in names}
+    print(f"figures: {sum(seconds.values()) / repeats:.3f} s CPU per page; by group and "
+          "the drawer that draws it:")
     for name, total in sorted(seconds.items(), key=lambda kv: -kv[1]):
-        print(f"{total / repeats:7.3f} s  {name}{' *' if name in beside_names else ''}")
+        print(f"{total / repeats:7.3f} s  {name} (drawer {drawer[name]})")
+    for k, names in enumerate(run_report.FIGURE_GROUPS):
+        print(f"drawer {k}: {sum(seconds[name] for name in names) / repeats:.3f} s")
 
 
 def against(result: ValidationResult, repeats: int, other: Path) -> None:
@@ -72,15 +77,15 @@ def against(result: ValidationResult, repeats: int, other: Path) -> None:
     times: dict[str, list[float]] = {name: [] for name in versions}
     try:
         for version in versions.values():  # warm up both
-            run_report.plots = version
+            sys.modules[PLOTS] = version
             _page_seconds(result)
         for round_ in range(repeats):
             order = list(versions.items())
             for name, version in order if round_ % 2 == 0 else order[::-1]:
-                run_report.plots = version
+                sys.modules[PLOTS] = version
                 times[name].append(_page_seconds(result))
     finally:
-        run_report.plots = plots
+        sys.modules[PLOTS] = plots
     for name, values in times.items():
         print(f"{name}: CPU min {min(values):.3f} s, median {statistics.median(values):.3f} s "
               f"per page over {repeats} builds")
@@ -91,7 +96,6 @@ def main() -> None:
     parser.add_argument("repeats", type=int, nargs="?", default=5)
     parser.add_argument("--against", type=Path, help="another version of report/plots.py")
     args = parser.parse_args()
-    beside.can_fork = lambda: False  # type: ignore[assignment]  # every figure drawn here
     result = attach_diagnosis(run_scene(shipped_runs()[0]))
     if args.against:
         against(result, args.repeats, args.against)

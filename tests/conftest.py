@@ -90,7 +90,7 @@ def forks_beside() -> None:
     """Skip unless :func:`rigval.validation.beside.can_fork` holds now, when the test runs.
 
     Decided at run time, not at collection: an earlier test (a Dask cluster, say) may have left a
-    thread running in this process, and with a second thread ``beside`` rightly refuses to fork.
+    thread running in this process, and with a second thread a ``Standby`` rightly refuses to fork.
     """
     from rigval.validation.beside import can_fork
 

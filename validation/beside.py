@@ -1,32 +1,42 @@
-"""Run a function in a child forked from this process, beside the work this process goes on with.
+"""Run calls in a child forked from this process, beside the work this process goes on with.
 
-A report's figures and the identification's two report folders are independent pieces of work
-of a second or so each; on a machine with a free core a forked child does one while this
-process does another. A fork starts in milliseconds with everything imported and every array
-in memory (copied only where written), and sends back its return value pickled.
+A report's figures are independent pieces of work of a second or so in all, and matplotlib's
+import takes another third of a second; on a machine with a free core a child draws them while
+this process does other work. A :class:`Standby` forks before its work is known, so that the
+child imports what the work will need (:class:`Standby` ``modules``: matplotlib and the
+plotting modules) while this process does something else (the pipeline); the calls handed to
+it later (:meth:`Standby.submit`) travel pickled, arguments and values, so this process never
+imports those modules.
 
-:func:`beside` forks only where it can help and is safe: the platform has ``fork``, this
-process runs one thread (forking a multi-threaded process can deadlock), it may use more than
-one CPU, and it is not itself a worker process (a campaign's or ``rigval demo``'s children
-already keep the cores busy). Otherwise, and whenever the child fails or ends without sending
-its value, the function runs in this process when its value is asked for, so an error shows
-here with its traceback and the outcome is the same either way.
+A standby forks only where it can help and is safe: the platform has ``fork``, this process
+runs one thread (forking a multi-threaded process can deadlock), it may use more than one CPU,
+and it is not itself a worker process (a campaign's or ``rigval demo``'s children already keep
+the cores busy). Otherwise, and whenever the child fails, ends without sending a value, or an
+argument or value does not pickle, the function runs in this process when its value is asked
+for, so an error shows here with its traceback and the outcome is the same either way.
 """
 
 from __future__ import annotations
 
+import copyreg
+import importlib
+import io
 import logging
 import multiprocessing
 import os
+import pickle
+import queue
+import signal
 import threading
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Generic, TypeVar
+from collections.abc import Callable, Iterable
+from types import MappingProxyType, TracebackType
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 if TYPE_CHECKING:
     from multiprocessing.connection import Connection
     from multiprocessing.process import BaseProcess
 
-__all__ = ["Beside", "beside", "can_fork"]
+__all__ = ["Pending", "Standby", "can_fork"]
 
 logger = logging.getLogger(__name__)
 
@@ -43,62 +53,171 @@ def can_fork() -> bool:
     return (cpus or 1) > 1
 
 
-class Beside(Generic[T]):
-    """A function started by :func:`beside`; :meth:`result` returns its value."""
+def _mapping_proxy(items: dict[Any, Any]) -> MappingProxyType[Any, Any]:
+    return MappingProxyType(items)
 
-    def __init__(self, function: Callable[[], T]) -> None:
+
+#: How the calls' arguments and values pickle: as the standard pickler does, and a read-only
+#: mapping (the scene's tables) as a read-only mapping of a copy of its items.
+_DISPATCH = {**copyreg.dispatch_table,
+             MappingProxyType: lambda proxy: (_mapping_proxy, (dict(proxy),))}
+
+
+def _dumps(value: object) -> bytes:
+    """Pickle ``value`` as :data:`_DISPATCH` says."""
+    buffer = io.BytesIO()
+    pickler = pickle.Pickler(buffer, protocol=pickle.HIGHEST_PROTOCOL)
+    pickler.dispatch_table = _DISPATCH
+    pickler.dump(value)
+    return buffer.getvalue()
+
+
+#: The ends of every standby's pipes that this process holds: each child closes its copies
+#: (its own pipes' and those of the standbys forked before it), so that a standby sees the end
+#: of its calls when this process closes it.
+_HELD_HERE: list[Connection] = []
+
+
+class Pending(Generic[T]):
+    """A call handed to a :class:`Standby`; :meth:`result` returns its value."""
+
+    def __init__(self, standby: Standby | None, function: Callable[..., T],
+                 args: tuple[Any, ...]) -> None:
+        self._standby = standby  # None: not sent, computed here when asked for
         self._function = function
-        self._child: tuple[Connection, BaseProcess] | None = None
-        if can_fork():
-            context = multiprocessing.get_context("fork")
-            receiver, sender = context.Pipe(duplex=False)
-            process = context.Process(target=_child, args=(sender, function),
-                                      name="rigval beside", daemon=True)
-            process.start()
-            sender.close()  # the child holds the only sending end: its exit means EOF
-            self._child = receiver, process
+        self._args = args
+        self._outcome: tuple[bool, Any] | None = None
 
     def result(self) -> T:
-        """Return the function's value: the child's, or computed here (see the module)."""
-        if self._child is not None:
-            receiver, process = self._child
-            self._child = None
-            with receiver:
-                try:
-                    done, value = receiver.recv()
-                except (EOFError, OSError):
-                    done, value = False, None
-            process.join()
-            if done:
-                return value  # type: ignore[no-any-return]
-            logger.debug("the child ended with code %s without a value; running it here",
-                         process.exitcode)
-        return self._function()
+        """Return the call's value: the child's, or computed here (see the module)."""
+        if self._standby is not None:
+            self._standby.receive_until(self)
+            self._standby = None
+        if self._outcome is None or not self._outcome[0]:
+            self._outcome = True, self._function(*self._args)
+        return self._outcome[1]  # type: ignore[no-any-return]
 
 
-def beside(function: Callable[[], T]) -> Beside[T]:
-    """Start ``function`` in a forked child where that helps (see the module).
+class Standby:
+    """A child forked now that imports ``modules``, then runs the calls handed to it in order.
+
+    Use it as a context manager: leaving it tells the child that no call will come and waits
+    for it to end. Where :func:`can_fork` says no, nothing is forked and every call runs in
+    this process when its value is asked for.
 
     Parameters
     ----------
-    function : callable
-        Called without arguments; its value must pickle. It may run twice (in the child,
-        then here if the child fails), so it must not depend on running once.
-
-    Returns
-    -------
-    Beside
-        Ask :meth:`Beside.result` for the value.
+    modules : iterable of str
+        Modules the child imports as soon as it starts (an import that fails is left to the
+        calls, which then fail and run here).
     """
-    return Beside(function)
+
+    def __init__(self, modules: Iterable[str] = ()) -> None:
+        self._unanswered: list[Pending[Any]] = []
+        self._child: tuple[Connection, Connection, BaseProcess] | None = None
+        if can_fork():
+            context = multiprocessing.get_context("fork")
+            call_out, call_in = context.Pipe(duplex=False)
+            value_out, value_in = context.Pipe(duplex=False)
+            process = context.Process(target=_serve, args=(call_out, value_in, tuple(modules)),
+                                      name="rigval standby", daemon=True)
+            _HELD_HERE.extend((call_in, value_out))  # the child closes its copies of these
+            process.start()
+            call_out.close()  # the child holds the only other ends
+            value_in.close()
+            self._child = call_in, value_out, process
+
+    def submit(self, function: Callable[..., T], *args: Any) -> Pending[T]:
+        """Hand ``function(*args)`` to the child; the value comes with :meth:`Pending.result`.
+
+        ``function`` must pickle (a module-level function); it may run twice (in the child,
+        then here if the child fails), so it must not depend on running once.
+        """
+        if self._child is not None:
+            try:
+                self._child[0].send_bytes(_dumps((function, args)))
+            except (pickle.PicklingError, TypeError, AttributeError, EOFError, OSError):
+                # a lambda or a lock does not pickle; a child that ended takes no call
+                logger.debug("the call runs here", exc_info=True)
+            else:
+                pending: Pending[T] = Pending(self, function, args)
+                self._unanswered.append(pending)
+                return pending
+        return Pending(None, function, args)
+
+    def receive_until(self, pending: Pending[Any]) -> None:
+        """Take the child's outcomes up to that of ``pending`` (the calls' order)."""
+        while pending in self._unanswered:
+            first = self._unanswered.pop(0)
+            first._outcome = False, None
+            if self._child is not None:
+                try:
+                    first._outcome = pickle.loads(self._child[1].recv_bytes())
+                except (EOFError, OSError):  # the child ended: the call runs here
+                    logger.debug("the standby child is gone", exc_info=True)
+
+    def close(self, *, stop: bool = False) -> None:
+        """Tell the child that no more calls come; wait for it to end.
+
+        With ``stop``, end it at once instead (its unanswered calls are not needed: an error
+        or Ctrl-C ends the work that handed them).
+        """
+        self._unanswered.clear()  # their values are computed here when asked for
+        if self._child is not None:
+            call_in, value_out, process = self._child
+            self._child = None
+            for end in (call_in, value_out):
+                end.close()
+                _HELD_HERE.remove(end)
+            if stop:
+                process.terminate()
+            process.join()
+
+    def __enter__(self) -> Standby:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
+                 trace: TracebackType | None) -> None:
+        self.close(stop=kind is not None)
 
 
-def _child(sender: Connection, function: Callable[[], T]) -> None:
-    """Call the function and send ``(True, value)``, or ``(False, None)`` when it failed."""
-    with sender:
+def _serve(calls: Connection, values: Connection, modules: tuple[str, ...]) -> None:
+    """Be the standby child: import ``modules``, then answer each call until there are no more.
+
+    The calls are read by a thread as they come, so that this process's parent never waits
+    to hand one over while the child works on another.
+    """
+    # Ctrl-C is the parent's to handle (it then ends this child): no traceback from here
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for end in _HELD_HERE:  # the parent's ends, of this standby's pipes and the earlier ones'
+        end.close()
+    inbox: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
+    threading.Thread(target=_read_calls, args=(calls, inbox), daemon=True).start()
+    for name in modules:
         try:
-            outcome: tuple[bool, T | None] = True, function()
-        except Exception:  # run again by the parent, which shows the error
-            logger.debug("the function failed in the child", exc_info=True)
-            outcome = False, None
-        sender.send(outcome)
+            importlib.import_module(name)
+        except Exception:  # the calls that need it fail and run in the parent
+            logger.debug("the standby child cannot import %s", name, exc_info=True)
+    with values:
+        while (call := inbox.get()) is not None:
+            values.send_bytes(_answer(call))
+
+
+def _read_calls(calls: Connection, inbox: queue.SimpleQueue[bytes | None]) -> None:
+    with calls:
+        while True:
+            try:
+                inbox.put(calls.recv_bytes())
+            except (EOFError, OSError):
+                inbox.put(None)
+                return
+
+
+def _answer(call: bytes) -> bytes:
+    """Return the pickled ``(True, value)`` of a pickled call, or ``(False, None)``."""
+    try:
+        function, args = pickle.loads(call)
+        return _dumps((True, function(*args)))
+    except Exception:  # run again by the parent, which shows the error
+        logger.debug("the call failed in the standby child", exc_info=True)
+        return _dumps((False, None))

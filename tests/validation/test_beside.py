@@ -1,66 +1,140 @@
-"""A function run beside this process gives the value it gives here, whatever befalls the child."""
+"""A call handed to a standby child gives the value it gives here, whatever befalls the child."""
 
 from __future__ import annotations
 
 import os
+import signal
+import subprocess
+import sys
 import threading
+import time
+from pathlib import Path
+from types import MappingProxyType
 
+import numpy as np
 import pytest
 
-from rigval.validation.beside import beside, can_fork
+from rigval.validation.beside import Standby, can_fork
+
+REPO = Path(__file__).resolve().parents[2]
 
 needs_fork = pytest.mark.usefixtures("forks_beside")
 
 
+def _pid_and(value):
+    return os.getpid(), value
+
+
+def _fails_in_a_child(parent: int) -> str:
+    if os.getpid() != parent:
+        raise RuntimeError("fails in the child")
+    return "done here"
+
+
+def _lock_unless_here(parent: int):
+    return threading.Lock() if os.getpid() != parent else "computed here"
+
+
+def _broken() -> None:
+    raise ValueError("bad input, with where and how to fix")
+
+
 @needs_fork
-def test_the_value_comes_from_a_child_process():
-    assert beside(os.getpid).result() != os.getpid()
-
-
-def test_the_value_equals_the_call_here():
-    def work():
-        return {"sum": sum(range(10_000)), "text": "é" * 3}
-
-    assert beside(work).result() == work()
+def test_standby_calls_run_in_its_child_in_order_with_their_arguments():
+    table = MappingProxyType({"a": MappingProxyType({"b": 1.5}), "c": np.arange(4.0)})
+    with Standby(["json"]) as standby:
+        calls = [standby.submit(_pid_and, (k, table)) for k in range(3)]
+        values = [call.result() for call in reversed(calls)][::-1]
+    pids = {pid for pid, _ in values}
+    assert len(pids) == 1 and os.getpid() not in pids
+    for k, (_, (number, copy)) in enumerate(values):
+        assert number == k
+        assert isinstance(copy, MappingProxyType) and copy["a"]["b"] == 1.5
+        np.testing.assert_array_equal(copy["c"], table["c"])
 
 
 @needs_fork
-def test_a_function_failing_in_the_child_runs_again_here():
+def test_standby_calls_that_fail_or_do_not_pickle_run_here():
     parent = os.getpid()
-
-    def only_here():
-        if os.getpid() != parent:
-            raise RuntimeError("fails in the child")
-        return "done here"
-
-    assert beside(only_here).result() == "done here"
+    with Standby() as standby:
+        failing = standby.submit(_fails_in_a_child, parent)
+        unpicklable_value = standby.submit(_lock_unless_here, parent)
+        unpicklable_call = standby.submit(lambda: os.getpid())
+        after = standby.submit(_pid_and, "after")
+        assert failing.result() == "done here"
+        assert unpicklable_value.result() == "computed here"
+        assert unpicklable_call.result() == parent
+        assert after.result()[0] != parent  # the child still serves
 
 
 @needs_fork
-def test_a_value_that_does_not_pickle_is_computed_here():
-    def lock():
-        return threading.Lock() if os.getpid() != parent else "computed here"
-
-    parent = os.getpid()
-    assert beside(lock).result() == "computed here"
-
-
-def test_an_error_shows_in_this_process():
-    def broken():
-        raise ValueError("bad input, with where and how to fix")
-
-    pending = beside(broken)
-    with pytest.raises(ValueError, match="bad input"):
-        pending.result()
+def test_standby_calls_run_here_when_the_child_is_killed():
+    with Standby() as standby:
+        child = standby.submit(os.getpid).result()
+        os.kill(child, signal.SIGKILL)
+        assert standby.submit(_pid_and, 1).result() == (os.getpid(), 1)
 
 
-def test_a_second_thread_keeps_the_work_in_this_process():
+def test_a_standby_error_shows_in_this_process():
+    with Standby() as standby:
+        pending = standby.submit(_broken)
+        with pytest.raises(ValueError, match="bad input"):
+            pending.result()
+
+
+def _closing_ends_each_child() -> None:
+    if not can_fork():
+        print("no fork")
+        return
+    first, second = Standby(), Standby()
+    pids = [first.submit(os.getpid).result(), second.submit(os.getpid).result()]
+    first.close()  # returns although the second child, forked after the first, still runs
+    with pytest.raises(ProcessLookupError):
+        os.kill(pids[0], 0)
+    os.kill(pids[1], 0)
+    second.close()
+    with pytest.raises(ProcessLookupError):
+        os.kill(pids[1], 0)
+
+
+def test_closing_a_standby_ends_its_child_while_a_later_one_runs():
+    code = "from tests.validation import test_beside as t; t._closing_ends_each_child()"
+    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
+                          text=True, timeout=120, check=False)
+    assert done.returncode == 0, done.stderr
+    if "no fork" in done.stdout:
+        pytest.skip("no fork here: no fork start method or one CPU")
+
+
+def test_a_second_thread_keeps_the_calls_in_this_process():
     stop = threading.Event()
     worker = threading.Thread(target=stop.wait)
     worker.start()
     try:
         assert not can_fork()
-        assert beside(os.getpid).result() == os.getpid()
+        with Standby() as standby:
+            assert standby.submit(os.getpid).result() == os.getpid()
     finally:
         stop.set()
         worker.join()
+
+
+def _an_error_ends_the_child_at_once() -> None:
+    if not can_fork():
+        print("no fork")
+        return
+    with pytest.raises(RuntimeError, match="stop"), Standby() as standby:
+        pid = standby.submit(os.getpid).result()
+        standby.submit(time.sleep, 600)  # never waited for: the error ends the child
+        raise RuntimeError("stop")
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)
+
+
+def test_an_error_ends_the_child_without_waiting_for_its_calls():
+    code = "from tests.validation import test_beside as t; t._an_error_ends_the_child_at_once()"
+    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
+                          text=True, timeout=120, check=False)
+    assert done.returncode == 0, done.stderr
+    if "no fork" in done.stdout:
+        pytest.skip("no fork here: no fork start method or one CPU")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import html
 import json
+import pickle
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -20,6 +21,7 @@ import xarray as xr
 
 from rigval.sample_data import RigSettings, simulate_rig
 from rigval.sample_data.departures import Departures
+from rigval.validation.beside import _dumps
 from rigval.validation.diagnosis.explain import (
     MODE_SHARE,
     CauseStatement,
@@ -35,7 +37,7 @@ from rigval.validation.diagnosis.spectra import residual_spectra, welch_runs
 from rigval.validation.pipeline import run_scene
 from rigval.validation.report.page import Page
 from rigval.validation.report.run_report import write_metrics, write_netcdf
-from rigval.validation.report.why import why_section
+from rigval.validation.report.why import draw_why_figures, why_section
 from rigval.validation.results import ValidationResult
 from rigval.validation.verdict import run_verdict
 
@@ -225,3 +227,8 @@ def test_a_named_mode_reaches_the_verdict_metrics_netcdf_and_report(tmp_path):
     page = Page("why")
     why_section(page, result)
     assert html.escape(statement.sentence) in page.render()
+    # a drawer draws the section's figure from its inputs pickled (rigval.validation.beside):
+    # the diagnosis must travel whole, so that the figure equals the one drawn here
+    inputs = (tuple(result.comparisons[:2]), result.diagnosis)
+    travelled = pickle.loads(_dumps(inputs))
+    assert draw_why_figures(travelled, ("why",)) == draw_why_figures(inputs, ("why",))

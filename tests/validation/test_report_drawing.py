@@ -1,4 +1,4 @@
-"""Figures drawn by a forked child equal those drawn in one process, and failures fall back.
+"""Figures drawn by standby drawers equal those drawn in one process, and failures fall back.
 
 The reference is the plain route: every figure drawn in this process by ``svg_text``, one after
 the other.
@@ -21,6 +21,9 @@ from rigval.validation.report.page import Page, svg_text
 
 REPO = Path(__file__).resolve().parents[2]
 
+#: Figure groups: name -> (seed, figures).
+GROUPS = {"three": (1, 3), "one": (2, 1), "two": (3, 2), "none": (4, 0)}
+
 
 def _curves(seed: int, count: int):
     """Yield ``count`` figures redrawn into one reused figure, as the report's groups do."""
@@ -37,26 +40,57 @@ def _curves(seed: int, count: int):
         yield fig
 
 
-def _groups():
-    return [lambda: _curves(1, 3), lambda: [next(_curves(2, 1))], lambda: _curves(3, 2), list]
+def draw_curves(inputs: dict[str, tuple[int, int]], names: tuple[str, ...]) -> list[list[str]]:
+    """A group function: each named group's curves."""
+    return drawing.group_texts({name: (lambda n=name: _curves(*inputs[n])) for name in inputs},
+                               names)
 
 
-def _plain():
-    return [[svg_text(fig) for fig in group()] for group in _groups()]
+def draw_where(inputs: int, names: tuple[str, ...]) -> list[list[str]]:
+    """A group function whose figure names the process that drew it."""
+    fig = Figure(figsize=(2, 1))
+    fig.text(0.1, 0.5, f"pid {os.getpid()}")
+    return [[svg_text(fig)] for _ in names]
 
 
-def test_texts_equal_the_plain_route_for_every_choice_of_background_groups():
+def fails_away(parent: int, names: tuple[str, ...]) -> list[list[str]]:
+    """Fail in any process but ``parent``; draw the curves there."""
+    if os.getpid() != parent:
+        raise RuntimeError("only in the child")
+    return draw_curves(GROUPS, names)
+
+
+def draw_broken(inputs: object, names: tuple[str, ...]) -> list[list[str]]:
+    raise ValueError("no data to draw")
+
+
+def _plain() -> dict[str, list[str]]:
+    return {name: [svg_text(fig) for fig in _curves(*spec)] for name, spec in GROUPS.items()}
+
+
+def _drawn(drawers, splits) -> dict[str, list[str]]:
+    page = drawing.Drawing(drawers)
+    for names in splits:
+        page.start(draw_curves, GROUPS, names)
+    return {name: page.texts(name) for name in GROUPS}
+
+
+SPLITS = ([("three", "one", "two", "none")], [("three",), ("one", "two", "none")],
+          [("none", "two"), ("one",), ("three",)])
+
+
+def test_texts_here_equal_the_plain_route_for_every_split():
     plain = _plain()
-    assert [len(texts) for texts in plain] == [3, 1, 2, 0]
-    for background in ([], [0], [1, 3], [0, 1, 2, 3]):
-        assert drawing.draw_svgs(_groups(), background=background) == plain
+    assert [len(texts) for texts in plain.values()] == [3, 1, 2, 0]
+    for splits in SPLITS:
+        assert _drawn(None, splits) == plain
 
 
 def _in_a_fresh_process(check: str) -> None:
     """Run ``check`` of this module in a new interpreter; skip where it cannot fork.
 
     A new interpreter runs one thread; this test process may not: an earlier test (a Dask
-    cluster) can leave threads behind, and with them ``beside`` rightly draws here.
+    cluster) can leave threads behind, and with them the drawers rightly draw here.
     """
     code = f"from tests.validation import test_report_drawing as t; t.{check}()"
     done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
@@ -66,51 +100,60 @@ def _in_a_fresh_process(check: str) -> None:
         pytest.skip("no fork here: no fork start method or one CPU")
 
 
-def _drawn_by_another_process() -> None:
+def _drawers_equal_the_plain_route() -> None:
     if not can_fork():
         print("no fork")
         return
-
-    def where():
-        fig = Figure(figsize=(2, 1))
-        fig.text(0.1, 0.5, f"pid {os.getpid()}")
-        return [fig]
-
-    here, away = drawing.draw_svgs([where, where], background=[1])
-    assert f"pid {os.getpid()}" in here[0]
-    assert "pid " in away[0] and f"pid {os.getpid()}" not in away[0]
+    plain = _plain()
+    for splits in SPLITS:
+        with drawing.standby_drawers() as drawers:
+            assert _drawn(drawers, splits) == plain
 
 
-def _failing_child_drawn_here() -> None:
+def _drawn_by_other_processes() -> None:
     if not can_fork():
         print("no fork")
         return
-    parent = os.getpid()
-
-    def fails_away():
-        if os.getpid() != parent:
-            raise RuntimeError("only in the child")
-        return _curves(1, 3)
-
-    groups = _groups()
-    groups[0] = fails_away
-    assert drawing.draw_svgs(groups, background=[0, 2]) == _plain()
+    with drawing.standby_drawers() as drawers:
+        page = drawing.Drawing(drawers)
+        page.start(draw_where, 0, ("a",))
+        page.start(draw_where, 0, ("b", "c"))
+        a, b, c = (page.texts(name)[0] for name in "abc")
+    assert f"pid {os.getpid()}" not in a + b + c
+    assert b == c and a != b  # one drawer each: two processes
 
 
-def test_background_groups_are_drawn_by_another_process():
-    _in_a_fresh_process("_drawn_by_another_process")
+def _failing_drawer_drawn_here() -> None:
+    if not can_fork():
+        print("no fork")
+        return
+    with drawing.standby_drawers() as drawers:
+        page = drawing.Drawing(drawers)
+        page.start(fails_away, os.getpid(), ("three", "two"))
+        page.start(draw_curves, GROUPS, ("one",))
+        plain = _plain()
+        assert [page.texts(name) for name in ("three", "two", "one")] == [
+            plain["three"], plain["two"], plain["one"]]
 
 
-def test_a_group_failing_in_the_child_is_drawn_again_here():
-    _in_a_fresh_process("_failing_child_drawn_here")
+def test_drawers_draw_what_this_process_draws():
+    _in_a_fresh_process("_drawers_equal_the_plain_route")
+
+
+def test_each_drawer_is_another_process():
+    _in_a_fresh_process("_drawn_by_other_processes")
+
+
+def test_a_group_failing_in_a_drawer_is_drawn_again_here():
+    _in_a_fresh_process("_failing_drawer_drawn_here")
 
 
 def test_an_error_of_a_group_shows_in_this_process():
-    def broken():
-        raise ValueError("no data to draw")
-
-    with pytest.raises(ValueError, match="no data to draw"):
-        drawing.draw_svgs([*_groups(), broken], background=[4])
+    with drawing.standby_drawers() as drawers:
+        page = drawing.Drawing(drawers)
+        page.start(draw_broken, None, ("broken",))
+        with pytest.raises(ValueError, match="no data to draw"):
+            page.texts("broken")
 
 
 def test_a_page_embeds_a_drawn_text_as_it_embeds_the_figure():
@@ -119,3 +162,25 @@ def test_a_page_embeds_a_drawn_text_as_it_embeds_the_figure():
     direct.figure(fig, caption="c")
     drawn.figure(svg_text(fig), caption="c")
     assert direct._parts == drawn._parts
+
+
+def test_validating_with_drawers_never_imports_matplotlib_here(tmp_path):
+    """validate_scene's drawers draw every figure: this process only places their texts.
+
+    Run in a new interpreter, where nothing imported matplotlib before; the report it writes
+    must hold every figure (16 for the shipped run) as inline SVG.
+    """
+    from rigval.sample_data import shipped_runs
+
+    code = ("import sys; from rigval.validation.beside import can_fork; "
+            "from rigval.validation.run.validate import validate_scene; "
+            f"validate_scene({str(shipped_runs()[0])!r}, {str(tmp_path / 'out')!r}); "
+            "print('fork' if can_fork() else 'no fork', 'matplotlib' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
+                          text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr
+    if "no fork" in done.stdout:
+        pytest.skip("no fork here: no fork start method or one CPU")
+    assert done.stdout.split() == ["fork", "False"]
+    page = (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
+    assert page.count("<svg ") >= 16

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 
 from rigval.acquisition.threads import single_blas_thread
 from rigval.validation.campaign.runs import RunError, RunOutcome, run_one
+from rigval.validation.report.drawing import DRAWING_MODULES
 
 if TYPE_CHECKING:
     from multiprocessing.process import BaseProcess
@@ -36,13 +37,14 @@ __all__ = ["PIPELINE_MODULES", "WORKER_DIED", "preload_pipeline", "run_in_proces
 logger = logging.getLogger(__name__)
 
 #: Modules a validation imports, some only when it first needs them (the TDMS reader, netCDF4,
-#: matplotlib's Agg backend, and dask.array if Dask is installed, which xarray imports when it
+#: matplotlib and the plotting modules, which a run's own process leaves to its drawers (a
+#: worker has none), and dask.array if Dask is installed, which xarray imports when it
 #: first checks for dask arrays: about 0.7 s of CPU alone).
 PIPELINE_MODULES = ("rigval.validation.pipeline", "rigval.validation.run.validate",
-                    "rigval.validation.report.sketch", "rigval.validation.commands.validate",
-                    "rigval.acquisition.reader", "rigval.acquisition.tdms",
-                    "rigval.acquisition.text_csv", "rigval.acquisition.lvm", "dask.array",
-                    "netCDF4", "matplotlib.backends.backend_agg", "threadpoolctl")
+                    "rigval.validation.commands.validate", "rigval.acquisition.reader",
+                    "rigval.acquisition.tdms", "rigval.acquisition.text_csv",
+                    "rigval.acquisition.lvm", "dask.array", "netCDF4",
+                    "matplotlib.backends.backend_agg", "threadpoolctl", *DRAWING_MODULES)
 
 #: ``RunError.kind`` of a run whose process ended without a result.
 WORKER_DIED = "WorkerDied"

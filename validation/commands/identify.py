@@ -46,8 +46,8 @@ def add_parser(subparsers: Any) -> None:
     add_out_option(parser)
 
 
-def write_identification(identification: Any, out_dir: Path, measurement: Any = None
-                         ) -> list[Path]:
+def write_identification(identification: Any, out_dir: Path, measurement: Any = None,
+                         drawers: Any = None, nominal_figures: Any = None) -> list[Path]:
     """Write ``identified.json``, ``mechanism.toml`` and the re-validation reports.
 
     Parameters
@@ -59,6 +59,12 @@ def write_identification(identification: Any, out_dir: Path, measurement: Any = 
     measurement : rigval.validation.pipeline.Measurement, optional
         The nominal run's kept measurement: the identified mechanism is validated against it
         without reading and aligning the files again (default: the scene is run again).
+    drawers : rigval.validation.report.drawing.Drawers, optional
+        Where the reports' figures are drawn (:func:`~rigval.validation.report.drawing.
+        standby_drawers`); default: here.
+    nominal_figures : rigval.validation.report.drawing.Drawing, optional
+        The nominal report's figures, started on ``drawers`` as soon as the nominal run was
+        validated; default: started here.
 
     Returns
     -------
@@ -67,15 +73,15 @@ def write_identification(identification: Any, out_dir: Path, measurement: Any = 
         folders' files.
     """
     from rigval.acquisition.outputs import write_text_atomic
-    from rigval.acquisition.threads import single_blas_thread
     from rigval.model.mechanism import load_mechanism
     from rigval.model.mechanism_text import apply_parameters, mechanism_toml
-    from rigval.validation.beside import beside
     from rigval.validation.pipeline import run_scene
-    from rigval.validation.report.run_report import write_report
+    from rigval.validation.report.run_report import start_figures, write_report
 
     out_dir.mkdir(parents=True, exist_ok=True)
     nominal = identification.nominal_result
+    if nominal_figures is None:
+        nominal_figures = start_figures(nominal, drawers)
     scene = nominal.scene
     document = apply_parameters(load_mechanism(scene.mechanism),
                                 dict(zip(identification.names, identification.value,
@@ -87,15 +93,12 @@ def write_identification(identification: Any, out_dir: Path, measurement: Any = 
         "identified.json")))
     json_path = out_dir / "identified.json"
     write_text_atomic(json_path, json.dumps(identification.as_dict(), indent=2) + "\n")
-    # the nominal report folder is written beside the identified run (a forked child); both
-    # processes keep a core busy, so BLAS threads would only wait for each other
-    with single_blas_thread():
-        nominal_report = beside(lambda: write_report(nominal, out_dir / "nominal"))
-        identified = (measurement.against(mechanism_path.resolve()) if measurement is not None
-                      else run_scene(dataclasses.replace(scene,
-                                                         mechanism=mechanism_path.resolve())))
-        identified_files = write_report(identified, out_dir / "identified")
-    written = [json_path, mechanism_path, *nominal_report.result(), *identified_files]
+    identified = (measurement.against(mechanism_path.resolve()) if measurement is not None
+                  else run_scene(dataclasses.replace(scene, mechanism=mechanism_path.resolve())))
+    identified_figures = start_figures(identified, drawers)
+    written = [json_path, mechanism_path,
+               *write_report(nominal, out_dir / "nominal", nominal_figures),
+               *write_report(identified, out_dir / "identified", identified_figures)]
     written.insert(0, _page(identification, identified).write(out_dir / "report.html"))
     return written
 
@@ -149,17 +152,27 @@ def _page(identification: Any, identified: Any) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     """Identify, write the outputs and print the parameters; return 0."""
+    from rigval.acquisition.threads import single_blas_thread
     from rigval.validation.identify import identify
     from rigval.validation.pipeline import run_scene_kept
+    from rigval.validation.report.drawing import standby_drawers
+    from rigval.validation.report.run_report import start_figures
 
     parameters = ("auto" if args.parameters.strip() == "auto"
                   else [p.strip() for p in args.parameters.split(",") if p.strip()])
     comparisons = (None if args.comparisons is None
                    else [c.strip() for c in args.comparisons.split(",") if c.strip()])
-    nominal, measurement = run_scene_kept(args.scene)
-    identification = identify(nominal.scene, parameters, friction=args.friction,
-                              comparisons=comparisons, result=nominal)
-    write_identification(identification, args.out, measurement)
+    # the drawers import matplotlib while the nominal run is validated, draw its figures while
+    # the parameters are identified, then the identified run's (this process: the data files);
+    # they keep the other core busy, so BLAS threads here would only wait
+    with standby_drawers() as drawers:
+        nominal, measurement = run_scene_kept(args.scene)
+        nominal_figures = start_figures(nominal, drawers)
+        with single_blas_thread():
+            identification = identify(nominal.scene, parameters, friction=args.friction,
+                                      comparisons=comparisons, result=nominal)
+            write_identification(identification, args.out, measurement, drawers,
+                                 nominal_figures)
     stream = sys.stdout
     for name, value, std, nom, unit in zip(identification.names, identification.value,
                                            identification.std, identification.nominal,

@@ -1,84 +1,132 @@
-"""Draw a page's figures in two processes: a forked child draws some while this one draws the rest.
+"""Draw a page's figures in standby children while this process writes the rest of the report.
 
 Drawing the figures is most of the time of writing a run report (about 70 ms of CPU per
-figure, 16 figures for the shipped runs), and each figure is drawn independently of the
-others. :func:`draw_svgs` takes groups of figures (each group a function that yields its
-figures, so that a group may redraw one reused figure, as :func:`plots.plot_comparisons`
-does) and returns every figure as the text of :func:`~rigval.validation.report.page.svg_text`.
-The groups marked ``background`` are drawn by :func:`rigval.validation.beside.beside` (a
-forked child, where that helps and is safe) while this process draws the others; the texts
-are the same as when one process draws them all. A :class:`Drawing` starts the child as soon
-as it is made, so that the child can start before this process's other work (a run's diagnosis)
-and draw beside it.
+figure, 16 figures for the shipped runs) and matplotlib's import another third of a second;
+each figure is drawn independently of the others. :func:`standby_drawers` forks children
+(:class:`rigval.validation.beside.Standby`) at the start of a command; they import the
+plotting modules (:data:`DRAWING_MODULES`) while this process runs the pipeline, so that this
+process never imports matplotlib. A page's :class:`Drawing` then hands its figure groups (a
+module-level function and its small, picklable inputs) to the drawer with the fewest figures
+so far (:class:`Drawers`, shared by the pages of one command) and collects their SVG texts
+(:func:`~rigval.validation.report.page.svg_text`) by group name. Without drawers (a worker
+process, one CPU, no ``fork``) every group is drawn in this process when its texts are asked
+for; the texts are the same either way.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
-from typing import TYPE_CHECKING
+import contextlib
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from typing import TYPE_CHECKING, TypeVar
 
-from rigval.validation.beside import beside
-from rigval.validation.report.page import svg_text
+from rigval.validation.beside import Pending, Standby
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["Drawing", "FigureGroup", "draw_svgs"]
+__all__ = ["DRAWERS", "DRAWING_MODULES", "Drawers", "Drawing", "GroupFunction", "draw_texts",
+           "group_texts", "standby_drawers"]
 
-#: A function that yields figures; each one is drawn before the next is asked for.
-FigureGroup = Callable[[], Iterable["Figure"]]
+#: Modules a standby drawer imports while this process does other work.
+DRAWING_MODULES = ("rigval.validation.report.plots", "rigval.validation.report.sketch",
+                   "rigval.validation.report.why", "matplotlib.backends.backend_svg")
+
+#: Two drawers: on two cores, they and this process (the diagnosis, the data files) share
+#: the time after the pipeline about evenly.
+DRAWERS = 2
+
+Inputs = TypeVar("Inputs")
+
+#: ``function(inputs, names)``: the SVG texts of each named figure group, in the order of
+#: ``names``. A module-level function (it travels to the drawer pickled, by name).
+GroupFunction = Callable[[Inputs, tuple[str, ...]], list[list[str]]]
+
+
+class Drawers:
+    """Standby drawers, each handed the next figure groups while it has the fewest figures.
+
+    Parameters
+    ----------
+    standbys : sequence of Standby
+        The drawers' children (:func:`standby_drawers`).
+    """
+
+    def __init__(self, standbys: Sequence[Standby]) -> None:
+        self._standbys = tuple(standbys)
+        self._figures = [0] * len(self._standbys)
+
+    def submit(self, function: GroupFunction[Inputs], inputs: Inputs, names: tuple[str, ...],
+               figures: int) -> Pending[list[list[str]]]:
+        """Hand ``function(inputs, names)``, about ``figures`` figures, to the least busy drawer."""
+        if not self._standbys:
+            return Pending(None, function, (inputs, names))
+        least = min(range(len(self._standbys)), key=self._figures.__getitem__)
+        self._figures[least] += figures
+        return self._standbys[least].submit(function, inputs, names)
+
+
+@contextlib.contextmanager
+def standby_drawers(count: int = DRAWERS) -> Iterator[Drawers]:
+    """Fork ``count`` drawers now, each importing :data:`DRAWING_MODULES`; end them on exit.
+
+    Where forking cannot help (see :mod:`rigval.validation.beside`), the drawers have no
+    child and their figures are drawn in this process.
+
+    Yields
+    ------
+    Drawers
+        Hand them to each :class:`Drawing` of the command.
+    """
+    with contextlib.ExitStack() as stack:
+        yield Drawers([stack.enter_context(Standby(DRAWING_MODULES)) for _ in range(count)])
 
 
 class Drawing:
-    """Figures being drawn: the ``background`` groups from construction on, the rest on request.
-
-    Construct it as soon as the figures' data are known, so that the forked child draws the
-    background groups while this process goes on with other work (a run's diagnosis, which no
-    figure shows); :meth:`texts` then draws the other groups here and collects the child's.
+    """One page's figure groups being drawn as SVG text, by name, by the drawers or here.
 
     Parameters
     ----------
-    groups : sequence of callables
-        Each returns an iterable of figures (see :data:`FigureGroup`).
-    background : iterable of int
-        Indices of the groups drawn by a forked child where one helps; otherwise this
-        process draws them in :meth:`texts` after the others.
+    drawers : Drawers, optional
+        From :func:`standby_drawers`; none: every group is drawn here when asked for.
     """
 
-    def __init__(self, groups: Sequence[FigureGroup], background: Iterable[int] = ()) -> None:
-        self._groups = list(groups)
-        self._away = sorted(set(background))
-        self._pending = (beside(lambda: [_draw(self._groups[i]) for i in self._away])
-                         if self._away else None)
+    def __init__(self, drawers: Drawers | None = None) -> None:
+        self._drawers = Drawers(()) if drawers is None else drawers
+        self._groups: dict[str, tuple[Pending[list[list[str]]], int]] = {}
 
-    def texts(self) -> list[list[str]]:
-        """Return, per group, the :func:`~rigval.validation.report.page.svg_text` of its figures.
+    def start(self, function: GroupFunction[Inputs], inputs: Inputs, names: Iterable[str],
+              figures: int = 1) -> None:
+        """Have a drawer draw the groups ``names`` (about ``figures`` figures).
 
-        Call it once: the background groups' texts are taken from the child.
+        The drawer calls ``function(inputs, names)``.
         """
-        texts = {i: _draw(group) for i, group in enumerate(self._groups)
-                 if i not in self._away}
-        if self._pending is not None:
-            texts.update(zip(self._away, self._pending.result(), strict=True))
-        return [texts[i] for i in range(len(self._groups))]
+        names = tuple(names)
+        pending = self._drawers.submit(function, inputs, names, figures)
+        self._groups.update((name, (pending, i)) for i, name in enumerate(names))
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._groups
+
+    def texts(self, name: str) -> list[str]:
+        """Return the SVG texts of the group ``name`` (waiting for its drawer)."""
+        pending, index = self._groups[name]
+        return pending.result()[index]
 
 
-def draw_svgs(groups: Sequence[FigureGroup], background: Iterable[int] = ()
-              ) -> list[list[str]]:
-    """Draw every figure of every group as SVG text, the ``background`` groups beside.
+def draw_texts(figures: Iterable[Figure]) -> list[str]:
+    """Return the :func:`~rigval.validation.report.page.svg_text` of each figure in turn.
 
-    Parameters
-    ----------
-    groups, background
-        As for :class:`Drawing`; this makes one and collects its texts at once.
-
-    Returns
-    -------
-    list of list of str
-        Per group, the :func:`~rigval.validation.report.page.svg_text` of each of its figures.
+    A group may yield one reused figure redrawn (as
+    :func:`~rigval.validation.report.plots.plot_comparisons` does): each is drawn before the
+    next is asked for.
     """
-    return Drawing(groups, background).texts()
+    from rigval.validation.report.page import svg_text
+
+    return [svg_text(figure) for figure in figures]
 
 
-def _draw(group: FigureGroup) -> list[str]:
-    return [svg_text(figure) for figure in group()]
+def group_texts(groups: dict[str, Callable[[], Iterable[Figure]]], names: Sequence[str]
+                ) -> list[list[str]]:
+    """Return :func:`draw_texts` of each named group's figures, in the order of ``names``."""
+    return [draw_texts(groups[name]()) for name in names]
+

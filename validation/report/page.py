@@ -30,12 +30,12 @@ from dataclasses import dataclass
 from functools import cache
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal
-
-from matplotlib import rc_context
-from matplotlib.figure import Figure
+from typing import TYPE_CHECKING, Any, Literal
 
 from rigval.acquisition.outputs import atomic_output
+
+if TYPE_CHECKING:  # a page's text needs no matplotlib: a process that only places drawn
+    from matplotlib.figure import Figure  # figures (rigval.validation.report.drawing) skips it
 
 __all__ = ["STATUS_CLASSES", "STYLE_SHEET", "Link", "Page", "escape", "figure_data_uri",
            "figure_svg", "format_value", "prefix_ids", "style_sheet", "svg_text"]
@@ -142,6 +142,8 @@ def svg_text(fig: Figure) -> str:
     string, so it can be drawn in another process (:mod:`rigval.validation.report.drawing`)
     and placed on a page later.
     """
+    from matplotlib import rc_context
+
     buffer = io.StringIO()
     with rc_context({"svg.fonttype": "none", "svg.hashsalt": "rigval"}):
         fig.savefig(buffer, format="svg", metadata={"Date": None})

@@ -33,16 +33,20 @@ from rigval.validation.diagnosis.rigidity import evidence_record, run_rigidity
 from rigval.validation.health import health_dataset
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
-from rigval.validation.report import plots
-from rigval.validation.report.drawing import Drawing, FigureGroup
+from rigval.validation.report.drawing import Drawers, Drawing, group_texts
 from rigval.validation.report.page import Page
-from rigval.validation.report.why import why_section
+from rigval.validation.report.why import start_why_figures, why_section
 from rigval.validation.results import ComparisonResult, ValidationResult
 from rigval.validation.verdict import failure_reasons, run_verdict
 from rigval.validation.version import rigval_version
 
 if TYPE_CHECKING:
+    from collections.abc import Callable, Iterable, Mapping, Sequence
+
     from matplotlib.figure import Figure
+
+    from rigval.model.mechanism_types import Mechanism
+    from rigval.processing.alignment_summary import StreamAlignment
 
 __all__ = ["start_figures", "write_metrics", "write_netcdf", "write_report"]
 
@@ -366,55 +370,100 @@ def _points(result: ValidationResult) -> list[str]:
     return [str(p) for p in result.predictions.coords.get("point", xr.DataArray([])).values]
 
 
-def _mechanism_sketch(result: ValidationResult) -> list[Figure]:
-    """Return the sketch of the run's mechanism, the report's points in red."""
+@dataclasses.dataclass(frozen=True)
+class FigureInputs:
+    """What the page's figures show of a run: small, so that it travels to a drawer quickly."""
+
+    comparisons: tuple[ComparisonResult, ...]
+    alignment: Mapping[str, StreamAlignment]
+    predictions: xr.Dataset
+    mechanism: Mechanism
+    configuration: xr.Dataset
+    points: tuple[str, ...]
+
+    @classmethod
+    def of(cls, result: ValidationResult) -> FigureInputs:
+        """Return the figure inputs of a run."""
+        return cls(tuple(result.comparisons), dict(result.alignment), result.predictions,
+                   result.mechanism, result.configuration, tuple(_points(result)))
+
+
+def _figure_groups(inputs: FigureInputs) -> dict[str, Callable[[], Iterable[Figure]]]:
+    """Return the page's figure groups: each a function that yields its figures."""
+    from rigval.validation.report import plots
     from rigval.validation.report.sketch import sketch_mechanism
 
-    return [sketch_mechanism(result.mechanism, highlight=_points(result),
-                             configuration=result.configuration)]
+    predictions, alignment = inputs.predictions, inputs.alignment
+    return {
+        "comparisons": lambda: plots.plot_comparisons(inputs.comparisons),
+        "pulse_edges": lambda: [plots.plot_pulse_edges(alignment)],
+        "clock_residuals": lambda: [plots.plot_clock_residuals(alignment)],
+        "stream_coverage": lambda: [plots.plot_stream_coverage(alignment)],
+        "sketch": lambda: [sketch_mechanism(inputs.mechanism, highlight=list(inputs.points),
+                                            configuration=inputs.configuration)],
+        "points": lambda: plots.plot_points_kinematics(predictions, inputs.points),
+        "support_forces": lambda: ([plots.plot_support_forces(predictions)]
+                                   if "support_force" in predictions else []),
+    }
 
 
-#: The page's figure groups, in the order :func:`start_figures` hands them to the drawing.
-_FIGURE_GROUPS = ("comparisons", "pulse_edges", "clock_residuals", "stream_coverage", "sketch",
-                  "points", "support_forces")
-#: The figure groups a forked child draws where it helps (:func:`start_figures`).
-_DRAWN_BESIDE = ("comparisons", "sketch", "points", "support_forces")
+def draw_figure_groups(inputs: FigureInputs, names: Sequence[str]) -> list[list[str]]:
+    """Return the SVG texts of the named figure groups of a run's page (a drawer's work).
+
+    Parameters
+    ----------
+    inputs : FigureInputs
+        The run's figure inputs.
+    names : sequence of str
+        Group names of :data:`FIGURE_GROUPS`.
+
+    Returns
+    -------
+    list of list of str
+        Per group, in the order of ``names``, the SVG text of each of its figures.
+    """
+    return group_texts(_figure_groups(inputs), names)
 
 
-def start_figures(result: ValidationResult) -> Drawing:
-    """Start drawing the page's figures as SVG text; a forked child draws most of them.
+#: The page's figure groups, as a drawer takes them (:func:`start_figures`): the comparisons'
+#: figures (one per comparison, about 0.6 s of CPU for the shipped runs) and the others.
+FIGURE_GROUPS = (("comparisons",), ("pulse_edges", "clock_residuals", "stream_coverage",
+                                    "sketch", "points", "support_forces"))
 
-    No figure shows the diagnosis, so the drawing may start before
-    :func:`rigval.validation.diagnosis.explain.attach_diagnosis` and the child draw beside it
-    (:func:`rigval.validation.run.validate.validate_scene`); :func:`write_report` collects the
-    figures.
+
+def _figure_count(inputs: FigureInputs, names: Sequence[str]) -> int:
+    """Return how many figures the groups ``names`` have (a drawer's share of the work)."""
+    counts = {"comparisons": len(inputs.comparisons), "points": len(inputs.points),
+              "support_forces": int("support_force" in inputs.predictions)}
+    return sum(counts.get(name, 1) for name in names)
+
+
+def start_figures(result: ValidationResult, drawers: Drawers | None = None) -> Drawing:
+    """Start drawing the page's figures as SVG text, by the ``drawers`` where given.
+
+    No figure but the "Why" section's shows the diagnosis, so the drawing may start before
+    :func:`rigval.validation.diagnosis.explain.attach_diagnosis` and the drawers draw beside
+    it (:func:`rigval.validation.run.validate.validate_scene`); :func:`write_report` collects
+    the figures.
 
     Parameters
     ----------
     result : ValidationResult
         The validation, with or without its diagnosis.
+    drawers : rigval.validation.report.drawing.Drawers, optional
+        From :func:`rigval.validation.report.drawing.standby_drawers`; none: the figures are
+        drawn here when the page asks for them.
 
     Returns
     -------
     rigval.validation.report.drawing.Drawing
         Hand it to :func:`write_report` of the same run.
     """
-    predictions, alignment = result.predictions, result.alignment
-    groups: dict[str, FigureGroup] = {
-        "comparisons": lambda: plots.plot_comparisons(result.comparisons),
-        "pulse_edges": lambda: [plots.plot_pulse_edges(alignment)],
-        "clock_residuals": lambda: [plots.plot_clock_residuals(alignment)],
-        "stream_coverage": lambda: [plots.plot_stream_coverage(alignment)],
-        "sketch": lambda: _mechanism_sketch(result),
-        "points": lambda: plots.plot_points_kinematics(predictions, _points(result)),
-        "support_forces": lambda: ([plots.plot_support_forces(predictions)]
-                                   if "support_force" in predictions else []),
-    }
-    # the child takes the comparisons', the sketch's, the points' and the support forces'
-    # figures (about 1 s of CPU for the shipped runs); this process, besides the three of the
-    # alignment (0.15 s), has the diagnosis (0.5 s) and the data files (0.35 s) to do meanwhile
-    return Drawing([groups[name] for name in _FIGURE_GROUPS],
-                   background=[_FIGURE_GROUPS.index(name) for name in _DRAWN_BESIDE])
+    drawing = Drawing(drawers)
+    inputs = FigureInputs.of(result)
+    for names in FIGURE_GROUPS:
+        drawing.start(draw_figure_groups, inputs, names, _figure_count(inputs, names))
+    return drawing
 
 
 def _numerics(page: Page, result: ValidationResult) -> None:
@@ -453,9 +502,9 @@ def _build_page(result: ValidationResult, drawing: Drawing) -> Page:
                 subtitle=f"{status} · {len(result.comparisons)} comparisons · "
                          f"{result.n_cycles} revolutions at {result.speed_rev_s:.3f} rev/s",
                 figure_format="svg")
-    figures = dict(zip(_FIGURE_GROUPS, drawing.texts(), strict=True))
+    figures = {name: drawing.texts(name) for names in FIGURE_GROUPS for name in names}
     _summary(page, result, status)
-    why_section(page, result)
+    why_section(page, result, drawing)
     for drawn_section in (_comparisons, _alignment, _predictions):
         drawn_section(page, result, figures)
     _numerics(page, result)
@@ -475,7 +524,7 @@ def write_report(result: ValidationResult, out_dir: str | Path,
         The folder; created if needed, files in it are overwritten.
     figures : Drawing, optional
         The page's figures, started by :func:`start_figures` on this run (also before its
-        diagnosis); default: started here.
+        diagnosis); default: drawn here as the page needs them.
 
     Returns
     -------
@@ -487,8 +536,9 @@ def write_report(result: ValidationResult, out_dir: str | Path,
     """
     out = Path(out_dir)
     drawing = start_figures(result) if figures is None else figures
+    start_why_figures(drawing, result)
     # all files in a hidden folder first, moved in at the end: no half-written report folder,
-    # whatever fails; the data files first, while the child draws the page's figures
+    # whatever fails; the data files first, while the drawers draw the page's figures
     with staged_folder(out) as stage:
         staged = write_metrics(result, stage)
         staged.append(write_alignment(result, stage))

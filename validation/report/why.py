@@ -10,17 +10,24 @@ the chosen causes explain, and the ``[[symmetry]]`` pairs. The method: docs/diag
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from rigval.validation.diagnosis.attribution import order_coefficients
 from rigval.validation.diagnosis.explain import Diagnosis
+from rigval.validation.report.drawing import Drawing, draw_texts
 from rigval.validation.report.page import Page
 from rigval.validation.results import ComparisonResult, ValidationResult
 
-__all__ = ["plot_residual_orders", "why_section"]
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = ["draw_why_figures", "plot_residual_orders", "start_why_figures", "why_section"]
+
+#: The section's figure group (:func:`start_why_figures`).
+GROUP = "why"
 
 #: Orders shown in the residual's spectrum.
 ORDERS = 20
@@ -85,6 +92,8 @@ def plot_residual_orders(comparisons: list[ComparisonResult], diagnosis: Diagnos
         :data:`ORDERS`, with whiskers of twice the revolution-to-revolution standard uncertainty
         of the mean; dots: the chosen causes' fitted contribution.
     """
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(width, 1.9 * len(comparisons) + 0.6))
     fig.subplots_adjust(left=0.95 / width, right=1 - 0.25 / width, hspace=0.6)
     axes = fig.subplots(len(comparisons), 1, squeeze=False)[:, 0]
@@ -116,7 +125,37 @@ def plot_residual_orders(comparisons: list[ComparisonResult], diagnosis: Diagnos
     return fig
 
 
-def why_section(page: Page, result: ValidationResult) -> None:
+def _drawn(result: ValidationResult) -> list[ComparisonResult]:
+    """Return the comparisons whose residual the section draws (detected, at most MAX_DRAWN)."""
+    diagnosis = result.diagnosis
+    if diagnosis is None:
+        return []
+    return [c for c in result.comparisons if diagnosis.causes[c.name].detected][:MAX_DRAWN]
+
+
+def draw_why_figures(inputs: tuple[Sequence[ComparisonResult], Diagnosis],
+                     names: Sequence[str]) -> list[list[str]]:
+    """Return the SVG text of the section's one figure (a drawer's work; ``names``: its group)."""
+    comparisons, diagnosis = inputs
+    return [draw_texts([plot_residual_orders(list(comparisons), diagnosis)])]
+
+
+def start_why_figures(drawing: Drawing, result: ValidationResult) -> None:
+    """Have ``drawing`` draw the section's figure, if the section has one.
+
+    Parameters
+    ----------
+    drawing : rigval.validation.report.drawing.Drawing
+        The page's drawing; :func:`why_section` takes the figure from it.
+    result : ValidationResult
+        The validation, with ``diagnosis``.
+    """
+    drawn = _drawn(result)
+    if drawn and result.diagnosis is not None:
+        drawing.start(draw_why_figures, (tuple(drawn), result.diagnosis), (GROUP,), len(drawn))
+
+
+def why_section(page: Page, result: ValidationResult, drawing: Drawing | None = None) -> None:
     """Add the "Why" section to a run's report (nothing without a diagnosis).
 
     Parameters
@@ -125,6 +164,8 @@ def why_section(page: Page, result: ValidationResult) -> None:
         The report page.
     result : ValidationResult
         The validation, with ``diagnosis``.
+    drawing : rigval.validation.report.drawing.Drawing, optional
+        Where :func:`start_why_figures` started the section's figure; default: drawn here.
     """
     diagnosis = result.diagnosis
     if diagnosis is None:
@@ -150,9 +191,12 @@ def why_section(page: Page, result: ValidationResult) -> None:
     page.table(_attribution_rows(diagnosis), caption="attribution: the most likely cause of "
                "each comparison's residual")
     if detected:
-        page.figure(plot_residual_orders(detected[:MAX_DRAWN], diagnosis),
-                    caption="residual per order of the main shaft, and what the chosen causes "
-                            "explain")
+        if drawing is None:
+            drawing = Drawing()
+        if GROUP not in drawing:
+            start_why_figures(drawing, result)
+        page.figure(drawing.texts(GROUP)[0], caption="residual per order of the main shaft, "
+                    "and what the chosen causes explain")
     if diagnosis.pairs:
         page.table(_pair_rows(diagnosis), caption="symmetry pairs ([[symmetry]])")
         for pair in diagnosis.pairs:

@@ -5,9 +5,10 @@ everything the report needs; :func:`validate_scene` adds why the model disagrees
 (:func:`rigval.validation.diagnosis.explain.attach_diagnosis`: the diagnosis package reads the
 pipeline's results, so the pipeline does not call it) and writes the folder from that result alone
 (:func:`rigval.validation.report.run_report.write_report`) and returns the result with the files
-written. The figures no diagnosis enters are started first, so that a forked child draws most
-of them (the comparisons', the sketch, the points' and the support forces') while this process
-diagnoses. The pipeline itself never imports the report package (docs/architecture.md).
+written. Two drawers are forked first (:func:`rigval.validation.report.drawing.standby_drawers`):
+they import matplotlib while the pipeline runs, then draw the page's figures while this process
+diagnoses and writes the data files, so this process never imports matplotlib. The pipeline
+itself never imports the report package (docs/architecture.md).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from rigval.acquisition.heap import release_free_heap
 from rigval.acquisition.threads import single_blas_thread
 from rigval.validation.diagnosis.explain import attach_diagnosis
 from rigval.validation.pipeline import run_scene
+from rigval.validation.report.drawing import standby_drawers
 from rigval.validation.report.run_report import start_figures, write_report
 from rigval.validation.results import ValidationResult
 
@@ -41,9 +43,11 @@ def validate_scene(scene_path: str | Path, out_dir: str | Path) -> ValidationRes
         With ``passed``, ``metric_rows()``, ``outputs`` (files written), ``inputs`` (files read),
         ``speed_rev_s`` and ``diagnosis``.
     """
-    result = run_scene(scene_path)
-    release_free_heap()  # the pipeline's freed memory, before the diagnosis's large arrays
-    figures = start_figures(result)  # no figure shows the diagnosis: drawn beside it
-    with single_blas_thread():  # the child keeps the other core: BLAS threads would wait
-        result = attach_diagnosis(result)
-    return dataclasses.replace(result, outputs=tuple(write_report(result, out_dir, figures)))
+    with standby_drawers() as drawers:
+        result = run_scene(scene_path)
+        release_free_heap()  # the pipeline's freed memory, before the diagnosis's large arrays
+        figures = start_figures(result, drawers)  # no figure but the Why's shows the diagnosis
+        with single_blas_thread():  # the drawers keep the other core: BLAS threads would wait
+            result = attach_diagnosis(result)
+        outputs = write_report(result, out_dir, figures)
+    return dataclasses.replace(result, outputs=tuple(outputs))
