@@ -3,6 +3,7 @@ labels that do not overlap, titles clear of legends, honest y ranges, labelled l
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -262,3 +263,40 @@ def test_bench_log_axis_ticks_are_few_plain_and_apart() -> None:
     # the error axis spans decades below 0.001: powers of ten
     labels = [t.get_text() for t in ax.get_yticklabels() if t.get_text()]
     assert labels and all(text.startswith("$10^{") for text in labels), labels
+
+
+def test_a_long_record_draws_some_revolutions_and_its_band_of_all() -> None:
+    """A four-hour record has 14,400 revolutions: the figure draws MAX_DRAWN_CYCLES of them,
+    evenly chosen from the first to the last, and says so; the band and mean are of all."""
+    from types import SimpleNamespace
+
+    from rigval.validation.report.figure_inputs import MAX_DRAWN_CYCLES, ComparisonCurves
+    from rigval.validation.report.plots import plot_comparison
+    from rigval.validation.results import ComparisonResult
+
+    rng = np.random.default_rng(7)
+    angle = np.arange(90) * 2 * np.pi / 90
+    count = 1234
+    cycles = np.sin(angle) + 0.1 * rng.standard_normal((count, angle.size))
+    cycles[-1] += 5.0  # the last revolution, with the record's peak, is among those drawn
+    comparison = ComparisonResult(
+        spec=SimpleNamespace(name="acc1", model="point_acceleration[P1].x"), units="m s-2",
+        long_name="acc1", angle=angle, cycles=cycles, model=np.sin(angle), offset=0.0,
+        scores={}, baseline={}, checks=())
+    curves = ComparisonCurves.of(comparison)
+    assert curves.drawn.shape == (MAX_DRAWN_CYCLES, angle.size)
+    np.testing.assert_array_equal(curves.drawn[[0, -1]], cycles[[0, -1]])
+    steps = np.diff([int(np.flatnonzero((cycles == row).all(axis=1))[0])
+                     for row in curves.drawn])
+    assert steps.min() >= 12 and steps.max() <= 13  # evenly: 1233 / 99 = 12.45
+    low, high = np.percentile(cycles, [5.0, 95.0], axis=0)
+    np.testing.assert_array_equal(curves.low, low)
+    np.testing.assert_array_equal(curves.high, high)
+    np.testing.assert_array_equal(curves.mean, cycles.mean(axis=0))
+    assert curves.peak == np.abs(cycles).max() and curves.n_cycles == count
+    top = plot_comparison(comparison).axes[0]
+    assert len(top.collections[0].get_segments()) == MAX_DRAWN_CYCLES
+    assert f"band: measured P5-P95 ({count} cycles, {MAX_DRAWN_CYCLES} drawn)" in [
+        t.get_text() for t in top.texts]
+    few = ComparisonCurves.of(dataclasses.replace(comparison, cycles=cycles[:15]))
+    np.testing.assert_array_equal(few.drawn, cycles[:15])  # a short record: every revolution

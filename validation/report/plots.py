@@ -20,6 +20,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MultipleLocator, ScalarFormatter
 from matplotlib.transforms import ScaledTranslation
 
+from rigval.validation.report.figure_inputs import ComparisonCurves
 from rigval.validation.results import ComparisonResult, StreamAlignment
 
 __all__ = [
@@ -166,14 +167,14 @@ def _harmonics(values: np.ndarray, orders: int) -> np.ndarray:
     return np.abs(spectrum[1:orders + 1])
 
 
-def plot_comparison(result: ComparisonResult, *, width: float = 9.0,
+def plot_comparison(result: ComparisonResult | ComparisonCurves, *, width: float = 9.0,
                     orders: int = HARMONIC_ORDERS) -> Figure:
     """Overlay of measured cycles, measured mean with its band and the model; residual; orders.
 
     Parameters
     ----------
-    result : ComparisonResult
-        The comparison.
+    result : ComparisonResult or ComparisonCurves
+        The comparison, or its curves.
     width : float
         Figure width in inches.
     orders : int
@@ -182,16 +183,17 @@ def plot_comparison(result: ComparisonResult, *, width: float = 9.0,
     Returns
     -------
     matplotlib.figure.Figure
-        Top: every cycle (light), the measured mean with its P5-P95 band, the model, the peaks
-        of both marked. Middle: the residual model minus measured mean, with the band around the
-        mean. Bottom: amplitudes of the first harmonic orders, measured mean and model (rigid-
-        body errors often sit in particular orders).
+        Top: the cycles (light; at most
+        :data:`~rigval.validation.report.figure_inputs.MAX_DRAWN_CYCLES`), the measured mean
+        with its P5-P95 band, the model, the peaks of both marked. Middle: the residual model minus
+        measured mean, with the band around the mean. Bottom: amplitudes of the first harmonic
+        orders, measured mean and model (rigid-body errors often sit in particular orders).
     """
     return _ComparisonFigure(width, orders).show(result)
 
 
-def plot_comparisons(results: Iterable[ComparisonResult], *, width: float = 9.0,
-                     orders: int = HARMONIC_ORDERS) -> Iterator[Figure]:
+def plot_comparisons(results: Iterable[ComparisonResult | ComparisonCurves], *,
+                     width: float = 9.0, orders: int = HARMONIC_ORDERS) -> Iterator[Figure]:
     """Yield :func:`plot_comparison` of each comparison, drawn into one reused figure.
 
     Building a figure's axes and tick marks takes a good part of its rendering time; this
@@ -200,8 +202,8 @@ def plot_comparisons(results: Iterable[ComparisonResult], *, width: float = 9.0,
 
     Parameters
     ----------
-    results : iterable of ComparisonResult
-        The comparisons.
+    results : iterable of ComparisonResult or ComparisonCurves
+        The comparisons, or their curves.
     width : float
         Figure width in inches.
     orders : int
@@ -250,21 +252,25 @@ class _ComparisonFigure:
         for ax in (self.top, self.bottom, self.spectrum):
             ax.relim()  # data limits of what is left (nothing): autoscaling starts afresh
 
-    def show(self, result: ComparisonResult) -> Figure:
+    def show(self, result: ComparisonResult | ComparisonCurves) -> Figure:
         """Draw one comparison (see :func:`plot_comparison`) and return the figure."""
+        if isinstance(result, ComparisonResult):
+            result = ComparisonCurves.of(result)
         self._clear()
         top, bottom, spectrum, orders = self.top, self.bottom, self.spectrum, self.orders
-        factor, units = display_units(result.units, float(np.max(np.abs(result.cycles))))
-        low, high = (factor * band for band in result.band)
+        factor, units = display_units(result.units, result.peak)
+        low, high = factor * result.low, factor * result.high
         mean, model = factor * result.mean, factor * result.model
-        x, cycles, mean_c, low_c, high_c, model_c = _closed(result.angle, factor * result.cycles,
+        x, cycles, mean_c, low_c, high_c, model_c = _closed(result.angle, factor * result.drawn,
                                                             mean, low, high, model)
+        cycles_text = (f"{result.n_cycles} cycles" if len(cycles) == result.n_cycles
+                       else f"{result.n_cycles} cycles, {len(cycles)} drawn")
         drawn = self.drawn
         drawn.append(top.add_collection(LineCollection(
             [np.column_stack([x, c]) for c in cycles], colors=CYCLES, linewidths=0.5,
             alpha=0.45)))
         drawn.append(top.fill_between(x, low_c, high_c, color=BAND, alpha=0.6, lw=0,
-                                      label=f"measured P5-P95 ({result.cycles.shape[0]} cycles)"))
+                                      label=f"measured P5-P95 ({cycles_text})"))
         drawn += top.plot(x, mean_c, color=MEASURED, lw=1.8, label="measured mean")
         model_label = ("model" if result.offset == 0
                        else f"model {factor * result.offset:+.3g} {units}")
@@ -273,13 +279,13 @@ class _ComparisonFigure:
             peak = int(np.argmax(np.abs(values)))
             drawn += top.plot(x[peak], values[peak], marker, color=color, ms=7, mew=2)
         top.set_ylabel(f"{result.name} [{units}]")
-        top.set_title(f"{result.name} against {result.spec.model}", loc="left", fontsize=10,
+        top.set_title(f"{result.name} against {result.model_name}", loc="left", fontsize=10,
                       y=1.0, pad=TITLE_PAD)
         for ax in (top, bottom, spectrum):
             formatter = ax.yaxis.get_major_formatter()
             if isinstance(formatter, ScalarFormatter):
                 formatter.set_useOffset(False)
-        drawn += _key_row(top, ((f"band: measured P5-P95 ({result.cycles.shape[0]} cycles)",
+        drawn += _key_row(top, ((f"band: measured P5-P95 ({cycles_text})",
                                  MEASURED), ("measured mean", MEASURED),
                                 (f"{model_label} (dashed)", MODEL),
                                 (f"{PEAK_GLYPHS['o']} peak of the mean", MEASURED),

@@ -34,6 +34,7 @@ from rigval.validation.health import health_dataset
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
 from rigval.validation.report.drawing import Drawers, Drawing, group_texts
+from rigval.validation.report.figure_inputs import FigureInputs, shown_points
 from rigval.validation.report.page import Page
 from rigval.validation.report.why import start_why_figures, why_section
 from rigval.validation.results import ComparisonResult, ValidationResult
@@ -41,12 +42,9 @@ from rigval.validation.verdict import failure_reasons, run_verdict
 from rigval.validation.version import rigval_version
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Iterable, Mapping, Sequence
+    from collections.abc import Callable, Iterable, Sequence
 
     from matplotlib.figure import Figure
-
-    from rigval.model.mechanism_types import Mechanism
-    from rigval.processing.alignment_summary import StreamAlignment
 
 __all__ = ["start_figures", "write_metrics", "write_netcdf", "write_report"]
 
@@ -352,7 +350,7 @@ def _predictions(page: Page, result: ValidationResult, figures: _Figures) -> Non
     page.section("Predictions")
     page.paragraph("What the model says about quantities that were not measured, for the drive "
                    "motion of this run (the paper's figs. 15 to 17).")
-    points = _points(result)
+    points = shown_points(result)
     page.figure(figures["sketch"][0],
                 caption="the mechanism at t = 0 of its file's drive laws: bodies (letters), "
                         "joints (open circles), ground pins (hatched: the supports), drives "
@@ -363,29 +361,6 @@ def _predictions(page: Page, result: ValidationResult, figures: _Figures) -> Non
         page.figure(figures["support_forces"][0],
                     caption="support forces on the frame (minus the ground pins' joint forces)")
         page.table(_peaks(result.predictions), caption="support force extremes")
-
-
-def _points(result: ValidationResult) -> list[str]:
-    """Return the points whose kinematics the report shows (red in the sketch)."""
-    return [str(p) for p in result.predictions.coords.get("point", xr.DataArray([])).values]
-
-
-@dataclasses.dataclass(frozen=True)
-class FigureInputs:
-    """What the page's figures show of a run: small, so that it travels to a drawer quickly."""
-
-    comparisons: tuple[ComparisonResult, ...]
-    alignment: Mapping[str, StreamAlignment]
-    predictions: xr.Dataset
-    mechanism: Mechanism
-    configuration: xr.Dataset
-    points: tuple[str, ...]
-
-    @classmethod
-    def of(cls, result: ValidationResult) -> FigureInputs:
-        """Return the figure inputs of a run."""
-        return cls(tuple(result.comparisons), dict(result.alignment), result.predictions,
-                   result.mechanism, result.configuration, tuple(_points(result)))
 
 
 def _figure_groups(inputs: FigureInputs) -> dict[str, Callable[[], Iterable[Figure]]]:
