@@ -5,8 +5,7 @@ every figure drawn as the report embeds it, inline SVG text) once to warm up and
 times, all in this process (no forked child, so that the CPU time is the page's whole cost), and
 prints the minimum and median CPU time per page (``time.process_time``), then the CPU time of
 each figure group of :func:`rigval.validation.report.run_report.start_figures`, averaged over
-the repeats, and the drawer that draws it in ``rigval validate``
-(:data:`rigval.validation.report.run_report.FIGURE_GROUPS`).
+the repeats.
 
 With ``--against FILE``, FILE is another version of ``rigval/validation/report/plots.py`` (for
 instance ``git show 132f4c9:validation/report/plots.py > /tmp/old_plots.py``): the page is then
@@ -51,18 +50,14 @@ def per_group(result: ValidationResult, repeats: int) -> None:
           f"median {statistics.median(pages):.3f} s over {repeats} builds")
     seconds: dict[str, float] = collections.defaultdict(float)
     for _ in range(repeats):
-        groups = run_report._figure_groups(run_report.FigureInputs.of(result))
-        for name, group in groups.items():
+        data = run_report._data(result)
+        for name in run_report.FIGURE_GROUPS:
             start = time.process_time()
-            draw_texts(group())
+            draw_texts(run_report._figures(name, data[name][0]))
             seconds[name] += time.process_time() - start
-    drawer = {name: k for k, names in enumerate(run_report.FIGURE_GROUPS) for name in names}
-    print(f"figures: {sum(seconds.values()) / repeats:.3f} s CPU per page; by group and "
-          "the drawer that draws it:")
+    print(f"figures: {sum(seconds.values()) / repeats:.3f} s CPU per page; by group:")
     for name, total in sorted(seconds.items(), key=lambda kv: -kv[1]):
-        print(f"{total / repeats:7.3f} s  {name} (drawer {drawer[name]})")
-    for k, names in enumerate(run_report.FIGURE_GROUPS):
-        print(f"drawer {k}: {sum(seconds[name] for name in names) / repeats:.3f} s")
+        print(f"{total / repeats:7.3f} s  {name}")
 
 
 def against(result: ValidationResult, repeats: int, other: Path) -> None:

@@ -36,7 +36,7 @@ if TYPE_CHECKING:
     from multiprocessing.connection import Connection
     from multiprocessing.process import BaseProcess
 
-__all__ = ["Pending", "Standby", "can_fork"]
+__all__ = ["Pending", "Standby", "can_fork", "pickled"]
 
 logger = logging.getLogger(__name__)
 
@@ -63,8 +63,8 @@ _DISPATCH = {**copyreg.dispatch_table,
              MappingProxyType: lambda proxy: (_mapping_proxy, (dict(proxy),))}
 
 
-def _dumps(value: object) -> bytes:
-    """Pickle ``value`` as :data:`_DISPATCH` says."""
+def pickled(value: object) -> bytes:
+    """Return ``value`` pickled as a standby's calls and values are (:data:`_DISPATCH`)."""
     buffer = io.BytesIO()
     pickler = pickle.Pickler(buffer, protocol=pickle.HIGHEST_PROTOCOL)
     pickler.dispatch_table = _DISPATCH
@@ -135,7 +135,7 @@ class Standby:
         """
         if self._child is not None:
             try:
-                self._child[0].send_bytes(_dumps((function, args)))
+                self._child[0].send_bytes(pickled((function, args)))
             except (pickle.PicklingError, TypeError, AttributeError, EOFError, OSError):
                 # a lambda or a lock does not pickle; a child that ended takes no call
                 logger.debug("the call runs here", exc_info=True)
@@ -217,7 +217,7 @@ def _answer(call: bytes) -> bytes:
     """Return the pickled ``(True, value)`` of a pickled call, or ``(False, None)``."""
     try:
         function, args = pickle.loads(call)
-        return _dumps((True, function(*args)))
+        return pickled((True, function(*args)))
     except Exception:  # run again by the parent, which shows the error
         logger.debug("the call failed in the standby child", exc_info=True)
-        return _dumps((False, None))
+        return pickled((False, None))

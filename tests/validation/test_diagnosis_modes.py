@@ -21,7 +21,7 @@ import xarray as xr
 
 from rigval.sample_data import RigSettings, simulate_rig
 from rigval.sample_data.departures import Departures
-from rigval.validation.beside import _dumps
+from rigval.validation.beside import pickled
 from rigval.validation.diagnosis.explain import (
     MODE_SHARE,
     CauseStatement,
@@ -230,5 +230,5 @@ def test_a_named_mode_reaches_the_verdict_metrics_netcdf_and_report(tmp_path):
     # a drawer draws the section's figure from its inputs pickled (rigval.validation.beside):
     # the diagnosis must travel whole, so that the figure equals the one drawn here
     inputs = (tuple(result.comparisons[:2]), result.diagnosis)
-    travelled = pickle.loads(_dumps(inputs))
+    travelled = pickle.loads(pickled(inputs))
     assert draw_why_figures(travelled, ("why",)) == draw_why_figures(inputs, ("why",))

@@ -42,8 +42,7 @@ def _curves(seed: int, count: int):
 
 def draw_curves(inputs: dict[str, tuple[int, int]], names: tuple[str, ...]) -> list[list[str]]:
     """A group function: each named group's curves."""
-    return drawing.group_texts({name: (lambda n=name: _curves(*inputs[n])) for name in inputs},
-                               names)
+    return [drawing.draw_texts(_curves(*inputs[name])) for name in names]
 
 
 def draw_where(inputs: int, names: tuple[str, ...]) -> list[list[str]]:
@@ -184,3 +183,26 @@ def test_validating_with_drawers_never_imports_matplotlib_here(tmp_path):
     assert done.stdout.split() == ["fork", "False"]
     page = (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
     assert page.count("<svg ") >= 16
+
+
+#: The calls of draw_counted, by its inputs.
+COUNTED: list[object] = []
+
+
+def draw_counted(inputs: dict[str, tuple[int, int]], names: tuple[str, ...]) -> list[list[str]]:
+    COUNTED.append(inputs)
+    return draw_curves(inputs, names)
+
+
+def test_a_part_equal_to_an_earlier_one_is_drawn_once_for_both_pages():
+    COUNTED.clear()
+    drawers = drawing.Drawers(())
+    pages = [drawing.Drawing(drawers) for _ in range(3)]
+    other = {**GROUPS, "two": (9, 2)}
+    for page, inputs in zip(pages, (GROUPS, dict(GROUPS), other), strict=True):
+        page.start(draw_counted, inputs, ("three", "two"))
+    texts = [[page.texts(name) for name in ("three", "two")] for page in pages]
+    assert [GROUPS, other] == COUNTED  # the equal inputs of the second page: not drawn again
+    plain = _plain()
+    assert texts[0] == texts[1] == [plain["three"], plain["two"]]
+    assert texts[2][0] == plain["three"] and texts[2][1] != plain["two"]

@@ -67,7 +67,6 @@ def test_figures_started_before_the_diagnosis_equal_those_drawn_after_it(sample)
     diagnosed = attach_diagnosis(sample)
     assert diagnosed.diagnosis is not None
     late = start_figures(diagnosed)
-    names = [name for names in FIGURE_GROUPS for name in names]
-    before, after = ([drawn.texts(name) for name in names] for drawn in (early, late))
+    before, after = ([drawn.texts(name) for name in FIGURE_GROUPS] for drawn in (early, late))
     assert sum(len(group) for group in after) >= 10
     assert before == after

@@ -16,16 +16,18 @@ for; the texts are the same either way.
 from __future__ import annotations
 
 import contextlib
+import hashlib
+import pickle
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import TYPE_CHECKING, TypeVar
 
-from rigval.validation.beside import Pending, Standby
+from rigval.validation.beside import Pending, Standby, pickled
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = ["DRAWERS", "DRAWING_MODULES", "Drawers", "Drawing", "GroupFunction", "draw_texts",
-           "group_texts", "standby_drawers"]
+           "standby_drawers"]
 
 #: Modules a standby drawer imports while this process does other work.
 DRAWING_MODULES = ("rigval.validation.report.plots", "rigval.validation.report.sketch",
@@ -54,15 +56,30 @@ class Drawers:
     def __init__(self, standbys: Sequence[Standby]) -> None:
         self._standbys = tuple(standbys)
         self._figures = [0] * len(self._standbys)
+        self._handed: dict[bytes, Pending[list[list[str]]]] = {}
 
     def submit(self, function: GroupFunction[Inputs], inputs: Inputs, names: tuple[str, ...],
                figures: int) -> Pending[list[list[str]]]:
-        """Hand ``function(inputs, names)``, about ``figures`` figures, to the least busy drawer."""
-        if not self._standbys:
-            return Pending(None, function, (inputs, names))
-        least = min(range(len(self._standbys)), key=self._figures.__getitem__)
-        self._figures[least] += figures
-        return self._standbys[least].submit(function, inputs, names)
+        """Hand ``function(inputs, names)``, about ``figures`` figures, to the least busy drawer.
+
+        A call equal to one handed before (the same function, names and pickled inputs: the
+        same figures, as drawing is deterministic) is not drawn again: its texts are shared.
+        """
+        try:
+            key = hashlib.sha256(pickled((function, inputs, names))).digest()
+        except (pickle.PicklingError, TypeError, AttributeError):  # drawn afresh, here
+            key = b""
+        if key in self._handed:
+            return self._handed[key]
+        if self._standbys:
+            least = min(range(len(self._standbys)), key=self._figures.__getitem__)
+            self._figures[least] += figures
+            pending = self._standbys[least].submit(function, inputs, names)
+        else:
+            pending = Pending(None, function, (inputs, names))
+        if key:
+            self._handed[key] = pending
+        return pending
 
 
 @contextlib.contextmanager
@@ -123,10 +140,3 @@ def draw_texts(figures: Iterable[Figure]) -> list[str]:
     from rigval.validation.report.page import svg_text
 
     return [svg_text(figure) for figure in figures]
-
-
-def group_texts(groups: dict[str, Callable[[], Iterable[Figure]]], names: Sequence[str]
-                ) -> list[list[str]]:
-    """Return :func:`draw_texts` of each named group's figures, in the order of ``names``."""
-    return [draw_texts(groups[name]()) for name in names]
-

@@ -1,24 +1,21 @@
 """What a run report's figures show: small, whatever the record's length.
 
 The figures are drawn in other processes (:mod:`rigval.validation.report.drawing`), to which
-their inputs travel pickled; :class:`FigureInputs` holds only what they draw, and a
-comparison's figure draws at most :data:`MAX_DRAWN_CYCLES` revolutions
-(:class:`ComparisonCurves`). This module imports no matplotlib.
+their inputs travel pickled: a comparison's figure draws at most :data:`MAX_DRAWN_CYCLES`
+revolutions and statistics of all (:class:`ComparisonCurves`). This module imports no
+matplotlib.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
 
-from rigval.model.mechanism_types import Mechanism
-from rigval.processing.alignment_summary import StreamAlignment
 from rigval.validation.results import ComparisonResult, ValidationResult
 
-__all__ = ["MAX_DRAWN_CYCLES", "ComparisonCurves", "FigureInputs", "shown_points"]
+__all__ = ["MAX_DRAWN_CYCLES", "ComparisonCurves", "shown_points"]
 
 #: Most revolutions a comparison's figure draws as light lines, evenly chosen; its band and mean
 #: are of all of them. A four-hour record has 14,400: every one drawn made a page of 360 MB.
@@ -69,22 +66,3 @@ class ComparisonCurves:
 def shown_points(result: ValidationResult) -> tuple[str, ...]:
     """Return the points whose kinematics the report shows (red in the sketch)."""
     return tuple(str(p) for p in result.predictions.coords.get("point", xr.DataArray([])).values)
-
-
-@dataclass(frozen=True)
-class FigureInputs:
-    """What the page's figures show of a run: small, so that it travels to a drawer quickly."""
-
-    comparisons: tuple[ComparisonCurves, ...]
-    alignment: Mapping[str, StreamAlignment]
-    predictions: xr.Dataset
-    mechanism: Mechanism
-    configuration: xr.Dataset
-    points: tuple[str, ...]
-
-    @classmethod
-    def of(cls, result: ValidationResult) -> FigureInputs:
-        """Return the figure inputs of a run."""
-        return cls(tuple(ComparisonCurves.of(c) for c in result.comparisons),
-                   dict(result.alignment), result.predictions, result.mechanism,
-                   result.configuration, shown_points(result))

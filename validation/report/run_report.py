@@ -33,8 +33,8 @@ from rigval.validation.diagnosis.rigidity import evidence_record, run_rigidity
 from rigval.validation.health import health_dataset
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
-from rigval.validation.report.drawing import Drawers, Drawing, group_texts
-from rigval.validation.report.figure_inputs import FigureInputs, shown_points
+from rigval.validation.report.drawing import Drawers, Drawing, draw_texts
+from rigval.validation.report.figure_inputs import ComparisonCurves, shown_points
 from rigval.validation.report.page import Page
 from rigval.validation.report.why import start_why_figures, why_section
 from rigval.validation.results import ComparisonResult, ValidationResult
@@ -42,7 +42,7 @@ from rigval.validation.verdict import failure_reasons, run_verdict
 from rigval.validation.version import rigval_version
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Iterable, Sequence
+    from collections.abc import Iterable, Sequence
 
     from matplotlib.figure import Figure
 
@@ -363,54 +363,68 @@ def _predictions(page: Page, result: ValidationResult, figures: _Figures) -> Non
         page.table(_peaks(result.predictions), caption="support force extremes")
 
 
-def _figure_groups(inputs: FigureInputs) -> dict[str, Callable[[], Iterable[Figure]]]:
-    """Return the page's figure groups: each a function that yields its figures."""
+def _figures(name: str, data: Any) -> Iterable[Figure]:
+    """Return the figures of the page's group ``name``, drawn from its data (:func:`_data`)."""
     from rigval.validation.report import plots
     from rigval.validation.report.sketch import sketch_mechanism
 
-    predictions, alignment = inputs.predictions, inputs.alignment
-    return {
-        "comparisons": lambda: plots.plot_comparisons(inputs.comparisons),
-        "pulse_edges": lambda: [plots.plot_pulse_edges(alignment)],
-        "clock_residuals": lambda: [plots.plot_clock_residuals(alignment)],
-        "stream_coverage": lambda: [plots.plot_stream_coverage(alignment)],
-        "sketch": lambda: [sketch_mechanism(inputs.mechanism, highlight=list(inputs.points),
-                                            configuration=inputs.configuration)],
-        "points": lambda: plots.plot_points_kinematics(predictions, inputs.points),
-        "support_forces": lambda: ([plots.plot_support_forces(predictions)]
-                                   if "support_force" in predictions else []),
-    }
+    if name == "comparisons":
+        return plots.plot_comparisons(data)
+    if name == "sketch":
+        mechanism, configuration, points = data
+        return [sketch_mechanism(mechanism, highlight=list(points), configuration=configuration)]
+    if name == "points":
+        predictions, points = data
+        return plots.plot_points_kinematics(predictions, points)
+    if name == "support_forces":
+        return [] if data is None else [plots.plot_support_forces(data)]
+    draw = {"pulse_edges": plots.plot_pulse_edges, "clock_residuals": plots.plot_clock_residuals,
+            "stream_coverage": plots.plot_stream_coverage}[name]
+    return [draw(data)]
 
 
-def draw_figure_groups(inputs: FigureInputs, names: Sequence[str]) -> list[list[str]]:
+def draw_figure_groups(data: Sequence[Any], names: Sequence[str]) -> list[list[str]]:
     """Return the SVG texts of the named figure groups of a run's page (a drawer's work).
 
     Parameters
     ----------
-    inputs : FigureInputs
-        The run's figure inputs.
+    data : sequence
+        Each group's data, as :func:`start_figures` hands it over.
     names : sequence of str
-        Group names of :data:`FIGURE_GROUPS`.
+        The groups' names (of :data:`FIGURE_GROUPS`).
 
     Returns
     -------
     list of list of str
         Per group, in the order of ``names``, the SVG text of each of its figures.
     """
-    return group_texts(_figure_groups(inputs), names)
+    return [draw_texts(_figures(name, one)) for name, one in zip(names, data, strict=True)]
 
 
-#: The page's figure groups, as a drawer takes them (:func:`start_figures`): the comparisons'
-#: figures (one per comparison, about 0.6 s of CPU for the shipped runs) and the others.
-FIGURE_GROUPS = (("comparisons",), ("pulse_edges", "clock_residuals", "stream_coverage",
-                                    "sketch", "points", "support_forces"))
+#: The page's figure groups, in its order.
+FIGURE_GROUPS = ("comparisons", "pulse_edges", "clock_residuals", "stream_coverage", "sketch",
+                 "points", "support_forces")
+#: The groups as the drawers take them, each part with only its own data (:func:`_data`), so
+#: that a part of one page equal to one of another page of the command is drawn once
+#: (:class:`~rigval.validation.report.drawing.Drawers`): ``rigval identify``'s identified run
+#: has the nominal run's alignment and kinematics.
+FIGURE_PARTS = (("comparisons",), ("pulse_edges", "clock_residuals", "stream_coverage"),
+                ("sketch",), ("points",), ("support_forces",))
 
 
-def _figure_count(inputs: FigureInputs, names: Sequence[str]) -> int:
-    """Return how many figures the groups ``names`` have (a drawer's share of the work)."""
-    counts = {"comparisons": len(inputs.comparisons), "points": len(inputs.points),
-              "support_forces": int("support_force" in inputs.predictions)}
-    return sum(counts.get(name, 1) for name in names)
+def _data(result: ValidationResult) -> dict[str, tuple[Any, int]]:
+    """Return each figure group's data (small: it travels to a drawer) and figure count."""
+    predictions, points = result.predictions, shown_points(result)
+    kinematics = predictions[[name for name in predictions.data_vars
+                              if str(name).startswith("point_")]]
+    support = predictions[["support_force"]] if "support_force" in predictions else None
+    return {"comparisons": (tuple(ComparisonCurves.of(c) for c in result.comparisons),
+                            len(result.comparisons)),
+            **{name: (dict(result.alignment), 1)
+               for name in ("pulse_edges", "clock_residuals", "stream_coverage")},
+            "sketch": ((result.mechanism, result.configuration, points), 1),
+            "points": ((kinematics, points), len(points)),
+            "support_forces": (support, int(support is not None))}
 
 
 def start_figures(result: ValidationResult, drawers: Drawers | None = None) -> Drawing:
@@ -435,9 +449,10 @@ def start_figures(result: ValidationResult, drawers: Drawers | None = None) -> D
         Hand it to :func:`write_report` of the same run.
     """
     drawing = Drawing(drawers)
-    inputs = FigureInputs.of(result)
-    for names in FIGURE_GROUPS:
-        drawing.start(draw_figure_groups, inputs, names, _figure_count(inputs, names))
+    data = _data(result)
+    for names in FIGURE_PARTS:
+        drawing.start(draw_figure_groups, tuple(data[name][0] for name in names), names,
+                      sum(data[name][1] for name in names))
     return drawing
 
 
@@ -477,7 +492,7 @@ def _build_page(result: ValidationResult, drawing: Drawing) -> Page:
                 subtitle=f"{status} · {len(result.comparisons)} comparisons · "
                          f"{result.n_cycles} revolutions at {result.speed_rev_s:.3f} rev/s",
                 figure_format="svg")
-    figures = {name: drawing.texts(name) for names in FIGURE_GROUPS for name in names}
+    figures = {name: drawing.texts(name) for name in FIGURE_GROUPS}
     _summary(page, result, status)
     why_section(page, result, drawing)
     for drawn_section in (_comparisons, _alignment, _predictions):
