@@ -4,19 +4,15 @@ from __future__ import annotations
 
 import os
 import signal
-import subprocess
-import sys
 import threading
 import time
-from pathlib import Path
 from types import MappingProxyType
 
 import numpy as np
 import pytest
 
 from rigval.validation.beside import Standby, can_fork
-
-REPO = Path(__file__).resolve().parents[2]
+from tests.validation.fresh_process import run_in_a_fresh_process
 
 needs_fork = pytest.mark.usefixtures("forks_beside")
 
@@ -98,12 +94,7 @@ def _closing_ends_each_child() -> None:
 
 
 def test_closing_a_standby_ends_its_child_while_a_later_one_runs():
-    code = "from tests.validation import test_beside as t; t._closing_ends_each_child()"
-    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
-                          text=True, timeout=120, check=False)
-    assert done.returncode == 0, done.stderr
-    if "no fork" in done.stdout:
-        pytest.skip("no fork here: no fork start method or one CPU")
+    run_in_a_fresh_process("test_beside", "_closing_ends_each_child", timeout_s=120)
 
 
 def test_a_second_thread_keeps_the_calls_in_this_process():
@@ -132,9 +123,4 @@ def _an_error_ends_the_child_at_once() -> None:
 
 
 def test_an_error_ends_the_child_without_waiting_for_its_calls():
-    code = "from tests.validation import test_beside as t; t._an_error_ends_the_child_at_once()"
-    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
-                          text=True, timeout=120, check=False)
-    assert done.returncode == 0, done.stderr
-    if "no fork" in done.stdout:
-        pytest.skip("no fork here: no fork start method or one CPU")
+    run_in_a_fresh_process("test_beside", "_an_error_ends_the_child_at_once", timeout_s=120)

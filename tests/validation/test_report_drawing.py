@@ -9,7 +9,6 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,8 +17,7 @@ from matplotlib.figure import Figure
 from rigval.validation.beside import can_fork
 from rigval.validation.report import drawing
 from rigval.validation.report.page import Page, svg_text
-
-REPO = Path(__file__).resolve().parents[2]
+from tests.validation.fresh_process import REPO, run_in_a_fresh_process
 
 #: Figure groups: name -> (seed, figures).
 GROUPS = {"three": (1, 3), "one": (2, 1), "two": (3, 2), "none": (4, 0)}
@@ -85,20 +83,6 @@ def test_texts_here_equal_the_plain_route_for_every_split():
         assert _drawn(None, splits) == plain
 
 
-def _in_a_fresh_process(check: str) -> None:
-    """Run ``check`` of this module in a new interpreter; skip where it cannot fork.
-
-    A new interpreter runs one thread; this test process may not: an earlier test (a Dask
-    cluster) can leave threads behind, and with them the drawers rightly draw here.
-    """
-    code = f"from tests.validation import test_report_drawing as t; t.{check}()"
-    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
-                          text=True, timeout=300, check=False)
-    assert done.returncode == 0, done.stderr
-    if "no fork" in done.stdout:
-        pytest.skip("no fork here: no fork start method or one CPU")
-
-
 def _drawers_equal_the_plain_route() -> None:
     if not can_fork():
         print("no fork")
@@ -136,15 +120,15 @@ def _failing_drawer_drawn_here() -> None:
 
 
 def test_drawers_draw_what_this_process_draws():
-    _in_a_fresh_process("_drawers_equal_the_plain_route")
+    run_in_a_fresh_process("test_report_drawing", "_drawers_equal_the_plain_route")
 
 
 def test_each_drawer_is_another_process():
-    _in_a_fresh_process("_drawn_by_other_processes")
+    run_in_a_fresh_process("test_report_drawing", "_drawn_by_other_processes")
 
 
 def test_a_group_failing_in_a_drawer_is_drawn_again_here():
-    _in_a_fresh_process("_failing_drawer_drawn_here")
+    run_in_a_fresh_process("test_report_drawing", "_failing_drawer_drawn_here")
 
 
 def test_an_error_of_a_group_shows_in_this_process():
