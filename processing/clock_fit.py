@@ -297,6 +297,17 @@ def quantisation_limit(dev_times: ArrayLike, fs: float) -> tuple[float, float]:
     return half * float(np.abs(w_offset).sum()), half * float(np.abs(w_drift).sum())
 
 
+def _segment_starts(kinds: Sequence[tuple[FloatArray, FloatArray, IntArray]]
+                    ) -> dict[int, float]:
+    """Return each segment's first device event in s (0 at the latest: time since the stamps)."""
+    starts: dict[int, float] = {}
+    for _, dev, seg in kinds:
+        for s in np.unique(seg):
+            first = float(dev[seg == s].min(initial=np.inf))
+            starts[int(s)] = max(min(starts.get(int(s), np.inf), first), 0.0)
+    return starts
+
+
 def _clock_fit(ref: FloatArray, dev: FloatArray, group: IntArray, kind: IntArray,
                bound: FloatArray) -> tuple[dict[int, float], float, FloatArray, FloatArray,
                                             FloatArray]:
@@ -350,14 +361,18 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
                    timing_bound_s: float | Sequence[float] = 0.0,
                    clock_groups: Mapping[int, int] | None = None, per_revolution: int = 1,
                    settle_keys: Sequence[str] | None = None,
-                   where: Mapping[str, Any] | None = None) -> ClockModel:
+                   where: Mapping[str, Any] | None = None,
+                   drift_bound: float = 0.0) -> ClockModel:
     """Estimate a device's clock model from its reference events.
 
     Every segment is matched within the start stamps' window
-    (:func:`~rigval.processing.event_match.match_segment`); a segment the window leaves
-    undecided or that lands whole periods off the best-matched segment is matched again
-    within 0.4 event period of that segment's offset (a restart's new stamp is off by
-    milliseconds, not periods). One least-squares fit then gives one drift, one offset per
+    (:func:`~rigval.processing.event_match.match_segment`), widened by ``drift_bound`` times
+    the segment's start on the device clock: a restart hours into a record takes a new host
+    stamp, but the reference's record has run off host time meanwhile (50 ppm is 0.5 s after
+    three hours). A segment the window leaves undecided, or that lands whole periods off the
+    best-matched segment although the clocks cannot have run that far apart between the two,
+    is matched again within 0.4 event period of that segment's offset (a restart's new stamp
+    is off by milliseconds, not periods). One least-squares fit then gives one drift, one offset per
     clock group and, with several pulses per revolution, a constant per pulse (each may fire at
     its own angle). Residuals beyond :data:`~rigval.processing.event_match.OUTLIER_SIGMAS`
     robust sigmas are left out, unless that would leave out more than a fifth of the pairs
@@ -396,6 +411,9 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
         Names of the coarse-offset and start-time-uncertainty settings for error messages.
     where : mapping, optional
         Context for error messages.
+    drift_bound : float, default 0
+        How fast (1) the coarse offset may go off with time since the starts: the sum of both
+        clocks' oscillator tolerances (:func:`rigval.processing.stamps.clock_tolerance`).
 
     Returns
     -------
@@ -419,12 +437,14 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
     groups = {int(s): int((clock_groups or {}).get(int(s), s)) for s in all_segments}
     matches: dict[tuple[int, int], Match] = {}
     failures: list[tuple[int, AlignmentError]] = []
+    starts = _segment_starts(kinds)
     for kind, (ref, dev, seg) in enumerate(kinds):
         for s in np.unique(seg):
             try:
                 matches[(kind, int(s))] = match_segment(
                     ref, dev[seg == s], coarse_offset_s=coarse_offset_s,
-                    max_offset_error_s=max_offset_error_s, tolerance=0.25,
+                    max_offset_error_s=max_offset_error_s + drift_bound * starts[int(s)],
+                    tolerance=0.25,
                     place={**place, "segment": int(s), "event_kind": kind},
                     settle_keys=settle_keys)
             except AlignmentError as error:
@@ -441,13 +461,16 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
         period = float(np.median(np.diff(ref))) if ref.size > 1 else np.inf
         for s in np.unique(seg):
             found = matches.get((kind, int(s)))
-            if found is not None and abs(found.offset_s - anchor_offset) <= 0.5 * period:
-                continue
-            if np.count_nonzero(seg == s) < 2:
+            # how far the clocks may have run apart between the anchor's start and this one's
+            apart = drift_bound * abs(starts[int(s)] - starts[anchor[1]])
+            if found is not None and (abs(found.offset_s - anchor_offset) <= 0.5 * period
+                                      or apart >= 0.4 * period):
+                continue  # near the anchor, or too far in time for the anchor to tell
+            if np.count_nonzero(seg == s) < 2 or apart >= 0.4 * period:
                 continue
             try:
                 again = match_segment(ref, dev[seg == s], coarse_offset_s=anchor_offset,
-                               max_offset_error_s=min(max_offset_error_s, 0.4 * period),
+                               max_offset_error_s=min(max_offset_error_s + apart, 0.4 * period),
                                tolerance=0.25, place={**place, "segment": int(s)},
                                settle_keys=settle_keys, min_hits=2)
             except AlignmentError as error:

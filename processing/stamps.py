@@ -59,11 +59,16 @@ class CoarseOffset:
     source : str
         Where the guess came from: ``"start stamps"``, ``"given offset"`` or
         ``"no start time"``.
+    drift_bound : float
+        How fast (1) the guess may go off with time since the starts: both clocks' oscillator
+        tolerances (:func:`clock_tolerance`). A segment restarted hours in takes a new host
+        stamp, while the reference's record has run off host time meanwhile.
     """
 
     offset_s: float
     window_s: float
     source: str
+    drift_bound: float = 0.0
 
 
 def stamp_uncertainty(stream: xr.Dataset) -> float:
@@ -109,14 +114,16 @@ def coarse_offset(reference: xr.Dataset, stream: xr.Dataset, *, offset_s: float 
         a start time (1904-01-01, e.g. a CSV with relative time) is searched over the whole
         overlap of the two records.
     """
+    drift = clock_tolerance(stream) + clock_tolerance(reference)
     if offset_s is not None:
-        return CoarseOffset(offset_s, uncertainty_s or stamp_uncertainty(stream), "given offset")
+        return CoarseOffset(offset_s, uncertainty_s or stamp_uncertainty(stream), "given offset",
+                            drift)
     start = parse_start_time(stream.attrs["start_time"])
     ref_start = parse_start_time(reference.attrs["start_time"])
     if _known(start) and _known(ref_start):
         window = uncertainty_s or (stamp_uncertainty(stream) + stamp_uncertainty(reference))
         return CoarseOffset(float((start - ref_start) / np.timedelta64(1, "ns")) * 1e-9, window,
-                            "start stamps")
+                            "start stamps", drift)
     ref_span = float(reference["time"].values[-1] - reference["time"].values[0])
     dev_span = float(stream["time"].values[-1] - stream["time"].values[0])
     logger.info("stream %s has no start time: searching offsets over the whole record",

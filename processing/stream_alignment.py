@@ -227,6 +227,7 @@ def _fit_clock(events: np.ndarray, found: StreamPulses, coarse: CoarseOffset,
     kwargs = {"coarse_offset_s": coarse.offset_s, "max_offset_error_s": coarse.window_s,
               "min_events": 3, "timing_bound_s": found.good_bounds,
               "per_revolution": clock.per_revolution, "where": where,
+              "drift_bound": coarse.drift_bound,
               "settle_keys": (f"{key}.coarse_offset_s", f"{key}.start_time_uncertainty_s")}
     if len(set(groups.values())) < len(groups):
         try:

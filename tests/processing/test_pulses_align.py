@@ -230,3 +230,53 @@ def test_a_stray_partner_in_a_four_pulse_segment_is_rejected_by_the_whole_fit() 
     # noise-free pulses: the fit without the stray is exact to rounding
     assert clock.offsets_s == pytest.approx(offsets, abs=1e-9)
     assert clock.drift == pytest.approx(drift, abs=1e-12)
+
+
+def _late_restart(drift_bound: float, period: float = 1.0, window: float = 0.116,
+                  restart: float = 9454.8
+                  ) -> tuple[clock_fit.ClockModel, np.ndarray, np.ndarray, np.ndarray]:
+    """Four hours of pulses; the device restarts after a dropout, ``restart`` s in, with a new
+    host stamp.
+
+    The reference's record runs 26.7 ppm slow of host time, so by a restart 9454.8 s in it is
+    0.25 s behind the stamps: the restarted segment lies 0.28 s off its stamps' offset, beyond
+    the 0.116 s window the stamps alone allow (WLS #1 of the 4 h virtual-rig record, seed 1).
+    """
+    rng = np.random.default_rng(3)
+    count = round(14400 / period)
+    true = np.cumsum(period * (1.0 + 0.004 * rng.standard_normal(count)))  # speed wander
+    ref_drift, dev_drift = -26.7e-6, -7.9e-6
+    start, gap = 0.635, 0.2
+    stamp0, stamp1 = start + 0.0376, restart + 0.0295  # host stamps, ms off
+    seen = (true > start + 0.5) & ~((true > restart - gap) & (true <= restart))
+    true = true[seen]
+    segment = (true > restart).astype(np.int64)
+    dev = np.where(segment == 0, (true - start) * (1 + dev_drift),
+                   (stamp1 - stamp0) + (true - restart) * (1 + dev_drift))
+    ref = true * (1 + ref_drift)
+    clock = clock_fit.estimate_clock(ref, dev, segment, coarse_offset_s=stamp0,
+                                     max_offset_error_s=window, drift_bound=drift_bound)
+    return clock, ref, dev, segment
+
+
+def test_a_restart_hours_in_is_matched_although_the_reference_ran_off_host_time() -> None:
+    clock, ref, dev, segment = _late_restart(drift_bound=100e-6)  # 2 x 50 ppm oscillators
+    assert clock.segments == (0, 1) and not clock.unaligned_segments
+    assert clock.pulses_matched == ref.size
+    np.testing.assert_allclose(clock.to_reference(dev, segment), ref, rtol=0, atol=1e-6)
+    # the window without the clocks' drift leaves the restarted segment out
+    stamps_only, *_ = _late_restart(drift_bound=0.0)
+    assert stamps_only.unaligned_segments == (1,)
+
+
+def test_a_late_segment_the_data_placed_is_kept_though_whole_periods_from_the_first() -> None:
+    """Two pulses per revolution (0.5 s), a 1.116 s window and a restart 10868 s in (WLS #2 of
+    the 4 h record): the data place the restarted segment 0.32 s (more than half a period)
+    from the first segment's offset, which the clocks' drift over that time allows; it must
+    not be matched again around the first segment's offset."""
+    late = {"period": 0.5, "window": 1.116, "restart": 10868.5}
+    clock, ref, dev, segment = _late_restart(100e-6, **late)
+    assert not clock.unaligned_segments and clock.pulses_matched == ref.size
+    np.testing.assert_allclose(clock.to_reference(dev, segment), ref, rtol=0, atol=1e-6)
+    stamps_only, *_ = _late_restart(0.0, **late)
+    assert stamps_only.unaligned_segments == (1,)
