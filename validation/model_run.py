@@ -22,7 +22,7 @@ from rigval.model.solver import solve, solve_cycle
 from rigval.processing.excitation import mean_drive_cycle
 from rigval.validation.stage_settings import ModelSettings
 
-__all__ = ["FINE_FACTOR", "grid_error", "run_model"]
+__all__ = ["FINE_FACTOR", "drives_of", "grid_error", "run_model"]
 
 logger = logging.getLogger(__name__)
 
@@ -62,8 +62,33 @@ def _measured_drives(settings: ModelSettings, ref: xr.Dataset, fine_times: np.nd
     return times, drives
 
 
+def drives_of(fine: xr.Dataset) -> tuple[np.ndarray, dict[str, tuple[np.ndarray, ...]]]:
+    """Return the mean drives a model of measured drives was solved with (:func:`run_model`).
+
+    Parameters
+    ----------
+    fine : xarray.Dataset
+        :func:`run_model`'s output for measured drives: ``drive_<driver>``, ``_dot`` and
+        ``_ddot`` over its ``time`` coordinate.
+
+    Returns
+    -------
+    times : numpy.ndarray
+        Mean time since the start of the revolution per grid angle (s).
+    drives : dict
+        Driver name -> (theta, omega, alpha), the arrays themselves.
+    """
+    names = [str(name)[len("drive_"):] for name in fine.data_vars
+             if str(name).startswith("drive_") and not str(name).endswith("dot")]
+    drives = {name: tuple(fine[f"drive_{name}{end}"].values for end in ("", "_dot", "_ddot"))
+              for name in names}
+    return fine["time"].values, drives
+
+
 def run_model(settings: ModelSettings, mechanism: Mechanism, ref: xr.Dataset | None,
-              fine_times: np.ndarray, fine_angle: np.ndarray) -> xr.Dataset:
+              fine_times: np.ndarray, fine_angle: np.ndarray, *,
+              drives: tuple[np.ndarray, dict[str, tuple[np.ndarray, ...]]] | None = None
+              ) -> xr.Dataset:
     """Solve the model on the fine phi_F grid.
 
     Parameters
@@ -78,6 +103,10 @@ def run_model(settings: ModelSettings, mechanism: Mechanism, ref: xr.Dataset | N
         Reference times of the fine grid, (n_cycle, n_fine), s.
     fine_angle : numpy.ndarray
         The fine grid over one revolution, rad.
+    drives : (times, dict), optional
+        Measured drives already averaged for this grid (:func:`drives_of` of another
+        mechanism's model of the same run): the drive motion is the measurement's, not the
+        mechanism's, so ``ref`` is not read again.
 
     Returns
     -------
@@ -85,10 +114,10 @@ def run_model(settings: ModelSettings, mechanism: Mechanism, ref: xr.Dataset | N
         The requested model outputs with dim ``angle`` (rad); with measured drives also the mean
         drive angles ``drive_<driver>`` and their derivatives.
     """
-    if settings.drives == "analytic" or ref is None:
+    if settings.drives == "analytic" or (ref is None and drives is None):
         ds = solve_cycle(mechanism, fine_angle.size, **settings.request)
         return with_axial_forces(ds, mechanism, settings.compared.values())
-    times, drives = _measured_drives(settings, ref, fine_times)
+    times, drives = _measured_drives(settings, ref, fine_times) if drives is None else drives
     ds = solve(mechanism, times, drives=drives, **settings.request)
     for name, (theta, omega, alpha) in drives.items():
         ds[f"drive_{name}"] = ("time", theta, {"units": "rad", "long_name": f"{name}, mean"})

@@ -83,7 +83,7 @@ from rigval.validation.metrics.compare import (
     compare,
     periodic_ratings,
 )
-from rigval.validation.model_run import FINE_FACTOR, grid_error, run_model
+from rigval.validation.model_run import FINE_FACTOR, drives_of, grid_error, run_model
 from rigval.validation.note import read_note
 from rigval.validation.read_plan import (
     MeasuredSignal,
@@ -342,12 +342,18 @@ class _Modelled:
     model: _Model
 
 
-def _model(scene: Scene, aligned: _Aligned) -> _Modelled:
-    """Solve the mechanism on the fine phi_F grid; the chosen grid is every fourth point."""
+def _model(scene: Scene, aligned: _Aligned, like: xr.Dataset | None = None) -> _Modelled:
+    """Solve the mechanism on the fine phi_F grid; the chosen grid is every fourth point.
+
+    ``like``: another mechanism's fine model of the same run, whose mean measured drives are
+    taken as they are (:func:`rigval.validation.model_run.drives_of`).
+    """
     grid = aligned.timeline.grid
     mechanism = load_mechanism(scene.mechanism)
     settings = model_settings(scene, mechanism)
-    fine = run_model(settings, mechanism, aligned.drives, grid.fine_times, grid.fine_angle)
+    drives = drives_of(like) if like is not None and settings.drives == "measured" else None
+    fine = run_model(settings, mechanism, aligned.drives, grid.fine_times, grid.fine_angle,
+                     drives=drives)
     if settings.drives == "analytic":
         law_speed = 1.0 / float(fine.attrs["cycle_period_s"])
         if abs(law_speed / grid.speed_rev_s - 1.0) > ANALYTIC_SPEED_TOLERANCE:
@@ -566,13 +572,13 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
 class Measurement:
     """A validated run's measurement, kept to validate it against another mechanism.
 
-    Holds what the model, numerics and compare stages take (the timeline's grids, the drives'
-    encoders, the measured revolutions), so that :meth:`against` runs those three stages only:
-    the measured side does not depend on the mechanism.
+    Holds what the model, numerics and compare stages take (the timeline's grids, the measured
+    revolutions, and in its model the mean measured drives), so that :meth:`against` runs those
+    three stages only, with the drive motion as averaged for this run: the measured side does
+    not depend on the mechanism.
     """
 
     scene: Scene
-    drives: xr.Dataset | None
     measured: _Measured
 
     def against(self, mechanism: Path) -> ValidationResult:
@@ -595,7 +601,7 @@ class Measurement:
         with scene_errors(scene):
             with watch.stage("model"):
                 model = _model(scene, _Aligned(self.measured.inputs, self.measured.timeline,
-                                               self.drives)).model
+                                               None), like=self.measured.model.fine).model
             measured = dataclasses.replace(self.measured, model=model)
             with watch.stage("numerics"):
                 numerics = _numerics(scene, model)
@@ -607,7 +613,7 @@ class Measurement:
 def run_scene_kept(scene: Scene | str | Path) -> tuple[ValidationResult, Measurement]:
     """Validate one scene as :func:`run_scene` does, and keep its measurement.
 
-    The measurement holds the drives' encoders and the measured revolutions beside the result
+    The measurement holds the measured revolutions and the mean measured drives beside the result
     (``rigval identify`` validates the identified mechanism with it).
 
     Returns
@@ -637,7 +643,6 @@ def _run(scene: Scene | str | Path, *, keep: bool
         with watch.stage("align"):
             run = _align(scene, plan, settings, run)
             run = _grids(scene, run)
-        drives = run.drives if keep else None
         with watch.stage("model"):
             run = _model(scene, run)
         with watch.stage("angle"):
@@ -647,7 +652,7 @@ def _run(scene: Scene | str | Path, *, keep: bool
         with watch.stage("compare"):
             results = _compare_all(scene, run, numerics)
     result = _result(scene, watch, run, numerics, results)
-    return result, Measurement(scene, drives, run) if keep else None
+    return result, Measurement(scene, run) if keep else None
 
 
 def _result(scene: Scene, watch: _Stopwatch, measured: _Measured, numerics: _Numerics,
