@@ -101,6 +101,13 @@ class ReadPlan:
                   if ref.stream == stream}
         return needed & set(self.first[stream])
 
+    def edges_only(self, stream: str, channel: str) -> bool:
+        """Return True when a pulse channel read first is needed for its edges alone.
+
+        It is then let go once its edges are found (neither compared nor kept for the output).
+        """
+        return not self.whole and channel not in self.kept_after_alignment(stream)
+
 
 def _first_channels(scene: Scene, settings: AlignmentSettings, whole: bool
                     ) -> dict[str, tuple[str, ...]]:
