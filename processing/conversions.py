@@ -371,11 +371,12 @@ def encoder_angle_channel(ds: xr.Dataset, channel: str, *, counts_per_rev: float
     :func:`~rigval.processing.excitation.drive_excitation`, never differences of this angle.
     """
     var = _channel(ds, channel)
-    counts = encoder.unwrap_counts(var.to_numpy(), bits=bits)
+    counts = encoder.unwrap_counts(var.to_numpy(), bits=bits)  # its own int64 array
     if index_reset:
-        counts, _ = encoder.remove_index_resets(counts, counts_per_rev * gear_ratio)
+        counts, _ = encoder.remove_index_resets(counts, counts_per_rev * gear_ratio,
+                                                overwrite=True)
     angle = encoder.counts_to_angle(counts, counts_per_rev, gear_ratio=gear_ratio,
-                                    direction=direction)
+                                    direction=direction, overwrite=True)
     return _with_variable(ds, name or f"{channel}_angle", angle, var, channel, units="rad",
                           long_name=f"angle from {channel}",
                           conversion="2 pi direction counts / (CPR gear_ratio)",

@@ -88,7 +88,7 @@ def compact_counts(raw: ArrayLike) -> np.ndarray:
     return values
 
 
-def unwrap_counts(raw: ArrayLike, bits: int = 32) -> IntArray:
+def unwrap_counts(raw: ArrayLike, bits: int = 32, *, overwrite: bool = False) -> IntArray:
     """Return cumulative int64 counts from wrapping counter values.
 
     Parameters
@@ -97,6 +97,9 @@ def unwrap_counts(raw: ArrayLike, bits: int = 32) -> IntArray:
         Counter values as logged (unsigned or signed ``bits``-bit integers, or floats holding them).
     bits : int, default 32
         Counter width in bits.
+    overwrite : bool, default False
+        An int64 ``raw`` of the caller's own becomes the result (memory: no second whole-record
+        array); other dtypes are copied as without it.
 
     Returns
     -------
@@ -110,7 +113,7 @@ def unwrap_counts(raw: ArrayLike, bits: int = 32) -> IntArray:
             for part in (values[lo:lo + chunk] for lo in range(0, values.size, chunk))):
         raise DataError("encoder counts must be finite whole numbers",
                             hint="pass the raw counter channel, not a scaled one")
-    counts = values.astype(np.int64)
+    counts = values if overwrite and _own_int64(values) else values.astype(np.int64)
     if counts.size < 2:
         return counts
     modulus = np.int64(1) << bits
@@ -142,7 +145,12 @@ def unwrap_counts(raw: ArrayLike, bits: int = 32) -> IntArray:
 _MANY_RESETS = 100_000
 
 
-def remove_index_resets(counts: ArrayLike, counts_per_rev: float,
+def _own_int64(values: np.ndarray) -> bool:
+    """Return True when ``values`` is a writeable one-dimensional int64 array."""
+    return values.dtype == np.int64 and values.ndim == 1 and values.flags.writeable
+
+
+def remove_index_resets(counts: ArrayLike, counts_per_rev: float, *, overwrite: bool = False
                         ) -> tuple[IntArray, IntArray]:
     """Undo the counter reloads a Z index pulse causes (DAQmx ``CI.Encoder.ZIndexEnable``).
 
@@ -156,6 +164,8 @@ def remove_index_resets(counts: ArrayLike, counts_per_rev: float,
         Unwrapped counts (:func:`unwrap_counts`).
     counts_per_rev : float
         Counts per revolution.
+    overwrite : bool, default False
+        An int64 ``counts`` of the caller's own becomes the result, corrected in place (memory).
 
     Returns
     -------
@@ -175,12 +185,17 @@ def remove_index_resets(counts: ArrayLike, counts_per_rev: float,
         turns.append(np.round(steps[at] / counts_per_rev).astype(np.int64))
     resets = np.concatenate(found)
     fix = -np.concatenate(turns) * round(counts_per_rev)
+    in_place = overwrite and _own_int64(c)
     if resets.size > _MANY_RESETS:  # a noisy counter: one cumulative correction array
         correction = np.zeros(c.size, dtype=np.int64)
         correction[resets] = fix
-        return c + np.cumsum(correction, out=correction), resets
+        np.cumsum(correction, out=correction)
+        if in_place:
+            c += correction
+            return c, resets
+        return c + correction, resets
     total = np.cumsum(fix)
-    cumulative = c.copy()
+    cumulative = c if in_place else c.copy()
     for k, start in enumerate(resets):  # each reload's correction holds until the next one
         stop = resets[k + 1] if k + 1 < resets.size else c.size
         cumulative[start:stop] += total[k]
@@ -270,8 +285,22 @@ def _strictly_increasing(x: FloatArray, chunk: int = 1 << 20) -> bool:
                for lo in range(0, max(x.size - 1, 1), chunk))
 
 
+def _as_float_in_place(counts: np.ndarray) -> FloatArray:
+    """Return int64 counts converted to float64 in their own memory, a chunk at a time.
+
+    The values are those of ``counts.astype(np.float64)``; each chunk is cast through a
+    buffer of its own (NumPy copies an overlapping source), so nothing whole-record is added.
+    """
+    values = counts.view(np.float64)
+    chunk = 1 << 20
+    for lo in range(0, counts.size, chunk):
+        values[lo:lo + chunk] = counts[lo:lo + chunk]
+    return values
+
+
 def counts_to_angle(counts: ArrayLike, counts_per_rev: float, *, reference_count: float = 0.0,
-                    gear_ratio: float = 1.0, direction: float = 1.0) -> FloatArray:
+                    gear_ratio: float = 1.0, direction: float = 1.0, overwrite: bool = False
+                    ) -> FloatArray:
     """Return the shaft angle ``2 pi direction (counts - reference) / (CPR gear_ratio)`` in rad.
 
     Parameters
@@ -286,12 +315,17 @@ def counts_to_angle(counts: ArrayLike, counts_per_rev: float, *, reference_count
         Encoder revolutions per shaft revolution.
     direction : float, default 1
         +1 or -1 to make the model's positive sense positive.
+    overwrite : bool, default False
+        Int64 ``counts`` of the caller's own become the angle in their own memory (memory: no
+        second whole-record array; ``counts`` must not be used afterwards); else a new array.
     """
     if counts_per_rev <= 0:
         raise ConfigError(f"counts per revolution must be positive, got {counts_per_rev}",
                           where={"key": "counts_per_rev"})
     given = np.asarray(counts)
-    c = given.astype(np.float64)  # always a new array: worked on in place (memory)
+    # a new array, or the counts' own memory: worked on in place (memory)
+    c = _as_float_in_place(given) if overwrite and _own_int64(given) and \
+        given.flags.c_contiguous else given.astype(np.float64)
     c -= reference_count
     c *= direction * 2.0 * np.pi
     c /= counts_per_rev * gear_ratio

@@ -336,8 +336,9 @@ def drive_excitation(stream: xr.Dataset, channel: str, *, counts_per_rev: float,
     fs = float(stream.attrs["fs_nominal"])
     counts = unwrap_counts(stream[channel].to_numpy())
     if index_reset:
-        counts, _ = remove_index_resets(counts, counts_per_rev * gear_ratio)
-    raw = counts_to_angle(counts, counts_per_rev, gear_ratio=gear_ratio, direction=direction)
+        counts, _ = remove_index_resets(counts, counts_per_rev * gear_ratio, overwrite=True)
+    raw = counts_to_angle(counts, counts_per_rev, gear_ratio=gear_ratio, direction=direction,
+                          overwrite=True)
     del counts
     result = drive_angle(stream["time"].to_numpy(), raw, fs=fs,
                          step_rad=2 * np.pi / (counts_per_rev * gear_ratio), method=method,
@@ -402,8 +403,8 @@ def drive_excitation_at(stream: xr.Dataset, channel: str, at: ArrayLike, *,
     delay = float(stream[channel].attrs.get("input_delay_s", 0.0))
     counts = unwrap_counts(stream[channel].to_numpy())
     if index_reset:
-        counts, _ = remove_index_resets(counts, counts_per_rev)
-    theta = counts_to_angle(counts, counts_per_rev, direction=direction)
+        counts, _ = remove_index_resets(counts, counts_per_rev, overwrite=True)
+    theta = counts_to_angle(counts, counts_per_rev, direction=direction, overwrite=True)
     del counts
     t = stream["time"].to_numpy()
     runs = contiguous_runs(t.size, stream["segment"].to_numpy(), stream["valid"].to_numpy())
