@@ -179,7 +179,7 @@ def _read_stream(scene: Scene, plan: ReadPlan, name: str, watch: _Stopwatch, hea
     with watch.stage("health"):
         health.check(name, stream)
     with watch.stage("convert"):
-        converted = convert_first(scene, plan, name, stream)
+        converted = convert_first(scene, name, stream)
     return converted, str(stream.attrs["source_sha256"]), stream if scene.output.raw else None
 
 
