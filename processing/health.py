@@ -346,7 +346,8 @@ def _zero_drift(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, un
     t = _time_at(centres, time)
     slope, intercept = np.polyfit(t - t.mean(), means, 1)
     residual = means - (intercept + slope * (t - t.mean()))
-    span_t = float(time[np.flatnonzero(ok)[-1]] - time[np.flatnonzero(ok)[0]])
+    first, last = _first_and_last(ok)
+    span_t = float(time[last] - time[first])
     drift = float(slope) * span_t
     scale = 1.4826 * float(np.median(np.abs(residual)))  # robust: a revolution may be odd
     se = scale / float(np.sqrt(np.sum((t - t.mean()) ** 2))) * span_t
@@ -359,6 +360,18 @@ def _zero_drift(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, un
                      f"zero drift {_fmt(drift, unit)} over {span_t:.3g} s "
                      f"({100.0 * abs(drift) / max(span, 1e-300):.2g} % of the signal's span)",
                      time, hit, drift)]
+
+
+def _first_and_last(ok: BoolArray) -> tuple[int, int]:
+    """Return the first and the last index where ``ok`` holds (it holds somewhere).
+
+    Found a block at a time from either end (no whole-record index array).
+    """
+    first = next(lo + int(np.argmax(ok[lo:hi])) for lo, hi in _blocks(0, ok.size)
+                 if ok[lo:hi].any())
+    last = next(lo + int(np.flatnonzero(ok[lo:hi])[-1]) for lo, hi in
+                reversed(_blocks(0, ok.size)) if ok[lo:hi].any())
+    return first, last
 
 
 def _time_at(positions: FloatArray, time: FloatArray) -> FloatArray:

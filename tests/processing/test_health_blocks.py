@@ -100,3 +100,12 @@ def test_analog_health_by_small_blocks_equals_one_block(clip: bool, fault: str,
     monkeypatch.setattr(health, "_BLOCK", 997)
     assert health.analog_health(x, time, **kwargs) == whole
     assert fault in {f.fault for f in whole}
+
+
+@pytest.mark.usefixtures("small_blocks")
+@pytest.mark.parametrize("usable", [[5], [0, 996, 997], [2000, 29_000, 30_010]])
+def test_first_and_last_usable_sample_equal_the_index_list(usable: list[int]) -> None:
+    ok = np.zeros(30_011, dtype=bool)
+    ok[usable] = True
+    where = np.flatnonzero(ok)
+    assert health._first_and_last(ok) == (where[0], where[-1])
