@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Literal
 
@@ -42,7 +42,7 @@ from scipy.signal import sosfreqz
 
 from rigval.acquisition.errors import ConfigError, DataError
 from rigval.acquisition.schema import append_history
-from rigval.processing.arrays import FloatArray
+from rigval.processing.arrays import FloatArray, IntArray
 from rigval.processing.encoder import counts_to_angle, remove_index_resets, unwrap_counts
 from rigval.processing.errors import DriveRateError
 from rigval.processing.filters import (
@@ -365,6 +365,21 @@ def drive_excitation(stream: xr.Dataset, channel: str, *, counts_per_rev: float,
     return out
 
 
+def _in_time_order(flat: FloatArray
+                   ) -> tuple[FloatArray, Callable[[int, int], slice | IntArray]]:
+    """Return times in increasing order and where the ``a:b``-th of them sit in ``flat``.
+
+    A stable sort; times already in order (a grid's rows one revolution after the other) are
+    taken as they are, without the sort's index and copy (memory; the same order).
+    """
+    chunk = 1 << 20
+    if all(bool(np.all(np.diff(flat[lo:lo + chunk + 1]) >= 0))
+           for lo in range(0, max(flat.size - 1, 1), chunk)):
+        return flat, slice
+    index = np.argsort(flat, kind="stable")
+    return flat[index], lambda a, b: index[a:b]
+
+
 def drive_excitation_at(stream: xr.Dataset, channel: str, at: ArrayLike, *,
                         counts_per_rev: float, direction: float = 1.0,
                         cutoff_hz: float | None = None, order: int = 8,
@@ -423,8 +438,7 @@ def drive_excitation_at(stream: xr.Dataset, channel: str, at: ArrayLike, *,
                    4 * trend_harmonics + 4)
     targets = np.asarray(at, dtype=np.float64)
     flat = targets.ravel()
-    order_index = np.argsort(flat, kind="stable")
-    ordered = flat[order_index]
+    ordered, order_index = _in_time_order(flat)
     values = np.full((3, flat.size), np.nan)
     ends_t: list[float] = []
     ends_v: list[FloatArray] = []
@@ -443,12 +457,12 @@ def drive_excitation_at(stream: xr.Dataset, channel: str, at: ArrayLike, *,
                 a = np.searchsorted(ordered, previous[0], side="left")
                 b = np.searchsorted(ordered, times[0], side="right")
                 for k in range(3):
-                    values[k, order_index[a:b]] = np.interp(
+                    values[k, order_index(a, b)] = np.interp(
                         ordered[a:b], [previous[0], times[0]], [previous[1][k], first[k]])
             a = np.searchsorted(ordered, times[0], side="left")
             b = np.searchsorted(ordered, times[-1], side="right")
             for k in range(3):
-                values[k, order_index[a:b]] = np.interp(ordered[a:b], times, piece[k])
+                values[k, order_index(a, b)] = np.interp(ordered[a:b], times, piece[k])
             previous = (float(times[-1]), np.array([p[-1] for p in piece]))
         if previous is not None:
             ends_t.append(previous[0])
