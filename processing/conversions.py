@@ -189,7 +189,8 @@ def strain_channel(ds: xr.Dataset, channel: str, *, bridge_type: BridgeType,
                                 unstrained=unstrained)
     eps = bridge.strain_from_ratio(ratio, bridge_type, gauge_factor=gauge_factor,
                                    poisson=poisson, gauge_resistance=gauge_resistance,
-                                   lead_resistance=lead_resistance, gain_adjust=gain_adjust)
+                                   lead_resistance=lead_resistance, gain_adjust=gain_adjust,
+                                   overwrite=True)  # the ratio is this function's own copy
     return _with_variable(
         ds, name or f"{channel}_strain", eps, ds[channel], channel, units="1",
         long_name=f"strain from {channel}", conversion=f"NI {bridge_type} bridge equation",

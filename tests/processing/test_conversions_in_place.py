@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from rigval.acquisition.schema import Channel, stream_dataset
-from rigval.processing import accelerometer, conversions
+from rigval.processing import accelerometer, bridge, conversions
 from rigval.processing.filters import contiguous_runs
 
 FS = 1000.0
@@ -62,3 +62,29 @@ def test_bridge_ratio_in_its_copy_equals_the_formula(units, unstrained, expected
                                             unstrained=unstrained)
     assert np.array_equal(ratio, expected(values, window))
     assert np.array_equal(ds["x"].to_numpy(), values)
+
+
+@pytest.mark.parametrize("bridge_type", ["quarter_i", "quarter_ii", "half_i", "half_ii",
+                                         "full_i", "full_ii", "full_iii"])
+def test_strain_in_the_ratio_memory_equals_the_formula(bridge_type: str) -> None:
+    vr = np.random.default_rng(6).uniform(-2e-3, 2e-3, 5000)
+    vr[[3, 7]] = [np.nan, 0.0]
+    gf, nu, lead = 2.05, 0.29, 1.0 + 0.5 / 350.0
+    formulas = {  # NI's equations, each written out with new arrays
+        "quarter_i": lambda v: -4.0 * v / (gf * (1.0 + 2.0 * v)) * lead,
+        "half_i": lambda v: -4.0 * v / (gf * ((1.0 + nu) - 2.0 * v * (nu - 1.0))) * lead,
+        "half_ii": lambda v: -2.0 * v / gf * lead,
+        "full_i": lambda v: -v / gf,
+        "full_ii": lambda v: -2.0 * v / (gf * (nu + 1.0)),
+        "full_iii": lambda v: -2.0 * v / (gf * ((nu + 1.0) - v * (nu - 1.0))),
+    }
+    formulas["quarter_ii"] = formulas["quarter_i"]
+    kwargs = {"gauge_factor": gf, "poisson": nu, "gauge_resistance": 350.0,
+              "lead_resistance": 0.5, "gain_adjust": 1.01}
+    copied = bridge.strain_from_ratio(vr, bridge_type, **kwargs)
+    own = vr.copy()
+    in_place = bridge.strain_from_ratio(own, bridge_type, overwrite=True, **kwargs)
+    assert np.shares_memory(in_place, own)
+    assert np.array_equal(in_place, copied, equal_nan=True)
+    expected = formulas[bridge_type](vr) * 1.01
+    np.testing.assert_allclose(copied, expected, rtol=1e-15, atol=0)
