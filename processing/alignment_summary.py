@@ -17,15 +17,17 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.schema import invalid_counts, stream_gaps
-from rigval.processing.clock_fit import ClockModel, channel_time
+from rigval.processing.clock_fit import ClockModel
 from rigval.processing.event_match import robust_inliers
 from rigval.processing.pulses import StreamPulses
 
 __all__ = [
     "MIN_EVENT_TOLERANCE_S",
+    "PulseSamples",
     "StreamAlignment",
     "common_pulse",
     "event_residuals",
+    "pulse_samples",
     "segment_table",
     "stream_summary",
     "with_pulse_window",
@@ -177,21 +179,116 @@ def event_residuals(mapped: np.ndarray, events: np.ndarray, period: float,
     return residual, matched
 
 
+@dataclass(frozen=True)
+class PulseSamples:
+    """The samples of a pulse channel near its edges: what its pulse window can show.
+
+    A pulse channel whose edges are found as it is read is let go then (memory); the window
+    of :func:`with_pulse_window` around any of its edges is cut from these samples instead.
+
+    Parameters
+    ----------
+    attrs : mapping
+        The channel's attributes (``units``, ``input_delay_s`` in s as the aligned stream has it).
+    starts, stops : numpy.ndarray of int64
+        First and one-past-last sample index of each kept run of samples, increasing, the runs
+        apart.
+    values : numpy.ndarray
+        The kept runs' samples one run after the other (the channel's unit).
+    """
+
+    attrs: Mapping[str, Any]
+    starts: np.ndarray
+    stops: np.ndarray
+    values: np.ndarray = field(repr=False)
+
+    def between(self, lo: int, hi: int) -> np.ndarray:
+        """Return the samples ``lo ... hi - 1`` of the channel.
+
+        Raises
+        ------
+        ValueError
+            If they are not within one kept run (a window wider than the samples were kept for).
+        """
+        run = int(np.searchsorted(self.starts, lo, side="right")) - 1
+        if run < 0 or hi > self.stops[run]:
+            raise ValueError(f"pulse samples {lo} to {hi} were not kept (kept runs "
+                             f"{self.starts.size}, the window is wider than they were kept for)")
+        first = int(np.sum(self.stops[:run] - self.starts[:run])) + lo - int(self.starts[run])
+        return self.values[first:first + hi - lo]
+
+
+def _window_bounds(time: np.ndarray, centres: np.ndarray, half_width: float, delay: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Return the sample ranges ``[lo, hi)`` of the windows ``centre +- half_width`` (s).
+
+    Two samples more on either side than the delayed window holds (its edges are tested
+    exactly on the channel's times afterwards).
+    """
+    lo = np.searchsorted(time, centres - half_width + delay) - 2
+    hi = np.searchsorted(time, centres + half_width + delay) + 2
+    return np.maximum(lo, 0), np.minimum(hi, time.size)
+
+
+def pulse_samples(stream: xr.Dataset, channel: str, edges: np.ndarray, half_width: float,
+                  delay: float) -> PulseSamples:
+    """Keep the samples of a pulse channel that a window around any of its edges can show.
+
+    Parameters
+    ----------
+    stream : xarray.Dataset
+        The stream holding the channel, its ``time`` as the aligned stream will have it.
+    channel : str
+        The pulse channel.
+    edges : numpy.ndarray
+        Times (s) of the edges a window may be centred on, increasing.
+    half_width : float
+        The widest half-width (s) a window will have.
+    delay : float
+        The channel's input delay (s) on the aligned stream (``input_delay_s``).
+
+    Returns
+    -------
+    PulseSamples
+        The samples within ``half_width`` of each edge, as :func:`with_pulse_window` cuts them.
+    """
+    lo, hi = _window_bounds(stream["time"].to_numpy(), edges, half_width, delay)
+    reach = np.maximum.accumulate(hi) if hi.size else hi
+    new_run = np.ones(lo.size, dtype=bool)
+    new_run[1:] = lo[1:] > reach[:-1]
+    starts = lo[new_run].astype(np.int64)
+    stops = reach[np.r_[np.flatnonzero(new_run)[1:] - 1, lo.size - 1]].astype(np.int64) \
+        if lo.size else np.zeros(0, np.int64)
+    data = stream[channel].to_numpy()
+    values = np.concatenate([data[a:b] for a, b in zip(starts, stops, strict=True)]) \
+        if starts.size else np.zeros(0, data.dtype)
+    return PulseSamples({**stream[channel].attrs, "input_delay_s": delay}, starts, stops,
+                        values)
+
+
 def with_pulse_window(summary: StreamAlignment, aligned: xr.Dataset, channel: str,
-                      edges: np.ndarray, centre: float, half_width: float) -> StreamAlignment:
-    """Attach the raw pulse signal and its edges within ``centre +- half_width`` (s)."""
+                      edges: np.ndarray, centre: float, half_width: float,
+                      kept: PulseSamples | None = None) -> StreamAlignment:
+    """Attach the raw pulse signal and its edges within ``centre +- half_width`` (s).
+
+    The samples come from ``kept`` when the channel was let go after its edges were found
+    (it is then not in ``aligned``), else from ``aligned``.
+    """
     # the window's samples found on the increasing time axis, then the exact test on them
     # alone (no whole-record temporaries)
     time = aligned["time"].to_numpy()
-    delay = float(aligned[channel].attrs.get("input_delay_s", 0.0))
-    lo, hi = np.searchsorted(time, [centre - half_width + delay, centre + half_width + delay])
-    lo, hi = max(int(lo) - 2, 0), min(int(hi) + 2, time.size)
-    t = channel_time(aligned.isel(time=slice(lo, hi)), channel)
+    attrs = kept.attrs if kept is not None else aligned[channel].attrs
+    delay = float(attrs.get("input_delay_s", 0.0))
+    lo, hi = (int(b[0]) for b in _window_bounds(time, np.array([centre]), half_width, delay))
+    t = time[lo:hi] - delay  # as clock_fit.channel_time
     inside = np.abs(t - centre) <= half_width
+    if kept is None:
+        signal = aligned[channel].to_numpy()[lo:hi][inside]
+    else:  # kept around every edge a window can be centred on; none when the window is empty
+        signal = kept.between(lo, hi)[inside] if inside.any() else kept.values[:0]
     return dataclasses.replace(
-        summary, pulse_time=t[inside],
-        pulse_signal=aligned[channel].to_numpy()[lo:hi][inside],
-        pulse_units=str(aligned[channel].attrs.get("units", "")),
+        summary, pulse_time=t[inside], pulse_signal=signal,
+        pulse_units=str(attrs.get("units", "")),
         edge_times=edges[np.abs(edges - centre) <= half_width])
 
 
@@ -205,7 +302,8 @@ def common_pulse(pulses: np.ndarray, spans: list[tuple[float, float]], margin: f
 
 def stream_summary(name: str, aligned: xr.Dataset, clock: ClockModel, *, is_reference: bool,
                    residual_time: np.ndarray, residual: np.ndarray, matched: int,
-                   missing: int, spurious: int) -> StreamAlignment:
+                   missing: int, spurious: int, let_go: PulseSamples | None = None
+                   ) -> StreamAlignment:
     """Return a stream's record without its pulse window (:func:`with_pulse_window` adds it).
 
     Parameters
@@ -222,10 +320,15 @@ def stream_summary(name: str, aligned: xr.Dataset, clock: ClockModel, *, is_refe
         Reference times (s) of the matched events and their residuals (s).
     matched, missing, spurious : int
         Event counts.
+    let_go : PulseSamples, optional
+        The pulse channel let go after its edges were found: its input delay counts among the
+        stream's.
     """
     empty = np.zeros(0)
     delays = [float(aligned[v].attrs.get("input_delay_s", 0.0)) for v in aligned.data_vars
               if v not in ("valid", "segment")]
+    if let_go is not None:
+        delays.append(float(let_go.attrs.get("input_delay_s", 0.0)))
     times = aligned["time"].to_numpy()
     return StreamAlignment(
         stream=name, device=str(aligned.attrs.get("device", "")), is_reference=is_reference,

@@ -212,7 +212,8 @@ def voltage_ratio(output_voltage: ArrayLike, excitation_voltage: ArrayLike,
 
 def strain_from_ratio(ratio: ArrayLike, bridge_type: BridgeType, *, gauge_factor: float,
                       poisson: float = 0.3, gauge_resistance: float = 120.0,
-                      lead_resistance: float = 0.0, gain_adjust: float = 1.0) -> FloatArray:
+                      lead_resistance: float = 0.0, gain_adjust: float = 1.0,
+                      overwrite: bool = False) -> FloatArray:
     """Convert an offset-nulled voltage ratio to strain with NI's equation for the bridge type.
 
     Parameters
@@ -232,6 +233,9 @@ def strain_from_ratio(ratio: ArrayLike, bridge_type: BridgeType, *, gauge_factor
         lead resistance for a 2-wire quarter bridge).
     gain_adjust : float, default 1
         Shunt-calibration gain factor (see :func:`shunt_gain_adjust`), multiplied into the result.
+    overwrite : bool, default False
+        A float64 ``ratio`` array of the caller's own becomes the strain (memory: one
+        whole-record array less; ``ratio`` must not be used afterwards).
 
     Returns
     -------
@@ -246,31 +250,42 @@ def strain_from_ratio(ratio: ArrayLike, bridge_type: BridgeType, *, gauge_factor
     gf, nu = gauge_factor, poisson
     lead = 1.0 + lead_resistance / gauge_resistance
     # The formulas below, evaluated in place: two whole-record arrays instead of up to five
-    # (memory), the same operations in the same order (identical values).
+    # (memory), the same operations in the same order (identical values); with ``overwrite``
+    # the strain is made in the ratio's memory, after the denominator has taken the ratio.
+    own = overwrite and isinstance(ratio, np.ndarray) and ratio.dtype == np.float64 and \
+        ratio.ndim > 0 and ratio.flags.writeable
+
+    def scaled(factor: float) -> FloatArray:  # factor * vr (a product: either order)
+        return np.multiply(vr, factor, out=vr) if own else factor * vr
+
     if bridge_type in ("quarter_i", "quarter_ii"):  # -4 vr / (gf (1 + 2 vr)) lead
-        eps, den = -4.0 * vr, 2.0 * vr
+        den = 2.0 * vr
+        eps = scaled(-4.0)
         den += 1.0
         den *= gf
         eps /= den
         eps *= lead
     elif bridge_type == "half_i":  # -4 vr / (gf ((1 + nu) - 2 vr (nu - 1))) lead
-        eps, den = -4.0 * vr, 2.0 * vr
+        den = 2.0 * vr
+        eps = scaled(-4.0)
         den *= nu - 1.0
         den = np.subtract(1.0 + nu, den, out=den if den.ndim else None)
         den *= gf
         eps /= den
         eps *= lead
     elif bridge_type == "half_ii":  # -2 vr / gf lead
-        eps = -2.0 * vr
+        eps = scaled(-2.0)
         eps /= gf
         eps *= lead
     elif bridge_type == "full_i":
-        eps = -vr / gf
+        eps = np.negative(vr, out=vr if own else None)
+        eps /= gf
     elif bridge_type == "full_ii":
-        eps = -2.0 * vr
+        eps = scaled(-2.0)
         eps /= gf * (nu + 1.0)
     else:  # full_iii: -2 vr / (gf ((nu + 1) - vr (nu - 1)))
-        eps, den = -2.0 * vr, vr * (nu - 1.0)
+        den = vr * (nu - 1.0)
+        eps = scaled(-2.0)
         den = np.subtract(nu + 1.0, den, out=den if den.ndim else None)
         den *= gf
         eps /= den

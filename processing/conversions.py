@@ -108,16 +108,18 @@ def bridge_ratio_values(ds: xr.Dataset, channel: str, *, excitation_voltage: flo
     """
     var = _channel(ds, channel)
     units = str(var.attrs.get("units", ""))
-    values = var.to_numpy().astype(np.float64)
+    # its own copy, scaled in place (memory; the same operations in the same order)
+    ratio = var.to_numpy().astype(np.float64)
     per_ratio = factor_or_none(units, "V/V")  # V/V, mV/V, 1 (docs/formats.md units)
     per_volt = factor_or_none(units, "V")
     if per_ratio is not None:
-        ratio = values * per_ratio
+        ratio *= per_ratio
     elif per_volt is not None:
         if excitation_voltage is None:
             raise ConfigError(f"channel {channel!r} holds {units}; the excitation voltage is "
                               "needed", where={"channel": channel, "key": "excitation_voltage"})
-        ratio = values * per_volt / excitation_voltage
+        ratio *= per_volt
+        ratio /= excitation_voltage
     else:
         raise UnitError(f"bridge channel {channel!r} has units {units!r}; expected a bridge "
                         "ratio (V/V, mV/V) or a voltage (V, mV)", where={"channel": channel},
@@ -131,8 +133,10 @@ def bridge_ratio_values(ds: xr.Dataset, channel: str, *, excitation_voltage: flo
         if not window.any():
             raise ConfigError(f"the offset-null window {unstrained} s holds no valid sample",
                               where={"channel": channel, "key": "unstrained"})
-        return ratio - float(np.mean(ratio[window]))
-    return ratio - float(unstrained)
+        ratio -= float(np.mean(ratio[window]))
+        return ratio
+    ratio -= float(unstrained)
+    return ratio
 
 
 def _with_variable(ds: xr.Dataset, name: str, values: NDArray[np.float64], source: xr.DataArray,
@@ -185,7 +189,8 @@ def strain_channel(ds: xr.Dataset, channel: str, *, bridge_type: BridgeType,
                                 unstrained=unstrained)
     eps = bridge.strain_from_ratio(ratio, bridge_type, gauge_factor=gauge_factor,
                                    poisson=poisson, gauge_resistance=gauge_resistance,
-                                   lead_resistance=lead_resistance, gain_adjust=gain_adjust)
+                                   lead_resistance=lead_resistance, gain_adjust=gain_adjust,
+                                   overwrite=True)  # the ratio is this function's own copy
     return _with_variable(
         ds, name or f"{channel}_strain", eps, ds[channel], channel, units="1",
         long_name=f"strain from {channel}", conversion=f"NI {bridge_type} bridge equation",
@@ -334,17 +339,21 @@ def acceleration_channel(ds: xr.Dataset, channel: str, *, charge_sensitivity: fl
     """
     var, volts = _volts(ds, channel, "accelerometer")
     fs = float(ds.attrs["fs_nominal"])
-    out = np.full(volts.shape, np.nan)
+    # each run's acceleration replaces its volts in the one copy; NaN between the runs
+    converted_to = 0
     for start, stop in contiguous_runs(volts.size, ds["segment"].to_numpy(),
                                        ds["valid"].to_numpy()):
+        volts[converted_to:start] = np.nan
         piece = volts[start:stop]
         if remove_offset:
             piece -= piece.mean()
-        out[start:stop] = accelerometer.acceleration_from_voltage(
+        piece[:] = accelerometer.acceleration_from_voltage(
             piece, charge_sensitivity=charge_sensitivity, amplifier_gain=amplifier_gain, fs=fs,
             highpass_hz=highpass_hz)
+        converted_to = stop
+    volts[converted_to:] = np.nan
     return _with_variable(
-        ds, name or f"{channel}_acceleration", out, var, channel, units="m s-2",
+        ds, name or f"{channel}_acceleration", volts, var, channel, units="m s-2",
         long_name=f"acceleration from {channel}",
         conversion="a = V / (S_q G_amp) g0" + (", high-pass corrected" if highpass_hz else ""),
         parameters={"charge_sensitivity_pc_per_g": charge_sensitivity,
@@ -363,11 +372,12 @@ def encoder_angle_channel(ds: xr.Dataset, channel: str, *, counts_per_rev: float
     :func:`~rigval.processing.excitation.drive_excitation`, never differences of this angle.
     """
     var = _channel(ds, channel)
-    counts = encoder.unwrap_counts(var.to_numpy(), bits=bits)
+    counts = encoder.unwrap_counts(var.to_numpy(), bits=bits)  # its own int64 array
     if index_reset:
-        counts, _ = encoder.remove_index_resets(counts, counts_per_rev * gear_ratio)
+        counts, _ = encoder.remove_index_resets(counts, counts_per_rev * gear_ratio,
+                                                overwrite=True)
     angle = encoder.counts_to_angle(counts, counts_per_rev, gear_ratio=gear_ratio,
-                                    direction=direction)
+                                    direction=direction, overwrite=True)
     return _with_variable(ds, name or f"{channel}_angle", angle, var, channel, units="rad",
                           long_name=f"angle from {channel}",
                           conversion="2 pi direction counts / (CPR gear_ratio)",

@@ -11,7 +11,7 @@ consecutive reference events with CPR and reports glitches (a few counts off) an
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -24,9 +24,11 @@ from rigval.processing.arrays import BoolArray, FloatArray, IntArray
 QuadratureDecoding = Literal["x1", "x2", "x4"]
 
 __all__ = [
+    "CountAngle",
     "QuadratureDecoding",
     "RevolutionCheck",
     "compact_counts",
+    "count_angle",
     "counts_to_angle",
     "decode_quadrature",
     "increasing_angle",
@@ -88,7 +90,36 @@ def compact_counts(raw: ArrayLike) -> np.ndarray:
     return values
 
 
-def unwrap_counts(raw: ArrayLike, bits: int = 32) -> IntArray:
+def _whole_counts(values: np.ndarray) -> None:
+    """Raise unless float counter values are finite whole numbers (checked a chunk at a time)."""
+    chunk = 1 << 20
+    if values.dtype.kind == "f" and not all(
+            np.all(np.isfinite(part)) and np.all(part == np.round(part))
+            for part in (values[lo:lo + chunk] for lo in range(0, values.size, chunk))):
+        raise DataError("encoder counts must be finite whole numbers",
+                            hint="pass the raw counter channel, not a scaled one")
+
+
+def _wraps(values: np.ndarray, bits: int) -> tuple[IntArray, IntArray]:
+    """Return where a counter wraps and the cumulative correction (counts) from each wrap on.
+
+    Each step wrapped into ``[-2**(bits-1), 2**(bits-1))``: the correction (a multiple of the
+    modulus) is non-zero only at the counter's wraps; the steps are taken a chunk at a time.
+    """
+    modulus = np.int64(1) << bits
+    half = modulus >> 1
+    chunk = 1 << 20
+    wraps, corrections = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    for lo in range(0, values.size - 1, chunk):
+        steps = np.diff(values[lo:lo + chunk + 1].astype(np.int64))
+        fix = (steps + half) % modulus - half - steps
+        where = np.flatnonzero(fix)
+        wraps.append(lo + 1 + where)
+        corrections.append(fix[where])
+    return np.concatenate(wraps), np.cumsum(np.concatenate(corrections))
+
+
+def unwrap_counts(raw: ArrayLike, bits: int = 32, *, overwrite: bool = False) -> IntArray:
     """Return cumulative int64 counts from wrapping counter values.
 
     Parameters
@@ -97,6 +128,9 @@ def unwrap_counts(raw: ArrayLike, bits: int = 32) -> IntArray:
         Counter values as logged (unsigned or signed ``bits``-bit integers, or floats holding them).
     bits : int, default 32
         Counter width in bits.
+    overwrite : bool, default False
+        An int64 ``raw`` of the caller's own becomes the result (memory: no second whole-record
+        array); other dtypes are copied as without it.
 
     Returns
     -------
@@ -104,37 +138,110 @@ def unwrap_counts(raw: ArrayLike, bits: int = 32) -> IntArray:
         ``raw[0] + cumsum(d)`` with ``d`` the step wrapped into ``[-2**(bits-1), 2**(bits-1))``.
     """
     values = np.asarray(raw)
-    chunk = 1 << 20  # whole-record temporaries a chunk at a time (memory)
-    if values.dtype.kind == "f" and not all(
-            np.all(np.isfinite(part)) and np.all(part == np.round(part))
-            for part in (values[lo:lo + chunk] for lo in range(0, values.size, chunk))):
-        raise DataError("encoder counts must be finite whole numbers",
-                            hint="pass the raw counter channel, not a scaled one")
-    counts = values.astype(np.int64)
+    _whole_counts(values)
+    counts = values if overwrite and _own_int64(values) else values.astype(np.int64)
     if counts.size < 2:
         return counts
-    modulus = np.int64(1) << bits
-    half = modulus >> 1
-    # Each step wrapped into [-half, half): the correction (a multiple of the modulus) is
-    # non-zero only at the counter's wraps, which are few; it accumulates from each wrap on.
-    wraps, corrections = [], []
-    for lo in range(0, counts.size - 1, chunk):
-        steps = np.diff(counts[lo:lo + chunk + 1])
-        fix = (steps + half) % modulus - half - steps
-        where = np.flatnonzero(fix)
-        wraps.append(lo + 1 + where)
-        corrections.append(fix[where])
-    at = np.concatenate(wraps)
+    at, total = _wraps(counts, bits)
     if at.size > 1000:  # a fast-wrapping counter: one cumulative correction array
         correction = np.zeros(counts.size, dtype=np.int64)
-        correction[at] = np.concatenate(corrections)
+        correction[at] = np.diff(total, prepend=0)
         counts += np.cumsum(correction, out=correction)
         return counts
-    total = np.cumsum(np.concatenate(corrections))
     for k, start in enumerate(at):
         stop = at[k + 1] if k + 1 < at.size else counts.size
         counts[start:stop] += total[k]
     return counts
+
+
+@dataclass(frozen=True)
+class CountAngle:
+    """A counter's unwrapped angle, made for the samples asked for (memory).
+
+    ``angle[a:b]`` (any slice) and ``angle[i]`` equal those of
+    ``counts_to_angle(unwrap_counts(raw), counts_per_rev, gear_ratio=..., direction=...)``
+    bit for bit, without the whole-record counts or angle: the counter values stay as held
+    (int32 on a stream) and each wrap's correction is added to the samples it applies to.
+    Build it with :func:`count_angle`.
+
+    Attributes
+    ----------
+    raw : numpy.ndarray
+        The counter values as held.
+    wraps, corrections : numpy.ndarray of int64
+        First sample of each wrap's correction and the cumulative correction (counts) from it.
+    counts_per_rev, gear_ratio, direction : float
+        As in :func:`counts_to_angle`.
+    """
+
+    raw: np.ndarray = field(repr=False)
+    wraps: IntArray
+    corrections: IntArray
+    counts_per_rev: float
+    gear_ratio: float = 1.0
+    direction: float = 1.0
+
+    @property
+    def size(self) -> int:
+        """Number of samples."""
+        return int(self.raw.size)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Shape of the record (one dimension)."""
+        return (self.size,)
+
+    def window(self, start: int, stop: int) -> CountAngle:
+        """Return the angle of samples ``start ... stop - 1`` (as lazy as this one)."""
+        before = self.corrections[np.searchsorted(self.wraps, start, side="right") - 1] \
+            if self.wraps.size and self.wraps[0] <= start else np.int64(0)
+        inside = (self.wraps > start) & (self.wraps < stop)
+        return CountAngle(self.raw[start:stop],
+                          np.concatenate(([0], self.wraps[inside] - start)).astype(np.int64),
+                          np.concatenate(([before], self.corrections[inside])).astype(np.int64),
+                          self.counts_per_rev, self.gear_ratio, self.direction)
+
+    def __getitem__(self, key: int | slice) -> FloatArray | np.float64:
+        """Return the angle (rad) of one sample or of a slice of samples."""
+        if not isinstance(key, slice):
+            index = range(self.size)[key]  # IndexError, negative indices as for arrays
+            return self[index:index + 1][0]
+        positions = np.arange(*key.indices(self.size))
+        counts = self.raw[key].astype(np.int64)
+        if self.wraps.size:
+            applies = np.searchsorted(self.wraps, positions, side="right") - 1
+            counts += np.where(applies >= 0, self.corrections[np.maximum(applies, 0)], 0)
+        return counts_to_angle(counts, self.counts_per_rev, gear_ratio=self.gear_ratio,
+                               direction=self.direction, overwrite=True)
+
+
+def count_angle(raw: ArrayLike, counts_per_rev: float, *, gear_ratio: float = 1.0,
+                direction: float = 1.0, bits: int = 32) -> CountAngle:
+    """Return a counter's unwrapped angle that is computed stretch by stretch when asked.
+
+    Parameters
+    ----------
+    raw : array_like of int
+        Counter values as logged (as :func:`unwrap_counts` takes them).
+    counts_per_rev, gear_ratio, direction : float
+        As in :func:`counts_to_angle`.
+    bits : int, default 32
+        Counter width in bits.
+
+    Raises
+    ------
+    DataError
+        When float counter values are not finite whole numbers.
+    ConfigError
+        When ``counts_per_rev`` is not positive.
+    """
+    values = np.asarray(raw)
+    _whole_counts(values)
+    if counts_per_rev <= 0:
+        raise ConfigError(f"counts per revolution must be positive, got {counts_per_rev}",
+                          where={"key": "counts_per_rev"})
+    at, total = _wraps(values, bits)
+    return CountAngle(values, at, total, float(counts_per_rev), gear_ratio, direction)
 
 
 #: Reloads above which :func:`remove_index_resets` corrects through one whole-record array
@@ -142,7 +249,12 @@ def unwrap_counts(raw: ArrayLike, bits: int = 32) -> IntArray:
 _MANY_RESETS = 100_000
 
 
-def remove_index_resets(counts: ArrayLike, counts_per_rev: float,
+def _own_int64(values: np.ndarray) -> bool:
+    """Return True when ``values`` is a writeable one-dimensional int64 array."""
+    return values.dtype == np.int64 and values.ndim == 1 and values.flags.writeable
+
+
+def remove_index_resets(counts: ArrayLike, counts_per_rev: float, *, overwrite: bool = False
                         ) -> tuple[IntArray, IntArray]:
     """Undo the counter reloads a Z index pulse causes (DAQmx ``CI.Encoder.ZIndexEnable``).
 
@@ -156,6 +268,8 @@ def remove_index_resets(counts: ArrayLike, counts_per_rev: float,
         Unwrapped counts (:func:`unwrap_counts`).
     counts_per_rev : float
         Counts per revolution.
+    overwrite : bool, default False
+        An int64 ``counts`` of the caller's own becomes the result, corrected in place (memory).
 
     Returns
     -------
@@ -175,12 +289,17 @@ def remove_index_resets(counts: ArrayLike, counts_per_rev: float,
         turns.append(np.round(steps[at] / counts_per_rev).astype(np.int64))
     resets = np.concatenate(found)
     fix = -np.concatenate(turns) * round(counts_per_rev)
+    in_place = overwrite and _own_int64(c)
     if resets.size > _MANY_RESETS:  # a noisy counter: one cumulative correction array
         correction = np.zeros(c.size, dtype=np.int64)
         correction[resets] = fix
-        return c + np.cumsum(correction, out=correction), resets
+        np.cumsum(correction, out=correction)
+        if in_place:
+            c += correction
+            return c, resets
+        return c + correction, resets
     total = np.cumsum(fix)
-    cumulative = c.copy()
+    cumulative = c if in_place else c.copy()
     for k, start in enumerate(resets):  # each reload's correction holds until the next one
         stop = resets[k + 1] if k + 1 < resets.size else c.size
         cumulative[start:stop] += total[k]
@@ -270,8 +389,22 @@ def _strictly_increasing(x: FloatArray, chunk: int = 1 << 20) -> bool:
                for lo in range(0, max(x.size - 1, 1), chunk))
 
 
+def _as_float_in_place(counts: np.ndarray) -> FloatArray:
+    """Return int64 counts converted to float64 in their own memory, a chunk at a time.
+
+    The values are those of ``counts.astype(np.float64)``; each chunk is cast through a
+    buffer of its own (NumPy copies an overlapping source), so nothing whole-record is added.
+    """
+    values = counts.view(np.float64)
+    chunk = 1 << 20
+    for lo in range(0, counts.size, chunk):
+        values[lo:lo + chunk] = counts[lo:lo + chunk]
+    return values
+
+
 def counts_to_angle(counts: ArrayLike, counts_per_rev: float, *, reference_count: float = 0.0,
-                    gear_ratio: float = 1.0, direction: float = 1.0) -> FloatArray:
+                    gear_ratio: float = 1.0, direction: float = 1.0, overwrite: bool = False
+                    ) -> FloatArray:
     """Return the shaft angle ``2 pi direction (counts - reference) / (CPR gear_ratio)`` in rad.
 
     Parameters
@@ -286,12 +419,17 @@ def counts_to_angle(counts: ArrayLike, counts_per_rev: float, *, reference_count
         Encoder revolutions per shaft revolution.
     direction : float, default 1
         +1 or -1 to make the model's positive sense positive.
+    overwrite : bool, default False
+        Int64 ``counts`` of the caller's own become the angle in their own memory (memory: no
+        second whole-record array; ``counts`` must not be used afterwards); else a new array.
     """
     if counts_per_rev <= 0:
         raise ConfigError(f"counts per revolution must be positive, got {counts_per_rev}",
                           where={"key": "counts_per_rev"})
     given = np.asarray(counts)
-    c = given.astype(np.float64)  # always a new array: worked on in place (memory)
+    # a new array, or the counts' own memory: worked on in place (memory)
+    c = _as_float_in_place(given) if overwrite and _own_int64(given) and \
+        given.flags.c_contiguous else given.astype(np.float64)
     c -= reference_count
     c *= direction * 2.0 * np.pi
     c /= counts_per_rev * gear_ratio

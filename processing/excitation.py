@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Literal
 
@@ -42,8 +42,14 @@ from scipy.signal import sosfreqz
 
 from rigval.acquisition.errors import ConfigError, DataError
 from rigval.acquisition.schema import append_history
-from rigval.processing.arrays import FloatArray
-from rigval.processing.encoder import counts_to_angle, remove_index_resets, unwrap_counts
+from rigval.processing.arrays import FloatArray, IntArray
+from rigval.processing.encoder import (
+    CountAngle,
+    count_angle,
+    counts_to_angle,
+    remove_index_resets,
+    unwrap_counts,
+)
 from rigval.processing.errors import DriveRateError
 from rigval.processing.filters import (
     DEFAULT_CHUNK,
@@ -135,7 +141,7 @@ _TREND_SAMPLES = 50_000
 _PIECE = DEFAULT_CHUNK
 
 
-def _fourier_fit(t: FloatArray, theta: FloatArray, harmonics: int,
+def _fourier_fit(t: FloatArray, theta: FloatArray | CountAngle, harmonics: int,
                  max_samples: int = _FIT_SAMPLES) -> PeriodicFit:
     """Return the mean-speed Fourier series of an angle record (module docstring).
 
@@ -151,8 +157,8 @@ def _fourier_fit(t: FloatArray, theta: FloatArray, harmonics: int,
     return fit_periodic(t, theta, period, harmonics)
 
 
-def _butterworth_pieces(t: FloatArray, theta: FloatArray, fs: float, cutoff_hz: float,
-                        order: int, trend_harmonics: int, padtype: PadType
+def _butterworth_pieces(t: FloatArray, theta: FloatArray | CountAngle, fs: float,
+                        cutoff_hz: float, order: int, trend_harmonics: int, padtype: PadType
                         ) -> Iterator[tuple[int, int, FloatArray, FloatArray, FloatArray]]:
     """Smooth one gap-free run piece by piece: yield ``lo, hi, angle, velocity, acceleration``.
 
@@ -192,6 +198,28 @@ def _butterworth_pieces(t: FloatArray, theta: FloatArray, fs: float, cutoff_hz: 
         yield keep_lo, keep_hi, angle, velocity, acceleration
 
 
+def _counter_angle(raw: np.ndarray, counts_per_rev: float, *, gear_ratio: float = 1.0,
+                   direction: float = 1.0, index_reset: bool = False
+                   ) -> FloatArray | CountAngle:
+    """Return a counter's unwrapped angle (rad), made piece by piece where it can be.
+
+    Without index reloads the angle is a :class:`~rigval.processing.encoder.CountAngle`
+    (memory: no whole-record counts or angle); with them the whole record's, as
+    :func:`~rigval.processing.encoder.counts_to_angle` makes it.
+    """
+    if not index_reset:
+        return count_angle(raw, counts_per_rev, gear_ratio=gear_ratio, direction=direction)
+    counts, _ = remove_index_resets(unwrap_counts(raw), counts_per_rev * gear_ratio,
+                                    overwrite=True)
+    return counts_to_angle(counts, counts_per_rev, gear_ratio=gear_ratio, direction=direction,
+                           overwrite=True)
+
+
+def _run(theta: FloatArray | CountAngle, start: int, stop: int) -> FloatArray | CountAngle:
+    """Return samples ``start ... stop - 1`` of an angle (a lazy one stays lazy)."""
+    return theta.window(start, stop) if isinstance(theta, CountAngle) else theta[start:stop]
+
+
 def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float,
                 method: Method = "butterworth", cutoff_hz: float | None = None, order: int = 8,
                 harmonics: int = 8, trend_harmonics: int = 4, padtype: PadType = "line",
@@ -203,9 +231,10 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
     ----------
     time : array_like
         Sample times in s.
-    angle : array_like
+    angle : array_like or CountAngle
         Unwrapped raw angle in rad (e.g. :func:`~rigval.processing.encoder.counts_to_angle`),
-        increasing (turn the sign with ``direction`` there if needed).
+        increasing (turn the sign with ``direction`` there if needed); a
+        :class:`~rigval.processing.encoder.CountAngle` is read piece by piece (memory).
     fs : float
         Sampling rate in Hz.
     step_rad : float
@@ -238,7 +267,7 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
         Angle, velocity, acceleration and their error estimate.
     """
     t = np.asarray(time, dtype=np.float64)
-    theta = np.asarray(angle, dtype=np.float64)
+    theta = angle if isinstance(angle, CountAngle) else np.asarray(angle, dtype=np.float64)
     if t.shape != theta.shape:
         raise DataError(f"angle has {theta.size} samples but time has {t.size}")
     runs = contiguous_runs(t.size, segment, valid)
@@ -283,8 +312,8 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
             continue
         if method == "butterworth":
             for lo, hi, *values in _butterworth_pieces(
-                    t[start:stop], theta[start:stop], fs, cutoff_hz, order, trend_harmonics,
-                    padtype):
+                    t[start:stop], _run(theta, start, stop), fs, cutoff_hz, order,
+                    trend_harmonics, padtype):
                 for target, value in zip(out[:3 if derivatives else 1], values, strict=False):
                     target[start + lo:start + hi] = value
         else:
@@ -334,11 +363,8 @@ def drive_excitation(stream: xr.Dataset, channel: str, *, counts_per_rev: float,
         line.
     """
     fs = float(stream.attrs["fs_nominal"])
-    counts = unwrap_counts(stream[channel].to_numpy())
-    if index_reset:
-        counts, _ = remove_index_resets(counts, counts_per_rev * gear_ratio)
-    raw = counts_to_angle(counts, counts_per_rev, gear_ratio=gear_ratio, direction=direction)
-    del counts
+    raw = _counter_angle(stream[channel].to_numpy(), counts_per_rev, gear_ratio=gear_ratio,
+                         direction=direction, index_reset=index_reset)
     result = drive_angle(stream["time"].to_numpy(), raw, fs=fs,
                          step_rad=2 * np.pi / (counts_per_rev * gear_ratio), method=method,
                          cutoff_hz=cutoff_hz, order=order, harmonics=harmonics,
@@ -362,6 +388,21 @@ def drive_excitation(stream: xr.Dataset, channel: str, *, counts_per_rev: float,
     append_history(out, f"processing.drive_excitation {channel} -> {name} ({method}, "
                         f"{result.parameters})")
     return out
+
+
+def _in_time_order(flat: FloatArray
+                   ) -> tuple[FloatArray, Callable[[int, int], slice | IntArray]]:
+    """Return times in increasing order and where the ``a:b``-th of them sit in ``flat``.
+
+    A stable sort; times already in order (a grid's rows one revolution after the other) are
+    taken as they are, without the sort's index and copy (memory; the same order).
+    """
+    chunk = 1 << 20
+    if all(bool(np.all(np.diff(flat[lo:lo + chunk + 1]) >= 0))
+           for lo in range(0, max(flat.size - 1, 1), chunk)):
+        return flat, slice
+    index = np.argsort(flat, kind="stable")
+    return flat[index], lambda a, b: index[a:b]
 
 
 def drive_excitation_at(stream: xr.Dataset, channel: str, at: ArrayLike, *,
@@ -400,11 +441,8 @@ def drive_excitation_at(stream: xr.Dataset, channel: str, at: ArrayLike, *,
     """
     fs = float(stream.attrs["fs_nominal"])
     delay = float(stream[channel].attrs.get("input_delay_s", 0.0))
-    counts = unwrap_counts(stream[channel].to_numpy())
-    if index_reset:
-        counts, _ = remove_index_resets(counts, counts_per_rev)
-    theta = counts_to_angle(counts, counts_per_rev, direction=direction)
-    del counts
+    theta = _counter_angle(stream[channel].to_numpy(), counts_per_rev, direction=direction,
+                           index_reset=index_reset)
     t = stream["time"].to_numpy()
     runs = contiguous_runs(t.size, stream["segment"].to_numpy(), stream["valid"].to_numpy())
     if not runs:
@@ -422,8 +460,7 @@ def drive_excitation_at(stream: xr.Dataset, channel: str, at: ArrayLike, *,
                    4 * trend_harmonics + 4)
     targets = np.asarray(at, dtype=np.float64)
     flat = targets.ravel()
-    order_index = np.argsort(flat, kind="stable")
-    ordered = flat[order_index]
+    ordered, order_index = _in_time_order(flat)
     values = np.full((3, flat.size), np.nan)
     ends_t: list[float] = []
     ends_v: list[FloatArray] = []
@@ -431,7 +468,7 @@ def drive_excitation_at(stream: xr.Dataset, channel: str, at: ArrayLike, *,
         if stop - start <= shortest:
             continue
         previous: tuple[float, FloatArray] | None = None
-        for lo, hi, *piece in _butterworth_pieces(t[start:stop], theta[start:stop], fs,
+        for lo, hi, *piece in _butterworth_pieces(t[start:stop], _run(theta, start, stop), fs,
                                                   cutoff_hz, order, trend_harmonics, "line"):
             times = t[start + lo:start + hi] - delay
             first = np.array([p[0] for p in piece])
@@ -442,12 +479,12 @@ def drive_excitation_at(stream: xr.Dataset, channel: str, at: ArrayLike, *,
                 a = np.searchsorted(ordered, previous[0], side="left")
                 b = np.searchsorted(ordered, times[0], side="right")
                 for k in range(3):
-                    values[k, order_index[a:b]] = np.interp(
+                    values[k, order_index(a, b)] = np.interp(
                         ordered[a:b], [previous[0], times[0]], [previous[1][k], first[k]])
             a = np.searchsorted(ordered, times[0], side="left")
             b = np.searchsorted(ordered, times[-1], side="right")
             for k in range(3):
-                values[k, order_index[a:b]] = np.interp(ordered[a:b], times, piece[k])
+                values[k, order_index(a, b)] = np.interp(ordered[a:b], times, piece[k])
             previous = (float(times[-1]), np.array([p[-1] for p in piece]))
         if previous is not None:
             ends_t.append(previous[0])

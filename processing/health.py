@@ -22,7 +22,7 @@ runs every check a channel's kind calls for.
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -50,8 +50,10 @@ _CLIP_RUN, _CLIP_MIN = 3, 6
 _FLAT_S, _FLAT_MIN = 0.1, 50
 #: Spikes: running-median length and threshold in robust sigmas.
 _SPIKE_WINDOW, _SPIKE_SIGMAS = 5, 12.0
-#: Samples the spike search takes at a time (bounds its working arrays: 8 MiB of float64).
+#: Samples the checks take at a time (bounds their working arrays: 8 MiB of float64).
 _BLOCK = 1 << 20
+#: Samples :func:`quantum` looks at.
+_QUANTUM_SAMPLES = 20_000
 #: Noise: window (s), threshold over the floor, floor percentile, fewest windows in a row.
 _NOISE_WINDOW_S, _NOISE_FACTOR, _NOISE_PERCENTILE, _NOISE_RUN = 0.25, 3.0, 20.0, 2
 #: Zero drift: share of the signal's span and standard errors it must exceed.
@@ -129,7 +131,7 @@ def quantum(x: FloatArray) -> float:
     The smallest positive difference between the distinct values of up to 20,000 samples,
     accepted when most differences between neighbouring samples are whole multiples of it.
     """
-    part = x[np.isfinite(x)][:20_000]
+    part = x[np.isfinite(x)][:_QUANTUM_SAMPLES]
     steps = np.diff(np.unique(part))
     steps = steps[steps > 0]
     if steps.size == 0:
@@ -138,6 +140,30 @@ def quantum(x: FloatArray) -> float:
     d = np.abs(np.diff(part))
     whole = np.abs(d / q - np.round(d / q)) < 0.01
     return q if np.mean(whole) > 0.9 else 0.0
+
+
+def _first_usable(x: FloatArray, ok: BoolArray, count: int) -> FloatArray:
+    """Return the first ``count`` samples of ``x`` where ``ok`` (``x[ok][:count]`` uncopied)."""
+    parts, found = [], 0
+    for lo, hi in _blocks(0, x.size):
+        part = x[lo:hi][ok[lo:hi]][:count - found]
+        parts.append(part)
+        found += part.size
+        if found == count:
+            break
+    return np.concatenate(parts) if parts else x[:0]
+
+
+def _mask(size: int, block: Callable[[int, int], BoolArray]) -> BoolArray:
+    """Return a whole-record mask whose elements ``lo ... hi - 1`` are ``block(lo, hi)``.
+
+    Filled a block of :data:`_BLOCK` at a time, so that the comparisons making it have no
+    whole-record temporaries.
+    """
+    out = np.empty(size, dtype=bool)
+    for lo, hi in _blocks(0, size):
+        out[lo:hi] = block(lo, hi)
+    return out
 
 
 def channel_range(attrs: Mapping[str, Any], module: str | None) -> tuple[float, float] | None:
@@ -168,7 +194,8 @@ def _clipping(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, unit
     hits, levels = [], []
     for level in (float(np.max(x, where=ok, initial=-np.inf)),
                   float(np.min(x, where=ok, initial=np.inf))):
-        at = ok & (np.abs(x - level) <= 0.5 * q)
+        at = _mask(x.size, lambda lo, hi, level=level: ok[lo:hi] & (
+            np.abs(x[lo:hi] - level) <= 0.5 * q))
         starts, stops = runs_of(at)
         long = (stops - starts) >= _CLIP_RUN
         hit = np.concatenate([np.arange(a, b) for a, b in zip(starts[long], stops[long],
@@ -193,7 +220,8 @@ def _clipping(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, unit
 
 def _flat(x: FloatArray, ok: BoolArray, time: FloatArray, fs: float, channel: str, unit: str,
           q: float, clipped: BoolArray) -> list[Finding]:
-    still = ok[1:] & ok[:-1] & (np.abs(np.diff(x)) <= q)
+    still = _mask(x.size - 1, lambda lo, hi: ok[lo + 1:hi + 1] & ok[lo:hi] & (
+        np.abs(np.diff(x[lo:hi + 1])) <= q))
     starts, stops = runs_of(still)
     shortest = max(int(_FLAT_S * fs), _FLAT_MIN)
     out = []
@@ -259,13 +287,18 @@ def _block_spikes(x: FloatArray, lo: int, hi: int, a: int, b: int, noise: FloatA
 
 
 def _window_noise(x: FloatArray, ok: BoolArray, width: int) -> tuple[FloatArray, IntArray]:
-    """Robust noise rms per window from third differences (white noise: var = 20 sigma^2)."""
-    d3 = np.diff(x, 3)
-    use = ok[3:] & ok[2:-1] & ok[1:-2] & ok[:-3]
-    starts = np.arange(0, d3.size - width + 1, width)
+    """Robust noise rms per window from third differences (white noise: var = 20 sigma^2).
+
+    Window ``a ... a + width - 1`` of the third differences takes samples ``a ... a + width +
+    2``, whose four neighbours must all be usable; its differences are made from those samples
+    alone (the same values as the whole record's, without its whole-record temporaries).
+    """
+    starts = np.arange(0, x.size - 3 - width + 1, width)
     noise = np.full(starts.size, np.nan)
     for n, a in enumerate(starts):
-        part = d3[a:a + width][use[a:a + width]]
+        use = ok[a + 3:a + width + 3] & ok[a + 2:a + width + 2] & ok[a + 1:a + width + 1] & \
+            ok[a:a + width]
+        part = np.diff(x[a:a + width + 3], 3)[use]
         if part.size >= width // 2:
             noise[n] = 1.4826 * float(np.median(np.abs(part - np.median(part)))) / np.sqrt(20.0)
     return noise, starts
@@ -310,14 +343,15 @@ def _zero_drift(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, un
         return []
     means = sums[full] / counts[full]
     centres = (np.flatnonzero(full) + 0.5) * block / 1.0
-    t = np.interp(centres, np.arange(time.size), time)
+    t = _time_at(centres, time)
     slope, intercept = np.polyfit(t - t.mean(), means, 1)
     residual = means - (intercept + slope * (t - t.mean()))
-    span_t = float(time[np.flatnonzero(ok)[-1]] - time[np.flatnonzero(ok)[0]])
+    first, last = _first_and_last(ok)
+    span_t = float(time[last] - time[first])
     drift = float(slope) * span_t
     scale = 1.4826 * float(np.median(np.abs(residual)))  # robust: a revolution may be odd
     se = scale / float(np.sqrt(np.sum((t - t.mean()) ** 2))) * span_t
-    low, high = np.percentile(x[ok], [0.5, 99.5])
+    low, high = np.percentile(x[ok], [0.5, 99.5], overwrite_input=True)  # on the copy x[ok]
     span = float(high - low)
     if abs(drift) <= max(_DRIFT_SHARE * span, _DRIFT_SIGMAS * se):
         return []
@@ -326,6 +360,29 @@ def _zero_drift(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, un
                      f"zero drift {_fmt(drift, unit)} over {span_t:.3g} s "
                      f"({100.0 * abs(drift) / max(span, 1e-300):.2g} % of the signal's span)",
                      time, hit, drift)]
+
+
+def _first_and_last(ok: BoolArray) -> tuple[int, int]:
+    """Return the first and the last index where ``ok`` holds (it holds somewhere).
+
+    Found a block at a time from either end (no whole-record index array).
+    """
+    first = next(lo + int(np.argmax(ok[lo:hi])) for lo, hi in _blocks(0, ok.size)
+                 if ok[lo:hi].any())
+    last = next(lo + int(np.flatnonzero(ok[lo:hi])[-1]) for lo, hi in
+                reversed(_blocks(0, ok.size)) if ok[lo:hi].any())
+    return first, last
+
+
+def _time_at(positions: FloatArray, time: FloatArray) -> FloatArray:
+    """Return ``time`` interpolated at fractional sample positions (increasing, within the record).
+
+    As :func:`numpy.interp` over every sample index, from the two samples around each position
+    alone (no whole-record index array).
+    """
+    below = np.clip(np.floor(positions).astype(np.int64), 0, max(time.size - 2, 0))
+    index = np.unique(np.concatenate((below, np.minimum(below + 1, time.size - 1))))
+    return np.interp(positions, index.astype(np.float64), time[index])
 
 
 def _revolution_sums(x: FloatArray, ok: BoolArray, block: int, count: int
@@ -381,7 +438,7 @@ def analog_health(x: ArrayLike, time: ArrayLike, *, channel: str, fs: float, uni
     ok = np.isfinite(data) if valid is None else np.asarray(valid, bool) & np.isfinite(data)
     if ok.sum() < 20:
         return []
-    q = quantum(data[ok])
+    q = quantum(_first_usable(data, ok, _QUANTUM_SAMPLES))
     clipping = _clipping(data, ok, t, channel, unit, limits, q)
     clipped = np.zeros(data.size, dtype=bool)
     for found in clipping:

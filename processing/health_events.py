@@ -167,9 +167,9 @@ def counter_health(counts: ArrayLike, time: ArrayLike, *, channel: str,
     ok = np.ones(raw.size, bool) if valid is None else np.asarray(valid, dtype=bool)
     if ok.sum() < _RATE_WINDOW:
         return []
-    cumulative = unwrap_counts(_filled_counts(raw, ok))
+    cumulative = unwrap_counts(_filled_counts(raw, ok), overwrite=True)  # its own int64 copy
     if counts_per_rev:
-        cumulative, _ = remove_index_resets(cumulative, counts_per_rev)
+        cumulative, _ = remove_index_resets(cumulative, counts_per_rev, overwrite=True)
     usable = ok[1:] & ok[:-1]
     steps = _blocks(usable.size)  # the medians exact, a block at a time (memory)
     typical = exact_median(_steps(cumulative, lo, hi)[usable[lo:hi]] for lo, hi in steps)

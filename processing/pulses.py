@@ -111,10 +111,12 @@ def state_levels(x: ArrayLike, bins: int = 100, *, mask: ArrayLike | None = None
     return levels[0], levels[1]
 
 
-def _sinc_crossings(x: FloatArray, index: IntArray, mid: float) -> FloatArray:
+def _sinc_crossings(x: FloatArray, index: IntArray, mid: float, *, negate: bool = False
+                    ) -> FloatArray:
     """Return the sub-sample indices where the band-limited reconstruction of x crosses ``mid``.
 
-    The reconstruction is a Kaiser-windowed sinc (beta 8, +-32 samples) through the samples;
+    The reconstruction is a Kaiser-windowed sinc (beta 8, +-32 samples) through the samples
+    (of ``-x`` with ``negate``: only the samples around the edges are negated);
     each crossing between samples ``index`` and ``index + 1`` is found by the Illinois method
     (regula falsi that halves the retained end's value), all edges at once, to 1e-10 sample.
     NaN where the window leaves ``x`` or the reconstruction does not cross ``mid`` between the
@@ -126,6 +128,8 @@ def _sinc_crossings(x: FloatArray, index: IntArray, mid: float) -> FloatArray:
         return out
     offsets = np.arange(-_HALF_WINDOW + 1, _HALF_WINDOW + 1)
     samples = x[index[inside, None] + offsets[None, :]]
+    if negate:
+        np.negative(samples, out=samples)
     norm = float(i0(_KAISER_BETA))
 
     def level(position: FloatArray, rows: IntArray) -> FloatArray:
@@ -164,6 +168,36 @@ def _sinc_crossings(x: FloatArray, index: IntArray, mid: float) -> FloatArray:
     root[active] = 0.5 * (lo[active] + hi[active])
     out[np.flatnonzero(inside)] = index[inside] + root
     return out
+
+
+def _trigger(run: FloatArray, low: float, high: float, mid: float, negate: bool
+             ) -> tuple[IntArray, IntArray]:
+    """Return where the Schmitt trigger fires in a gap-free run, and its upward mid crossings.
+
+    The trigger arms at a sample ``<= low`` and fires at the next sample ``>= high`` (samples
+    between the thresholds are passed over); an upward crossing ``j`` has sample ``j`` below
+    ``mid`` and ``j + 1`` at or above it. Of ``-run`` with ``negate``. Worked a block of
+    :data:`_LEVEL_CHUNK` samples at a time, the last armed state carried from block to block
+    (memory: no whole-run state or index arrays); indices into the run.
+    """
+    fires, ups = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    armed = np.int8(0)  # the state of the last sample outside the band; 0: none yet
+    for lo in range(0, run.size, _LEVEL_CHUNK):
+        hi = min(lo + _LEVEL_CHUNK, run.size)
+        part = run[lo:min(hi + 1, run.size)]  # one sample more: the crossing at the block's end
+        if negate:
+            part = np.negative(part)
+        state = np.zeros(hi - lo, dtype=np.int8)
+        state[part[:hi - lo] <= low] = -1
+        state[part[:hi - lo] >= high] = 1
+        marked = np.flatnonzero(state)
+        labels = state[marked]
+        previous = np.concatenate(([armed], labels[:-1]))
+        fires.append(lo + marked[(labels == 1) & (previous == -1)])
+        if marked.size:
+            armed = labels[-1]
+        ups.append(lo + np.flatnonzero((part[:-1] < mid) & (part[1:] >= mid)))
+    return np.concatenate(fires), np.concatenate(ups)
 
 
 def detect_edges(x: ArrayLike, time: ArrayLike, *, low: float | None = None,
@@ -216,8 +250,11 @@ def detect_edges(x: ArrayLike, time: ArrayLike, *, low: float | None = None,
     if not low < high:
         raise ConfigError(f"hysteresis thresholds need low < high, got {low} and {high}",
                           where={"key": "low"})
-    if polarity == "falling":
-        data, low, high = -data, -high, -low
+    # a falling edge is a rising edge of -x: the thresholds turn here, the samples a block
+    # at a time (no negated copy of the record)
+    negate = polarity == "falling"
+    if negate:
+        low, high = -high, -low
     elif polarity != "rising":
         raise ConfigError(f"polarity must be 'rising' or 'falling', got {polarity!r}",
                           where={"key": "polarity"})
@@ -225,24 +262,19 @@ def detect_edges(x: ArrayLike, time: ArrayLike, *, low: float | None = None,
     times: list[FloatArray] = []
     usable = np.isfinite(data) if valid is None else np.asarray(valid, bool) & np.isfinite(data)
     for start, stop in contiguous_runs(data.size, segment, usable):
-        seg = data[start:stop]
-        state = np.zeros(seg.size, dtype=np.int8)
-        state[seg <= low] = -1
-        state[seg >= high] = 1
-        marked = np.flatnonzero(state)
-        if marked.size < 2:
-            continue
-        labels = state[marked]
-        fires = marked[1:][(labels[1:] == 1) & (labels[:-1] == -1)]
-        ups = np.flatnonzero((seg[:-1] < mid) & (seg[1:] >= mid))
+        run = data[start:stop]
+        fires, ups = _trigger(run, low, high, mid, negate)
         if fires.size == 0:
             continue
         j = ups[np.searchsorted(ups, fires) - 1]
-        position = j + (mid - seg[j]) / (seg[j + 1] - seg[j])
+        before, after = run[j], run[j + 1]
+        if negate:
+            before, after = -before, -after
+        position = j + (mid - before) / (after - before)
         if refine == "sinc":
-            refined = _sinc_crossings(seg, j, mid)
+            refined = _sinc_crossings(run, j, mid, negate=negate)
             position = np.where(np.isnan(refined), position, refined)
-        i = np.minimum(position.astype(np.int64), seg.size - 2)
+        i = np.minimum(position.astype(np.int64), run.size - 2)
         times.append(t[start + i] + (position - i) * (t[start + i + 1] - t[start + i]))
     edges = np.concatenate(times) if times else np.zeros(0)
     if holdoff_s > 0 and edges.size:

@@ -31,14 +31,21 @@ from rigval.acquisition.devices import get_module
 from rigval.acquisition.errors import ChannelNotFoundError, DataError
 from rigval.processing import alignment_summary as diagnose
 from rigval.processing import clock_fit
-from rigval.processing.alignment_summary import StreamAlignment
+from rigval.processing.alignment_summary import PulseSamples, StreamAlignment, pulse_samples
 from rigval.processing.angle import phi_f
 from rigval.processing.encoder import increasing_angle, remove_index_resets, unwrap_counts
 from rigval.processing.errors import AlignmentError
 from rigval.processing.pulses import StreamPulses, stream_pulses
 from rigval.processing.stamps import CoarseOffset, clock_groups, coarse_offset, stamps_clock
 
-__all__ = ["AlignmentSettings", "ClockSettings", "MainAngle", "align_streams"]
+__all__ = [
+    "AlignmentSettings",
+    "ClockSettings",
+    "MainAngle",
+    "ReferencePulses",
+    "align_streams",
+    "reference_pulses",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -166,6 +173,61 @@ def _pulses(stream: xr.Dataset, channel: ChannelSpec) -> StreamPulses:
     return found
 
 
+@dataclass(frozen=True)
+class ReferencePulses:
+    """The main reference pulses, found on the reference stream as read; its channel let go.
+
+    Attributes
+    ----------
+    pulses : StreamPulses
+        The channel's edges, as :func:`align_streams` finds them on the aligned reference stream
+        (whose clock is the identity: the same times, delays and valid samples).
+    samples : PulseSamples
+        The channel's samples near each good edge: any pulse window the alignment figure can
+        centre on one of them.
+    """
+
+    pulses: StreamPulses
+    samples: PulseSamples
+
+
+def reference_pulses(settings: AlignmentSettings, stream: xr.Dataset
+                     ) -> tuple[xr.Dataset, ReferencePulses | None]:
+    """Find the main reference pulses on the reference stream and let its pulse channel go.
+
+    Reading a long record, the pulse channel is then held as its edges and the samples near
+    them (memory), not whole through the alignment.
+
+    Parameters
+    ----------
+    settings : AlignmentSettings
+        The alignment settings (the reference stream and its pulse channel).
+    stream : xarray.Dataset
+        The reference stream in physical units, before the alignment.
+
+    Returns
+    -------
+    stream : xarray.Dataset
+        The stream without its pulse channel (unchanged when the pulses cannot bound the
+        window, below).
+    pulses : ReferencePulses or None
+        For :func:`align_streams`; None, and the channel kept, when fewer than two good edges
+        or edges not in time order leave the window's width unbounded.
+    """
+    channel = settings.reference_pulse.name
+    found = _pulses(stream, settings.reference_pulse)
+    intervals = np.diff(found.good)
+    if intervals.size == 0 or not np.all(intervals > 0):
+        return stream, None
+    # The window is PULSE_WINDOW times the median interval of a run of these edges: never
+    # wider than PULSE_WINDOW times the longest.
+    widest = PULSE_WINDOW * float(np.max(intervals))
+    # the aligned reference stream's delay: this one times (1 + drift), drift 0
+    delay = clock_fit.input_delay(stream[channel].attrs, float(stream.attrs["fs_nominal"]))
+    samples = pulse_samples(stream, channel, found.good, widest, delay)
+    return stream.drop_vars(channel), ReferencePulses(found, samples)
+
+
 def _encoder_turns(ref: xr.Dataset, encoder: ChannelSpec) -> float:
     """Return the revolutions the main encoder turned over the record (NaN: counts unusable)."""
     try:
@@ -178,10 +240,10 @@ def _encoder_turns(ref: xr.Dataset, encoder: ChannelSpec) -> float:
     return float(np.ptp(counts)) / cpr if counts.size else 0.0
 
 
-def _main_angle(settings: AlignmentSettings, ref: xr.Dataset) -> tuple[MainAngle, StreamPulses]:
-    """Return phi_F(t) from the main encoder, zero at the reference pulse, and those pulses."""
+def _main_angle(settings: AlignmentSettings, ref: xr.Dataset, pulses: StreamPulses
+                ) -> MainAngle:
+    """Return phi_F(t) from the main encoder, zero at the reference pulses ``pulses``."""
     encoder, pulse_channel = settings.encoder, settings.reference_pulse
-    pulses = _pulses(ref, pulse_channel)
     if pulses.good.size < settings.min_pulses:
         turns = _encoder_turns(ref, encoder)
         found = (f"only {pulses.good.size} reference pulses on "
@@ -213,7 +275,7 @@ def _main_angle(settings: AlignmentSettings, ref: xr.Dataset) -> tuple[MainAngle
     scatter_s = float(angle.attrs["reference_scatter_rad"]) / (2 * np.pi) * period
     mean_u95 = float(student_t.ppf(0.975, used - 1)) * scatter_s / np.sqrt(used)
     zero_u95 = float(np.hypot(mean_u95, pulses.timing_bound_s))
-    return MainAngle(t, phi, zero_u95), pulses
+    return MainAngle(t, phi, zero_u95)
 
 
 def _fit_clock(events: np.ndarray, found: StreamPulses, coarse: CoarseOffset,
@@ -238,10 +300,14 @@ def _fit_clock(events: np.ndarray, found: StreamPulses, coarse: CoarseOffset,
     return clock_fit.estimate_clock(events, edges, segments, **kwargs)
 
 
-def _reference(settings: AlignmentSettings, ref: xr.Dataset
+def _reference(settings: AlignmentSettings, ref: xr.Dataset, found: ReferencePulses | None
                ) -> tuple[MainAngle, StreamAlignment, np.ndarray, float]:
-    """phi_F, the reference stream's record, its good pulses (s) and the pulse period (s)."""
-    main, ref_pulses = _main_angle(settings, ref)
+    """phi_F, the reference stream's record, its good pulses (s) and the pulse period (s).
+
+    The pulses are ``found`` as the stream was read, else found here on ``ref``.
+    """
+    ref_pulses = found.pulses if found is not None else _pulses(ref, settings.reference_pulse)
+    main = _main_angle(settings, ref, ref_pulses)
     pulses = ref_pulses.good[(ref_pulses.good >= main.time[0])
                              & (ref_pulses.good <= main.time[-1])]
     period = float(np.median(np.diff(pulses)))
@@ -252,7 +318,8 @@ def _reference(settings: AlignmentSettings, ref: xr.Dataset
         settings.reference, ref, clock_fit.identity_clock(), is_reference=True,
         residual_time=pulses, residual=residual[matched], matched=int(matched.sum()),
         missing=max(expected.size - int(matched.sum()), 0),
-        spurious=int(ref_pulses.spurious.sum()))
+        spurious=int(ref_pulses.spurious.sum()),
+        let_go=found.samples if found is not None else None)
     return main, summary, pulses, period
 
 
@@ -295,7 +362,7 @@ def _align_by_pulses(name: str, stream: xr.Dataset, clock: ClockSettings, coarse
 
 
 def align_streams(settings: AlignmentSettings, converted: Mapping[str, xr.Dataset], *,
-                  device_time: bool = True
+                  device_time: bool = True, found: ReferencePulses | None = None
                   ) -> tuple[dict[str, xr.Dataset], dict[str, StreamAlignment], MainAngle]:
     """Put every stream on the reference timeline.
 
@@ -310,6 +377,10 @@ def align_streams(settings: AlignmentSettings, converted: Mapping[str, xr.Datase
         Keep each stream's ``device_time`` coordinate
         (:func:`~rigval.processing.clock_fit.align_stream`); False: memory for callers that never
         read it.
+    found : ReferencePulses, optional
+        The main reference pulses found as the reference stream was read
+        (:func:`reference_pulses`), its pulse channel then absent from it; default: found
+        here on the reference stream's pulse channel. The results are the same.
 
     Returns
     -------
@@ -331,7 +402,7 @@ def align_streams(settings: AlignmentSettings, converted: Mapping[str, xr.Datase
     ref = clock_fit.align_stream(converted[reference],
                                  clock_fit.identity_clock(converted[reference]["segment"]),
                                  name=reference, device_time=device_time)
-    main, ref_summary, pulses, period = _reference(settings, ref)
+    main, ref_summary, pulses, period = _reference(settings, ref, found)
     aligned = {reference: ref}
     diagnostics = {reference: ref_summary}
     shown = {reference: (settings.reference_pulse.name, pulses)}
@@ -357,8 +428,9 @@ def align_streams(settings: AlignmentSettings, converted: Mapping[str, xr.Datase
         shown[name] = (clock.pulse.name if clock.pulse else "", mapped)
     half_width = PULSE_WINDOW * period
     centre = diagnose.common_pulse(pulses, [d.span_s for d in diagnostics.values()], half_width)
+    kept = {reference: found.samples} if found is not None else {}
     diagnostics = {name: diagnose.with_pulse_window(summary, aligned[name], *shown[name],
-                                                    centre, half_width)
+                                                    centre, half_width, kept.get(name))
                    if name in shown else summary
                    for name, summary in diagnostics.items()}
     return aligned, diagnostics, main

@@ -15,7 +15,9 @@ read
     Each stream's file, only the channels the alignment and the model need (pulses, the
     encoders of phi_F and of measured drives; a text file's compared channels too), one stream
     after the other, converted to physical units (:mod:`rigval.processing.sensors`) as it is
-    read; the files' SHA-256 and the operator's note. With ``[output] raw`` or ``aligned`` every
+    read; the main reference pulse's edges found as its stream is read, and its channel then
+    held as the samples near them (:func:`rigval.processing.stream_alignment.reference_pulses`);
+    the files' SHA-256 and the operator's note. With ``[output] raw`` or ``aligned`` every
     channel is read here and kept.
 align
     phi_F(t) from the main encoder (smoothed, never differenced raw), zero at the reference
@@ -73,7 +75,13 @@ from rigval.processing.angle import (
     resample_to_angle,
 )
 from rigval.processing.filters import zero_phase
-from rigval.processing.stream_alignment import AlignmentSettings, MainAngle, align_streams
+from rigval.processing.stream_alignment import (
+    AlignmentSettings,
+    MainAngle,
+    ReferencePulses,
+    align_streams,
+    reference_pulses,
+)
 from rigval.processing.stretch_decimation import diagnosis_signal
 from rigval.validation.health import HealthLog
 from rigval.validation.metrics.compare import (
@@ -171,7 +179,7 @@ def _read_stream(scene: Scene, plan: ReadPlan, name: str, watch: _Stopwatch, hea
     with watch.stage("health"):
         health.check(name, stream)
     with watch.stage("convert"):
-        converted = convert_first(scene, plan, name, stream)
+        converted = convert_first(scene, name, stream)
     return converted, str(stream.attrs["source_sha256"]), stream if scene.output.raw else None
 
 
@@ -187,31 +195,38 @@ class _Inputs:
 
 @dataclass(frozen=True)
 class _Read:
-    """The read stage's output."""
+    """The read stage's output: the main reference pulses apart when found as read."""
 
     inputs: _Inputs
     converted: Mapping[str, xr.Dataset]
+    reference: ReferencePulses | None
 
 
-def _read(scene: Scene, plan: ReadPlan, watch: _Stopwatch) -> _Read:
+def _read(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, watch: _Stopwatch
+          ) -> _Read:
     """Read and convert each stream's first channels, one stream after the other.
 
     Stream by stream, so that memory holds one stream as read beside the converted ones; the
-    data files' SHA-256 come from this read, the mechanism's and the note's are computed here.
+    main reference pulse channel, needed for its edges alone, is held as they and the samples
+    near them once its stream is converted. The data files' SHA-256 come from this read, the
+    mechanism's and the note's are computed here.
     """
     converted: dict[str, xr.Dataset] = {}
     raw: dict[str, xr.Dataset] = {}
     digests: dict[Path, str] = {}
     health = HealthLog(scene)
+    reference = None
     for name, spec in scene.streams.items():
         converted[name], digests[spec.file], kept = _read_stream(scene, plan, name, watch,
                                                                  health)
+        if name == settings.reference and plan.edges_only(name, settings.reference_pulse.name):
+            converted[name], reference = reference_pulses(settings, converted[name])
         if kept is not None:
             raw[name] = kept
     inputs = tuple((path, digests.get(path) or source_checksum(path))
                    for path in scene.input_files)
     note = read_note(scene.note) if scene.note is not None else None
-    return _Read(_Inputs(raw, note, inputs, health), converted)
+    return _Read(_Inputs(raw, note, inputs, health), converted, reference)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -262,7 +277,8 @@ def _align(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, read: _Rea
     """
     # the device clocks go into the output only with [output] aligned
     aligned, diagnostics, main = align_streams(settings, read.converted,
-                                               device_time=scene.output.aligned)
+                                               device_time=scene.output.aligned,
+                                               found=read.reference)
     history = [line for ds in aligned.values()
                for line in str(ds.attrs.get("history", "")).splitlines()]
     drives = (aligned[settings.reference][[*plan.drives, "valid", "segment"]]
@@ -639,7 +655,7 @@ def _run(scene: Scene | str | Path, *, keep: bool
         plan = read_plan(scene, settings)
     with scene_errors(scene):
         with watch.stage("read"):
-            run = _read(scene, plan, watch)
+            run = _read(scene, plan, settings, watch)
         with watch.stage("align"):
             run = _align(scene, plan, settings, run)
             run = _grids(scene, run)

@@ -101,6 +101,13 @@ class ReadPlan:
                   if ref.stream == stream}
         return needed & set(self.first[stream])
 
+    def edges_only(self, stream: str, channel: str) -> bool:
+        """Return True when a pulse channel read first is needed for its edges alone.
+
+        It is then let go once its edges are found (neither compared nor kept for the output).
+        """
+        return not self.whole and channel not in self.kept_after_alignment(stream)
+
 
 def _first_channels(scene: Scene, settings: AlignmentSettings, whole: bool
                     ) -> dict[str, tuple[str, ...]]:
@@ -195,27 +202,26 @@ def read_streams(scene: Scene, channels: Mapping[str, Iterable[str]] | None = No
 
 
 def read_first(scene: Scene, plan: ReadPlan, name: str) -> xr.Dataset:
-    """Read a stream's first channels (those the plan reads before the alignment) as they are.
+    """Read a stream's first channels (those the plan reads before the alignment).
 
+    The values as they are; unless every channel is kept, encoder counters are stored as
+    32-bit integers where that is exact (:func:`rigval.processing.encoder.compact_counts`:
+    values are never altered), before the health checks and the conversion see them (memory).
     The file's SHA-256 is computed on this read (``source_sha256``).
     """
-    return load_stream(stream_part(scene.streams[name], plan.first[name]))
-
-
-def convert_first(scene: Scene, plan: ReadPlan, name: str, stream: xr.Dataset) -> xr.Dataset:
-    """Convert a stream's first channels to physical units.
-
-    Unless every channel is kept, encoder counters are stored as 32-bit integers where that is
-    exact (:func:`rigval.processing.encoder.compact_counts`: values are never altered).
-    """
     spec = scene.streams[name]
-    converted = convert_stream(stream, stream_part(spec, stream.data_vars))
+    stream = load_stream(stream_part(spec, plan.first[name]))
     if not plan.whole:
         for channel, table in spec.channels.items():
-            if table.sensor == "encoder" and channel in converted:
-                converted[channel] = converted[channel].copy(
-                    data=compact_counts(converted[channel].to_numpy()))
-    return converted
+            if table.sensor == "encoder" and channel in stream:
+                stream[channel] = stream[channel].copy(
+                    data=compact_counts(stream[channel].to_numpy()))
+    return stream
+
+
+def convert_first(scene: Scene, name: str, stream: xr.Dataset) -> xr.Dataset:
+    """Convert a stream's first channels (:func:`read_first`) to physical units."""
+    return convert_stream(stream, stream_part(scene.streams[name], stream.data_vars))
 
 
 def _add_channels(scene: Scene, name: str, aligned: xr.Dataset, channels: Iterable[str],

@@ -177,3 +177,28 @@ def test_pieces_and_sampling_at_times_equal_the_whole_record(monkeypatch) -> Non
     # and the truth: the smoothed acceleration within 0.01 rad/s^2 away from the run ends
     inner = (at > 103.0) & (at < 129.0)                          # a second from run ends
     assert np.max(np.abs(sampled[2][inner] - _drive(at[inner] + 3e-4)[2])) < 0.01
+
+
+def test_grid_times_in_order_sampled_without_the_sort_equal_the_sorted_path(monkeypatch
+                                                                            ) -> None:
+    # a phi_F grid's times come row after row in time order: taken as they are, the samples
+    # equal those through the stable sort's index, bit for bit
+    import xarray as xr
+    t = np.arange(0.0, 30.0, 1 / FS)
+    counts = np.floor(_drive(t)[0] / (2 * np.pi) * CPR)
+    valid = np.ones(t.size, dtype=bool)
+    valid[70_000:70_050] = False                                  # a gap to bridge
+    ds = xr.Dataset({"enc": ("time", counts), "segment": ("time", np.zeros(t.size, np.int32)),
+                     "valid": ("time", valid)}, coords={"time": t}, attrs={"fs_nominal": FS})
+    grid = np.linspace(-1.0, 31.0, 40 * 360).reshape(40, 360)     # ends clamped
+    grid[5, 7] = grid[5, 6]                                       # equal times keep their order
+    in_order = excitation.drive_excitation_at(ds, "enc", grid, counts_per_rev=CPR)
+
+    def sorted_always(flat):
+        index = np.argsort(flat, kind="stable")
+        return flat[index], lambda a, b: index[a:b]
+
+    monkeypatch.setattr(excitation, "_in_time_order", sorted_always)
+    through_sort = excitation.drive_excitation_at(ds, "enc", grid, counts_per_rev=CPR)
+    for got, expected in zip(in_order, through_sort, strict=True):
+        assert np.array_equal(got, expected) and np.isfinite(got).all()

@@ -34,7 +34,8 @@ def test_zero_interval_is_the_student_t_interval_of_the_pulse_jitter(synth) -> N
         encoder=ChannelSpec("enc", "enc", "encoder", {"counts_per_rev": cpr}, None, "", "enc"),
         reference_pulse=ChannelSpec("opt", "opt", "optical", {"threshold": 0.5}, None, "",
                                     "opt"))
-    main, found = stream_alignment._main_angle(settings, stream)
+    found = stream_alignment._pulses(stream, settings.reference_pulse)
+    main = stream_alignment._main_angle(settings, stream, found)
     n = found.good.size
     # band-limited edges: bounded by the sinc crossing's own error (SYMMETRIC_BOUND sample)
     bound = SYMMETRIC_BOUND / fs

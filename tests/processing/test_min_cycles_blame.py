@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import xarray as xr
 
 from rigval.acquisition.channel_map import ChannelSpec
 from rigval.acquisition.errors import DataError
@@ -38,17 +39,24 @@ def _run(synth, rises: np.ndarray, turns: float):
         source_sha256="0" * 64, fs_nominal=fs)
 
 
+def _main_angle(settings: stream_alignment.AlignmentSettings, stream: xr.Dataset
+                ) -> stream_alignment.MainAngle:
+    """phi_F from the stream's encoder, zero at its reference pulses (found on it first)."""
+    found = stream_alignment._pulses(stream, settings.reference_pulse)
+    return stream_alignment._main_angle(settings, stream, found)
+
+
 def test_short_record_names_min_cycles(synth) -> None:
     stream = _run(synth, np.arange(1.0, 15.0) + 0.25, 15.0)  # 14 pulses in 15 turns
     with pytest.raises(DataError, match="fewer than the 20 cycles asked for") as error:
-        stream_alignment._main_angle(_settings(synth.CPR, 20), stream)
+        _main_angle(_settings(synth.CPR, 20), stream)
     assert error.value.where["key"] == "angle.min_cycles"
     assert "turned 15 revolutions" in str(error.value)
-    stream_alignment._main_angle(_settings(synth.CPR, 14), stream)  # 14 asked: accepted
+    _main_angle(_settings(synth.CPR, 14), stream)  # 14 asked: accepted
 
 
 def test_pulses_missing_from_a_long_record_name_the_pulse_channel(synth) -> None:
     stream = _run(synth, np.array([3.25, 7.25, 11.25]), 15.0)  # 3 pulses in 15 turns
     with pytest.raises(DataError, match="only 3 reference pulses") as error:
-        stream_alignment._main_angle(_settings(synth.CPR, 5), stream)
+        _main_angle(_settings(synth.CPR, 5), stream)
     assert error.value.where["key"] == "alignment.main_reference_pulse"

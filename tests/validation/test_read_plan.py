@@ -8,12 +8,15 @@ compared channel is released once, at its stream's last comparison that uses it.
 
 from __future__ import annotations
 
+import dataclasses
 from collections import Counter
 
+import numpy as np
 import pytest
 
 from rigval.sample_data import runs_dir
 from rigval.validation import read_plan as plan_module
+from rigval.validation.health import HealthLog
 from rigval.validation.pipeline import run_scene
 from rigval.validation.scene import load_scene
 from rigval.validation.stage_settings import alignment_settings
@@ -57,3 +60,26 @@ def test_the_plan_reads_compared_channels_late_and_releases_each_once() -> None:
         later = {ref.channel for s in plan.compared[i + 1:] for _, ref in s.comparison.terms
                  if s.comparison.measured.stream == stream}
         assert not set(step.release) & later
+
+
+def test_first_read_holds_encoders_as_exact_integers_and_their_health_unchanged() -> None:
+    scene = load_scene(SCENE)
+    settings = alignment_settings(scene)
+    plan = plan_module.read_plan(scene, settings)
+    stream = plan_module.read_first(scene, plan, settings.reference)
+    as_read = plan_module.load_stream(plan_module.stream_part(
+        scene.streams[settings.reference], plan.first[settings.reference]))
+    encoders = [c for c, table in scene.streams[settings.reference].channels.items()
+                if table.sensor == "encoder" and c in stream]
+    assert encoders
+    for channel in encoders:
+        assert as_read[channel].dtype == np.float64 and stream[channel].dtype == np.int32
+        assert np.array_equal(stream[channel].to_numpy(), as_read[channel].to_numpy())
+    compact, whole = HealthLog(scene), HealthLog(scene)
+    compact.check(settings.reference, stream)
+    whole.check(settings.reference, as_read)
+    assert compact.findings == whole.findings
+    # the output keeping every channel keeps them as read
+    kept = dataclasses.replace(plan, whole=True)
+    assert plan_module.read_first(scene, kept, settings.reference)[encoders[0]].dtype == \
+        np.float64

@@ -1,0 +1,111 @@
+"""The analog health checks without whole-record temporaries equal the whole-record formulas.
+
+Each part that now works a block (or a window) at a time is checked against the formula it
+replaced, computed here on the whole record, with blocks small enough that clipped runs, flat
+stretches and gaps cross their edges.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rigval.processing import health
+
+FS = 2000.0
+
+
+@pytest.fixture
+def small_blocks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Blocks of 997 samples: many block edges, some inside the runs below."""
+    monkeypatch.setattr(health, "_BLOCK", 997)
+
+
+def _channel(seed: int, n: int = 30_011, clip: bool = True
+             ) -> tuple[np.ndarray, np.ndarray, float]:
+    """A quantised sine with noise, clipped at both ends, a flat stretch and invalid samples."""
+    rng = np.random.default_rng(seed)
+    q = 1e-4
+    x = np.round((np.sin(np.arange(n) / FS * 9.0) + rng.normal(0.0, 2e-3, n)) / q) * q
+    if clip:
+        x = np.clip(x, -0.9, 0.95)
+    x[12_000:12_400] = x[12_000]  # flat across a block edge (997 * 12 = 11_964 ... 12_961)
+    ok = np.ones(n, dtype=bool)
+    ok[rng.choice(n, 40, replace=False)] = False
+    ok[20_930:21_020] = False  # a gap across a block edge
+    return x, ok, q
+
+
+@pytest.mark.usefixtures("small_blocks")
+@pytest.mark.parametrize("seed", [1, 2])
+def test_clipping_and_flat_lines_by_blocks_equal_the_whole_record(seed: int) -> None:
+    x, ok, q = _channel(seed)
+    time = np.arange(x.size) / FS
+    for level in (float(np.max(x, where=ok, initial=-np.inf)),
+                  float(np.min(x, where=ok, initial=np.inf))):
+        whole = ok & (np.abs(x - level) <= 0.5 * q)
+        by_blocks = health._mask(x.size, lambda lo, hi, level=level: ok[lo:hi] & (
+            np.abs(x[lo:hi] - level) <= 0.5 * q))
+        assert np.array_equal(whole, by_blocks) and whole.sum() > 100
+    still = ok[1:] & ok[:-1] & (np.abs(np.diff(x)) <= q)
+    starts, stops = health.runs_of(still)
+    longest = int(np.argmax(stops - starts))
+    (flat,) = [f for f in health._flat(x, ok, time, FS, "c", "V", q, np.zeros(x.size, bool))
+               if f.first_sample == starts[longest]]
+    assert flat.last_sample == stops[longest]  # one past the run of steps: its last sample
+    clipped = health._clipping(x, ok, time, "c", "V", None, q)
+    assert clipped and clipped[0].samples > 100
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_window_noise_from_each_window_equals_the_whole_record_differences(seed: int) -> None:
+    x, ok, _ = _channel(seed)
+    width = 500
+    d3 = np.diff(x, 3)
+    use = ok[3:] & ok[2:-1] & ok[1:-2] & ok[:-3]
+    starts = np.arange(0, d3.size - width + 1, width)
+    expected = np.full(starts.size, np.nan)
+    for n, a in enumerate(starts):
+        part = d3[a:a + width][use[a:a + width]]
+        if part.size >= width // 2:
+            expected[n] = 1.4826 * float(np.median(np.abs(part - np.median(part)))) / np.sqrt(20)
+    noise, found_starts = health._window_noise(x, ok, width)
+    assert np.array_equal(found_starts, starts)
+    assert np.array_equal(noise, expected, equal_nan=True)
+    assert np.isnan(noise).sum() == 0  # no window loses half its samples here
+
+
+def test_time_at_positions_equals_interpolation_over_every_index() -> None:
+    time = np.cumsum(np.random.default_rng(4).uniform(0.9e-3, 1.1e-3, 10_001))
+    time[6000:] += 0.5  # a gap
+    positions = np.array([0.0, 0.5, 1999.5, 2000.0, 5999.5, 6000.0, 9999.5, 10_000.0])
+    assert np.array_equal(health._time_at(positions, time),
+                          np.interp(positions, np.arange(time.size), time))
+
+
+@pytest.mark.usefixtures("small_blocks")
+def test_first_usable_samples_equal_the_masked_record() -> None:
+    x, ok, _ = _channel(3)
+    for count in (1, 996, 997, 5000, x.size):
+        assert np.array_equal(health._first_usable(x, ok, count), x[ok][:count])
+
+
+@pytest.mark.parametrize(("clip", "fault"), [(True, "clipping"), (False, "flat line")])
+def test_analog_health_by_small_blocks_equals_one_block(clip: bool, fault: str,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    x, ok, _ = _channel(1, clip=clip)
+    time = np.arange(x.size) / FS
+    kwargs = {"channel": "c", "fs": FS, "unit": "V", "valid": ok, "period_samples": 1396.6}
+    whole = health.analog_health(x, time, **kwargs)
+    monkeypatch.setattr(health, "_BLOCK", 997)
+    assert health.analog_health(x, time, **kwargs) == whole
+    assert fault in {f.fault for f in whole}
+
+
+@pytest.mark.usefixtures("small_blocks")
+@pytest.mark.parametrize("usable", [[5], [0, 996, 997], [2000, 29_000, 30_010]])
+def test_first_and_last_usable_sample_equal_the_index_list(usable: list[int]) -> None:
+    ok = np.zeros(30_011, dtype=bool)
+    ok[usable] = True
+    where = np.flatnonzero(ok)
+    assert health._first_and_last(ok) == (where[0], where[-1])
