@@ -54,7 +54,8 @@ class CarriedLsim:
         _, y, x = lsim(self.system, u_run, np.arange(u_run.size) * self.dt, X0=self._state)
         self._state = np.atleast_2d(x)[-1].copy()
         self._last_input = float(u[-1])
-        return np.asarray(y if first else y[1:], dtype=np.float64)
+        y = np.atleast_1d(np.asarray(y, dtype=np.float64))  # lsim squeezes a single step
+        return y if first else y[1:]
 
 
 class CarriedHighPass:
@@ -87,7 +88,8 @@ class CarriedHighPass:
         if self._zi is None:  # the record's first sample: the low-pass state is the input
             z[0] = x[0]
             self._zi = np.array([self._decay * z[0] + self._b[1] * x[0]])
-            z[1:], self._zi = lfilter(self._b, self._a, x[1:], zi=self._zi)
+            if x.size > 1:
+                z[1:], self._zi = lfilter(self._b, self._a, x[1:], zi=self._zi)
         else:
             z[:], self._zi = lfilter(self._b, self._a, x, zi=self._zi)
         return x - z
