@@ -46,8 +46,8 @@ logger = logging.getLogger(__name__)
 #: cDAQ AI sample clock (Hz) and the NI 9237 rate on the wireless carriers, 50 kS/s / 31 (Hz).
 FS_CDAQ = 5000.0
 FS_WLS = 50000.0 / 31.0
-#: Longest record in s (4 hours; the rig writes in windows, memory grows only by the 1 kHz
-#: truth grid).
+#: Longest record in s (4 hours; the rig writes in windows and keeps a long record's truth
+#: grid in temporary files).
 MAX_DURATION_S = 14400.0
 #: Date the virtual rig's runs are dated from (a run starts ``seed`` days later, see
 #: :func:`draw_rig`).

@@ -81,6 +81,11 @@ class ChargeAccelerometer:
                                     amplifier_gain=self.amplifier_gain, fs=fs,
                                     highpass_hz=self.highpass_hz)
 
+    def voltage_unfiltered(self, acceleration: ArrayLike) -> FloatArray:
+        """Return the amplifier output (V) for an acceleration (m s-2) before its high-pass."""
+        return charge_chain_voltage(acceleration, charge_sensitivity=self.charge_sensitivity,
+                                    amplifier_gain=self.amplifier_gain)
+
 
 @dataclass(frozen=True, kw_only=True)
 class BridgeErrors:

@@ -44,9 +44,15 @@ from rigval.sample_data.drive import DriveMotion, Harmonic
 from rigval.sample_data.faults import FaultInjector
 from rigval.sample_data.rig import RigDraw, RigSettings, RunFiles, draw_rig, run_stem
 from rigval.sample_data.scene_text import local_time, note_text, scene_text
-from rigval.sample_data.streams import SAMPLED_QUANTITIES, stream_pieces
+from rigval.sample_data.streams import (
+    SAMPLED_QUANTITIES,
+    SampledTruth,
+    sampled_truth,
+    stream_pieces,
+)
 from rigval.sample_data.tdms_writer import Acquisition, DaqmxTdmsWriter, RawChannel
 from rigval.sample_data.truth import TruthGrid, model_truth
+from rigval.sample_data.truth_store import TruthStore, UniformGrid, store_truth
 from rigval.sample_data.writers import (
     NpyAppender,
     european_csv_head,
@@ -62,11 +68,12 @@ logger = logging.getLogger(__name__)
 
 #: TDMS group (task name) of each TDMS stream.
 GROUPS = {"cdaq": "cDAQ1 task", "wls1": "WLS1 task"}
-#: Window of true time (s) the streams are sampled and written in: memory does not grow with
-#: the record beyond the 1 kHz truth grid (about 60 bytes per ms of record).
+#: Window of true time (s) the streams are sampled and written in (the truth of a long record is
+#: read back from files a window at a time).
 WINDOW_S = 60.0
 #: Truth grid points solved at a time (the solver needs about 2 kB per point; the model is
-#: solved point by point, so the pieces join to rounding, 1e-14 of a signal's range).
+#: solved point by point, so the pieces join to rounding, 1e-14 of a signal's range); a grid
+#: of more points is computed a piece at a time into files (:func:`_sampled_truth`).
 TRUTH_POINTS = 1 << 16
 #: Version of the truth file layout.
 TRUTH_SCHEMA = "rigval-rig-truth/1"
@@ -299,6 +306,33 @@ def _truth_grid(provider: TruthProvider, drive: DriveMotion,
     return TruthGrid(t_grid, values)
 
 
+def _sampled_truth(settings: RigSettings, draw: RigDraw, provider: TruthProvider,
+                   grid: UniformGrid, record: tuple[float, float], scratch: Path
+                   ) -> tuple[SampledTruth | TruthStore, dict[str, Any]]:
+    """Return the truth the channels are sampled from, and the flexible mode's truth.
+
+    A grid of up to :data:`TRUTH_POINTS` points (a record up to about 50 s: the shipped runs)
+    is computed whole in memory; a longer one goes to files in ``scratch`` a piece at a time
+    (:func:`~rigval.sample_data.truth_store.store_truth`), unless the departures have a
+    flexible mode, whose level is set from the whole record.
+    """
+    departures, seed = settings.departures, settings.seed
+    area, modulus = draw.str1.area, draw.str1.youngs_modulus
+    if grid.n > TRUTH_POINTS and departures.mode_body is None:
+        def piece_truth(t: NDArray[np.float64]) -> TruthGrid:
+            return departed_grid(provider(draw.drive, t), departures, seed, record, area,
+                                 modulus)[0]
+
+        return store_truth(piece_truth, draw, grid, TRUTH_POINTS, scratch), {}
+    whole = _truth_grid(provider, draw.drive, grid.times(0, grid.n))
+    whole, mode = departed_grid(whole, departures, seed, record, area, modulus)
+    # what only the departures needed is let go before the streams are sampled (at 1 kHz, 8 kB
+    # per quantity and second of record)
+    whole = TruthGrid(whole.t, {name: values for name, values in whole.values.items()
+                                if name in SAMPLED_QUANTITIES})
+    return sampled_truth(draw, whole), mode
+
+
 def _scaled_mechanism(path: Path, mass_scale: tuple[tuple[str, float], ...]
                       ) -> Path | dict[str, Any]:
     """Return the mechanism file, or its content with some bodies' masses scaled.
@@ -348,24 +382,18 @@ def simulate_rig(out_dir: str | Path, settings: RigSettings | None = None, *,
              for c in draw.clocks.values()]
     t0 = min(starts) - settings.preroll
     n = int(np.ceil((max(stops) + 0.5 - t0) * settings.truth_fs)) + 1
-    t_grid = t0 + np.arange(n) / settings.truth_fs
+    grid = UniformGrid(t0, settings.truth_fs, n)
     source = _scaled_mechanism(mechanism, settings.departures.mass_scale)
     provider = truth or (lambda drive, t: model_truth(source, drive, t))
-    grid = _truth_grid(provider, draw.drive, t_grid)
-    grid, mode = departed_grid(grid, settings.departures, settings.seed,
-                               (min(starts), max(stops)), draw.str1.area,
-                               draw.str1.youngs_modulus)
-    # what only the departures needed is let go before the streams are sampled (at 1 kHz, 8 kB
-    # per quantity and second of record)
-    grid = TruthGrid(grid.t, {name: values for name, values in grid.values.items()
-                              if name in SAMPLED_QUANTITIES})
-    streams, pulses, pieces = stream_pieces(draw, grid, window_s=WINDOW_S)
-    injector = FaultInjector(settings.faults, streams, settings.seed)
 
     folder = Path(out_dir)
     folder.mkdir(parents=True, exist_ok=True)
     files = RunFiles(folder, run_stem(settings.speed))
     with tempfile.TemporaryDirectory(dir=folder, prefix=".truth-") as scratch:
+        sampled, mode = _sampled_truth(settings, draw, provider, grid, (min(starts), max(stops)),
+                                       Path(scratch))
+        streams, pulses, pieces = stream_pieces(draw, sampled, window_s=WINDOW_S)
+        injector = FaultInjector(settings.faults, streams, settings.seed)
         sink = _StreamFiles(streams, draw, files, Path(scratch))
         written: set[str] = set()
         try:

@@ -34,6 +34,7 @@ import itertools
 import logging
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -44,7 +45,8 @@ from rigval.sample_data.rig import RigDraw
 from rigval.sample_data.sensors import PulseTrain, optical_pulses
 from rigval.sample_data.truth import TruthGrid, frame_vibration
 
-__all__ = ["DEVICE_NAMES", "SAMPLED_QUANTITIES", "stream_pieces"]
+__all__ = ["DEVICE_NAMES", "SAMPLED_QUANTITIES", "SampledTruth", "TruthWindows", "sampled_truth",
+           "stream_pieces"]
 
 logger = logging.getLogger(__name__)
 
@@ -63,8 +65,40 @@ _FULL_SCALE = {"NI 9215": 10.0, "NI 9237": 0.025}
 _FILE_UNIT = {"NI 9215": "Volts", "NI 9237": "V/V"}
 
 
-def _accelerometer_grids(draw: RigDraw, grid: TruthGrid) -> tuple[TruthGrid, TruthGrid]:
-    """Return the physical accelerations and the amplifier voltages on the truth grid."""
+@dataclass(frozen=True)
+class SampledTruth:
+    """The truth the channels are sampled from, on the truth grid.
+
+    Parameters
+    ----------
+    grid : TruthGrid
+        The model's quantities (:data:`SAMPLED_QUANTITIES`, units in
+        :mod:`~rigval.sample_data.truth`).
+    physical : TruthGrid
+        Acceleration of ``acc1``, ``acc2``, ``acc3`` in m s-2 (acc3: the frame mode).
+    volts : TruthGrid
+        Their charge amplifiers' outputs in V (after the high-pass).
+    """
+
+    grid: TruthGrid
+    physical: TruthGrid
+    volts: TruthGrid
+
+    def window(self, t_from: float, t_to: float) -> SampledTruth:
+        """Return the part from ``t_from`` to ``t_to`` (s), margin as TruthGrid.window (views)."""
+        return SampledTruth(self.grid.window(t_from, t_to), self.physical.window(t_from, t_to),
+                            self.volts.window(t_from, t_to))
+
+
+class TruthWindows(Protocol):
+    """Truth of a record too long to hold, given a window of true time at a time."""
+
+    def window(self, t_from: float, t_to: float) -> SampledTruth:
+        """Return the truth from ``t_from`` to ``t_to`` (s), margin as TruthGrid.window."""
+
+
+def sampled_truth(draw: RigDraw, grid: TruthGrid) -> SampledTruth:
+    """Return the sampled truth of a whole grid in memory (filters over the whole grid)."""
     physical = {
         "acc1": grid.values["acc_P1_x"],
         "acc2": grid.values["acc_P2_x"],
@@ -72,7 +106,7 @@ def _accelerometer_grids(draw: RigDraw, grid: TruthGrid) -> tuple[TruthGrid, Tru
     }
     volts = {name: draw.accelerometers[name].voltage(grid.fs, values)
              for name, values in physical.items()}
-    return TruthGrid(grid.t, physical), TruthGrid(grid.t, volts)
+    return SampledTruth(grid, TruthGrid(grid.t, physical), TruthGrid(grid.t, volts))
 
 
 @dataclass(frozen=True)
@@ -116,10 +150,11 @@ def _trains(draw: RigDraw) -> tuple[dict[str, PulseTrain], dict[str, dict[str, l
     return trains, pulse_truth
 
 
-def _plans(draw: RigDraw, grid: TruthGrid, physical: TruthGrid, volts: TruthGrid,
+def _plans(draw: RigDraw, truth: SampledTruth,
            trains: dict[str, PulseTrain]) -> dict[str, list[_Plan]]:
-    """Return the channel plans of every stream on these truth grids."""
+    """Return the channel plans of every stream on this truth."""
     drive = draw.drive
+    grid, physical, volts = truth.grid, truth.physical, truth.volts
 
     def angle(drive_name: str) -> _Signal:
         return lambda t: drive.angles(t)[drive_name][0]
@@ -214,36 +249,8 @@ def _sample(plan: _Plan, clock: DeviceClock, parts: list[tuple[int, int, int]],
     return raw, truth, slope, delay
 
 
-def stream_pieces(draw: RigDraw, grid: TruthGrid, window_s: float | None = None
-                  ) -> tuple[dict[str, Stream], dict[str, dict[str, list[float]]],
-                             Iterator[StreamPiece]]:
-    """Sample every channel of the rig window by window, in bounded memory.
-
-    Parameters
-    ----------
-    draw : RigDraw
-        The run's random draws (drive, clocks, sensors).
-    grid : TruthGrid
-        Model truth covering every device's record (and the pre-roll).
-    window_s : float, optional
-        Length of a window of true time in s; None: each stream in one piece.
-
-    Returns
-    -------
-    dict of str to Stream
-        ``"cdaq"``, ``"wls1"``, ``"wls2"`` with their channels' metadata (``raw`` empty and
-        ``truth`` None: the samples come in the pieces).
-    dict
-        Truth of each optical sensor's pulses (see
-        :func:`~rigval.sample_data.sensors.optical_pulses`).
-    iterator of StreamPiece
-        The samples: the streams in the order cdaq, wls1, wls2, each window after window.
-        One noise generator runs through them in this order (channel after channel within a
-        window), so one seed and one window length give the same samples.
-    """
-    trains, pulse_truth = _trains(draw)
-    physical, volts = _accelerometer_grids(draw, grid)
-    plans = _plans(draw, grid, physical, volts, trains)
+def _stream_meta(draw: RigDraw, plans: dict[str, list[_Plan]]) -> dict[str, Stream]:
+    """Return each stream with its channels' metadata (no samples)."""
     streams = {}
     for name, channels in plans.items():
         clock = draw.clocks[name]
@@ -259,6 +266,52 @@ def stream_pieces(draw: RigDraw, grid: TruthGrid, window_s: float | None = None
                                            _FULL_SCALE[plan.module] / top,
                                            mod.delay(clock.fs_true), None, plan.truth_unit))
         streams[name] = Stream(name, DEVICE_NAMES[name], clock, tuple(meta))
+    return streams
+
+
+def _window_span(clock: DeviceClock, parts: list[tuple[int, int, int]]) -> tuple[float, float]:
+    """Return the true times (s) a window's samples need the truth over, 1 s either side."""
+    first, last = parts[0], parts[-1]
+    return (clock.segments[first[0]].true_start + first[1] / clock.fs_true - 1.0,
+            clock.segments[last[0]].true_start + last[2] / clock.fs_true + 1.0)
+
+
+def stream_pieces(draw: RigDraw, truth: SampledTruth | TruthWindows,
+                  window_s: float | None = None
+                  ) -> tuple[dict[str, Stream], dict[str, dict[str, list[float]]],
+                             Iterator[StreamPiece]]:
+    """Sample every channel of the rig window by window, in bounded memory.
+
+    Parameters
+    ----------
+    draw : RigDraw
+        The run's random draws (drive, clocks, sensors).
+    truth : SampledTruth or TruthWindows
+        Truth covering every device's record (and the pre-roll): all of it in memory
+        (:func:`sampled_truth`), or given a window at a time (a long record,
+        :class:`~rigval.sample_data.truth_store.TruthStore`).
+    window_s : float, optional
+        Length of a window of true time in s; None: each stream in one piece (only with the
+        truth in memory).
+
+    Returns
+    -------
+    dict of str to Stream
+        ``"cdaq"``, ``"wls1"``, ``"wls2"`` with their channels' metadata (``raw`` empty and
+        ``truth`` None: the samples come in the pieces).
+    dict
+        Truth of each optical sensor's pulses (see
+        :func:`~rigval.sample_data.sensors.optical_pulses`).
+    iterator of StreamPiece
+        The samples: the streams in the order cdaq, wls1, wls2, each window after window.
+        One noise generator runs through them in this order (channel after channel within a
+        window), so one seed and one window length give the same samples.
+    """
+    trains, pulse_truth = _trains(draw)
+    whole = truth if isinstance(truth, SampledTruth) else None
+    cdaq = draw.clocks["cdaq"].segments[0]
+    plans = _plans(draw, whole or truth.window(cdaq.true_start, cdaq.true_start), trains)
+    streams = _stream_meta(draw, plans)
 
     def pieces() -> Iterator[StreamPiece]:
         rng = np.random.default_rng(draw.noise_seed)
@@ -266,18 +319,14 @@ def stream_pieces(draw: RigDraw, grid: TruthGrid, window_s: float | None = None
             clock = draw.clocks[name]
             windows = _windows(clock, window_s)
             for parts in windows:
-                if len(windows) > 1:  # splines on this window's part of the truth only
-                    first, last = parts[0], parts[-1]
-                    t_from = clock.segments[first[0]].true_start + first[1] / clock.fs_true - 1.0
-                    t_to = clock.segments[last[0]].true_start + last[2] / clock.fs_true + 1.0
-                    channels = _plans(draw, grid.window(t_from, t_to),
-                                      physical.window(t_from, t_to), volts.window(t_from, t_to),
+                if len(windows) > 1 or whole is None:  # splines on this window's truth only
+                    channels = _plans(draw, truth.window(*_window_span(clock, parts)),
                                       trains)[name]
-                raw, truth = {}, {}
+                raw, values = {}, {}
                 for plan in channels:
-                    raw[plan.name], values, _, _ = _sample(plan, clock, parts, rng)
-                    if values is not None:
-                        truth[plan.name] = values
-                yield StreamPiece(name, tuple((i, k0) for i, k0, _ in parts), raw, truth)
+                    raw[plan.name], sampled, _, _ = _sample(plan, clock, parts, rng)
+                    if sampled is not None:
+                        values[plan.name] = sampled
+                yield StreamPiece(name, tuple((i, k0) for i, k0, _ in parts), raw, values)
 
     return streams, pulse_truth, pieces()

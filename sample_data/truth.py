@@ -36,13 +36,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import CubicSpline
-from scipy.signal import lsim
 
 from rigval.acquisition.errors import DataError
 from rigval.processing.arrays import FloatArray
+from rigval.sample_data.carried_filters import CarriedLsim
 from rigval.sample_data.drive import DriveMotion
 
-__all__ = ["TruthGrid", "frame_vibration", "model_truth"]
+__all__ = ["TruthGrid", "frame_filter", "frame_vibration", "model_truth"]
 
 logger = logging.getLogger(__name__)
 
@@ -160,21 +160,19 @@ def model_truth(mechanism_path: str | Path | Mapping[str, Any], drive: DriveMoti
     return TruthGrid(t, {k: np.asarray(v, dtype=np.float64) for k, v in values.items()})
 
 
-def frame_vibration(t: ArrayLike, force: ArrayLike, natural_hz: float, damping_ratio: float,
-                    modal_mass: float) -> FloatArray:
-    """Return the acceleration (m s-2) of one frame mode driven by a support force.
+def frame_filter(dt: float, natural_hz: float, damping_ratio: float,
+                 modal_mass: float) -> CarriedLsim:
+    """Return the frame mode seen by acc3 as a filter from support force (N) to acceleration.
 
     The frame is rigid in the model; the accelerometer acc3 near P3 sees its lowest mode, a
     single degree of freedom ``m x'' + 2 zeta omega_n m x' + omega_n^2 m x = F``, whose acceleration
-    is ``s^2 / (m (s^2 + 2 zeta omega_n s + omega_n^2)) F``. Solved exactly for an input linear
-    between samples (:func:`scipy.signal.lsim`), starting at rest.
+    is ``s^2 / (m (s^2 + 2 zeta omega_n s + omega_n^2)) F`` (m s-2 per N). It starts at rest and
+    is solved exactly for an input linear between samples, piece by piece if need be.
 
     Parameters
     ----------
-    t : array_like
-        Uniform times in s.
-    force : array_like
-        Force on the frame along the sensor axis in N.
+    dt : float
+        Sample spacing of the force in s (the grid's ``t[1] - t[0]``).
     natural_hz : float
         Natural frequency in Hz.
     damping_ratio : float
@@ -182,8 +180,23 @@ def frame_vibration(t: ArrayLike, force: ArrayLike, natural_hz: float, damping_r
     modal_mass : float
         Modal mass in kg.
     """
-    t = np.asarray(t, dtype=np.float64)
     wn = 2.0 * np.pi * natural_hz
-    system = ([1.0 / modal_mass, 0.0, 0.0], [1.0, 2.0 * damping_ratio * wn, wn**2])
-    _, response, _ = lsim(system, np.asarray(force, dtype=np.float64), t - t[0])
-    return np.asarray(response, dtype=np.float64)
+    return CarriedLsim(([1.0 / modal_mass, 0.0, 0.0], [1.0, 2.0 * damping_ratio * wn, wn**2]),
+                       dt)
+
+
+def frame_vibration(t: ArrayLike, force: ArrayLike, natural_hz: float, damping_ratio: float,
+                    modal_mass: float) -> FloatArray:
+    """Return the acceleration (m s-2) of the frame mode (:func:`frame_filter`) over a record.
+
+    Parameters
+    ----------
+    t : array_like
+        Uniform times in s.
+    force : array_like
+        Force on the frame along the sensor axis in N.
+    natural_hz, damping_ratio, modal_mass : float
+        The mode: Hz, 1, kg.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    return frame_filter(float(t[1] - t[0]), natural_hz, damping_ratio, modal_mass).step(force)
