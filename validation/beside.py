@@ -185,22 +185,28 @@ def _serve(calls: Connection, values: Connection, modules: tuple[str, ...]) -> N
     """Be the standby child: import ``modules``, then answer each call until there are no more.
 
     The calls are read by a thread as they come, so that this process's parent never waits
-    to hand one over while the child works on another.
+    to hand one over while the child works on another; the values are sent by another, so
+    that the child goes on with the next call while the parent has not yet asked for the value
+    before (a pipe holds 64 KiB: one figure group's text fills it).
     """
     # Ctrl-C is the parent's to handle (it then ends this child): no traceback from here
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     for end in _HELD_HERE:  # the parent's ends, of this standby's pipes and the earlier ones'
         end.close()
     inbox: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
+    outbox: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
     threading.Thread(target=_read_calls, args=(calls, inbox), daemon=True).start()
+    sender = threading.Thread(target=_send_values, args=(values, outbox), daemon=True)
+    sender.start()
     for name in modules:
         try:
             importlib.import_module(name)
         except Exception:  # the calls that need it fail and run in the parent
             logger.debug("the standby child cannot import %s", name, exc_info=True)
-    with values:
-        while (call := inbox.get()) is not None:
-            values.send_bytes(_answer(call))
+    while (call := inbox.get()) is not None:
+        outbox.put(_answer(call))
+    outbox.put(None)
+    sender.join()
 
 
 def _read_calls(calls: Connection, inbox: queue.SimpleQueue[bytes | None]) -> None:
@@ -210,6 +216,15 @@ def _read_calls(calls: Connection, inbox: queue.SimpleQueue[bytes | None]) -> No
                 inbox.put(calls.recv_bytes())
             except (EOFError, OSError):
                 inbox.put(None)
+                return
+
+
+def _send_values(values: Connection, outbox: queue.SimpleQueue[bytes | None]) -> None:
+    with values:
+        while (value := outbox.get()) is not None:
+            try:
+                values.send_bytes(value)
+            except OSError:  # the parent has gone: nobody waits for the values
                 return
 
 

@@ -14,8 +14,6 @@ meets its thresholds, 1 when one misses a threshold, 3 when one cannot be valida
 from __future__ import annotations
 
 import argparse
-import atexit
-import gc
 import io
 import sys
 import time
@@ -90,9 +88,6 @@ def run(args: argparse.Namespace) -> int:
     from rigval.validation.campaign.report import run_reason, write_campaign_report
     from rigval.validation.console import interrupt_quietly
 
-    # The interpreter's exit would walk the objects of every imported module (numpy, scipy,
-    # xarray, matplotlib, rigval) looking for garbage: 0.4-0.5 s. Frozen, they are skipped.
-    atexit.register(gc.freeze)
     scenes = shipped_runs()
     if not scenes:
         raise DataError("no sample runs are shipped with this installation",

@@ -109,25 +109,27 @@ class Drawing:
 
     def __init__(self, drawers: Drawers | None = None) -> None:
         self._drawers = Drawers(()) if drawers is None else drawers
-        self._groups: dict[str, tuple[Pending[list[list[str]]], int]] = {}
+        self._groups: dict[str, list[tuple[Pending[list[list[str]]], int]]] = {}
 
     def start(self, function: GroupFunction[Inputs], inputs: Inputs, names: Iterable[str],
               figures: int = 1) -> None:
         """Have a drawer draw the groups ``names`` (about ``figures`` figures).
 
-        The drawer calls ``function(inputs, names)``.
+        The drawer calls ``function(inputs, names)``. A group started again (a share of its
+        figures, other inputs) continues it: its texts are those of every start, in order.
         """
         names = tuple(names)
         pending = self._drawers.submit(function, inputs, names, figures)
-        self._groups.update((name, (pending, i)) for i, name in enumerate(names))
+        for i, name in enumerate(names):
+            self._groups.setdefault(name, []).append((pending, i))
 
     def __contains__(self, name: object) -> bool:
         return name in self._groups
 
     def texts(self, name: str) -> list[str]:
-        """Return the SVG texts of the group ``name`` (waiting for its drawer)."""
-        pending, index = self._groups[name]
-        return pending.result()[index]
+        """Return the SVG texts of the group ``name`` (waiting for its drawers)."""
+        return [text for pending, index in self._groups[name]
+                for text in pending.result()[index]]
 
 
 def draw_texts(figures: Iterable[Figure]) -> list[str]:

@@ -404,12 +404,13 @@ def draw_figure_groups(data: Sequence[Any], names: Sequence[str]) -> list[list[s
 #: The page's figure groups, in its order.
 FIGURE_GROUPS = ("comparisons", "pulse_edges", "clock_residuals", "stream_coverage", "sketch",
                  "points", "support_forces")
-#: The groups as the drawers take them, each part with only its own data (:func:`_data`), so
-#: that a part of one page equal to one of another page of the command is drawn once
+#: The groups as the drawers take them besides the comparisons (two shares of those first),
+#: each part with only its own data (:func:`_data`), so that a part of one page equal to one
+#: of another page of the command is drawn once
 #: (:class:`~rigval.validation.report.drawing.Drawers`): ``rigval identify``'s identified run
 #: has the nominal run's alignment and kinematics.
-FIGURE_PARTS = (("comparisons",), ("pulse_edges", "clock_residuals", "stream_coverage"),
-                ("sketch",), ("points",), ("support_forces",))
+FIGURE_PARTS = (("pulse_edges", "clock_residuals", "stream_coverage"), ("sketch",),
+                ("points",), ("support_forces",))
 
 
 def _data(result: ValidationResult) -> dict[str, tuple[Any, int]]:
@@ -450,6 +451,10 @@ def start_figures(result: ValidationResult, drawers: Drawers | None = None) -> D
     """
     drawing = Drawing(drawers)
     data = _data(result)
+    curves = data["comparisons"][0]
+    half = (len(curves) + 1) // 2  # the comparisons, a third of the drawing, in two shares
+    for share in (curves[:half], curves[half:]):
+        drawing.start(draw_figure_groups, (share,), ("comparisons",), len(share))
     for names in FIGURE_PARTS:
         drawing.start(draw_figure_groups, tuple(data[name][0] for name in names), names,
                       sum(data[name][1] for name in names))
