@@ -12,7 +12,7 @@ import pytest
 import rigval.sample_data.simulate as simulate
 from rigval.acquisition import read
 from rigval.acquisition.errors import ConfigError
-from rigval.sample_data import RigSettings, RunFiles, simulate_rig
+from rigval.sample_data import RigSettings, RunFiles
 from rigval.sample_data.tdms_writer import (
     Acquisition,
     DaqmxTdmsWriter,
@@ -21,6 +21,7 @@ from rigval.sample_data.tdms_writer import (
 )
 from rigval.sample_data.truth import TruthGrid
 from rigval.sample_data.writers import write_npz, write_npz_from_files
+from tests.sample_data.run_pairs import runs_with_and_without
 
 
 def _acquisitions(rng: np.random.Generator) -> list[Acquisition]:
@@ -80,13 +81,7 @@ def test_truth_window_keeps_the_whole_grids_spline() -> None:
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[RunFiles, ...]:
     """A 10 s run written in one window and the same seed in 3 s windows."""
-    folder = tmp_path_factory.mktemp("long")
-    settings = RigSettings(duration=10.0, seed=3)
-    whole = simulate_rig(folder / "whole", settings)
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(simulate, "WINDOW_S", 3.0)
-        windows = simulate_rig(folder / "windows", settings)
-    return whole, windows
+    return runs_with_and_without(tmp_path_factory.mktemp("long"), "WINDOW_S", 3.0)
 
 
 def test_windowed_run_has_the_same_samples_but_for_noise(runs) -> None:

@@ -20,12 +20,13 @@ from scipy.signal import lsim
 import rigval.sample_data.simulate as simulate
 from rigval.acquisition import read
 from rigval.processing.accelerometer import charge_chain_voltage
-from rigval.sample_data import RigSettings, RunFiles, simulate_rig
+from rigval.sample_data import RigSettings, RunFiles
 from rigval.sample_data.carried_filters import CarriedHighPass, CarriedLsim
 from rigval.sample_data.rig import draw_rig
 from rigval.sample_data.streams import SAMPLED_QUANTITIES, sampled_truth
 from rigval.sample_data.truth import TruthGrid, model_truth
 from rigval.sample_data.truth_store import UniformGrid, store_truth
+from tests.sample_data.run_pairs import runs_with_and_without
 
 #: Cuts of a 5000-point record into pieces of uneven length, one of a single point.
 CUTS = (0, 1, 2, 777, 778, 2500, 4999, 5000)
@@ -105,13 +106,7 @@ def test_stored_truth_windows_equal_the_whole_grids(tmp_path: Path,
 @pytest.fixture(scope="module")
 def stored_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[RunFiles, RunFiles]:
     """A 10 s run with its truth in memory, and the same seed with the truth stored in pieces."""
-    folder = tmp_path_factory.mktemp("stored")
-    settings = RigSettings(duration=10.0, seed=3)
-    whole = simulate_rig(folder / "whole", settings)
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(simulate, "TRUTH_POINTS", 2000)
-        stored = simulate_rig(folder / "stored", settings)
-    return whole, stored
+    return runs_with_and_without(tmp_path_factory.mktemp("stored"), "TRUTH_POINTS", 2000)
 
 
 def test_run_with_stored_truth_equals_the_one_window_run(stored_run) -> None:
