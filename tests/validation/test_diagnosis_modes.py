@@ -37,7 +37,7 @@ from rigval.validation.diagnosis.spectra import residual_spectra, welch_runs
 from rigval.validation.pipeline import run_scene
 from rigval.validation.report.page import Page
 from rigval.validation.report.run_report import write_metrics, write_netcdf
-from rigval.validation.report.why import draw_why_figures, why_section
+from rigval.validation.report.why import draw_why_figures, residual_orders, why_section
 from rigval.validation.results import ValidationResult
 from rigval.validation.verdict import run_verdict
 
@@ -228,7 +228,7 @@ def test_a_named_mode_reaches_the_verdict_metrics_netcdf_and_report(tmp_path):
     why_section(page, result)
     assert html.escape(statement.sentence) in page.render()
     # a drawer draws the section's figure from its inputs pickled (rigval.validation.beside):
-    # the diagnosis must travel whole, so that the figure equals the one drawn here
-    inputs = (tuple(result.comparisons[:2]), result.diagnosis)
+    # they must travel whole, so that the figure equals the one drawn here
+    inputs = tuple(residual_orders(c, result.diagnosis) for c in result.comparisons[:2])
     travelled = pickle.loads(pickled(inputs))
     assert draw_why_figures(travelled, ("why",)) == draw_why_figures(inputs, ("why",))

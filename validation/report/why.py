@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -24,7 +25,8 @@ from rigval.validation.results import ComparisonResult, ValidationResult
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["draw_why_figures", "plot_residual_orders", "start_why_figures", "why_section"]
+__all__ = ["ResidualOrders", "draw_why_figures", "plot_residual_orders", "residual_orders",
+           "start_why_figures", "why_section"]
 
 #: The section's figure group (:func:`start_why_figures`).
 GROUP = "why"
@@ -72,16 +74,57 @@ def _pair_rows(diagnosis: Diagnosis) -> list[dict[str, Any]]:
     return rows
 
 
-def plot_residual_orders(comparisons: list[ComparisonResult], diagnosis: Diagnosis, *,
-                         width: float = 9.0) -> Figure:
+@dataclass(frozen=True)
+class ResidualOrders:
+    """What the section's figure shows of one comparison: its residual per order of the shaft.
+
+    Small whatever the record's length (it travels to a drawer); :func:`residual_orders`
+    makes it.
+
+    Attributes
+    ----------
+    name, units : str
+        The comparison and its unit.
+    amplitude : numpy.ndarray
+        ``|c_k|`` of the mean residual (measured minus model), orders 1 to :data:`ORDERS`.
+    spread : numpy.ndarray
+        Twice the revolution-to-revolution standard uncertainty of the mean, per order.
+    fitted : numpy.ndarray
+        The chosen causes' fitted contribution, (orders, 2) cosine and sine parts.
+    cause : str
+        The most likely cause's name.
+    """
+
+    name: str
+    units: str
+    amplitude: np.ndarray
+    spread: np.ndarray
+    fitted: np.ndarray
+    cause: str
+
+
+def residual_orders(comparison: ComparisonResult, diagnosis: Diagnosis) -> ResidualOrders:
+    """Return a comparison's residual per order and what its diagnosis's causes explain."""
+    residual = comparison.cycles - comparison.model
+    orders = min(ORDERS, comparison.angle.size // 2 - 1)
+    per_cycle = order_coefficients(residual, orders, False).reshape(
+        residual.shape[0], orders, 2)
+    mean = per_cycle.mean(axis=0)
+    return ResidualOrders(
+        comparison.name, comparison.units, np.hypot(mean[:, 0], mean[:, 1]),
+        2.0 * np.sqrt(per_cycle.var(axis=0, ddof=1).sum(axis=1) / residual.shape[0]),
+        order_coefficients(diagnosis.explained[comparison.name], orders,
+                           False).reshape(orders, 2),
+        diagnosis.causes[comparison.name].name)
+
+
+def plot_residual_orders(rows: Sequence[ResidualOrders], *, width: float = 9.0) -> Figure:
     """Draw each comparison's residual amplitude per order beside what the causes explain.
 
     Parameters
     ----------
-    comparisons : list of ComparisonResult
-        The comparisons drawn (one panel each).
-    diagnosis : Diagnosis
-        Their diagnosis (``explained``).
+    rows : sequence of ResidualOrders
+        The comparisons drawn (one panel each; :func:`residual_orders`).
     width : float
         Figure width, inches.
 
@@ -94,30 +137,20 @@ def plot_residual_orders(comparisons: list[ComparisonResult], diagnosis: Diagnos
     """
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(width, 1.9 * len(comparisons) + 0.6))
+    fig = Figure(figsize=(width, 1.9 * len(rows) + 0.6))
     fig.subplots_adjust(left=0.95 / width, right=1 - 0.25 / width, hspace=0.6)
-    axes = fig.subplots(len(comparisons), 1, squeeze=False)[:, 0]
-    for ax, comparison in zip(axes, comparisons, strict=True):
-        residual = comparison.cycles - comparison.model
-        orders = min(ORDERS, comparison.angle.size // 2 - 1)
-        k = np.arange(1, orders + 1)
-        per_cycle = order_coefficients(residual, orders, False).reshape(
-            residual.shape[0], orders, 2)
-        mean = per_cycle.mean(axis=0)
-        amplitude = np.hypot(mean[:, 0], mean[:, 1])
-        spread = 2.0 * np.sqrt(per_cycle.var(axis=0, ddof=1).sum(axis=1) / residual.shape[0])
-        fitted = order_coefficients(diagnosis.explained[comparison.name], orders,
-                                    False).reshape(orders, 2)
-        ax.bar(k, amplitude, width=0.6, color="#9bb7d4", label="residual |c_k|")
-        ax.errorbar(k, amplitude, yerr=spread, fmt="none", ecolor="#333333", lw=0.8,
+    axes = fig.subplots(len(rows), 1, squeeze=False)[:, 0]
+    for ax, row in zip(axes, rows, strict=True):
+        k = np.arange(1, row.amplitude.size + 1)
+        ax.bar(k, row.amplitude, width=0.6, color="#9bb7d4", label="residual |c_k|")
+        ax.errorbar(k, row.amplitude, yerr=row.spread, fmt="none", ecolor="#333333", lw=0.8,
                     capsize=2, label="2 u (scatter)")
-        statement = diagnosis.causes[comparison.name]
-        if np.any(fitted):
-            ax.plot(k, np.hypot(fitted[:, 0], fitted[:, 1]), "o", color="#c0392b", ms=4,
-                    label=f"explained: {statement.name}")
-        ax.set_title(f"{comparison.name}: residual per order of the main shaft", fontsize=9,
+        if np.any(row.fitted):
+            ax.plot(k, np.hypot(row.fitted[:, 0], row.fitted[:, 1]), "o", color="#c0392b",
+                    ms=4, label=f"explained: {row.cause}")
+        ax.set_title(f"{row.name}: residual per order of the main shaft", fontsize=9,
                      loc="left")
-        ax.set_ylabel(comparison.units, fontsize=8)
+        ax.set_ylabel(row.units, fontsize=8)
         ax.set_xticks(k)
         ax.tick_params(labelsize=7)
         ax.legend(fontsize=7, frameon=False, loc="upper right")
@@ -125,19 +158,17 @@ def plot_residual_orders(comparisons: list[ComparisonResult], diagnosis: Diagnos
     return fig
 
 
-def _drawn(result: ValidationResult) -> list[ComparisonResult]:
-    """Return the comparisons whose residual the section draws (detected, at most MAX_DRAWN)."""
+def _detected(result: ValidationResult) -> list[ComparisonResult]:
+    """Return the comparisons with a detected model error (none without a diagnosis)."""
     diagnosis = result.diagnosis
     if diagnosis is None:
         return []
-    return [c for c in result.comparisons if diagnosis.causes[c.name].detected][:MAX_DRAWN]
+    return [c for c in result.comparisons if diagnosis.causes[c.name].detected]
 
 
-def draw_why_figures(inputs: tuple[Sequence[ComparisonResult], Diagnosis],
-                     names: Sequence[str]) -> list[list[str]]:
+def draw_why_figures(rows: Sequence[ResidualOrders], names: Sequence[str]) -> list[list[str]]:
     """Return the SVG text of the section's one figure (a drawer's work; ``names``: its group)."""
-    comparisons, diagnosis = inputs
-    return [draw_texts([plot_residual_orders(list(comparisons), diagnosis)])]
+    return [draw_texts([plot_residual_orders(rows)])]
 
 
 def start_why_figures(drawing: Drawing, result: ValidationResult) -> None:
@@ -150,9 +181,10 @@ def start_why_figures(drawing: Drawing, result: ValidationResult) -> None:
     result : ValidationResult
         The validation, with ``diagnosis``.
     """
-    drawn = _drawn(result)
+    drawn = _detected(result)[:MAX_DRAWN]
     if drawn and result.diagnosis is not None:
-        drawing.start(draw_why_figures, (tuple(drawn), result.diagnosis), (GROUP,), len(drawn))
+        rows = tuple(residual_orders(c, result.diagnosis) for c in drawn)
+        drawing.start(draw_why_figures, rows, (GROUP,), len(rows))
 
 
 def why_section(page: Page, result: ValidationResult, drawing: Drawing | None = None) -> None:
@@ -178,7 +210,7 @@ def why_section(page: Page, result: ValidationResult, drawing: Drawing | None = 
         "regressor) and a found mode, with the stated calibration and alignment uncertainties "
         "as noise of known size. A cause is chosen when it explains more than chance among "
         "all candidates would (docs/diagnosis.md).")
-    detected = [c for c in result.comparisons if diagnosis.causes[c.name].detected]
+    detected = _detected(result)
     for comparison in detected:
         page.paragraph(diagnosis.causes[comparison.name].sentence, css_class="bad")
     if not detected:
