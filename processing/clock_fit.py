@@ -463,10 +463,11 @@ def estimate_clock(ref_times: ArrayLike | Sequence[ArrayLike],
             found = matches.get((kind, int(s)))
             # how far the clocks may have run apart between the anchor's start and this one's
             apart = drift_bound * abs(starts[int(s)] - starts[anchor[1]])
-            if found is not None and (abs(found.offset_s - anchor_offset) <= 0.5 * period
-                                      or apart >= 0.4 * period):
-                continue  # near the anchor, or too far in time for the anchor to tell
-            if np.count_nonzero(seg == s) < 2 or apart >= 0.4 * period:
+            if apart >= 0.4 * period:
+                continue  # too far in time for the anchor's offset to tell whole periods
+            if found is not None and abs(found.offset_s - anchor_offset) <= 0.5 * period:
+                continue
+            if np.count_nonzero(seg == s) < 2:
                 continue
             try:
                 again = match_segment(ref, dev[seg == s], coarse_offset_s=anchor_offset,
