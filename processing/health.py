@@ -235,13 +235,12 @@ def _flat(x: FloatArray, ok: BoolArray, time: FloatArray, fs: float, channel: st
     return out
 
 
-def _spikes(x: FloatArray, ok: BoolArray, time: FloatArray, fs: float, channel: str,
+def _spikes(x: FloatArray, ok: BoolArray, time: FloatArray, windows: _Windows, channel: str,
             unit: str, q: float) -> list[Finding]:
     # the scale is the noise (third differences): a median's residual is 0 on any monotone
     # stretch, so its own spread says nothing
     # per noise window, so that a noisy stretch is not taken for spikes
-    width = max(int(_NOISE_WINDOW_S * fs), 20)
-    noise, _ = _window_noise(x, ok, width)
+    width, noise = windows.width, windows.noise
     if not np.isfinite(noise).any():
         return []
     noise = np.where(np.isfinite(noise), noise, np.nanmax(noise))
@@ -286,28 +285,57 @@ def _block_spikes(x: FloatArray, lo: int, hi: int, a: int, b: int, noise: FloatA
     return (at + lo).astype(np.int64), float(residual[at][np.argmax(np.abs(residual[at]))])
 
 
+@dataclass(frozen=True)
+class _Windows:
+    """The noise rms of each window of ``width`` samples starting at ``starts``.
+
+    The scale of the spike and of the noise check alike, found once for both.
+    """
+
+    width: int
+    noise: FloatArray
+    starts: IntArray
+
+    @classmethod
+    def of(cls, x: FloatArray, ok: BoolArray, fs: float) -> _Windows:
+        """Return the windows of :data:`_NOISE_WINDOW_S` of samples ``x`` (usable: ``ok``)."""
+        width = max(int(_NOISE_WINDOW_S * fs), 20)
+        return cls(width, *_window_noise(x, ok, width))
+
+
 def _window_noise(x: FloatArray, ok: BoolArray, width: int) -> tuple[FloatArray, IntArray]:
     """Robust noise rms per window from third differences (white noise: var = 20 sigma^2).
 
     Window ``a ... a + width - 1`` of the third differences takes samples ``a ... a + width +
     2``, whose four neighbours must all be usable; its differences are made from those samples
-    alone (the same values as the whole record's, without its whole-record temporaries).
+    alone (the same values as the whole record's, without its whole-record temporaries). The
+    windows come about :data:`_BLOCK` samples at a time as the rows of one array, whose medians
+    are taken row by row; a window with unusable samples takes its usable ones alone.
     """
     starts = np.arange(0, x.size - 3 - width + 1, width)
     noise = np.full(starts.size, np.nan)
-    for n, a in enumerate(starts):
-        use = ok[a + 3:a + width + 3] & ok[a + 2:a + width + 2] & ok[a + 1:a + width + 1] & \
-            ok[a:a + width]
-        part = np.diff(x[a:a + width + 3], 3)[use]
-        if part.size >= width // 2:
-            noise[n] = 1.4826 * float(np.median(np.abs(part - np.median(part)))) / np.sqrt(20.0)
+    rows = max(_BLOCK // width, 1)
+    for first in range(0, starts.size, rows):
+        count = min(rows, starts.size - first)
+        a, b = int(starts[first]), int(starts[first]) + count * width
+        d3 = np.diff(x[a:b + 3], 3).reshape(count, width)
+        use = (ok[a + 3:b + 3] & ok[a + 2:b + 2] & ok[a + 1:b + 1] & ok[a:b]).reshape(count, width)
+        whole = use.all(axis=1)
+        full = d3[whole]
+        deviation = np.abs(full - np.median(full, axis=1, keepdims=True))
+        noise[first + np.flatnonzero(whole)] = 1.4826 * np.median(deviation, axis=1) / np.sqrt(
+            20.0)
+        for n in np.flatnonzero(~whole):
+            part = d3[n][use[n]]
+            if part.size >= width // 2:
+                noise[first + n] = 1.4826 * float(np.median(np.abs(part - np.median(part)))) / (
+                    np.sqrt(20.0))
     return noise, starts
 
 
-def _noise(x: FloatArray, ok: BoolArray, time: FloatArray, fs: float, channel: str,
-           unit: str, q: float) -> list[Finding]:
-    width = max(int(_NOISE_WINDOW_S * fs), 20)
-    noise, starts = _window_noise(x, ok, width)
+def _noise(x: FloatArray, time: FloatArray, windows: _Windows, channel: str, unit: str,
+           q: float) -> list[Finding]:
+    width, noise, starts = windows.width, windows.noise, windows.starts
     finite = noise[np.isfinite(noise)]
     if finite.size < 4:
         return []
@@ -452,8 +480,9 @@ def analog_health(x: ArrayLike, time: ArrayLike, *, channel: str, fs: float, uni
         seg = np.asarray(segment)
         for b in np.flatnonzero(seg[1:] != seg[:-1]) + 1:
             moving[max(b - 3, 0):b + 3] = False
-    findings += _spikes(data, moving, t, fs, channel, unit, q)
-    findings += _noise(data, moving, t, fs, channel, unit, q)
+    windows = _Windows.of(data, moving, fs)
+    findings += _spikes(data, moving, t, windows, channel, unit, q)
+    findings += _noise(data, t, windows, channel, unit, q)
     findings += _zero_drift(data, moving, t, channel, unit, period_samples, segment)
     return findings
 

@@ -15,7 +15,10 @@ health").
 
 from __future__ import annotations
 
+import heapq
 import logging
+from collections.abc import Iterator
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -24,7 +27,6 @@ from scipy.ndimage import median_filter
 from rigval.acquisition.errors import DataError
 from rigval.processing.arrays import BoolArray, FloatArray, IntArray
 from rigval.processing.block_median import exact_median
-from rigval.processing.encoder import remove_index_resets, unwrap_counts
 from rigval.processing.health import Finding
 from rigval.processing.pulses import detect_edges
 
@@ -37,8 +39,12 @@ logger = logging.getLogger(__name__)
 _RATE_WINDOW, _JUMP_COUNTS, _JUMP_SIGMAS, _GLITCH_SAMPLES = 101, 8.0, 10.0, 3
 #: Count steps the running rate takes at a time (bounds its working arrays).
 _BLOCK = 1 << 20
+#: Half the range of a 32-bit counter: a step is wrapped into ``[-_HALF_RANGE, _HALF_RANGE)``.
+_HALF_RANGE = np.int64(1) << 31
 #: Pulse widths: least relative change, robust sigmas, fewest pulses on each side.
 _WIDTH_SHARE, _WIDTH_SIGMAS, _WIDTH_SIDE = 0.05, 8.0, 3
+#: Split costs closer than this fraction of the largest are equal (rounding of their sums).
+_TIE = 1e-12
 
 
 def _running_median(x: FloatArray, width: int) -> FloatArray:
@@ -53,42 +59,96 @@ def _plural(noun: str, count: int) -> str:
     return "es" if noun.endswith(("ch", "sh", "s", "x")) else "s"
 
 
-def _steps(cumulative: IntArray, lo: int, hi: int) -> IntArray:
-    """Return count steps ``lo ... hi - 1`` (step ``k`` from sample ``k`` to ``k + 1``)."""
-    return np.diff(cumulative[lo:hi + 1])
-
-
-def _rate_departure(cumulative: IntArray, usable: BoolArray, typical: float) -> FloatArray:
-    """Return each count step minus the running median rate around it (0 where not usable).
-
-    Unusable steps enter the median as ``typical``. Worked in blocks of ``_BLOCK`` steps, each
-    with half the median's window of neighbours on either side, so the values equal those of
-    one median over the whole record without its full-length temporaries (the steps
-    themselves are taken from ``cumulative`` block by block).
-    """
-    half = _RATE_WINDOW // 2
-    size = cumulative.size - 1
-    departure = np.zeros(size)
-    for lo, hi in _blocks(size):
-        start, stop = max(lo - half, 0), min(hi + half, size)
-        step = _steps(cumulative, start, stop)
-        filled = np.where(usable[start:stop], step, typical)
-        rate = _running_median(filled, _RATE_WINDOW)[lo - start:hi - start]
-        departure[lo:hi] = np.where(usable[lo:hi], step[lo - start:hi - start] - rate, 0.0)
-    return departure
-
-
 def _blocks(size: int) -> list[tuple[int, int]]:
     """Split ``0 ... size - 1`` into blocks of at most ``_BLOCK``."""
     return [(lo, min(lo + _BLOCK, size)) for lo in range(0, size, _BLOCK)]
 
 
-def _filled_counts(raw: np.ndarray, ok: BoolArray) -> IntArray:
-    """Return the counter values as int64, 0 where not usable, filled a block at a time."""
-    counts = np.empty(raw.size, np.int64)
-    for lo, hi in _blocks(raw.size):
-        counts[lo:hi] = np.where(ok[lo:hi], raw[lo:hi], 0)
-    return counts
+def _count_steps(raw: np.ndarray, ok: BoolArray, lo: int, hi: int,
+                 counts_per_rev: float | None) -> IntArray:
+    """Return steps ``lo ... hi - 1`` of the cumulative counts (step ``k``: ``k`` to ``k + 1``).
+
+    As ``numpy.diff`` of :func:`~rigval.processing.encoder.unwrap_counts` of the counter values
+    (0 where not usable), with :func:`~rigval.processing.encoder.remove_index_resets` when
+    ``counts_per_rev`` is given, over the whole record: each step is wrapped into the 32-bit
+    counter's range and a step of more than half a revolution loses its whole revolutions, so
+    a block's steps need no other sample than its own and the next.
+    """
+    ok_part = ok[lo:hi + 1]
+    filled = np.zeros(ok_part.size, np.int64)
+    filled[ok_part] = raw[lo:hi + 1][ok_part]
+    step = np.diff(filled)
+    step += _HALF_RANGE
+    step %= 2 * _HALF_RANGE
+    step -= _HALF_RANGE
+    if counts_per_rev:
+        at = np.flatnonzero(np.abs(step) > counts_per_rev / 2)
+        step[at] -= np.round(step[at] / counts_per_rev).astype(np.int64) * round(counts_per_rev)
+    return step
+
+
+def _rate_departure(raw: np.ndarray, ok: BoolArray, lo: int, hi: int, typical: float,
+                    counts_per_rev: float | None) -> tuple[FloatArray, IntArray]:
+    """Return steps ``lo ... hi - 1`` less the running median rate around them, and the steps.
+
+    Departures are 0 where a step is not usable; unusable steps enter the median as
+    ``typical``. The block is taken with half the median's window of neighbours on either
+    side, so the values equal those of one median over the whole record.
+    """
+    half = _RATE_WINDOW // 2
+    size = raw.size - 1
+    start, stop = max(lo - half, 0), min(hi + half, size)
+    step = _count_steps(raw, ok, start, stop, counts_per_rev)
+    usable = ok[start + 1:stop + 1] & ok[start:stop]
+    rate = _running_median(np.where(usable, step, typical), _RATE_WINDOW)
+    inner = slice(lo - start, hi - start)
+    return np.where(usable[inner], step[inner] - rate[inner], 0.0), step[inner]
+
+
+@dataclass(frozen=True)
+class _Departures:
+    """The count steps that depart from the running rate by more than any jump threshold.
+
+    ``index``: the step (from sample ``index`` to ``index + 1``); ``departure``: its
+    departure (counts); ``counts``: the cumulative counts at ``index + 1`` less the first
+    sample's.
+    """
+
+    index: IntArray
+    departure: FloatArray
+    counts: IntArray
+
+
+def _departures(raw: np.ndarray, ok: BoolArray, counts_per_rev: float | None
+                ) -> tuple[float, _Departures]:
+    """Return the robust sigma of the usable steps' departures (counts) and the large ones.
+
+    Two passes over the record a block at a time: the median step (the rate where a step is
+    not usable), then each block's departures from the running median rate, of which the
+    usable ones' absolute values give the sigma (exact median) and those above
+    :data:`_JUMP_COUNTS`, the least threshold, are kept.
+    """
+    blocks = _blocks(raw.size - 1)
+    typical = float(np.nan_to_num(exact_median(
+        _count_steps(raw, ok, lo, hi, counts_per_rev)[ok[lo + 1:hi + 1] & ok[lo:hi]]
+        for lo, hi in blocks)))
+    index, size, counts = [np.zeros(0, np.int64)], [np.zeros(0)], [np.zeros(0, np.int64)]
+    since = 0  # cumulative counts at a block's start less the first sample's
+
+    def usable_sizes() -> Iterator[FloatArray]:
+        nonlocal since
+        for lo, hi in blocks:
+            departure, step = _rate_departure(raw, ok, lo, hi, typical, counts_per_rev)
+            large = np.flatnonzero(np.abs(departure) > _JUMP_COUNTS)
+            index.append(lo + large)
+            size.append(departure[large])
+            counts.append(since + np.cumsum(step)[large])
+            since += int(step.sum())
+            yield np.abs(departure[ok[lo + 1:hi + 1] & ok[lo:hi]])
+
+    spread = 1.4826 * exact_median(usable_sizes())
+    return spread, _Departures(np.concatenate(index), np.concatenate(size),
+                               np.concatenate(counts))
 
 
 def _without_pattern(relative: FloatArray, turn: IntArray, part: IntArray, repeat: int,
@@ -120,17 +180,51 @@ def _without_pattern(relative: FloatArray, turn: IntArray, part: IntArray, repea
     return less
 
 
+def _deviation_sums(d: FloatArray) -> FloatArray:
+    """Return ``S[k]``: the sum of ``|d[i] - median(d[:k])|`` over ``i < k``, for k = 0 ... n.
+
+    The prefixes' medians from two heaps (the lower half, the upper half) and their running
+    sums: with the halves of equal size the sum is the upper half's less the lower half's, with
+    the median in the lower half that plus the median. O(n log n) against the O(n^2) of a
+    median per prefix; equal to it to rounding (the values are taken about their overall
+    median first, so the running sums stay small).
+    """
+    lower: list[float] = []  # negated: a max-heap
+    upper: list[float] = []
+    sum_lower = sum_upper = 0.0
+    sums = np.zeros(d.size + 1)
+    for k, value in enumerate((d - np.median(d)).tolist(), start=1):
+        if lower and value > -lower[0]:
+            heapq.heappush(upper, value)
+            sum_upper += value
+        else:
+            heapq.heappush(lower, -value)
+            sum_lower += value
+        if len(lower) > len(upper) + 1:
+            moved = -heapq.heappop(lower)
+            heapq.heappush(upper, moved)
+            sum_lower, sum_upper = sum_lower - moved, sum_upper + moved
+        elif len(upper) > len(lower):
+            moved = heapq.heappop(upper)
+            heapq.heappush(lower, -moved)
+            sum_lower, sum_upper = sum_lower + moved, sum_upper - moved
+        sums[k] = sum_upper - sum_lower - (lower[0] if k % 2 else 0.0)
+    return sums
+
+
 def _step(d: FloatArray) -> tuple[int, float, float]:
     """Return where two constant levels fit ``d`` best, the step between them and its error.
 
     The split minimises the absolute deviations from each side's median (a pulse put on the
-    wrong side costs its whole difference); the step is the difference of the medians, its
-    standard error from the robust scatter about them.
+    wrong side costs its whole difference; :func:`_deviation_sums` of the pulses before and,
+    reversed, after each split), the first of equal ones; the step is the difference of the
+    medians, its standard error from the robust scatter about them.
     """
     splits = np.arange(_WIDTH_SIDE, d.size - _WIDTH_SIDE + 1)
-    cost = [np.abs(d[:k] - np.median(d[:k])).sum() + np.abs(d[k:] - np.median(d[k:])).sum()
-            for k in splits]
-    k = int(splits[int(np.argmin(cost))])
+    cost = _deviation_sums(d)[splits] + _deviation_sums(d[::-1])[d.size - splits]
+    # the first of the splits as good as the best to rounding (the cost is flat where moving a
+    # pulse across the split moves neither median past it)
+    k = int(splits[np.argmax(cost <= cost.min() + _TIE * cost.max())])
     before, after = d[:k], d[k:]
     sigma = 1.4826 * float(np.median(np.abs(np.concatenate(
         (before - np.median(before), after - np.median(after))))))
@@ -167,39 +261,34 @@ def counter_health(counts: ArrayLike, time: ArrayLike, *, channel: str,
     ok = np.ones(raw.size, bool) if valid is None else np.asarray(valid, dtype=bool)
     if ok.sum() < _RATE_WINDOW:
         return []
-    cumulative = unwrap_counts(_filled_counts(raw, ok), overwrite=True)  # its own int64 copy
-    if counts_per_rev:
-        cumulative, _ = remove_index_resets(cumulative, counts_per_rev, overwrite=True)
-    usable = ok[1:] & ok[:-1]
-    steps = _blocks(usable.size)  # the medians exact, a block at a time (memory)
-    typical = exact_median(_steps(cumulative, lo, hi)[usable[lo:hi]] for lo, hi in steps)
-    departure = _rate_departure(cumulative, usable, float(np.nan_to_num(typical)))
-    spread = 1.4826 * exact_median(np.abs(departure[lo:hi][usable[lo:hi]]) for lo, hi in steps)
+    spread, large = _departures(raw, ok, counts_per_rev)
     threshold = max(_JUMP_COUNTS, _JUMP_SIGMAS * spread)
-    odd = np.concatenate([lo + np.flatnonzero(np.abs(departure[lo:hi]) > threshold)
-                          for lo, hi in steps] or [np.zeros(0, np.int64)])
+    keep = np.abs(large.departure) > threshold
+    odd = large.index[keep]
+    departure = dict(zip(odd.tolist(), large.departure[keep].tolist(), strict=True))
+    since = dict(zip(odd.tolist(), large.counts[keep].tolist(), strict=True))
     glitches, jumps = [], []
     used: set[int] = set()
-    for k in odd:
+    for k in odd.tolist():
         if k in used:
             continue
-        later = odd[(odd > k) & (odd <= k + _GLITCH_SAMPLES)]
+        later = odd[(odd > k) & (odd <= k + _GLITCH_SAMPLES)].tolist()
         undone = [j for j in later if abs(departure[k] + departure[j]) <= threshold]
         if undone:
-            glitches.append((int(k) + 1, float(departure[k])))
-            used.update((int(k), int(undone[0])))
+            glitches.append((k, departure[k]))
+            used.update((k, undone[0]))
         else:
-            jumps.append((int(k) + 1, float(departure[k])))
-            used.add(int(k))
-    def turn(i: int) -> int:
-        return int(np.floor((cumulative[i] - cumulative[0]) / counts_per_rev))
+            jumps.append((k, departure[k]))
+            used.add(k)
     out = []
-    for fault, found in (("count jump", jumps), ("count glitch", glitches)):
-        if not found:
+    for fault, steps in (("count jump", jumps), ("count glitch", glitches)):
+        if not steps:
             continue
+        found = [(k + 1, size) for k, size in steps]  # the sample after the step
         where = np.array([i for i, _ in found], dtype=np.int64)
         sizes = [round(s) for _, s in found]
-        revs = tuple(turn(i) for i in where[:50]) if counts_per_rev else ()
+        revs = (tuple(int(np.floor(since[k] / counts_per_rev)) for k, _ in steps[:50])
+                if counts_per_rev else ())
         listed = ", ".join(f"{s:+d} counts at {t[i]:.3f} s" for i, s in found[:3]
                            for s in [round(s)])
         more = f" and {len(found) - 3} more" if len(found) > 3 else ""

@@ -97,7 +97,8 @@ def state_levels(x: ArrayLike, bins: int = 100, *, mask: ArrayLike | None = None
         raise DataError("a pulse signal needs two distinct levels; the channel is constant or "
                         "empty", hint="check the channel name and the sensor wiring")
     edges = np.linspace(low, high, bins + 1)
-    counts = sum(np.histogram(part, bins=edges)[0] for part in parts())
+    # bins of equal width: numpy's arithmetic binning, the same counts as searching ``edges``
+    counts = sum(np.histogram(part, bins=bins, range=(low, high))[0] for part in parts())
     half = bins // 2
     levels = []
     for mode in (int(np.argmax(counts[:half])), half + int(np.argmax(counts[half:]))):

@@ -79,3 +79,28 @@ def test_counter_health_in_blocks_equals_whole_record(monkeypatch: pytest.Monkey
     assert jump.indices[0] == 20_000 and jump.value == round(departure[19_999])
     glitch = next(f for f in found if f.fault == "count glitch")
     assert glitch.indices[0] == 4_999 and glitch.value == round(departure[4_998])
+
+
+def test_counter_health_same_through_wraps_and_reloads(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A 32-bit wrap or an index reload changes no finding; the turns are the truth's."""
+    monkeypatch.setattr(health_events, "_BLOCK", 4_099)  # steps worked block by block
+    fs, n, cpr = 2000.0, 40_001, 8192
+    t = np.arange(n) / fs
+    counts = np.floor(cpr * t * (1 + 0.05 * np.sin(t))).astype(np.int64)
+    counts[12_345:] += 40  # a jump in the fourth turn
+    counts[30_000] -= 25  # a glitch
+    ok = np.ones(n, bool)
+    ok[25_000:25_020] = False
+    plain = health_events.counter_health(counts, t, channel="enc", counts_per_rev=cpr, valid=ok)
+    wrapped = (counts + (1 << 32) - 50_000) % (1 << 32)  # wraps at about 6 turns, as uint32
+    reloaded = counts % cpr
+    for raw in (wrapped.astype(np.uint32), wrapped.astype(np.uint32).view(np.int32),
+                reloaded.astype(np.int32), reloaded.astype(np.float64)):
+        assert health_events.counter_health(raw, t, channel="enc", counts_per_rev=cpr,
+                                            valid=ok) == plain
+    jump = next(f for f in plain if f.fault == "count jump")
+    assert jump.indices == (12_345,) and jump.value == 40
+    assert jump.revolutions == ((counts[12_345] - counts[0]) // cpr,)
+    glitch = next(f for f in plain if f.fault == "count glitch")
+    assert glitch.indices == (30_000,) and glitch.value == -25
+    assert glitch.revolutions == ((counts[30_000] - counts[0]) // cpr,)

@@ -131,7 +131,7 @@ def test_spikes_found_in_blocks_equal_the_whole_stretch_median(monkeypatch):
     x[spikes] += rng.choice([-1, 1], 30) * rng.uniform(0.05, 0.5, 30)
     ok = np.ones(n, bool)
     ok[rng.choice(n, 50, replace=False)] = False
-    found = health._spikes(x, ok, np.arange(n) / fs, fs, "c", "V", q)
+    found = health._spikes(x, ok, np.arange(n) / fs, health._Windows.of(x, ok, fs), "c", "V", q)
 
     width = max(int(health._NOISE_WINDOW_S * fs), 20)
     noise, _ = health._window_noise(x, ok, width)

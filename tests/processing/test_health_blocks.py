@@ -57,8 +57,10 @@ def test_clipping_and_flat_lines_by_blocks_equal_the_whole_record(seed: int) -> 
     assert clipped and clipped[0].samples > 100
 
 
-@pytest.mark.parametrize("seed", [1, 2])
-def test_window_noise_from_each_window_equals_the_whole_record_differences(seed: int) -> None:
+@pytest.mark.parametrize(("seed", "block"), [(1, 1 << 20), (2, 1 << 20), (1, 1700)])
+def test_window_noise_from_each_window_equals_the_whole_record_differences(
+        seed: int, block: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(health, "_BLOCK", block)  # 1700: three windows to a block of rows
     x, ok, _ = _channel(seed)
     width = 500
     d3 = np.diff(x, 3)
