@@ -27,6 +27,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import ArrayLike
 from scipy.special import erf, sici
 
+from rigval.acquisition.sample_times import times_of
 from rigval.processing.arrays import FloatArray
 
 __all__ = ["SYMMETRIC_BOUND", "EdgeFit", "fit_edges"]
@@ -240,7 +241,7 @@ def fit_edges(x: ArrayLike, time: ArrayLike, edges: ArrayLike, *, fs: float, low
         variances).
     """
     data = np.asarray(x, dtype=np.float64)
-    t = np.asarray(time, dtype=np.float64)
+    t = times_of(time)
     given = np.asarray(edges, dtype=np.float64)
     unchanged = EdgeFit("symmetric", given, np.full(given.size, SYMMETRIC_BOUND / fs), 0.0, 1.0)
     samples, position, start, use = _windows(data, t, given, fs)

@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.ndimage import median_filter
 
+from rigval.acquisition.sample_times import times_of
 from rigval.processing.arrays import BoolArray, FloatArray, IntArray
 
 __all__ = ["MODULE_RANGES", "UNTRUSTED", "Finding", "analog_health", "channel_range",
@@ -462,7 +463,7 @@ def analog_health(x: ArrayLike, time: ArrayLike, *, channel: str, fs: float, uni
         Clipping, flat line, spikes, noise and zero drift findings, in that order.
     """
     data = np.asarray(x, dtype=np.float64)
-    t = np.asarray(time, dtype=np.float64)
+    t = times_of(time)
     ok = np.isfinite(data) if valid is None else np.asarray(valid, bool) & np.isfinite(data)
     if ok.sum() < 20:
         return []

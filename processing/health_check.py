@@ -16,6 +16,7 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.errors import DataError
+from rigval.acquisition.sample_times import sample_times
 from rigval.processing.health import Finding, analog_health, channel_range
 from rigval.processing.health_events import counter_health, pulse_health
 from rigval.processing.pulses import detect_edges
@@ -34,7 +35,7 @@ def period_samples(stream: xr.Dataset, pulse: str) -> float | None:
     None when the channel has fewer than 3 edges or no two levels.
     """
     try:
-        rises = detect_edges(stream[pulse].to_numpy(), stream["time"].to_numpy(),
+        rises = detect_edges(stream[pulse].to_numpy(), sample_times(stream),
                              valid=stream["valid"].to_numpy(),
                              segment=stream["segment"].to_numpy())
     except DataError as error:  # no two levels: no pulses, no drift check
@@ -73,7 +74,7 @@ def stream_health(stream: xr.Dataset, kinds: Mapping[str, ChannelKind], *, name:
         Findings in the order of ``kinds``.
     """
     fs = float(stream.attrs["fs_nominal"])
-    time = stream["time"].to_numpy()
+    time = sample_times(stream)  # looked up at a few samples, never made whole
     valid = stream["valid"].to_numpy()
     segment = stream["segment"].to_numpy()
     pulse = next((c for c, k in kinds.items() if k == "pulse" and c in stream), None)

@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike
 from scipy.ndimage import median_filter
 
 from rigval.acquisition.errors import DataError
+from rigval.acquisition.sample_times import times_of
 from rigval.processing.arrays import BoolArray, FloatArray, IntArray
 from rigval.processing.block_median import exact_median
 from rigval.processing.health import Finding
@@ -257,7 +258,7 @@ def counter_health(counts: ArrayLike, time: ArrayLike, *, channel: str,
         samples and revolutions.
     """
     raw = np.asarray(counts)
-    t = np.asarray(time, dtype=np.float64)
+    t = times_of(time)
     ok = np.ones(raw.size, bool) if valid is None else np.asarray(valid, dtype=bool)
     if ok.sum() < _RATE_WINDOW:
         return []
@@ -320,7 +321,7 @@ def pulse_health(x: ArrayLike, time: ArrayLike, *, channel: str,
     list of Finding
         At most one finding: the pulses after the change (their indices as revolutions).
     """
-    t = np.asarray(time, dtype=np.float64)
+    t = times_of(time)
     try:
         rises = detect_edges(x, t, polarity="rising", valid=valid, segment=segment)
         falls = detect_edges(x, t, polarity="falling", valid=valid, segment=segment)

@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike
 from scipy.special import i0
 
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError
+from rigval.acquisition.sample_times import sample_times, times_of
 from rigval.processing.arrays import BoolArray, FloatArray, IntArray
 from rigval.processing.clock_fit import input_delay
 from rigval.processing.edge_shape import SYMMETRIC_BOUND, fit_edges
@@ -237,7 +238,7 @@ def detect_edges(x: ArrayLike, time: ArrayLike, *, low: float | None = None,
         Edge times in s, increasing.
     """
     data = np.asarray(x, dtype=np.float64)
-    t = np.asarray(time, dtype=np.float64)
+    t = times_of(time)
     if data.shape != t.shape:
         raise DataError(f"pulse signal has {data.size} samples but time has {t.size}")
     if refine not in ("linear", "sinc"):
@@ -515,7 +516,7 @@ def stream_pulses(stream: xr.Dataset, channel: str, *,
                                    where={"file": stream.attrs.get("source_file")},
                                    available=[v for v in stream.data_vars
                                               if v not in ("valid", "segment")])
-    time = stream["time"].to_numpy()
+    time = sample_times(stream)  # looked up near the edges, never made whole
     segment = stream["segment"].to_numpy()
     valid = stream["valid"].to_numpy()
     fs = float(stream.attrs["fs_nominal"])
@@ -604,7 +605,7 @@ def time_edges(x: ArrayLike, time: ArrayLike, edges: ArrayLike, *, fs: float,
         Times, bounds in s and the shape found.
     """
     data = np.asarray(x, dtype=np.float64)
-    t = np.asarray(time, dtype=np.float64)
+    t = times_of(time)
     given = np.asarray(edges, dtype=np.float64)
     ok = np.isfinite(data) if valid is None else np.asarray(valid, bool) & np.isfinite(data)
     if given.size == 0 or not ok.any():

@@ -1,0 +1,97 @@
+"""A stream's sample times, computed only for the samples asked for.
+
+A stream read from a file keeps its ``time`` coordinate lazy (:class:`~rigval.acquisition.
+time_index.BlockTimeIndex`): a 1-hour record at 5 kS/s would otherwise carry 137 MiB of float64
+time stamps. The checks that look up a few times (an edge's neighbours, a finding's first and
+last sample) take :class:`SampleTimes` instead of the materialised axis: indexing and
+:meth:`SampleTimes.searchsorted` (also through :func:`numpy.searchsorted`) give the values and
+positions the materialised axis would, bit for bit, without making it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from rigval.acquisition.time_index import BlockTimeIndex, BlockTimeTransform
+
+__all__ = ["SampleTimes", "sample_times", "times_of"]
+
+
+class SampleTimes:
+    """The times (s) of a lazy time axis, made for the positions asked for.
+
+    Parameters
+    ----------
+    transform : BlockTimeTransform
+        The stream's blocks and the window of them this axis covers.
+    """
+
+    def __init__(self, transform: BlockTimeTransform) -> None:
+        self._transform = transform
+
+    @property
+    def size(self) -> int:
+        """Number of samples."""
+        return self._transform.size
+
+    @property
+    def shape(self) -> tuple[int]:
+        """``(size,)``, as the materialised axis's."""
+        return (self.size,)
+
+    def __len__(self) -> int:
+        return self.size
+
+    def _at(self, positions: Any) -> np.ndarray:
+        """Return the times of integer positions (any shape; negative ones from the end)."""
+        index = np.asarray(positions, dtype=np.int64)
+        if index.size and (index.min() < -self.size or index.max() >= self.size):
+            raise IndexError(f"sample index out of range for {self.size} samples")
+        index = np.where(index < 0, index + self.size, index)
+        return self._transform.forward({self._transform.dim: index})[self._transform.dim]
+
+    def __getitem__(self, key: Any) -> Any:
+        """Return the times of an integer, an integer array, a boolean mask or a slice."""
+        if isinstance(key, slice):
+            return self._at(np.arange(self.size)[key])
+        index = np.asarray(key)
+        if index.dtype == bool:
+            return self._at(np.flatnonzero(index))
+        values = self._at(index)
+        return float(values) if index.ndim == 0 else values
+
+    def searchsorted(self, values: Any, side: str = "left", sorter: Any = None) -> Any:
+        """Return where ``values`` would go among the times, as :func:`numpy.searchsorted`.
+
+        A bisection over the positions, evaluating the times at its midpoints only (the axis
+        increases, as a stream's does).
+        """
+        if sorter is not None:
+            raise TypeError("SampleTimes.searchsorted takes no sorter (the times increase)")
+        wanted = np.asarray(values, dtype=np.float64)
+        low = np.zeros(wanted.shape, dtype=np.int64)
+        high = np.full(wanted.shape, self.size, dtype=np.int64)
+        while np.any(low < high):
+            open_ = low < high
+            middle = (low + high) // 2
+            at = self._at(np.where(open_, np.minimum(middle, self.size - 1), 0))
+            right = (at < wanted) if side == "left" else (at <= wanted)
+            low = np.where(open_ & right, middle + 1, low)
+            high = np.where(open_ & ~right, middle, high)
+        return int(low) if wanted.ndim == 0 else low
+
+
+def sample_times(stream: xr.Dataset) -> SampleTimes | np.ndarray:
+    """Return a stream's sample times: lazy where its axis is, else the axis's values (s)."""
+    index = stream.xindexes.get("time")
+    if isinstance(index, BlockTimeIndex):
+        return SampleTimes(index.transform)
+    return stream["time"].to_numpy()
+
+
+def times_of(time: Any) -> SampleTimes | np.ndarray:
+    """Return ``time`` as the checks take it: a :class:`SampleTimes` as it is, else float64."""
+    return time if isinstance(time, SampleTimes) else np.asarray(time, dtype=np.float64)
