@@ -21,6 +21,9 @@ import logging
 import os
 import re
 import struct
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -29,8 +32,8 @@ import numpy as np
 
 from rigval.acquisition.errors import DataFileError
 
-__all__ = ["ChannelLayout", "DataSegment", "TdmsLayout", "TdmsStamp", "object_path_parts",
-           "scan_tdms"]
+__all__ = ["ChannelLayout", "DataSegment", "TdmsLayout", "TdmsStamp", "kept_layouts",
+           "object_path_parts", "scan_tdms"]
 
 logger = logging.getLogger(__name__)
 
@@ -365,8 +368,32 @@ def _values_in_data(objects: list[tuple[str, _Index | None]], data_bytes: int,
     return counts
 
 
+#: Within :func:`kept_layouts`: the layouts scanned so far, by file identity (device, inode,
+#: size, modification time) and path.
+_KEPT: ContextVar[dict[tuple[Any, ...], TdmsLayout] | None] = ContextVar("_KEPT", default=None)
+
+
+@contextmanager
+def kept_layouts() -> Iterator[None]:
+    """Keep each TDMS file's layout for the reads within: each file's segments walked once.
+
+    A validation reads one file's channels in several reads (the alignment's, then each
+    comparison's); without this each read walks the file's every segment again (1.5 s for a
+    1-hour record). The files must not change meanwhile (a file rewritten within is known by
+    its new size or modification time).
+    """
+    token = _KEPT.set({})
+    try:
+        yield
+    finally:
+        _KEPT.reset(token)
+
+
 def scan_tdms(path: str | Path, file: BinaryIO | None = None) -> TdmsLayout:
     """Read the segment structure of a TDMS file, stopping at the first damage.
+
+    Within :func:`kept_layouts`, a file scanned before returns the layout found then (the
+    same object: callers only read it).
 
     Parameters
     ----------
@@ -389,7 +416,19 @@ def scan_tdms(path: str | Path, file: BinaryIO | None = None) -> TdmsLayout:
     if file is None:
         with open(path, "rb") as handle:
             return scan_tdms(path, handle)
-    file_size = os.fstat(file.fileno()).st_size
+    status = os.fstat(file.fileno())
+    kept = _KEPT.get()
+    key = (status.st_dev, status.st_ino, status.st_size, status.st_mtime_ns, str(path))
+    if kept is not None and key in kept:
+        return kept[key]
+    layout = _scan(path, file, status.st_size)
+    if kept is not None:
+        kept[key] = layout
+    return layout
+
+
+def _scan(path: Path, file: BinaryIO, file_size: int) -> TdmsLayout:
+    """Walk the segments of an open TDMS file of ``file_size`` bytes (see :func:`scan_tdms`)."""
     layout = TdmsLayout(path=path, file_size=file_size)
     current: list[tuple[str, _Index | None]] = []
     last_index: dict[str, _Index] = {}

@@ -60,6 +60,7 @@ import xarray as xr
 from rigval.acquisition.detect import source_checksum
 from rigval.acquisition.errors import DataError
 from rigval.acquisition.heap import release_free_heap
+from rigval.acquisition.tdms_layout import kept_layouts
 from rigval.model.balance import energy_residual
 from rigval.model.drives import law_angles_at_reference
 from rigval.model.mechanism import load_mechanism
@@ -581,7 +582,8 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         For data that cannot be read, aligned or modelled (``DataFileError``, ``DataError``,
         ``AlignmentError``, ``ModelError``).
     """
-    return _run(scene, keep=False)[0]
+    with kept_layouts():  # each TDMS file's segments walked once: the scene's check, every read
+        return _run(scene, keep=False)[0]
 
 
 @dataclass(frozen=True)
@@ -639,7 +641,8 @@ def run_scene_kept(scene: Scene | str | Path) -> tuple[ValidationResult, Measure
     measurement : Measurement
         For :meth:`Measurement.against`.
     """
-    result, measurement = _run(scene, keep=True)
+    with kept_layouts():  # as in run_scene
+        result, measurement = _run(scene, keep=True)
     assert measurement is not None
     return result, measurement
 
