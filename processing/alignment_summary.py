@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from rigval.acquisition.sample_times import SampleTimes, sample_times
 from rigval.acquisition.schema import invalid_counts, stream_gaps
 from rigval.processing.clock_fit import ClockModel
 from rigval.processing.event_match import robust_inliers
@@ -218,8 +219,8 @@ class PulseSamples:
         return self.values[first:first + hi - lo]
 
 
-def _window_bounds(time: np.ndarray, centres: np.ndarray, half_width: float, delay: float
-                   ) -> tuple[np.ndarray, np.ndarray]:
+def _window_bounds(time: np.ndarray | SampleTimes, centres: np.ndarray, half_width: float,
+                   delay: float) -> tuple[np.ndarray, np.ndarray]:
     """Return the sample ranges ``[lo, hi)`` of the windows ``centre +- half_width`` (s).
 
     Two samples more on either side than the delayed window holds (its edges are tested
@@ -252,7 +253,7 @@ def pulse_samples(stream: xr.Dataset, channel: str, edges: np.ndarray, half_widt
     PulseSamples
         The samples within ``half_width`` of each edge, as :func:`with_pulse_window` cuts them.
     """
-    lo, hi = _window_bounds(stream["time"].to_numpy(), edges, half_width, delay)
+    lo, hi = _window_bounds(sample_times(stream), edges, half_width, delay)  # not made whole
     reach = np.maximum.accumulate(hi) if hi.size else hi
     new_run = np.ones(lo.size, dtype=bool)
     new_run[1:] = lo[1:] > reach[:-1]
