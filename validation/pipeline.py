@@ -69,7 +69,6 @@ from rigval.model.solver import solve
 from rigval.processing.alignment_summary import StreamAlignment
 from rigval.processing.angle import (
     AngleGrid,
-    angle_grid,
     anti_alias_hz,
     cycle_grid,
     resample_to_angle,
@@ -78,8 +77,12 @@ from rigval.processing.filters import zero_phase
 from rigval.processing.stream_alignment import (
     AlignmentSettings,
     MainAngle,
+    ReferenceAngle,
     ReferencePulses,
-    align_streams,
+    ReferenceRecord,
+    align_to_reference,
+    pulse_events,
+    reference_angle,
     reference_pulses,
 )
 from rigval.processing.stretch_decimation import diagnosis_signal
@@ -91,7 +94,14 @@ from rigval.validation.metrics.compare import (
     compare,
     periodic_ratings,
 )
-from rigval.validation.model_run import FINE_FACTOR, drives_of, grid_error, run_model
+from rigval.validation.model_run import (
+    FINE_FACTOR,
+    MeanDrives,
+    drives_of,
+    grid_error,
+    measured_drives,
+    run_model,
+)
 from rigval.validation.note import read_note
 from rigval.validation.read_plan import (
     MeasuredSignal,
@@ -109,6 +119,7 @@ from rigval.validation.stage_settings import (
     ModelSettings,
     alignment_settings,
     check_sample_rates,
+    drive_encoders,
     model_settings,
     scene_errors,
 )
@@ -250,51 +261,101 @@ class _Timeline:
 
 @dataclass(frozen=True)
 class _Aligned:
-    """The align stage's output: the timeline and, apart, the drives' encoders for the model."""
+    """The align stage's output: the timeline and, apart, the mean measured drives for the model."""
 
     inputs: _Inputs
     timeline: _Timeline
-    drives: xr.Dataset | None
+    drives: MeanDrives | None
 
 
 @dataclass(frozen=True)
-class _Clocks:
-    """The align stage's first output: the streams on the reference timeline and phi_F(t)."""
+class _PhiF:
+    """The align stage's first step: the reference stream on its timeline with phi_F(t).
+
+    The other streams are as read.
+    """
 
     inputs: _Inputs
-    streams: dict[str, xr.Dataset]
-    drives: xr.Dataset | None
-    diagnostics: Mapping[str, StreamAlignment]
-    main: MainAngle
-    history: list[str]
+    others: Mapping[str, xr.Dataset]
+    reference: ReferenceAngle
 
 
-def _align(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, read: _Read) -> _Clocks:
-    """Put the streams on the reference timeline; keep only the channels later stages take.
+@dataclass(frozen=True)
+class _Predicted:
+    """What the align stage takes from phi_F, which is then let go.
 
-    The compared channels stay in the streams (every channel when the output keeps them); the
-    drives' encoders go apart, for the model; pulses and device clocks are let go.
+    The grids, each other stream's reference events as phi_F predicts them and, once averaged
+    (:func:`_drives`), the mean measured drives; the other streams are as read.
     """
+
+    inputs: _Inputs
+    others: Mapping[str, xr.Dataset]
+    reference: xr.Dataset
+    record: ReferenceRecord
+    events: Mapping[str, np.ndarray]
+    grid: _Grid
+    angle_times: AngleGrid
+    drives: MeanDrives | None = None
+
+
+def _phi_f(scene: Scene, settings: AlignmentSettings, read: _Read) -> _PhiF:
+    """Put the reference stream on its timeline and find phi_F(t) on it."""
     # the device clocks go into the output only with [output] aligned
-    aligned, diagnostics, main = align_streams(settings, read.converted,
-                                               device_time=scene.output.aligned,
-                                               found=read.reference)
+    reference = reference_angle(settings, read.converted[settings.reference],
+                                device_time=scene.output.aligned, found=read.reference)
+    others = {name: ds for name, ds in read.converted.items() if name != settings.reference}
+    return _PhiF(read.inputs, others, reference)
+
+
+def _predict(scene: Scene, settings: AlignmentSettings, phi: _PhiF) -> _Predicted:
+    """Take from phi_F the grids and the events the other streams are aligned on; let it go."""
+    main = phi.reference.main
+    events = pulse_events(settings, main)
+    grid = _grid(scene, main)
+    return _Predicted(phi.inputs, phi.others, phi.reference.stream, phi.reference.record, events,
+                      grid, main.grid(scene.angle.points_per_revolution))
+
+
+def _drives(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, predicted: _Predicted
+            ) -> _Predicted:
+    """Average the measured drives on the fine grid; the drives' encoders are let go.
+
+    The reference stream keeps the channels later stages take and its pulse channel, if there,
+    for the alignment figure's window.
+    """
+    drives = (measured_drives(drive_encoders(scene), predicted.reference,
+                              predicted.grid.fine_times) if plan.drives else None)
+    reference = _kept(plan, settings.reference, predicted.reference,
+                      settings.reference_pulse.name)
+    return dataclasses.replace(predicted, reference=reference, drives=drives)
+
+
+def _kept(plan: ReadPlan, name: str, stream: xr.Dataset, *also: str) -> xr.Dataset:
+    """Return a stream with the channels later stages take (every channel when all are kept).
+
+    ``also``: channels kept too when the stream holds them.
+    """
+    if plan.whole:
+        return stream
+    names = set(plan.kept_after_alignment(name)) | {c for c in also if c in stream}
+    return stream[[*sorted(names), "valid", "segment"]]
+
+
+def _align(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, predicted: _Predicted
+           ) -> _Aligned:
+    """Put the other streams on the reference timeline; keep only the channels later stages take.
+
+    The compared channels stay in the streams (every channel when the output keeps them);
+    pulses and device clocks are let go.
+    """
+    aligned, diagnostics = align_to_reference(
+        settings, predicted.reference, predicted.others, predicted.record, predicted.events,
+        device_time=scene.output.aligned)
     history = [line for ds in aligned.values()
                for line in str(ds.attrs.get("history", "")).splitlines()]
-    drives = (aligned[settings.reference][[*plan.drives, "valid", "segment"]]
-              if plan.drives else None)
-    if not plan.whole:
-        aligned = {name: ds[[*sorted(plan.kept_after_alignment(name)), "valid", "segment"]]
-                   for name, ds in aligned.items()}
-    return _Clocks(read.inputs, aligned, drives, diagnostics, main, history)
-
-
-def _grids(scene: Scene, clocks: _Clocks) -> _Aligned:
-    """Return the timeline with the grids of phi_F; phi_F(t) itself is let go."""
-    times = angle_grid(clocks.main.time, clocks.main.phi, scene.angle.points_per_revolution)
-    timeline = _Timeline(clocks.streams, clocks.diagnostics, _grid(scene, clocks.main), times,
-                         clocks.history)
-    return _Aligned(clocks.inputs, timeline, clocks.drives)
+    aligned = {name: _kept(plan, name, ds) for name, ds in aligned.items()}
+    timeline = _Timeline(aligned, diagnostics, predicted.grid, predicted.angle_times, history)
+    return _Aligned(predicted.inputs, timeline, predicted.drives)
 
 
 @dataclass(frozen=True)
@@ -367,9 +428,9 @@ def _model(scene: Scene, aligned: _Aligned, like: xr.Dataset | None = None) -> _
     grid = aligned.timeline.grid
     mechanism = load_mechanism(scene.mechanism)
     settings = model_settings(scene, mechanism)
-    drives = drives_of(like) if like is not None and settings.drives == "measured" else None
-    fine = run_model(settings, mechanism, aligned.drives, grid.fine_times, grid.fine_angle,
-                     drives=drives)
+    drives = drives_of(like) if like is not None and settings.drives == "measured" \
+        else aligned.drives
+    fine = run_model(settings, mechanism, grid.fine_angle, drives=drives)
     if settings.drives == "analytic":
         law_speed = 1.0 / float(fine.attrs["cycle_period_s"])
         if abs(law_speed / grid.speed_rev_s - 1.0) > ANALYTIC_SPEED_TOLERANCE:
@@ -657,8 +718,10 @@ def _run(scene: Scene | str | Path, *, keep: bool
         with watch.stage("read"):
             run = _read(scene, plan, settings, watch)
         with watch.stage("align"):
+            run = _phi_f(scene, settings, run)
+            run = _predict(scene, settings, run)
+            run = _drives(scene, plan, settings, run)
             run = _align(scene, plan, settings, run)
-            run = _grids(scene, run)
         with watch.stage("model"):
             run = _model(scene, run)
         with watch.stage("angle"):
