@@ -20,16 +20,19 @@ read
     the files' SHA-256 and the operator's note. With ``[output] raw`` or ``aligned`` every
     channel is read here and kept.
 align
-    phi_F(t) from the main encoder (smoothed, never differenced raw), zero at the reference
-    pulse; each other stream's clock fitted on its reference pulses against the events the
-    encoder angle predicts (:mod:`rigval.processing.stream_alignment`), module input delays
-    removed; the whole revolutions of phi_F and the reference times of the grids.
+    In four steps, each output replacing its input: phi_F(t) from the main encoder (smoothed,
+    never differenced raw), zero at the reference pulse, on the reference stream's time axis
+    and the encoder's input delay (no delayed copy); from phi_F, the whole revolutions, the
+    reference times of the grids and the events each other stream's pulses are fitted on, and
+    phi_F is let go; with measured drives, each driver's angle, speed and acceleration from its
+    encoder averaged over the revolutions at each angle of the fine grid, and the encoders are
+    let go; each other stream's clock fitted on its reference pulses against its events
+    (:mod:`rigval.processing.stream_alignment`), module input delays removed.
 model
-    Before the angle stage, so that the encoders are let go first. Only the outputs the
-    comparisons and predictions name, on the phi_F grid: with measured drives, each driver's
-    angle, speed and acceleration from its encoder averaged over the revolutions at each grid
-    angle; with analytic drives, the mechanism file's laws. The model runs on a grid four times
-    finer, so that the error of the chosen grid is measured (:mod:`rigval.validation.model_run`).
+    Only the outputs the comparisons and predictions name, on the phi_F grid: with measured
+    drives, the mean drives of the align stage; with analytic drives, the mechanism file's
+    laws. The model runs on a grid four times finer, so that the error of the chosen grid is
+    measured (:mod:`rigval.validation.model_run`).
 angle
     Comparison by comparison, its channels read (those not read yet), low-passed (its
     ``lowpass_hz``) within gap-free runs, then resampled at the reference times of the uniform
@@ -284,8 +287,25 @@ class _PhiF:
 class _Predicted:
     """What the align stage takes from phi_F, which is then let go.
 
-    The grids, each other stream's reference events as phi_F predicts them and, once averaged
-    (:func:`_drives`), the mean measured drives; the other streams are as read.
+    The grids, the fine grid's reference times (for the measured drives) and each other
+    stream's reference events as phi_F predicts them; the other streams are as read.
+    """
+
+    inputs: _Inputs
+    others: Mapping[str, xr.Dataset]
+    reference: xr.Dataset
+    record: ReferenceRecord
+    events: Mapping[str, np.ndarray]
+    grid: _Grid
+    fine_times: np.ndarray
+    angle_times: AngleGrid
+
+
+@dataclass(frozen=True)
+class _Driven:
+    """:class:`_Predicted` with the mean measured drives for the fine times and the encoders.
+
+    The reference stream holds only the channels later stages take.
     """
 
     inputs: _Inputs
@@ -295,7 +315,7 @@ class _Predicted:
     events: Mapping[str, np.ndarray]
     grid: _Grid
     angle_times: AngleGrid
-    drives: MeanDrives | None = None
+    drives: MeanDrives | None
 
 
 def _phi_f(scene: Scene, settings: AlignmentSettings, read: _Read) -> _PhiF:
@@ -311,23 +331,24 @@ def _predict(scene: Scene, settings: AlignmentSettings, phi: _PhiF) -> _Predicte
     """Take from phi_F the grids and the events the other streams are aligned on; let it go."""
     main = phi.reference.main
     events = pulse_events(settings, main)
-    grid = _grid(scene, main)
+    grid, fine_times = _grid(scene, main)
     return _Predicted(phi.inputs, phi.others, phi.reference.stream, phi.reference.record, events,
-                      grid, main.grid(scene.angle.points_per_revolution))
+                      grid, fine_times, main.grid(scene.angle.points_per_revolution))
 
 
 def _drives(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, predicted: _Predicted
-            ) -> _Predicted:
-    """Average the measured drives on the fine grid; the drives' encoders are let go.
+            ) -> _Driven:
+    """Average the measured drives on the fine grid; its times and the encoders are let go.
 
     The reference stream keeps the channels later stages take and its pulse channel, if there,
     for the alignment figure's window.
     """
     drives = (measured_drives(drive_encoders(scene), predicted.reference,
-                              predicted.grid.fine_times) if plan.drives else None)
+                              predicted.fine_times) if plan.drives else None)
     reference = _kept(plan, settings.reference, predicted.reference,
                       settings.reference_pulse.name)
-    return dataclasses.replace(predicted, reference=reference, drives=drives)
+    return _Driven(predicted.inputs, predicted.others, reference, predicted.record,
+                   predicted.events, predicted.grid, predicted.angle_times, drives)
 
 
 def _kept(plan: ReadPlan, name: str, stream: xr.Dataset, *also: str) -> xr.Dataset:
@@ -341,7 +362,7 @@ def _kept(plan: ReadPlan, name: str, stream: xr.Dataset, *also: str) -> xr.Datas
     return stream[[*sorted(names), "valid", "segment"]]
 
 
-def _align(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, predicted: _Predicted
+def _align(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, driven: _Driven
            ) -> _Aligned:
     """Put the other streams on the reference timeline; keep only the channels later stages take.
 
@@ -349,22 +370,26 @@ def _align(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, predicted:
     pulses and device clocks are let go.
     """
     aligned, diagnostics = align_to_reference(
-        settings, predicted.reference, predicted.others, predicted.record, predicted.events,
+        settings, driven.reference, driven.others, driven.record, driven.events,
         device_time=scene.output.aligned)
     history = [line for ds in aligned.values()
                for line in str(ds.attrs.get("history", "")).splitlines()]
     aligned = {name: _kept(plan, name, ds) for name, ds in aligned.items()}
-    timeline = _Timeline(aligned, diagnostics, predicted.grid, predicted.angle_times, history)
-    return _Aligned(predicted.inputs, timeline, predicted.drives)
+    timeline = _Timeline(aligned, diagnostics, driven.grid, driven.angle_times, history)
+    return _Aligned(driven.inputs, timeline, driven.drives)
 
 
 @dataclass(frozen=True)
 class _Grid:
-    """The phi_F grid of a run: whole revolutions, fine grid for the model, the chosen grid."""
+    """The phi_F grid of a run: whole revolutions, fine grid for the model, the chosen grid.
+
+    The fine grid's reference times, which the measured drives alone take, travel apart
+    (:class:`_Predicted`): the chosen grid's are a quarter of them.
+    """
 
     turns: np.ndarray
     fine_angle: np.ndarray
-    fine_times: np.ndarray
+    times: np.ndarray
     speed_rev_s: float
 
     @property
@@ -372,14 +397,13 @@ class _Grid:
         """The chosen grid's angles over one revolution (rad)."""
         return self.fine_angle[::FINE_FACTOR]
 
-    @property
-    def times(self) -> np.ndarray:
-        """Reference times of the chosen grid, (n_cycle, n_angle), s."""
-        return self.fine_times[:, ::FINE_FACTOR]
 
+def _grid(scene: Scene, main: MainAngle) -> tuple[_Grid, np.ndarray]:
+    """Whole revolutions of phi_F and the reference times of the chosen and the fine grid.
 
-def _grid(scene: Scene, main: MainAngle) -> _Grid:
-    """Whole revolutions of phi_F and the reference times of the fine and the chosen grid."""
+    Returns the grid, whose ``times`` are the chosen grid's (n_cycle, n_angle), and the fine
+    grid's (n_cycle, n_angle * FINE_FACTOR), s.
+    """
     n = scene.angle.points_per_revolution
     turns, fine_grid = cycle_grid(main.phi[0], main.phi[-1], n * FINE_FACTOR)
     if turns.size < scene.angle.min_cycles:
@@ -388,7 +412,9 @@ def _grid(scene: Scene, main: MainAngle) -> _Grid:
                         hint="record longer, or lower angle.min_cycles")
     fine_times = main.times_at(fine_grid)
     duration = float(main.times_at(2 * np.pi * (turns[-1] + 1)) - fine_times[0, 0])
-    return _Grid(turns, fine_grid[0] - fine_grid[0, 0], fine_times, turns.size / duration)
+    chosen = np.ascontiguousarray(fine_times[:, ::FINE_FACTOR])
+    return _Grid(turns, fine_grid[0] - fine_grid[0, 0], chosen, turns.size / duration), \
+        fine_times
 
 
 # ---------------------------------------------------------------------------------------------
@@ -618,8 +644,8 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
     another mechanism without reading and aligning it again.
 
     Each stage takes the output of the one before and hands on what the later ones need, so
-    what a stage consumed (the converted streams, the drives' encoders, the compared channels)
-    is let go as the next stage's output replaces it.
+    what a stage consumed (the converted streams, phi_F, the drives' encoders, the compared
+    channels) is let go as the next stage's output replaces it.
 
     Parameters
     ----------

@@ -4,7 +4,7 @@ Its steps (:mod:`rigval.validation.pipeline`: phi_F, what is taken from it, the 
 other streams) must give what aligning every stream with phi_F at hand gives (the old order:
 :func:`~rigval.processing.stream_alignment.align_streams`, then the grid on phi_F's delayed
 time copy and the drives averaged on the aligned reference stream), while each step's output,
-replacing its input, holds no more of phi_F or of the encoders.
+replacing its input, holds no more of phi_F, of the encoders or of the fine grid's times.
 """
 
 from __future__ import annotations
@@ -65,14 +65,16 @@ def test_align_steps_equal_the_old_order_and_let_phi_f_and_encoders_go(speed: st
     run = pipeline._predict(scene, settings, run)
     gc.collect()
     assert phi() is None  # let go before the encoders are averaged and the streams aligned
+    fine = weakref.ref(run.fine_times)
+    assert np.array_equal(run.fine_times, fine_times)
     run = pipeline._drives(scene, plan, settings, run)
     gc.collect()
-    assert all(encoder() is None for encoder in encoders)
+    assert all(encoder() is None for encoder in encoders) and fine() is None
     aligned = pipeline._align(scene, plan, settings, run)
 
     timeline = aligned.timeline
     assert np.array_equal(timeline.grid.turns, turns)
-    assert np.array_equal(timeline.grid.fine_times, fine_times)
+    assert np.array_equal(timeline.grid.times, fine_times[:, ::FINE_FACTOR])
     assert np.array_equal(timeline.angle_times.times, grid.times, equal_nan=True)
     assert timeline.angle_times.slowest == grid.slowest
     assert aligned.drives is not None
