@@ -31,6 +31,7 @@ from scipy.ndimage import map_coordinates, spline_filter1d
 from rigval.acquisition.errors import ConfigError, DataError
 from rigval.acquisition.schema import append_history
 from rigval.processing.arrays import FloatArray, IntArray
+from rigval.processing.block_median import exact_median
 from rigval.processing.clock_fit import channel_time
 from rigval.processing.encoder import (
     increasing_angle,
@@ -141,8 +142,8 @@ def cycle_grid(angle_start: float, angle_stop: float, points_per_rev: int,
 
 
 def interpolate_runs(time: ArrayLike, values: ArrayLike, at: ArrayLike, *, order: int = 3,
-                     segment: ArrayLike | None = None,
-                     valid: ArrayLike | None = None) -> FloatArray:
+                     segment: ArrayLike | None = None, valid: ArrayLike | None = None,
+                     offset: float = 0.0) -> FloatArray:
     """Evaluate a sampled signal at arbitrary times without crossing gaps.
 
     Parameters
@@ -157,6 +158,9 @@ def interpolate_runs(time: ArrayLike, values: ArrayLike, at: ArrayLike, *, order
         Spline degree: 1 linear, 3 cubic (not-a-knot), 5 quintic.
     segment, valid : array_like, optional
         Stream ``segment`` and ``valid`` variables.
+    offset : float, default 0
+        Subtracted from ``values``, a chunk at a time (a time axis as values, a channel's input
+        delay taken off without a whole-record copy); the same values as subtracted first.
 
     Returns
     -------
@@ -188,12 +192,12 @@ def interpolate_runs(time: ArrayLike, values: ArrayLike, at: ArrayLike, *, order
             read_lo, read_hi = max(start, lo - _OVERLAP), min(stop, hi + 1 + _OVERLAP)
             result[order_index[a:b]] = _chunk_spline(
                 t, x, sorted_targets[a:b], read_lo, read_hi, order,
-                at_start=read_lo == start, at_stop=read_hi == stop)
+                at_start=read_lo == start, at_stop=read_hi == stop, offset=offset)
     return result.reshape(targets.shape)
 
 
 def _chunk_spline(t: FloatArray, x: FloatArray, at: FloatArray, lo: int, hi: int, order: int,
-                  *, at_start: bool, at_stop: bool) -> FloatArray:
+                  *, at_start: bool, at_stop: bool, offset: float = 0.0) -> FloatArray:
     """Evaluate the interpolating spline of the samples ``lo:hi`` at sorted times ``at``.
 
     Samples at uniform times (clock-mapped records; :data:`_UNIFORM_TOLERANCE`) take the
@@ -203,9 +207,10 @@ def _chunk_spline(t: FloatArray, x: FloatArray, at: FloatArray, lo: int, hi: int
     the end conditions, whose effect decays by 0.27 (cubic) or 0.43 (quintic) per sample);
     within :data:`_OVERLAP` samples of a run's ends the not-a-knot spline of the end's
     ``3 * _OVERLAP`` samples is used, so the result equals the whole run's not-a-knot
-    spline to rounding everywhere (``tests/processing/test_angle_cycles.py``).
+    spline to rounding everywhere (``tests/processing/test_angle_cycles.py``). ``offset`` is
+    subtracted from the samples ``x`` first.
     """
-    tt, xx = t[lo:hi], x[lo:hi]
+    tt, xx = t[lo:hi], (x[lo:hi] - offset if offset else x[lo:hi])
     n = tt.size
     if n < 4 * _OVERLAP:
         return make_interp_spline(tt, xx, k=order)(at)
@@ -321,7 +326,8 @@ class AngleGrid:
     slowest: float
 
 
-def angle_grid(angle_time: ArrayLike, angle: ArrayLike, points_per_rev: int) -> AngleGrid:
+def angle_grid(angle_time: ArrayLike, angle: ArrayLike, points_per_rev: int, *,
+               delay_s: float = 0.0) -> AngleGrid:
     """Return the reference times of a uniform phi_F grid over the record's whole cycles.
 
     The times come from a cubic spline through the inverse of the increasing phi_F(t)
@@ -334,6 +340,9 @@ def angle_grid(angle_time: ArrayLike, angle: ArrayLike, points_per_rev: int) -> 
         phi_F(t): reference-clock times in s and the increasing angle in rad.
     points_per_rev : int
         Grid points per revolution.
+    delay_s : float, default 0
+        phi_F was sampled at ``angle_time - delay_s`` (the encoder's input delay, s): taken off
+        a chunk at a time, with the results of the shifted times, without their copy (memory).
 
     Returns
     -------
@@ -350,23 +359,23 @@ def angle_grid(angle_time: ArrayLike, angle: ArrayLike, points_per_rev: int) -> 
     if cycles.size == 0:
         raise DataError(f"phi_F spans {phi[0]:.4g} to {phi[-1]:.4g} rad: no whole revolution",
                         hint="record at least two revolutions")
-    # one whole-record temporary (the time steps, partitioned in place for their median); the
-    # rest chunk by chunk (memory)
+    # chunk by chunk, no whole-record temporary (memory): the time steps' median exactly as
+    # np.median of them all (a time axis's steps take few distinct values)
     chunk = 1 << 20
     pieces = range(0, phi_t.size - 1, chunk)
-    steps = np.diff(phi_t)
-    slowest = min(float(np.min(np.diff(phi[lo:lo + chunk + 1]) / steps[lo:lo + chunk]))
-                  for lo in pieces)
-    median = float(np.median(steps, overwrite_input=True))
-    del steps
-    gaps = np.concatenate([lo + np.flatnonzero(np.diff(phi_t[lo:lo + chunk + 1]) > 1.5 * median)
-                           for lo in pieces])
+
+    def steps(lo: int) -> FloatArray:
+        return np.diff(phi_t[lo:lo + chunk + 1] - delay_s)
+
+    slowest = min(float(np.min(np.diff(phi[lo:lo + chunk + 1]) / steps(lo))) for lo in pieces)
+    median = exact_median(steps(lo) for lo in pieces)
+    gaps = np.concatenate([lo + np.flatnonzero(steps(lo) > 1.5 * median) for lo in pieces])
     map_segment = None
     if gaps.size:
         map_segment = np.zeros(phi_t.size, dtype=np.int32)
         map_segment[gaps + 1] = 1
         np.cumsum(map_segment, out=map_segment)
-    times = interpolate_runs(phi, phi_t, grid, order=3, segment=map_segment)
+    times = interpolate_runs(phi, phi_t, grid, order=3, segment=map_segment, offset=delay_s)
     return AngleGrid(cycles, times, slowest)
 
 

@@ -50,7 +50,7 @@ from rigval.acquisition.schema import (
     with_invalid_counts,
 )
 from rigval.processing.arrays import BoolArray, FloatArray, IntArray
-from rigval.processing.encoder import increasing_angle
+from rigval.processing.encoder import increasing_angle, interp_minus
 from rigval.processing.errors import AlignmentError
 from rigval.processing.event_match import Match, match_segment, robust_inliers, without_strays
 
@@ -90,7 +90,7 @@ def input_delay(attrs: Mapping[str, Any], fs: float) -> float:
 
 
 def reference_event_times(time: ArrayLike, angle: ArrayLike, *, event_angle: float = 0.0,
-                          events_per_rev: int = 1) -> FloatArray:
+                          events_per_rev: int = 1, delay_s: float = 0.0) -> FloatArray:
     """Return the times at which an unwrapped, increasing angle passes a reference position.
 
     Parameters
@@ -104,6 +104,9 @@ def reference_event_times(time: ArrayLike, angle: ArrayLike, *, event_angle: flo
         Angle in rad at which the device's pulse fires (its mounting position in that angle).
     events_per_rev : int, default 1
         Pulses per revolution of ``angle`` (2 for the lifting-shaft sensor against phi_F).
+    delay_s : float, default 0
+        The angle's samples were taken at ``time - delay_s`` (its input delay, s); taken off
+        the events without a copy of ``time`` (:func:`~rigval.processing.encoder.interp_minus`).
 
     Returns
     -------
@@ -115,7 +118,7 @@ def reference_event_times(time: ArrayLike, angle: ArrayLike, *, event_angle: flo
     first = np.ceil((phi[0] - event_angle) / step)
     last = np.floor((phi[-1] - event_angle) / step)
     targets = event_angle + step * np.arange(first, last + 1)
-    return np.interp(targets, phi, t)
+    return interp_minus(targets, phi, t, delay_s)
 
 
 @dataclass(frozen=True)

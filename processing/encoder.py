@@ -32,6 +32,7 @@ __all__ = [
     "counts_to_angle",
     "decode_quadrature",
     "increasing_angle",
+    "interp_minus",
     "remove_index_resets",
     "revolution_check",
     "unwrap_counts",
@@ -381,6 +382,54 @@ def increasing_angle(time: ArrayLike, angle: ArrayLike, *, use: str
                         hint="use the smoothed drive angle (excitation.drive_angle) and split the "
                              "record at standstills or reversals")
     return t, phi
+
+
+#: Samples per block of :func:`interp_minus`.
+_INTERP_BLOCK = 1 << 16
+
+
+def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float) -> FloatArray:
+    """Return ``np.interp(x, xp, fp - shift)`` without the whole-record copy ``fp - shift``.
+
+    The samples are taken a block at a time, shifted there, with the targets that fall in the
+    block: every value is the one ``np.interp`` gives on the shifted copy (it reads the two
+    samples around a target alone), so a record's time axis and a channel's input delay stand
+    for the channel's times (memory).
+
+    Parameters
+    ----------
+    x : array_like
+        Points to evaluate at, any shape (sorted when not in increasing order).
+    xp : numpy.ndarray
+        Increasing sample points.
+    fp : numpy.ndarray
+        Sample values, as many as ``xp``.
+    shift : float
+        Subtracted from ``fp``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The interpolated values, the shape of ``x``.
+    """
+    targets = np.asarray(x, dtype=np.float64)
+    if shift == 0.0:
+        return np.interp(targets, xp, fp)
+    flat = targets.ravel()
+    order = None if bool(np.all(flat[1:] >= flat[:-1])) else np.argsort(flat, kind="stable")
+    ordered = flat if order is None else flat[order]
+    # targets from one block start (included) to the next: their bracketing samples lie in the
+    # block and one sample either side
+    cuts = np.searchsorted(ordered, xp[_INTERP_BLOCK::_INTERP_BLOCK], side="left")
+    values = np.empty(flat.size)
+    for block, (a, b) in enumerate(zip(np.r_[0, cuts], np.r_[cuts, flat.size], strict=True)):
+        if b > a:
+            lo = max(block * _INTERP_BLOCK - 1, 0)
+            hi = min((block + 1) * _INTERP_BLOCK + 1, xp.size)
+            values[a:b] = np.interp(ordered[a:b], xp[lo:hi], fp[lo:hi] - shift)
+    if order is not None:
+        values[order] = values.copy()
+    return values.reshape(targets.shape)
 
 
 def _strictly_increasing(x: FloatArray, chunk: int = 1 << 20) -> bool:

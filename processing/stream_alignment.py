@@ -10,7 +10,10 @@ dropout did not restart keep one offset, and every offset's 95 % interval includ
 uncertainty of phi_F = 0. The inputs are plain settings (:class:`AlignmentSettings`, which a
 scene's ``[alignment]`` table fills, docs/scene.md); the diagnostics
 (:class:`~rigval.processing.alignment_summary.StreamAlignment`) feed the report's alignment
-section and ``alignment.json``.
+section and ``alignment.json``. It runs in two halves, which a caller holding long records
+calls itself (:func:`reference_angle`, then :func:`align_to_reference` on the events
+:func:`pulse_events` takes from phi_F), so that phi_F is let go before the other streams are
+aligned.
 """
 
 from __future__ import annotations
@@ -32,8 +35,13 @@ from rigval.acquisition.errors import ChannelNotFoundError, DataError
 from rigval.processing import alignment_summary as diagnose
 from rigval.processing import clock_fit
 from rigval.processing.alignment_summary import PulseSamples, StreamAlignment, pulse_samples
-from rigval.processing.angle import phi_f
-from rigval.processing.encoder import increasing_angle, remove_index_resets, unwrap_counts
+from rigval.processing.angle import AngleGrid, angle_grid, phi_f
+from rigval.processing.encoder import (
+    increasing_angle,
+    interp_minus,
+    remove_index_resets,
+    unwrap_counts,
+)
 from rigval.processing.errors import AlignmentError
 from rigval.processing.pulses import StreamPulses, stream_pulses
 from rigval.processing.stamps import CoarseOffset, clock_groups, coarse_offset, stamps_clock
@@ -42,8 +50,13 @@ __all__ = [
     "AlignmentSettings",
     "ClockSettings",
     "MainAngle",
+    "ReferenceAngle",
     "ReferencePulses",
+    "ReferenceRecord",
     "align_streams",
+    "align_to_reference",
+    "pulse_events",
+    "reference_angle",
     "reference_pulses",
 ]
 
@@ -130,25 +143,55 @@ class AlignmentSettings:
 class MainAngle:
     """phi_F, the main shaft angle from the reference position, on the reference timeline.
 
+    The encoder's samples were taken at ``axis - delay_s``: the stream's time axis is held with
+    the encoder's input delay beside it, not the delayed copy of the whole axis (memory); the
+    methods take the delay off the times they return, with the values of the copy.
+
     Parameters
     ----------
-    time : numpy.ndarray
-        Reference-clock times in s where the encoder angle is defined.
+    axis : numpy.ndarray
+        The reference stream's times in s at the encoder's samples, the delay not taken off.
     phi : numpy.ndarray
         phi_F in rad, increasing, multiples of 2 pi at the reference pulse.
     zero_u95_s : float, default 0
         Half-width in s of the 95 % interval of the time at which phi_F = 0 (the mean of the
         reference pulses: Student t on their scatter, with the bound of sample-switched edges).
         It shifts every reference event alike, so it adds to every stream's offset interval.
+    delay_s : float, default 0
+        The encoder's input delay in s.
     """
 
-    time: np.ndarray
+    axis: np.ndarray
     phi: np.ndarray
     zero_u95_s: float = 0.0
+    delay_s: float = 0.0
+
+    @property
+    def time(self) -> np.ndarray:
+        """Reference-clock times (s) where the encoder angle is defined: a copy when delayed."""
+        return self.axis - self.delay_s if self.delay_s else self.axis
+
+    @property
+    def span_s(self) -> tuple[float, float]:
+        """The first and the last of :attr:`time`, s."""
+        return float(self.axis[0] - self.delay_s), float(self.axis[-1] - self.delay_s)
 
     def times_at(self, angles: np.ndarray) -> np.ndarray:
         """Return the reference times (s) at which phi_F takes the given values (rad)."""
-        return np.interp(angles, self.phi, self.time)
+        return interp_minus(angles, self.phi, self.axis, self.delay_s)
+
+    def event_times(self, event_angle: float = 0.0, events_per_rev: int = 1) -> np.ndarray:
+        """Return the times (s) at which phi_F passes ``event_angle + k 2 pi / events_per_rev``.
+
+        :func:`rigval.processing.clock_fit.reference_event_times` of phi_F.
+        """
+        return clock_fit.reference_event_times(self.axis, self.phi, event_angle=event_angle,
+                                               events_per_rev=events_per_rev,
+                                               delay_s=self.delay_s)
+
+    def grid(self, points_per_rev: int) -> AngleGrid:
+        """Return the record's uniform phi_F grid (:func:`rigval.processing.angle.angle_grid`)."""
+        return angle_grid(self.axis, self.phi, points_per_rev, delay_s=self.delay_s)
 
 
 def _pulses(stream: xr.Dataset, channel: ChannelSpec) -> StreamPulses:
@@ -258,11 +301,11 @@ def _main_angle(settings: AlignmentSettings, ref: xr.Dataset, pulses: StreamPuls
     angle = phi_f(ref, encoder.name, pulses, counts_per_rev=encoder.params["counts_per_rev"],
                   direction=float(settings.direction),
                   index_reset=bool(encoder.params.get("index_reset", False)), derivatives=False)
-    # a counter has no input delay: its times are the time axis itself, not a copy (memory)
-    delayed = float(ref[encoder.name].attrs.get("input_delay_s", 0.0)) != 0.0
-    time = clock_fit.channel_time(ref, encoder.name) if delayed else ref["time"].to_numpy()
+    # the encoder's times are the time axis and its delay, not their copy (memory)
+    delay = float(ref[encoder.name].attrs.get("input_delay_s", 0.0))
     try:  # the finite samples, copied only when some are not
-        t, phi = increasing_angle(time, angle["phi_F"].to_numpy(), use="(phi_F)")
+        t, phi = increasing_angle(ref["time"].to_numpy(), angle["phi_F"].to_numpy(),
+                                  use="(phi_F)")
     except DataError:
         raise DataError("the main shaft angle does not increase steadily (standstill, reversal "
                         "or the encoder counting down)",
@@ -275,7 +318,7 @@ def _main_angle(settings: AlignmentSettings, ref: xr.Dataset, pulses: StreamPuls
     scatter_s = float(angle.attrs["reference_scatter_rad"]) / (2 * np.pi) * period
     mean_u95 = float(student_t.ppf(0.975, used - 1)) * scatter_s / np.sqrt(used)
     zero_u95 = float(np.hypot(mean_u95, pulses.timing_bound_s))
-    return MainAngle(t, phi, zero_u95)
+    return MainAngle(t, phi, zero_u95, delay)
 
 
 def _fit_clock(events: np.ndarray, found: StreamPulses, coarse: CoarseOffset,
@@ -300,35 +343,127 @@ def _fit_clock(events: np.ndarray, found: StreamPulses, coarse: CoarseOffset,
     return clock_fit.estimate_clock(events, edges, segments, **kwargs)
 
 
-def _reference(settings: AlignmentSettings, ref: xr.Dataset, found: ReferencePulses | None
-               ) -> tuple[MainAngle, StreamAlignment, np.ndarray, float]:
-    """phi_F, the reference stream's record, its good pulses (s) and the pulse period (s).
+@dataclass(frozen=True)
+class ReferenceRecord:
+    """What aligning the other streams takes of the reference stream besides phi_F's events.
 
-    The pulses are ``found`` as the stream was read, else found here on ``ref``.
+    Attributes
+    ----------
+    summary : StreamAlignment
+        The reference stream's record, without its pulse window.
+    pulses : numpy.ndarray
+        The good reference pulses within phi_F, s.
+    period : float
+        Their median interval, s.
+    zero_u95_s : float
+        :attr:`MainAngle.zero_u95_s`.
+    kept : PulseSamples or None
+        The samples of the pulse channel let go as the stream was read
+        (:attr:`ReferencePulses.samples`); None when the channel is in the stream.
     """
+
+    summary: StreamAlignment
+    pulses: np.ndarray
+    period: float
+    zero_u95_s: float
+    kept: PulseSamples | None
+
+
+@dataclass(frozen=True)
+class ReferenceAngle:
+    """:func:`reference_angle`'s output: the reference stream on its timeline, phi_F, its record.
+
+    Attributes
+    ----------
+    stream : xarray.Dataset
+        The reference stream with ``time`` on its own clock
+        (:func:`~rigval.processing.clock_fit.align_stream` with the identity clock).
+    main : MainAngle
+        phi_F(t).
+    record : ReferenceRecord
+        For :func:`align_to_reference`.
+    """
+
+    stream: xr.Dataset
+    main: MainAngle
+    record: ReferenceRecord
+
+
+def reference_angle(settings: AlignmentSettings, stream: xr.Dataset, *,
+                    device_time: bool = True, found: ReferencePulses | None = None
+                    ) -> ReferenceAngle:
+    """Put the reference stream on its own timeline; phi_F and the reference pulses' record.
+
+    The first half of :func:`align_streams`: what the other streams need of phi_F, the events
+    it predicts (:func:`pulse_events`), is then taken from it, so that phi_F can be let go
+    before they are aligned (:func:`align_to_reference`).
+
+    Parameters
+    ----------
+    settings : AlignmentSettings
+        The reference stream, its encoder and pulse.
+    stream : xarray.Dataset
+        The reference stream in physical units.
+    device_time, found
+        As in :func:`align_streams`.
+
+    Returns
+    -------
+    ReferenceAngle
+        The stream, phi_F and the record.
+
+    Raises
+    ------
+    DataError
+        When the reference stream has too few pulses or its encoder angle does not increase.
+    """
+    ref = clock_fit.align_stream(stream, clock_fit.identity_clock(stream["segment"]),
+                                 name=settings.reference, device_time=device_time)
     ref_pulses = found.pulses if found is not None else _pulses(ref, settings.reference_pulse)
     main = _main_angle(settings, ref, ref_pulses)
-    pulses = ref_pulses.good[(ref_pulses.good >= main.time[0])
-                             & (ref_pulses.good <= main.time[-1])]
+    first, last = main.span_s
+    pulses = ref_pulses.good[(ref_pulses.good >= first) & (ref_pulses.good <= last)]
     period = float(np.median(np.diff(pulses)))
     expected = main.times_at(2.0 * np.pi * np.arange(math.ceil(main.phi[0] / (2 * np.pi)),
                                                      math.floor(main.phi[-1] / (2 * np.pi)) + 1))
     residual, matched = diagnose.event_residuals(pulses, expected, period)
+    kept = found.samples if found is not None else None
     summary = diagnose.stream_summary(
         settings.reference, ref, clock_fit.identity_clock(), is_reference=True,
         residual_time=pulses, residual=residual[matched], matched=int(matched.sum()),
         missing=max(expected.size - int(matched.sum()), 0),
-        spurious=int(ref_pulses.spurious.sum()),
-        let_go=found.samples if found is not None else None)
-    return main, summary, pulses, period
+        spurious=int(ref_pulses.spurious.sum()), let_go=kept)
+    return ReferenceAngle(ref, main, ReferenceRecord(summary, pulses, period, main.zero_u95_s,
+                                                     kept))
+
+
+def pulse_events(settings: AlignmentSettings, main: MainAngle) -> dict[str, np.ndarray]:
+    """Return the reference events phi_F predicts for each stream aligned on its pulses.
+
+    Parameters
+    ----------
+    settings : AlignmentSettings
+        Each other stream's pulse angle and pulses per revolution.
+    main : MainAngle
+        phi_F(t).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Stream name -> reference times (s) of phi_F at its pulse angle
+        (:meth:`MainAngle.event_times`); streams aligned by their stamps are absent.
+    """
+    return {name: main.event_times(clock.angle, clock.per_revolution)
+            for name, clock in settings.streams.items() if clock.method == "pulses"}
 
 
 def _align_by_pulses(name: str, stream: xr.Dataset, clock: ClockSettings, coarse: CoarseOffset,
-                     main: MainAngle, period: float, reference_start: str, *,
+                     events: np.ndarray, record: ReferenceRecord, reference_start: str, *,
                      device_time: bool = True
                      ) -> tuple[xr.Dataset, StreamAlignment, np.ndarray]:
     """Align one stream on its pulses; return it, its record and its mapped edges (s).
 
+    ``events`` are the reference times phi_F predicts for its pulses (:func:`pulse_events`);
     ``reference_start`` is the reference stream's ``start_time``, the origin of the CF time units.
     """
     if clock.pulse is None:
@@ -337,17 +472,16 @@ def _align_by_pulses(name: str, stream: xr.Dataset, clock: ClockSettings, coarse
                              hint='name its pulse channel or use method = "stamps"')
     found = _pulses(stream, clock.pulse)
     edges, segments = found.times[~found.spurious], found.segment[~found.spurious]
-    events = clock_fit.reference_event_times(main.time, main.phi, event_angle=clock.angle,
-                                         events_per_rev=clock.per_revolution)
     where = {"stream": name, "channel": clock.pulse.name}
     model = _fit_clock(events, found, coarse, clock_groups(stream), clock, name, where)
     model = dataclasses.replace(model, offsets_u95_s=tuple(
-        float(np.hypot(u, main.zero_u95_s)) for u in model.offsets_u95_s))
+        float(np.hypot(u, record.zero_u95_s)) for u in model.offsets_u95_s))
     aligned = clock_fit.align_stream(stream, model, name=name, reference_start=reference_start,
                                  device_time=device_time)
     mapped = model.to_reference(edges, segments)
     mapped = mapped[np.isfinite(mapped)]
-    residual, matched = diagnose.event_residuals(mapped, events, period, clock.per_revolution)
+    residual, matched = diagnose.event_residuals(mapped, events, record.period,
+                                                 clock.per_revolution)
     time = aligned["time"].to_numpy()
     inside = (events >= time[0]) & (events <= time[-1])
     summary = dataclasses.replace(diagnose.stream_summary(
@@ -361,10 +495,90 @@ def _align_by_pulses(name: str, stream: xr.Dataset, clock: ClockSettings, coarse
     return aligned, summary, mapped
 
 
+def _align_by_stamps(name: str, stream: xr.Dataset, ref: xr.Dataset, coarse: CoarseOffset, *,
+                     device_time: bool) -> tuple[xr.Dataset, StreamAlignment]:
+    """Align one stream on its start stamp; return it and its record."""
+    model = stamps_clock(stream, ref, coarse)
+    aligned = clock_fit.align_stream(stream, model, name=name,
+                                     reference_start=ref.attrs["start_time"],
+                                     device_time=device_time)
+    summary = dataclasses.replace(diagnose.stream_summary(
+        name, aligned, model, is_reference=False, residual_time=np.zeros(0),
+        residual=np.zeros(0), matched=0, missing=0, spurious=0),
+        method="stamps", start_time_uncertainty_s=coarse.window_s,
+        coarse_offset_s=coarse.offset_s, coarse_offset_source=coarse.source,
+        segment_table=diagnose.segment_table(stream, model, None, np.zeros(0)))
+    return aligned, summary
+
+
+def align_to_reference(settings: AlignmentSettings, ref: xr.Dataset,
+                       converted: Mapping[str, xr.Dataset], record: ReferenceRecord,
+                       events: Mapping[str, np.ndarray], *, device_time: bool = True
+                       ) -> tuple[dict[str, xr.Dataset], dict[str, StreamAlignment]]:
+    """Put every other stream on the reference timeline; attach every stream's pulse window.
+
+    The second half of :func:`align_streams`, which takes phi_F's predicted events, not phi_F.
+
+    Parameters
+    ----------
+    settings : AlignmentSettings
+        How each other stream is aligned.
+    ref : xarray.Dataset
+        The reference stream on its timeline (:attr:`ReferenceAngle.stream`), its channels
+        those the caller keeps.
+    converted : mapping of str to xarray.Dataset
+        The other streams in physical units (the reference, if there, is not read).
+    record : ReferenceRecord
+        The reference's (:attr:`ReferenceAngle.record`).
+    events : mapping of str to numpy.ndarray
+        :func:`pulse_events` of phi_F.
+    device_time : bool, default True
+        As in :func:`align_streams`.
+
+    Returns
+    -------
+    aligned, diagnostics
+        As :func:`align_streams` returns them, the reference stream first.
+
+    Raises
+    ------
+    AlignmentError
+        When a stream's clock cannot be fitted with confidence.
+    """
+    reference = settings.reference
+    aligned = {reference: ref}
+    diagnostics = {reference: record.summary}
+    shown = {reference: (settings.reference_pulse.name, record.pulses)}
+    for name, clock in settings.streams.items():
+        stream = converted[name]
+        coarse = coarse_offset(ref, stream, offset_s=clock.coarse_offset_s,
+                               uncertainty_s=clock.start_time_uncertainty_s)
+        if clock.method == "stamps":
+            aligned[name], diagnostics[name] = _align_by_stamps(name, stream, ref, coarse,
+                                                                device_time=device_time)
+            continue
+        aligned[name], diagnostics[name], mapped = _align_by_pulses(
+            name, stream, clock, coarse, events[name], record, ref.attrs["start_time"],
+            device_time=device_time)
+        shown[name] = (clock.pulse.name if clock.pulse else "", mapped)
+    half_width = PULSE_WINDOW * record.period
+    centre = diagnose.common_pulse(record.pulses, [d.span_s for d in diagnostics.values()],
+                                   half_width)
+    kept = {reference: record.kept} if record.kept is not None else {}
+    diagnostics = {name: diagnose.with_pulse_window(summary, aligned[name], *shown[name],
+                                                    centre, half_width, kept.get(name))
+                   if name in shown else summary
+                   for name, summary in diagnostics.items()}
+    return aligned, diagnostics
+
+
 def align_streams(settings: AlignmentSettings, converted: Mapping[str, xr.Dataset], *,
                   device_time: bool = True, found: ReferencePulses | None = None
                   ) -> tuple[dict[str, xr.Dataset], dict[str, StreamAlignment], MainAngle]:
     """Put every stream on the reference timeline.
+
+    :func:`reference_angle`, :func:`pulse_events` and :func:`align_to_reference` in a row;
+    a caller that must let phi_F go before the other streams are aligned calls them itself.
 
     Parameters
     ----------
@@ -398,39 +612,9 @@ def align_streams(settings: AlignmentSettings, converted: Mapping[str, xr.Datase
     DataError
         When the reference stream has too few pulses or its encoder angle does not increase.
     """
-    reference = settings.reference
-    ref = clock_fit.align_stream(converted[reference],
-                                 clock_fit.identity_clock(converted[reference]["segment"]),
-                                 name=reference, device_time=device_time)
-    main, ref_summary, pulses, period = _reference(settings, ref, found)
-    aligned = {reference: ref}
-    diagnostics = {reference: ref_summary}
-    shown = {reference: (settings.reference_pulse.name, pulses)}
-    for name, clock in settings.streams.items():
-        stream = converted[name]
-        coarse = coarse_offset(ref, stream, offset_s=clock.coarse_offset_s,
-                               uncertainty_s=clock.start_time_uncertainty_s)
-        if clock.method == "stamps":
-            model = stamps_clock(stream, ref, coarse)
-            aligned[name] = clock_fit.align_stream(stream, model, name=name,
-                                               reference_start=ref.attrs["start_time"],
-                                               device_time=device_time)
-            diagnostics[name] = dataclasses.replace(diagnose.stream_summary(
-                name, aligned[name], model, is_reference=False, residual_time=np.zeros(0),
-                residual=np.zeros(0), matched=0, missing=0, spurious=0),
-                method="stamps", start_time_uncertainty_s=coarse.window_s,
-                coarse_offset_s=coarse.offset_s, coarse_offset_source=coarse.source,
-                segment_table=diagnose.segment_table(stream, model, None, np.zeros(0)))
-            continue
-        aligned[name], diagnostics[name], mapped = _align_by_pulses(
-            name, stream, clock, coarse, main, period, ref.attrs["start_time"],
-            device_time=device_time)
-        shown[name] = (clock.pulse.name if clock.pulse else "", mapped)
-    half_width = PULSE_WINDOW * period
-    centre = diagnose.common_pulse(pulses, [d.span_s for d in diagnostics.values()], half_width)
-    kept = {reference: found.samples} if found is not None else {}
-    diagnostics = {name: diagnose.with_pulse_window(summary, aligned[name], *shown[name],
-                                                    centre, half_width, kept.get(name))
-                   if name in shown else summary
-                   for name, summary in diagnostics.items()}
-    return aligned, diagnostics, main
+    reference = reference_angle(settings, converted[settings.reference],
+                                device_time=device_time, found=found)
+    aligned, diagnostics = align_to_reference(
+        settings, reference.stream, converted, reference.record,
+        pulse_events(settings, reference.main), device_time=device_time)
+    return aligned, diagnostics, reference.main

@@ -3,10 +3,11 @@
 :func:`run_model` solves the mechanism on a phi_F grid :data:`FINE_FACTOR` times finer than the
 comparison grid (the chosen grid is every :data:`FINE_FACTOR`-th point, so its error is measured
 by :func:`grid_error`): with measured drives, each driver's angle, speed and acceleration from
-its encoder averaged over the revolutions at each grid angle; with analytic drives, the
-mechanism file's laws over one revolution. What to compute comes from the scene through
-:func:`rigval.validation.stage_settings.model_settings`. The power-balance check of the model's
-numerics is :func:`rigval.model.balance.energy_residual`.
+its encoder averaged over the revolutions at each grid angle (:func:`measured_drives`, which the
+pipeline's align stage calls, so that the encoders are let go before the other streams are
+aligned); with analytic drives, the mechanism file's laws over one revolution. What to compute
+comes from the scene through :func:`rigval.validation.stage_settings.model_settings`. The
+power-balance check of the model's numerics is :func:`rigval.model.balance.energy_residual`.
 """
 
 from __future__ import annotations
@@ -20,9 +21,9 @@ from rigval.model.mechanism import Mechanism
 from rigval.model.output_values import coarse_grid_error, with_axial_forces
 from rigval.model.solver import solve, solve_cycle
 from rigval.processing.excitation import mean_drive_cycle
-from rigval.validation.stage_settings import ModelSettings
+from rigval.validation.stage_settings import DriveEncoder, ModelSettings
 
-__all__ = ["FINE_FACTOR", "drives_of", "grid_error", "run_model"]
+__all__ = ["FINE_FACTOR", "MeanDrives", "drives_of", "grid_error", "measured_drives", "run_model"]
 
 logger = logging.getLogger(__name__)
 
@@ -30,20 +31,25 @@ logger = logging.getLogger(__name__)
 FINE_FACTOR = 4
 
 
-def _measured_drives(settings: ModelSettings, ref: xr.Dataset, fine_times: np.ndarray
-                     ) -> tuple[np.ndarray, dict[str, tuple[np.ndarray, ...]]]:
+#: Mean measured drives: the mean time since the start of the revolution per grid angle (s),
+#: and per driver name its (theta, omega, alpha) on the grid (rad, rad/s, rad/s^2).
+MeanDrives = tuple[np.ndarray, dict[str, tuple[np.ndarray, ...]]]
+
+
+def measured_drives(encoders: tuple[DriveEncoder, ...], ref: xr.Dataset,
+                    fine_times: np.ndarray) -> MeanDrives:
     """Drive angle, speed and acceleration per driver, averaged over revolutions per angle.
 
     Each driver's encoder handed to :func:`rigval.processing.excitation.mean_drive_cycle`.
 
     Parameters
     ----------
-    settings : ModelSettings
-        The drivers' encoders.
+    encoders : tuple of DriveEncoder
+        The drivers' encoders (:func:`rigval.validation.stage_settings.drive_encoders`).
     ref : xarray.Dataset
         The aligned reference stream holding the encoders.
     fine_times : numpy.ndarray
-        Reference times of the fine phi_F grid, (n_cycle, n_fine).
+        Reference times of the fine phi_F grid, (n_cycle, n_fine), s.
 
     Returns
     -------
@@ -57,12 +63,12 @@ def _measured_drives(settings: ModelSettings, ref: xr.Dataset, fine_times: np.nd
             ref, encoder.channel, fine_times, counts_per_rev=encoder.counts_per_rev,
             direction=encoder.direction, index_reset=encoder.index_reset,
             angle_at_reference=encoder.angle_at_reference)
-        for encoder in settings.encoders}
+        for encoder in encoders}
     times = (fine_times - fine_times[:, :1]).mean(axis=0)
     return times, drives
 
 
-def drives_of(fine: xr.Dataset) -> tuple[np.ndarray, dict[str, tuple[np.ndarray, ...]]]:
+def drives_of(fine: xr.Dataset) -> MeanDrives:
     """Return the mean drives a model of measured drives was solved with (:func:`run_model`).
 
     Parameters
@@ -85,10 +91,8 @@ def drives_of(fine: xr.Dataset) -> tuple[np.ndarray, dict[str, tuple[np.ndarray,
     return fine["time"].values, drives
 
 
-def run_model(settings: ModelSettings, mechanism: Mechanism, ref: xr.Dataset | None,
-              fine_times: np.ndarray, fine_angle: np.ndarray, *,
-              drives: tuple[np.ndarray, dict[str, tuple[np.ndarray, ...]]] | None = None
-              ) -> xr.Dataset:
+def run_model(settings: ModelSettings, mechanism: Mechanism, fine_angle: np.ndarray, *,
+              drives: MeanDrives | None = None) -> xr.Dataset:
     """Solve the model on the fine phi_F grid.
 
     Parameters
@@ -97,16 +101,13 @@ def run_model(settings: ModelSettings, mechanism: Mechanism, ref: xr.Dataset | N
         What to compute and how the drives are excited.
     mechanism : rigval.model.Mechanism
         The mechanism.
-    ref : xarray.Dataset or None
-        The aligned reference stream with the drive encoders (measured drives only).
-    fine_times : numpy.ndarray
-        Reference times of the fine grid, (n_cycle, n_fine), s.
     fine_angle : numpy.ndarray
         The fine grid over one revolution, rad.
     drives : (times, dict), optional
-        Measured drives already averaged for this grid (:func:`drives_of` of another
-        mechanism's model of the same run): the drive motion is the measurement's, not the
-        mechanism's, so ``ref`` is not read again.
+        The measured drives averaged on the fine grid (:func:`measured_drives`, or
+        :func:`drives_of` of another mechanism's model of the same run: the drive motion is
+        the measurement's, not the mechanism's); None, or analytic drives in ``settings``: the
+        mechanism file's laws.
 
     Returns
     -------
@@ -114,10 +115,10 @@ def run_model(settings: ModelSettings, mechanism: Mechanism, ref: xr.Dataset | N
         The requested model outputs with dim ``angle`` (rad); with measured drives also the mean
         drive angles ``drive_<driver>`` and their derivatives.
     """
-    if settings.drives == "analytic" or (ref is None and drives is None):
+    if settings.drives == "analytic" or drives is None:
         ds = solve_cycle(mechanism, fine_angle.size, **settings.request)
         return with_axial_forces(ds, mechanism, settings.compared.values())
-    times, drives = _measured_drives(settings, ref, fine_times) if drives is None else drives
+    times, drives = drives
     ds = solve(mechanism, times, drives=drives, **settings.request)
     for name, (theta, omega, alpha) in drives.items():
         ds[f"drive_{name}"] = ("time", theta, {"units": "rad", "long_name": f"{name}, mean"})

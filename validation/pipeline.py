@@ -20,16 +20,19 @@ read
     the files' SHA-256 and the operator's note. With ``[output] raw`` or ``aligned`` every
     channel is read here and kept.
 align
-    phi_F(t) from the main encoder (smoothed, never differenced raw), zero at the reference
-    pulse; each other stream's clock fitted on its reference pulses against the events the
-    encoder angle predicts (:mod:`rigval.processing.stream_alignment`), module input delays
-    removed; the whole revolutions of phi_F and the reference times of the grids.
+    In four steps, each output replacing its input: phi_F(t) from the main encoder (smoothed,
+    never differenced raw), zero at the reference pulse, on the reference stream's time axis
+    and the encoder's input delay (no delayed copy); from phi_F, the whole revolutions, the
+    reference times of the grids and the events each other stream's pulses are fitted on, and
+    phi_F is let go; with measured drives, each driver's angle, speed and acceleration from its
+    encoder averaged over the revolutions at each angle of the fine grid, and the encoders are
+    let go; each other stream's clock fitted on its reference pulses against its events
+    (:mod:`rigval.processing.stream_alignment`), module input delays removed.
 model
-    Before the angle stage, so that the encoders are let go first. Only the outputs the
-    comparisons and predictions name, on the phi_F grid: with measured drives, each driver's
-    angle, speed and acceleration from its encoder averaged over the revolutions at each grid
-    angle; with analytic drives, the mechanism file's laws. The model runs on a grid four times
-    finer, so that the error of the chosen grid is measured (:mod:`rigval.validation.model_run`).
+    Only the outputs the comparisons and predictions name, on the phi_F grid: with measured
+    drives, the mean drives of the align stage; with analytic drives, the mechanism file's
+    laws. The model runs on a grid four times finer, so that the error of the chosen grid is
+    measured (:mod:`rigval.validation.model_run`).
 angle
     Comparison by comparison, its channels read (those not read yet), low-passed (its
     ``lowpass_hz``) within gap-free runs, then resampled at the reference times of the uniform
@@ -70,7 +73,6 @@ from rigval.model.solver import solve
 from rigval.processing.alignment_summary import StreamAlignment
 from rigval.processing.angle import (
     AngleGrid,
-    angle_grid,
     anti_alias_hz,
     cycle_grid,
     resample_to_angle,
@@ -79,8 +81,12 @@ from rigval.processing.filters import zero_phase
 from rigval.processing.stream_alignment import (
     AlignmentSettings,
     MainAngle,
+    ReferenceAngle,
     ReferencePulses,
-    align_streams,
+    ReferenceRecord,
+    align_to_reference,
+    pulse_events,
+    reference_angle,
     reference_pulses,
 )
 from rigval.processing.stretch_decimation import diagnosis_signal
@@ -92,7 +98,14 @@ from rigval.validation.metrics.compare import (
     compare,
     periodic_ratings,
 )
-from rigval.validation.model_run import FINE_FACTOR, drives_of, grid_error, run_model
+from rigval.validation.model_run import (
+    FINE_FACTOR,
+    MeanDrives,
+    drives_of,
+    grid_error,
+    measured_drives,
+    run_model,
+)
 from rigval.validation.note import read_note
 from rigval.validation.read_plan import (
     MeasuredSignal,
@@ -110,6 +123,7 @@ from rigval.validation.stage_settings import (
     ModelSettings,
     alignment_settings,
     check_sample_rates,
+    drive_encoders,
     model_settings,
     scene_errors,
 )
@@ -251,60 +265,132 @@ class _Timeline:
 
 @dataclass(frozen=True)
 class _Aligned:
-    """The align stage's output: the timeline and, apart, the drives' encoders for the model."""
+    """The align stage's output: the timeline and, apart, the mean measured drives for the model."""
 
     inputs: _Inputs
     timeline: _Timeline
-    drives: xr.Dataset | None
+    drives: MeanDrives | None
 
 
 @dataclass(frozen=True)
-class _Clocks:
-    """The align stage's first output: the streams on the reference timeline and phi_F(t)."""
+class _PhiF:
+    """The align stage's first step: the reference stream on its timeline with phi_F(t).
+
+    The other streams are as read.
+    """
 
     inputs: _Inputs
-    streams: dict[str, xr.Dataset]
-    drives: xr.Dataset | None
-    diagnostics: Mapping[str, StreamAlignment]
-    main: MainAngle
-    history: list[str]
+    others: Mapping[str, xr.Dataset]
+    reference: ReferenceAngle
 
 
-def _align(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, read: _Read) -> _Clocks:
-    """Put the streams on the reference timeline; keep only the channels later stages take.
+@dataclass(frozen=True)
+class _Predicted:
+    """What the align stage takes from phi_F, which is then let go.
 
-    The compared channels stay in the streams (every channel when the output keeps them); the
-    drives' encoders go apart, for the model; pulses and device clocks are let go.
+    The grids, the fine grid's reference times (for the measured drives) and each other
+    stream's reference events as phi_F predicts them; the other streams are as read.
     """
+
+    inputs: _Inputs
+    others: Mapping[str, xr.Dataset]
+    reference: xr.Dataset
+    record: ReferenceRecord
+    events: Mapping[str, np.ndarray]
+    grid: _Grid
+    fine_times: np.ndarray
+    angle_times: AngleGrid
+
+
+@dataclass(frozen=True)
+class _Driven:
+    """:class:`_Predicted` with the mean measured drives for the fine times and the encoders.
+
+    The reference stream holds only the channels later stages take.
+    """
+
+    inputs: _Inputs
+    others: Mapping[str, xr.Dataset]
+    reference: xr.Dataset
+    record: ReferenceRecord
+    events: Mapping[str, np.ndarray]
+    grid: _Grid
+    angle_times: AngleGrid
+    drives: MeanDrives | None
+
+
+def _phi_f(scene: Scene, settings: AlignmentSettings, read: _Read) -> _PhiF:
+    """Put the reference stream on its timeline and find phi_F(t) on it."""
     # the device clocks go into the output only with [output] aligned
-    aligned, diagnostics, main = align_streams(settings, read.converted,
-                                               device_time=scene.output.aligned,
-                                               found=read.reference)
+    reference = reference_angle(settings, read.converted[settings.reference],
+                                device_time=scene.output.aligned, found=read.reference)
+    others = {name: ds for name, ds in read.converted.items() if name != settings.reference}
+    return _PhiF(read.inputs, others, reference)
+
+
+def _predict(scene: Scene, settings: AlignmentSettings, phi: _PhiF) -> _Predicted:
+    """Take from phi_F the grids and the events the other streams are aligned on; let it go."""
+    main = phi.reference.main
+    events = pulse_events(settings, main)
+    grid, fine_times = _grid(scene, main)
+    return _Predicted(phi.inputs, phi.others, phi.reference.stream, phi.reference.record, events,
+                      grid, fine_times, main.grid(scene.angle.points_per_revolution))
+
+
+def _drives(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, predicted: _Predicted
+            ) -> _Driven:
+    """Average the measured drives on the fine grid; its times and the encoders are let go.
+
+    The reference stream keeps the channels later stages take and its pulse channel, if there,
+    for the alignment figure's window.
+    """
+    drives = (measured_drives(drive_encoders(scene), predicted.reference,
+                              predicted.fine_times) if plan.drives else None)
+    reference = _kept(plan, settings.reference, predicted.reference,
+                      settings.reference_pulse.name)
+    return _Driven(predicted.inputs, predicted.others, reference, predicted.record,
+                   predicted.events, predicted.grid, predicted.angle_times, drives)
+
+
+def _kept(plan: ReadPlan, name: str, stream: xr.Dataset, *also: str) -> xr.Dataset:
+    """Return a stream with the channels later stages take (every channel when all are kept).
+
+    ``also``: channels kept too when the stream holds them.
+    """
+    if plan.whole:
+        return stream
+    names = set(plan.kept_after_alignment(name)) | {c for c in also if c in stream}
+    return stream[[*sorted(names), "valid", "segment"]]
+
+
+def _align(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, driven: _Driven
+           ) -> _Aligned:
+    """Put the other streams on the reference timeline; keep only the channels later stages take.
+
+    The compared channels stay in the streams (every channel when the output keeps them);
+    pulses and device clocks are let go.
+    """
+    aligned, diagnostics = align_to_reference(
+        settings, driven.reference, driven.others, driven.record, driven.events,
+        device_time=scene.output.aligned)
     history = [line for ds in aligned.values()
                for line in str(ds.attrs.get("history", "")).splitlines()]
-    drives = (aligned[settings.reference][[*plan.drives, "valid", "segment"]]
-              if plan.drives else None)
-    if not plan.whole:
-        aligned = {name: ds[[*sorted(plan.kept_after_alignment(name)), "valid", "segment"]]
-                   for name, ds in aligned.items()}
-    return _Clocks(read.inputs, aligned, drives, diagnostics, main, history)
-
-
-def _grids(scene: Scene, clocks: _Clocks) -> _Aligned:
-    """Return the timeline with the grids of phi_F; phi_F(t) itself is let go."""
-    times = angle_grid(clocks.main.time, clocks.main.phi, scene.angle.points_per_revolution)
-    timeline = _Timeline(clocks.streams, clocks.diagnostics, _grid(scene, clocks.main), times,
-                         clocks.history)
-    return _Aligned(clocks.inputs, timeline, clocks.drives)
+    aligned = {name: _kept(plan, name, ds) for name, ds in aligned.items()}
+    timeline = _Timeline(aligned, diagnostics, driven.grid, driven.angle_times, history)
+    return _Aligned(driven.inputs, timeline, driven.drives)
 
 
 @dataclass(frozen=True)
 class _Grid:
-    """The phi_F grid of a run: whole revolutions, fine grid for the model, the chosen grid."""
+    """The phi_F grid of a run: whole revolutions, fine grid for the model, the chosen grid.
+
+    The fine grid's reference times, which the measured drives alone take, travel apart
+    (:class:`_Predicted`): the chosen grid's are a quarter of them.
+    """
 
     turns: np.ndarray
     fine_angle: np.ndarray
-    fine_times: np.ndarray
+    times: np.ndarray
     speed_rev_s: float
 
     @property
@@ -312,14 +398,13 @@ class _Grid:
         """The chosen grid's angles over one revolution (rad)."""
         return self.fine_angle[::FINE_FACTOR]
 
-    @property
-    def times(self) -> np.ndarray:
-        """Reference times of the chosen grid, (n_cycle, n_angle), s."""
-        return self.fine_times[:, ::FINE_FACTOR]
 
+def _grid(scene: Scene, main: MainAngle) -> tuple[_Grid, np.ndarray]:
+    """Whole revolutions of phi_F and the reference times of the chosen and the fine grid.
 
-def _grid(scene: Scene, main: MainAngle) -> _Grid:
-    """Whole revolutions of phi_F and the reference times of the fine and the chosen grid."""
+    Returns the grid, whose ``times`` are the chosen grid's (n_cycle, n_angle), and the fine
+    grid's (n_cycle, n_angle * FINE_FACTOR), s.
+    """
     n = scene.angle.points_per_revolution
     turns, fine_grid = cycle_grid(main.phi[0], main.phi[-1], n * FINE_FACTOR)
     if turns.size < scene.angle.min_cycles:
@@ -328,7 +413,9 @@ def _grid(scene: Scene, main: MainAngle) -> _Grid:
                         hint="record longer, or lower angle.min_cycles")
     fine_times = main.times_at(fine_grid)
     duration = float(main.times_at(2 * np.pi * (turns[-1] + 1)) - fine_times[0, 0])
-    return _Grid(turns, fine_grid[0] - fine_grid[0, 0], fine_times, turns.size / duration)
+    chosen = np.ascontiguousarray(fine_times[:, ::FINE_FACTOR])
+    return _Grid(turns, fine_grid[0] - fine_grid[0, 0], chosen, turns.size / duration), \
+        fine_times
 
 
 # ---------------------------------------------------------------------------------------------
@@ -368,9 +455,9 @@ def _model(scene: Scene, aligned: _Aligned, like: xr.Dataset | None = None) -> _
     grid = aligned.timeline.grid
     mechanism = load_mechanism(scene.mechanism)
     settings = model_settings(scene, mechanism)
-    drives = drives_of(like) if like is not None and settings.drives == "measured" else None
-    fine = run_model(settings, mechanism, aligned.drives, grid.fine_times, grid.fine_angle,
-                     drives=drives)
+    drives = drives_of(like) if like is not None and settings.drives == "measured" \
+        else aligned.drives
+    fine = run_model(settings, mechanism, grid.fine_angle, drives=drives)
     if settings.drives == "analytic":
         law_speed = 1.0 / float(fine.attrs["cycle_period_s"])
         if abs(law_speed / grid.speed_rev_s - 1.0) > ANALYTIC_SPEED_TOLERANCE:
@@ -558,8 +645,8 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
     another mechanism without reading and aligning it again.
 
     Each stage takes the output of the one before and hands on what the later ones need, so
-    what a stage consumed (the converted streams, the drives' encoders, the compared channels)
-    is let go as the next stage's output replaces it.
+    what a stage consumed (the converted streams, phi_F, the drives' encoders, the compared
+    channels) is let go as the next stage's output replaces it.
 
     Parameters
     ----------
@@ -660,8 +747,10 @@ def _run(scene: Scene | str | Path, *, keep: bool
         with watch.stage("read"):
             run = _read(scene, plan, settings, watch)
         with watch.stage("align"):
+            run = _phi_f(scene, settings, run)
+            run = _predict(scene, settings, run)
+            run = _drives(scene, plan, settings, run)
             run = _align(scene, plan, settings, run)
-            run = _grids(scene, run)
         with watch.stage("model"):
             run = _model(scene, run)
         with watch.stage("angle"):

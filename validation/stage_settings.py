@@ -45,6 +45,7 @@ __all__ = [
     "alignment_settings",
     "check_sample_rates",
     "convert_stream",
+    "drive_encoders",
     "model_settings",
     "scene_errors",
 ]
@@ -289,7 +290,18 @@ def model_settings(scene: Scene, mechanism: Mechanism) -> ModelSettings:
     mechanism : rigval.model.Mechanism
         Its mechanism (for the order of points and joints).
     """
-    encoders = tuple(
+    return ModelSettings(drives=scene.model.drives, request=_request(scene, mechanism),
+                         encoders=drive_encoders(scene),
+                         compared={c.name: c.model for c in scene.comparisons})
+
+
+def drive_encoders(scene: Scene) -> tuple[DriveEncoder, ...]:
+    """Return the scene's measured drivers, in the order of ``[model.drivers]``.
+
+    The scene alone says them, so the align stage averages the drives before the mechanism is
+    loaded (:func:`rigval.validation.model_run.measured_drives`).
+    """
+    return tuple(
         DriveEncoder(driver=name, channel=driver.encoder.channel,
                      counts_per_rev=float(scene.channel(driver.encoder).params["counts_per_rev"]),
                      direction=float(driver.direction),
@@ -297,6 +309,3 @@ def model_settings(scene: Scene, mechanism: Mechanism) -> ModelSettings:
                                                                                False)),
                      angle_at_reference=driver.angle_at_reference)
         for name, driver in scene.model.drivers.items())
-    return ModelSettings(drives=scene.model.drives, request=_request(scene, mechanism),
-                         encoders=encoders,
-                         compared={c.name: c.model for c in scene.comparisons})
