@@ -74,6 +74,23 @@ class ResidualSeries:
         """Measured minus model, signal units."""
         return self.measured - self.model
 
+    def same_measurement(self, other: ResidualSeries) -> bool:
+        """Whether ``other`` is this comparison's measured signal, to the bit, at the same phi_F.
+
+        The same samples (time, measured value, phi_F, stretch), rate, speed and grid: the two
+        series differ at most in their model (one measurement validated against two mechanisms,
+        as ``rigval identify`` does).
+        """
+        return (self.name == other.name and self.units == other.units and self.fs == other.fs
+                and self.speed_rev_s == other.speed_rev_s
+                and all(np.array_equal(getattr(self, f), getattr(other, f))
+                        for f in ("time", "measured", "phi", "run", "angle")))
+
+    def same(self, other: ResidualSeries) -> bool:
+        """Whether ``other`` is the same series to the bit: its measurement and its model."""
+        return (self.same_measurement(other) and np.array_equal(self.model, other.model)
+                and np.array_equal(self.model_curve, other.model_curve))
+
 
 def periodic_curve(angle: FloatArray, values: FloatArray) -> CubicSpline:
     """Return a periodic cubic spline through one revolution's values on a uniform grid."""

@@ -5,7 +5,9 @@ The small API the pipeline, the report and the attribution call:
 * :func:`rigidity_evidence` - one comparison's residual in time
   (:class:`~rigval.validation.diagnosis.residual.ResidualSeries`) to its spectra, resonances and
   one sentence;
-* :func:`run_rigidity` - every comparison of a validated run whose aligned stream the run kept.
+* :func:`run_rigidity` - every comparison of a validated run whose aligned stream the run kept;
+* :func:`run_rigidity_pair` - the same for two validations of one measurement (``rigval
+  identify``'s nominal and identified runs), the work they share done once.
 """
 
 from __future__ import annotations
@@ -19,11 +21,15 @@ from rigval.acquisition.json_values import json_ready
 from rigval.processing.stretch_decimation import UPPER_HZ
 from rigval.validation.diagnosis.modes import Resonance, default_band, find_resonances
 from rigval.validation.diagnosis.residual import ResidualSeries, residual_series
-from rigval.validation.diagnosis.spectra import ResidualSpectra, residual_spectra
+from rigval.validation.diagnosis.spectra import (
+    ResidualSpectra,
+    residual_spectra,
+    shared_residual_spectra,
+)
 from rigval.validation.results import ValidationResult
 
 __all__ = ["RigidityEvidence", "evidence_record", "resonances_from_record",
-           "rigidity_evidence", "run_rigidity"]
+           "rigidity_evidence", "run_rigidity", "run_rigidity_pair"]
 
 logger = logging.getLogger(__name__)
 
@@ -87,7 +93,12 @@ def rigidity_evidence(series: ResidualSeries, upper_hz: float = UPPER_HZ,
         Frequencies searched for resonances (Hz); default
         :func:`~rigval.validation.diagnosis.modes.default_band`.
     """
-    spectra = residual_spectra(series, upper_hz)
+    return _evidence(series, residual_spectra(series, upper_hz), band)
+
+
+def _evidence(series: ResidualSeries, spectra: ResidualSpectra,
+              band: tuple[float, float] | None = None) -> RigidityEvidence:
+    """Return the evidence of one series from its spectra: the resonances found in them."""
     band = band or default_band(series.speed_rev_s, spectra.upper_hz)
     resonances = find_resonances(spectra.nonsynchronous, series.speed_rev_s, band)
     evidence = RigidityEvidence(series.name, series.units, spectra, band, resonances)
@@ -110,6 +121,55 @@ def run_rigidity(result: ValidationResult, upper_hz: float = UPPER_HZ
         except DataError as exc:
             logger.info("no rigidity evidence for %s: %s", comparison.name, exc)
     return out
+
+
+def run_rigidity_pair(first: ValidationResult, second: ValidationResult,
+                      upper_hz: float = UPPER_HZ
+                      ) -> tuple[dict[str, RigidityEvidence], dict[str, RigidityEvidence]]:
+    """Return :func:`run_rigidity` of two validations of one measurement, sharing the work.
+
+    ``rigval identify`` validates one measurement against the nominal and the identified
+    mechanism (:meth:`rigval.validation.pipeline.Measurement.against`). Per comparison, a
+    residual equal to the bit in both (a model output the changed parameters do not move, such
+    as an acceleration) is analysed once; otherwise the two share what depends on the
+    measurement alone (:func:`~rigval.validation.diagnosis.spectra.shared_residual_spectra`).
+    Either way each evidence is the one :func:`run_rigidity` gives, to the bit.
+
+    Parameters
+    ----------
+    first, second : ValidationResult
+        Validations of one measurement, with the same comparisons.
+    upper_hz : float, default :data:`UPPER_HZ`
+        Upper end of the analysis (Hz).
+
+    Returns
+    -------
+    tuple of dict
+        The evidence of ``first`` and of ``second`` by comparison. A comparison without
+        evidence for either (no kept signal, too short a record: logged) is left out of both.
+    """
+    out: tuple[dict[str, RigidityEvidence], dict[str, RigidityEvidence]] = ({}, {})
+    for comparison in first.comparisons:
+        name = comparison.name
+        try:
+            out[0][name], out[1][name] = _evidence_pair(residual_series(first, name),
+                                                        residual_series(second, name), upper_hz)
+        except DataError as exc:
+            logger.info("no rigidity evidence for %s: %s", name, exc)
+    return out
+
+
+def _evidence_pair(first: ResidualSeries, second: ResidualSeries, upper_hz: float
+                   ) -> tuple[RigidityEvidence, RigidityEvidence]:
+    """Return the evidence of two series of one comparison, each analysed at most once."""
+    if first.same(second):
+        evidence = rigidity_evidence(first, upper_hz)
+        logger.info("%s (the same residual again)", evidence.sentence)
+        return evidence, evidence
+    if not first.same_measurement(second):
+        return rigidity_evidence(first, upper_hz), rigidity_evidence(second, upper_hz)
+    spectra = shared_residual_spectra([first, second], upper_hz)
+    return _evidence(first, spectra[0]), _evidence(second, spectra[1])
 
 
 def evidence_record(evidence: RigidityEvidence) -> dict[str, Any]:
