@@ -151,12 +151,15 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
     path : pathlib.Path
         The file to write.
     """
-    tree = result.tree.copy()
     scene = result.scene
-    tree["health"] = xr.DataTree(health_dataset(result.health))
+    # the file's tree built at once (each group added to a tree aligns it again)
+    nodes = {node.path: node.to_dataset(inherit=False) for node in result.tree.subtree}
+    nodes["/health"] = health_dataset(result.health)
+    # breadth first, as the tree lists its groups: /health among the root's children
+    groups = [path for path in sorted(nodes, key=lambda path: path.rstrip("/").count("/"))
+              if path != "/" and nodes[path].variables]
     # what plain xr.open_dataset shows
-    tree.dataset = root_summary(result, tree, result.input_digests)
-    tree.attrs.update({
+    nodes["/"] = root_summary(result, nodes["/"], groups, result.input_digests).assign_attrs({
         "Conventions": "CF-1.13",
         "title": scene.title,
         "rigval_version": rigval_version(),
@@ -165,8 +168,8 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
         "scene_file": str(scene.path),
         "validation_passed": int(result.passed),
     })
-    encoding = {node.path: _encoding(node.to_dataset(inherit=False))
-                for node in tree.subtree if node.has_data}
+    encoding = {path: _encoding(ds) for path, ds in nodes.items() if ds.variables}
+    tree = xr.DataTree.from_dict(nodes)
     with atomic_output(path) as partial:
         tree.to_netcdf(partial, engine="netcdf4", encoding=encoding)
     return path
