@@ -62,18 +62,28 @@ def test_pair_equals_each_run_analysed_alone(pair) -> None:
     assert _text(first)["torque_F"] != _text(second)["torque_F"]
 
 
-def test_shared_spectra_equal_each_alone_and_need_one_measurement(pair) -> None:
+def test_run_rigidity_equals_each_comparison_analysed_alone(pair) -> None:
+    """The comparisons at the same samples (one stream's) are analysed together."""
+    nominal, _ = pair
+    alone = {c.name: rigidity.rigidity_evidence(residual_series(nominal, c.name))
+             for c in nominal.comparisons}
+    found = rigidity.run_rigidity(nominal)
+    assert list(found) == list(alone)  # the comparisons' order: rigidity.json's keys
+    assert _text(found) == _text(alone)
+    groups = rigidity._same_samples({name: [residual_series(nominal, name)] for name in alone})
+    assert ["tor1", "tor2", "torque_F"] in groups and ["acc1", "acc2"] in groups
+
+
+def test_shared_spectra_equal_each_alone_and_need_the_same_samples(pair) -> None:
     nominal, heavier = pair
-    a, b = residual_series(nominal, "tor1"), residual_series(heavier, "tor1")
-    assert a.same_measurement(b) and not a.same(b)
-    for shared, alone in zip(shared_residual_spectra([a, b]),
-                             (residual_spectra(a), residual_spectra(b)), strict=True):
-        _assert_same_bits(shared, alone)
-    other = dataclasses.replace(b, measured=b.measured * 1.01)
-    with pytest.raises(ValueError, match="one measurement"):
-        shared_residual_spectra([a, other])
-    # a series of another measurement is analysed on its own
-    alone = rigidity._evidence_pair(a, other, rigidity.UPPER_HZ)
-    assert ([json.dumps(rigidity.evidence_record(e)) for e in alone]
-            == [json.dumps(rigidity.evidence_record(rigidity.rigidity_evidence(s)))
-                for s in (a, other)])
+    series = [residual_series(result, name) for name in ("tor1", "tor2", "torque_F")
+              for result in (nominal, heavier)]
+    assert series[0].same_measurement(series[1]) and not series[0].same(series[1])
+    assert series[0].same_samples(series[2]) and not series[0].same_measurement(series[2])
+    shared = shared_residual_spectra(series)
+    for one, alone in zip(shared, (residual_spectra(s) for s in series), strict=True):
+        _assert_same_bits(one, alone)
+    assert shared[0].measured is shared[1].measured  # one measured signal's spectrum, once
+    other = dataclasses.replace(series[1], phi=series[1].phi + 1e-9)
+    with pytest.raises(ValueError, match="the same samples"):
+        shared_residual_spectra([series[0], other])

@@ -74,17 +74,25 @@ class ResidualSeries:
         """Measured minus model, signal units."""
         return self.measured - self.model
 
-    def same_measurement(self, other: ResidualSeries) -> bool:
-        """Whether ``other`` is this comparison's measured signal, to the bit, at the same phi_F.
+    def same_samples(self, other: ResidualSeries) -> bool:
+        """Whether ``other`` has this series' samples to the bit: another comparison or model.
 
-        The same samples (time, measured value, phi_F, stretch), rate, speed and grid: the two
-        series differ at most in their model (one measurement validated against two mechanisms,
-        as ``rigval identify`` does).
+        The same times, phi_F and stretches, rate, speed and grid (a comparison of the same
+        stream with the same gaps, or this comparison against another mechanism); the measured
+        values and the model may differ.
         """
-        return (self.name == other.name and self.units == other.units and self.fs == other.fs
-                and self.speed_rev_s == other.speed_rev_s
+        return (self.fs == other.fs and self.speed_rev_s == other.speed_rev_s
                 and all(np.array_equal(getattr(self, f), getattr(other, f))
-                        for f in ("time", "measured", "phi", "run", "angle")))
+                        for f in ("time", "phi", "run", "angle")))
+
+    def same_measurement(self, other: ResidualSeries) -> bool:
+        """Whether ``other`` is this comparison's measured signal, to the bit, at its samples.
+
+        The two series differ at most in their model (one measurement validated against two
+        mechanisms, as ``rigval identify`` does).
+        """
+        return (self.name == other.name and self.units == other.units
+                and self.same_samples(other) and np.array_equal(self.measured, other.measured))
 
     def same(self, other: ResidualSeries) -> bool:
         """Whether ``other`` is the same series to the bit: its measurement and its model."""

@@ -8,11 +8,15 @@ The small API the pipeline, the report and the attribution call:
 * :func:`run_rigidity` - every comparison of a validated run whose aligned stream the run kept;
 * :func:`run_rigidity_pair` - the same for two validations of one measurement (``rigval
   identify``'s nominal and identified runs), the work they share done once.
+
+Both analyse the comparisons at the same samples (one stream's) together, sharing the work
+that depends on the samples alone.
 """
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
@@ -111,16 +115,12 @@ def run_rigidity(result: ValidationResult, upper_hz: float = UPPER_HZ
     """Return the rigidity evidence of every comparison whose aligned stream the run kept.
 
     Comparisons of streams the run did not keep (scene ``[output] aligned``) are left out, with
-    a log line; so are those whose record is too short or broken for spectra.
+    a log line; so are those whose record is too short or broken for spectra. Comparisons at
+    the same samples (one stream's, with the same gaps) share the work that depends on the
+    samples alone (:func:`~rigval.validation.diagnosis.spectra.shared_residual_spectra`); each
+    evidence is the one :func:`rigidity_evidence` gives, to the bit.
     """
-    out = {}
-    for comparison in result.comparisons:
-        try:
-            out[comparison.name] = rigidity_evidence(residual_series(result, comparison.name),
-                                                     upper_hz)
-        except DataError as exc:
-            logger.info("no rigidity evidence for %s: %s", comparison.name, exc)
-    return out
+    return _run_rigidity((result,), upper_hz)[0]
 
 
 def run_rigidity_pair(first: ValidationResult, second: ValidationResult,
@@ -131,9 +131,9 @@ def run_rigidity_pair(first: ValidationResult, second: ValidationResult,
     ``rigval identify`` validates one measurement against the nominal and the identified
     mechanism (:meth:`rigval.validation.pipeline.Measurement.against`). Per comparison, a
     residual equal to the bit in both (a model output the changed parameters do not move, such
-    as an acceleration) is analysed once; otherwise the two share what depends on the
-    measurement alone (:func:`~rigval.validation.diagnosis.spectra.shared_residual_spectra`).
-    Either way each evidence is the one :func:`run_rigidity` gives, to the bit.
+    as an acceleration) is analysed once; the others share, beside what the samples share, the
+    measured signal's decimation and spectrum. Each evidence is the one :func:`run_rigidity`
+    gives, to the bit.
 
     Parameters
     ----------
@@ -148,28 +148,74 @@ def run_rigidity_pair(first: ValidationResult, second: ValidationResult,
         The evidence of ``first`` and of ``second`` by comparison. A comparison without
         evidence for either (no kept signal, too short a record: logged) is left out of both.
     """
-    out: tuple[dict[str, RigidityEvidence], dict[str, RigidityEvidence]] = ({}, {})
-    for comparison in first.comparisons:
-        name = comparison.name
-        try:
-            out[0][name], out[1][name] = _evidence_pair(residual_series(first, name),
-                                                        residual_series(second, name), upper_hz)
-        except DataError as exc:
-            logger.info("no rigidity evidence for %s: %s", name, exc)
-    return out
+    found = _run_rigidity((first, second), upper_hz)
+    return found[0], found[1]
 
 
-def _evidence_pair(first: ResidualSeries, second: ResidualSeries, upper_hz: float
-                   ) -> tuple[RigidityEvidence, RigidityEvidence]:
-    """Return the evidence of two series of one comparison, each analysed at most once."""
-    if first.same(second):
-        evidence = rigidity_evidence(first, upper_hz)
-        logger.info("%s (the same residual again)", evidence.sentence)
-        return evidence, evidence
-    if not first.same_measurement(second):
-        return rigidity_evidence(first, upper_hz), rigidity_evidence(second, upper_hz)
-    spectra = shared_residual_spectra([first, second], upper_hz)
-    return _evidence(first, spectra[0]), _evidence(second, spectra[1])
+def _run_rigidity(results: Sequence[ValidationResult], upper_hz: float
+                  ) -> list[dict[str, RigidityEvidence]]:
+    """Return the evidence of validations of one measurement, by comparison in scene order.
+
+    One stream's comparisons at a time (their series are held together: the memory of a few
+    comparisons' residuals), split into groups at the same samples.
+    """
+    names = [c.name for c in results[0].comparisons]
+    found: dict[str, list[RigidityEvidence]] = {}
+    for stream in _by_stream(results[0]):
+        held: dict[str, list[ResidualSeries]] = {}
+        for name in stream:
+            try:
+                held[name] = [residual_series(result, name) for result in results]
+            except DataError as exc:
+                logger.info("no rigidity evidence for %s: %s", name, exc)
+        for group in _same_samples(held):
+            try:
+                evidence = _group_evidence([s for name in group for s in held[name]], upper_hz)
+            except DataError as exc:
+                for name in group:
+                    logger.info("no rigidity evidence for %s: %s", name, exc)
+                continue
+            for i, name in enumerate(group):
+                found[name] = evidence[i * len(results):(i + 1) * len(results)]
+    return [{name: found[name][k] for name in names if name in found}
+            for k in range(len(results))]
+
+
+def _by_stream(result: ValidationResult) -> list[list[str]]:
+    """Return the comparisons' names by the stream they measure, in scene order."""
+    streams: dict[str, list[str]] = {}
+    for comparison in result.comparisons:
+        streams.setdefault(comparison.spec.measured.stream, []).append(comparison.name)
+    return list(streams.values())
+
+
+def _same_samples(held: dict[str, list[ResidualSeries]]) -> list[list[str]]:
+    """Return the comparisons' names in groups whose series are at the same samples."""
+    groups: list[list[str]] = []
+    for name, series in held.items():
+        group = next((g for g in groups if all(
+            a.same_samples(b) for a, b in zip(held[g[0]], series, strict=True))), None)
+        if group is None:
+            groups.append([name])
+        else:
+            group.append(name)
+    return groups
+
+
+def _group_evidence(series: Sequence[ResidualSeries], upper_hz: float
+                    ) -> list[RigidityEvidence]:
+    """Return the evidence of series at the same samples, a series equal to another's once."""
+    distinct: list[ResidualSeries] = []
+    which = []
+    for s in series:
+        index = next((i for i, d in enumerate(distinct) if d.same(s)), None)
+        if index is None:
+            distinct.append(s)
+            index = len(distinct) - 1
+        which.append(index)
+    evidence = [_evidence(s, spectra) for s, spectra in
+                zip(distinct, shared_residual_spectra(distinct, upper_hz), strict=True)]
+    return [evidence[i] for i in which]
 
 
 def evidence_record(evidence: RigidityEvidence) -> dict[str, Any]:

@@ -269,8 +269,10 @@ def residual_parts(series: Sequence[ResidualSeries], upper_hz: float) -> list[Re
     Parameters
     ----------
     series : sequence of ResidualSeries
-        One comparison's measurement against one or more models: every series has the first's
-        measured samples (:meth:`ResidualSeries.same_measurement`), which are decimated once.
+        Residuals at the first's samples (:meth:`ResidualSeries.same_samples`): the
+        comparisons of one stream, one comparison against several models. They share the order
+        fit's design rows; a measured signal two of them have (one comparison, two models) is
+        decimated once, and their parts hold the same array.
     upper_hz : float
         Upper end of the band analysed (Hz).
 
@@ -283,22 +285,39 @@ def residual_parts(series: Sequence[ResidualSeries], upper_hz: float) -> list[Re
     Raises
     ------
     ValueError
-        If a series is not of the first's measurement.
+        If a series is not at the first's samples.
     """
     first = series[0]
-    if not all(first.same_measurement(other) for other in series[1:]):
-        raise ValueError("residual parts of several series need one measurement")
+    if not all(first.same_samples(other) for other in series[1:]):
+        raise ValueError("residual parts of several series need the same samples")
     q = max(int(first.fs // (4.0 * upper_hz)), 1)
-    measured, run, index = decimated_runs(first.measured, first.run, q)
+    source = _measurements(series)
+    measured = {i: decimated_runs(series[i].measured, series[i].run, q)
+                for i in sorted(set(source))}
+    _, run, index = measured[0]
     residuals = [decimated_runs(s.residual, s.run, q)[0] for s in series]
     phi = first.phi[index]
     coefs = _order_fit(phi, residuals, max(int(upper_hz / first.speed_rev_s), 1))
     parts = []
-    for residual, coef, nonsynchronous in zip(residuals, coefs, _orders_at(coefs, phi),
-                                              strict=True):
+    for i, (residual, coef, nonsynchronous) in enumerate(
+            zip(residuals, coefs, _orders_at(coefs, phi), strict=True)):
         np.subtract(residual, nonsynchronous, out=nonsynchronous)
-        parts.append(ResidualParts(first.fs / q, residual, nonsynchronous, measured, run, coef))
+        parts.append(ResidualParts(first.fs / q, residual, nonsynchronous,
+                                   measured[source[i]][0], run, coef))
     return parts
+
+
+def _measurements(series: Sequence[ResidualSeries]) -> list[int]:
+    """Return, per series at one set of samples, the first series of its measured signal.
+
+    Series of one comparison (name and unit) with equal measured values share it.
+    """
+    first: list[int] = []
+    for i, s in enumerate(series):
+        first.append(next((j for j in range(i) if first[j] == j and series[j].name == s.name
+                           and series[j].units == s.units
+                           and np.array_equal(series[j].measured, s.measured)), i))
+    return first
 
 
 def residual_spectra(series: ResidualSeries, upper_hz: float = 40.0) -> ResidualSpectra:
@@ -321,17 +340,18 @@ def residual_spectra(series: ResidualSeries, upper_hz: float = 40.0) -> Residual
 
 def shared_residual_spectra(series: Sequence[ResidualSeries], upper_hz: float = 40.0
                             ) -> list[ResidualSpectra]:
-    """Return the residual spectra of one measurement against several models.
+    """Return the residual spectra of several series at the same samples, sharing the work.
 
     What :func:`residual_spectra` returns for each series, to the bit, with the work that
-    depends on the measurement alone done once: the measured signal's decimation and spectrum,
-    the order fit's design rows and normal matrix, the orders' basis (``rigval identify``
-    analyses the nominal and the identified model's residuals of one run).
+    depends on the samples alone done once (the order fit's design rows and normal matrix, the
+    orders' basis) and that on a measured signal once per signal (its decimation and spectrum):
+    the comparisons of one stream, and ``rigval identify``'s nominal and identified model of
+    one comparison.
 
     Parameters
     ----------
     series : sequence of ResidualSeries
-        The series, each of the first's measurement (:meth:`ResidualSeries.same_measurement`).
+        The series, each at the first's samples (:meth:`ResidualSeries.same_samples`).
     upper_hz : float, default 40
         Upper end of the band analysed (Hz); at most ``0.25 fs``.
 
@@ -343,9 +363,13 @@ def shared_residual_spectra(series: Sequence[ResidualSeries], upper_hz: float = 
     first = series[0]
     upper_hz = min(upper_hz, 0.25 * first.fs)
     parts = residual_parts(series, upper_hz)
-    measured = welch_runs(parts[0].measured, parts[0].run, parts[0].fs)
+    measured: list[tuple[FloatArray, Spectrum]] = []
+    for p in parts:  # parts of one measured signal hold the same array
+        if not any(signal is p.measured for signal, _ in measured):
+            measured.append((p.measured, welch_runs(p.measured, p.run, p.fs)))
     coefs = [p.coefficients for p in parts]
-    return [_spectra(s, upper_hz, p, measured, synchronous)
+    return [_spectra(s, upper_hz, p, next(sp for signal, sp in measured if signal is p.measured),
+                     synchronous)
             for s, p, synchronous in zip(series, parts, _orders_at(coefs, first.angle),
                                          strict=True)]
 
