@@ -62,11 +62,16 @@ def test_pair_equals_each_run_analysed_alone(pair) -> None:
     assert _text(first)["torque_F"] != _text(second)["torque_F"]
 
 
-def test_run_rigidity_equals_each_comparison_analysed_alone(pair) -> None:
-    """The comparisons at the same samples (one stream's) are analysed together."""
+@pytest.mark.parametrize("held", [rigidity.SHARED_SAMPLES, 7000, 1])
+def test_run_rigidity_equals_each_comparison_analysed_alone(pair, held: int,
+                                                            monkeypatch: pytest.MonkeyPatch
+                                                            ) -> None:
+    """The comparisons at the same samples (one stream's) are analysed together, as many as
+    ``held`` samples allow (7000: two of the run's series of about 3100 samples; 1: one)."""
     nominal, _ = pair
     alone = {c.name: rigidity.rigidity_evidence(residual_series(nominal, c.name))
              for c in nominal.comparisons}
+    monkeypatch.setattr(rigidity, "SHARED_SAMPLES", held)
     found = rigidity.run_rigidity(nominal)
     assert list(found) == list(alone)  # the comparisons' order: rigidity.json's keys
     assert _text(found) == _text(alone)

@@ -37,6 +37,11 @@ __all__ = ["RigidityEvidence", "evidence_record", "resonances_from_record",
 
 logger = logging.getLogger(__name__)
 
+#: Samples of residual series held together at most, one stream's comparisons, before they are
+#: analysed (:func:`run_rigidity`): about 80 MiB of series (five 8-byte arrays). A 20 s run's
+#: comparisons fit many times; a 4 h record's (2.3 M samples each) are analysed one by one.
+SHARED_SAMPLES = 2**21
+
 
 @dataclass(frozen=True)
 class RigidityEvidence:
@@ -156,8 +161,8 @@ def _run_rigidity(results: Sequence[ValidationResult], upper_hz: float
                   ) -> list[dict[str, RigidityEvidence]]:
     """Return the evidence of validations of one measurement, by comparison in scene order.
 
-    One stream's comparisons at a time (their series are held together: the memory of a few
-    comparisons' residuals), split into groups at the same samples.
+    One stream's comparisons are held together, split into groups at the same samples, until
+    their series reach :data:`SHARED_SAMPLES` (then analysed and let go).
     """
     names = [c.name for c in results[0].comparisons]
     found: dict[str, list[RigidityEvidence]] = {}
@@ -168,17 +173,29 @@ def _run_rigidity(results: Sequence[ValidationResult], upper_hz: float
                 held[name] = [residual_series(result, name) for result in results]
             except DataError as exc:
                 logger.info("no rigidity evidence for %s: %s", name, exc)
-        for group in _same_samples(held):
-            try:
-                evidence = _group_evidence([s for name in group for s in held[name]], upper_hz)
-            except DataError as exc:
-                for name in group:
-                    logger.info("no rigidity evidence for %s: %s", name, exc)
                 continue
-            for i, name in enumerate(group):
-                found[name] = evidence[i * len(results):(i + 1) * len(results)]
+            if sum(s.time.size for series in held.values() for s in series) >= SHARED_SAMPLES:
+                found.update(_held_evidence(held, upper_hz))
+                held = {}
+        found.update(_held_evidence(held, upper_hz))
     return [{name: found[name][k] for name in names if name in found}
             for k in range(len(results))]
+
+
+def _held_evidence(held: dict[str, list[ResidualSeries]], upper_hz: float
+                   ) -> dict[str, list[RigidityEvidence]]:
+    """Return the evidence of held comparisons (each's series per result), group by group."""
+    found = {}
+    for group in _same_samples(held):
+        try:
+            evidence = _group_evidence([s for name in group for s in held[name]], upper_hz)
+        except DataError as exc:
+            for name in group:
+                logger.info("no rigidity evidence for %s: %s", name, exc)
+            continue
+        width = len(held[group[0]])
+        found.update({name: evidence[i * width:(i + 1) * width] for i, name in enumerate(group)})
+    return found
 
 
 def _by_stream(result: ValidationResult) -> list[list[str]]:
