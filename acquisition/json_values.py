@@ -18,6 +18,9 @@ import numpy as np
 
 __all__ = ["json_ready"]
 
+#: Types :func:`json_ready` returns as they are (a float: when finite), checked by identity.
+_PLAIN = frozenset({float, int, str, bool, type(None)})
+
 
 def json_ready(value: Any) -> Any:
     """Return ``value`` as plain Python values that :func:`json.dumps` writes as standard JSON.
@@ -35,6 +38,9 @@ def json_ready(value: Any) -> Any:
         strings, dataclasses and mappings as dicts with string keys, lists and tuples as lists.
         Other values are returned as they are.
     """
+    kind = type(value)
+    if kind in _PLAIN:  # most values: their checks first (numpy scalars are subclasses)
+        return value if kind is not float or math.isfinite(value) else None
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return {f.name: json_ready(getattr(value, f.name)) for f in dataclasses.fields(value)}
     if isinstance(value, Mapping):

@@ -25,7 +25,7 @@ from rigval.validation.results import ValidationResult
 __all__ = ["root_summary"]
 
 
-def root_summary(result: ValidationResult, tree: xr.DataTree,
+def root_summary(result: ValidationResult, root: xr.Dataset, groups: Sequence[str],
                  inputs: Sequence[tuple[Path, str]]) -> xr.Dataset:
     """Return the Dataset for the root group of the validation file.
 
@@ -33,27 +33,26 @@ def root_summary(result: ValidationResult, tree: xr.DataTree,
     ----------
     result : ValidationResult
         The run's result (comparisons and their threshold checks).
-    tree : xarray.DataTree
-        The tree to be written (its group paths are listed).
+    root : xarray.Dataset
+        What the root of the tree to be written holds (its ``history``, ...).
+    groups : sequence of str
+        The paths of the tree's groups that hold data, in the tree's order (listed).
     inputs : sequence of (path, sha256)
         The input data files and their checksums.
 
     Returns
     -------
     xarray.Dataset
-        The root's own data and attributes (``history``, ...) with the summary added: data
-        variables and attributes only (no coordinates).
+        ``root`` with the summary added: data variables and attributes only (no coordinates).
     """
     names = [c.name for c in result.comparisons]
     passed = [c.passed for c in result.comparisons]
     failed = [n for n, ok in zip(names, passed, strict=True) if not ok]
-    groups = [node.path for node in tree.subtree if node.path != "/" and node.has_data]
     verdict = (f"{sum(passed)} of {len(names)} comparisons pass their thresholds"
                + (f" (failed: {', '.join(failed)})" if failed else ""))
     text = (f"{verdict}. Data groups: {', '.join(groups)}. This root holds only this summary: "
             "open the whole file with xarray.open_datatree(path), or one group with "
             "xarray.open_dataset(path, group='/angle').")
-    root = tree.to_dataset(inherit=False)  # keep what the root holds (history, ...)
     return root.assign(
         {
             "comparison": ("verdict", np.array(names, dtype=object),

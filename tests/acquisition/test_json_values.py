@@ -30,3 +30,12 @@ def test_nested_values_become_standard_json_with_the_same_content() -> None:
                                            "where": "/tmp/x.json"}}
     assert type(ready["a"]) is float and type(ready["3"][0]) is int
     assert json_ready("text") == "text" and json_ready(_Record) is _Record  # a class stays
+
+
+def test_plain_values_keep_their_type_and_only_non_finite_floats_change() -> None:
+    """The plain types are passed through by a check of their type alone (the fast path)."""
+    plain = [True, 1, 2.5, None, "s", -0.0]
+    ready = json_ready([*plain, math.inf, np.float64(3.0), np.bool_(False)])
+    assert ready == [*plain, None, 3.0, False]
+    assert [type(v) for v in ready] == [bool, int, float, type(None), str, float, type(None),
+                                        float, bool]

@@ -75,6 +75,7 @@ def write_identification(identification: Any, out_dir: Path, measurement: Any = 
     from rigval.acquisition.outputs import write_text_atomic
     from rigval.model.mechanism import load_mechanism
     from rigval.model.mechanism_text import apply_parameters, mechanism_toml
+    from rigval.validation.diagnosis.rigidity import run_rigidity_pair
     from rigval.validation.pipeline import run_scene
     from rigval.validation.report.run_report import start_figures, write_report
 
@@ -96,9 +97,11 @@ def write_identification(identification: Any, out_dir: Path, measurement: Any = 
     identified = (measurement.against(mechanism_path.resolve()) if measurement is not None
                   else run_scene(dataclasses.replace(scene, mechanism=mechanism_path.resolve())))
     identified_figures = start_figures(identified, drawers)
+    # one measurement against two mechanisms: their residuals' analyses share what they can
+    rigidity = run_rigidity_pair(nominal, identified)
     written = [json_path, mechanism_path,
-               *write_report(nominal, out_dir / "nominal", nominal_figures),
-               *write_report(identified, out_dir / "identified", identified_figures)]
+               *write_report(nominal, out_dir / "nominal", nominal_figures, rigidity[0]),
+               *write_report(identified, out_dir / "identified", identified_figures, rigidity[1])]
     written.insert(0, _page(identification, identified).write(out_dir / "report.html"))
     return written
 

@@ -238,31 +238,42 @@ class Diagnosis:
                           "sentence": p.sentence} for p in self.pairs]})
 
     def dataset(self) -> xr.Dataset:
-        """Return the diagnosis as typed variables (the netCDF group ``/why``)."""
+        """Return the diagnosis as typed variables (the netCDF group ``/why``), in one Dataset.
+
+        Along ``comparison`` the ``cause_*`` fields of :meth:`CauseStatement.record`,
+        ``cause_sentence`` and ``explained`` (comparison x angle, signal units); along
+        ``pair_shares`` and ``pair_faces`` the symmetry pairs' scores (``shares_*``,
+        ``faces_*``), where there are such pairs.
+        """
         names = list(self.causes)
-        ds = xr.Dataset(coords={"comparison": names})
         records = [self.causes[n].record() for n in names]
+        variables: dict[str, Any] = {"comparison": ("comparison", names)}
         for field in records[0] if records else ():
-            if field == "comparison":
-                continue
-            ds[f"cause_{field}"] = ("comparison", _typed([r[field] for r in records]), {
-                "units": _unit(field), "long_name": f"attribution: {field}"})
-        ds["cause_sentence"] = ("comparison", np.array([self.causes[n].sentence for n in names],
-                                                       dtype=object), {"long_name": "verdict"})
-        ds["explained"] = (("comparison", "angle"), np.array([self.explained[n] for n in names]),
-                           {"long_name": "residual the chosen causes explain (measured minus "
-                                         "model), in each comparison's unit"})
+            if field != "comparison":
+                variables[f"cause_{field}"] = ("comparison", _typed([r[field] for r in records]),
+                                               {"units": _unit(field),
+                                                "long_name": f"attribution: {field}"})
+        variables["cause_sentence"] = ("comparison", np.array(
+            [self.causes[n].sentence for n in names], dtype=object), {"long_name": "verdict"})
+        variables["explained"] = (("comparison", "angle"), np.array(
+            [self.explained[n] for n in names]), {
+            "long_name": "residual the chosen causes explain (measured minus model), in each "
+                         "comparison's unit"})
         for kind, rows in (("shares", [p for p in self.pairs if p.shares is not None]),
                            ("faces", [p for p in self.pairs if p.bending is not None])):
-            if not rows:
-                continue
-            dim = f"pair_{kind}"
-            ds = ds.assign_coords({dim: [p.spec.name for p in rows]})
-            scores = [(p.shares or p.bending).as_dict() for p in rows]  # type: ignore[union-attr]
-            for score in scores[0]:
-                ds[f"{kind}_{score}"] = (dim, _typed([s[score] for s in scores]), {
-                    "units": "1", "long_name": f"symmetry pair: {score}"})
-        return ds
+            variables.update(_pair_variables(kind, rows))
+        return xr.Dataset(variables)
+
+
+def _pair_variables(kind: str, rows: Sequence[PairStatement]) -> dict[str, Any]:
+    """Return the symmetry pairs of one kind as variables along ``pair_<kind>`` (none: {})."""
+    if not rows:
+        return {}
+    dim = f"pair_{kind}"
+    scores = [(p.shares or p.bending).as_dict() for p in rows]  # type: ignore[union-attr]
+    return {dim: (dim, [p.spec.name for p in rows]),
+            **{f"{kind}_{score}": (dim, _typed([s[score] for s in scores]), {
+                "units": "1", "long_name": f"symmetry pair: {score}"}) for score in scores[0]}}
 
 
 def _typed(values: Sequence[Any]) -> np.ndarray:

@@ -74,6 +74,31 @@ class ResidualSeries:
         """Measured minus model, signal units."""
         return self.measured - self.model
 
+    def same_samples(self, other: ResidualSeries) -> bool:
+        """Whether ``other`` has this series' samples to the bit: another comparison or model.
+
+        The same times, phi_F and stretches, rate, speed and grid (a comparison of the same
+        stream with the same gaps, or this comparison against another mechanism); the measured
+        values and the model may differ.
+        """
+        return (self.fs == other.fs and self.speed_rev_s == other.speed_rev_s
+                and all(np.array_equal(getattr(self, f), getattr(other, f))
+                        for f in ("time", "phi", "run", "angle")))
+
+    def same_measurement(self, other: ResidualSeries) -> bool:
+        """Whether ``other`` is this comparison's measured signal, to the bit, at its samples.
+
+        The two series differ at most in their model (one measurement validated against two
+        mechanisms, as ``rigval identify`` does).
+        """
+        return (self.name == other.name and self.units == other.units
+                and self.same_samples(other) and np.array_equal(self.measured, other.measured))
+
+    def same(self, other: ResidualSeries) -> bool:
+        """Whether ``other`` is the same series to the bit: its measurement and its model."""
+        return (self.same_measurement(other) and np.array_equal(self.model, other.model)
+                and np.array_equal(self.model_curve, other.model_curve))
+
 
 def periodic_curve(angle: FloatArray, values: FloatArray) -> CubicSpline:
     """Return a periodic cubic spline through one revolution's values on a uniform grid."""

@@ -16,9 +16,11 @@ averaged over the gap-free stretches of the record, after a zero-phase decimatio
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.signal import welch
 
 from rigval.acquisition.errors import DataError
@@ -27,9 +29,12 @@ from rigval.processing.stretch_decimation import decimated_runs
 from rigval.validation.diagnosis.residual import ResidualSeries
 
 __all__ = ["OrderSpectrum", "ResidualParts", "ResidualSpectra", "Spectrum", "residual_parts",
-           "residual_spectra", "welch_runs"]
+           "residual_spectra", "shared_residual_spectra", "welch_runs"]
 
 logger = logging.getLogger(__name__)
+
+#: Complex order coefficients.
+ComplexArray = NDArray[np.complex128]
 
 #: Longest Welch segment in s (a frequency resolution of 0.125 Hz, Hann main lobe 0.25 Hz).
 SEGMENT_S = 8.0
@@ -184,36 +189,47 @@ def _design(phi: FloatArray, k: np.ndarray, centre: float, span: float) -> Float
                            np.column_stack([u, u**2])], axis=1)
 
 
-def _order_fit(phi: FloatArray, values: FloatArray, max_order: int) -> FloatArray:
-    """Least-squares Fourier coefficients of ``values`` over phi_F, orders 0 ... max_order.
+def _order_fit(phi: FloatArray, values: Sequence[FloatArray], max_order: int
+               ) -> list[ComplexArray]:
+    """Least-squares Fourier coefficients of each of ``values`` over phi_F, orders 0 ... max_order.
 
-    Returns complex coefficients ``c_k`` with ``values ~ Re(sum c_k exp(i k phi))``. A slow
-    trend (a bridge's thermal drift, quadratic in phi_F) is fitted beside them and left out: over
-    whole revolutions a ramp would otherwise leak into every order as a sawtooth. The normal
-    equations are summed block by block (:data:`ORDER_FIT_BLOCK` samples), so that the design
-    matrix of the whole record is never built; equal to the whole-matrix sums up to their
-    summation order.
+    Returns, per signal, complex coefficients ``c_k`` with ``values ~ Re(sum c_k exp(i k phi))``.
+    A slow trend (a bridge's thermal drift, quadratic in phi_F) is fitted beside them and left
+    out: over whole revolutions a ramp would otherwise leak into every order as a sawtooth. The
+    normal equations are summed block by block (:data:`ORDER_FIT_BLOCK` samples), so that the
+    design matrix of the whole record is never built; equal to the whole-matrix sums up to their
+    summation order. Signals at the same ``phi`` (one measurement against several models) share
+    each block's design rows and the normal matrix; each signal's coefficients are those it
+    would get alone, to the bit.
     """
     k = np.arange(max_order + 1)
     centre, span = phi.mean(), np.ptp(phi)
     columns = 2 * max_order + 3
-    normal, right = np.zeros((columns, columns)), np.zeros(columns)
+    normal = np.zeros((columns, columns))
+    rights = [np.zeros(columns) for _ in values]
     for start in _blocks(phi.size):
         design = _design(phi[start:start + ORDER_FIT_BLOCK], k, centre, span)
         normal += design.T @ design
-        right += design.T @ values[start:start + ORDER_FIT_BLOCK]
+        for right, signal in zip(rights, values, strict=True):
+            right += design.T @ signal[start:start + ORDER_FIT_BLOCK]
     # normal equations: the columns are near orthogonal over whole revolutions (fast, stable)
-    coef = np.linalg.solve(normal, right)[:2 * max_order + 1]
-    return np.concatenate([[coef[0]], coef[1:max_order + 1] - 1j * coef[max_order + 1:]])
+    coefs = [np.linalg.solve(normal, right)[:2 * max_order + 1] for right in rights]
+    return [np.concatenate([[c[0]], c[1:max_order + 1] - 1j * c[max_order + 1:]])
+            for c in coefs]
 
 
-def _orders_at(coef: FloatArray, phi: FloatArray) -> FloatArray:
-    """Return the order series ``Re(sum c_k exp(i k phi))`` at ``phi`` (rad), block by block."""
-    k = np.arange(coef.size)
-    out = np.empty(phi.size)
+def _orders_at(coefs: Sequence[ComplexArray], phi: FloatArray) -> list[FloatArray]:
+    """Return each order series ``Re(sum c_k exp(i k phi))`` at ``phi`` (rad), block by block.
+
+    The series share each block's ``exp(i k phi)`` (the coefficient sets have one length).
+    """
+    k = np.arange(coefs[0].size)
+    out = [np.empty(phi.size) for _ in coefs]
     for start in _blocks(phi.size):
         block = phi[start:start + ORDER_FIT_BLOCK]
-        out[start:start + block.size] = np.real(np.exp(1j * np.outer(block, k)) @ coef)
+        basis = np.exp(1j * np.outer(block, k))
+        for values, coef in zip(out, coefs, strict=True):
+            values[start:start + block.size] = np.real(basis @ coef)
     return out
 
 
@@ -243,21 +259,65 @@ class ResidualParts:
     coefficients: FloatArray
 
 
-def residual_parts(series: ResidualSeries, upper_hz: float) -> ResidualParts:
-    """Decimate a residual to at least ``4 upper_hz`` and split off its orders up to ``upper_hz``.
+def residual_parts(series: Sequence[ResidualSeries], upper_hz: float) -> list[ResidualParts]:
+    """Decimate residuals to at least ``4 upper_hz`` and split off their orders up to ``upper_hz``.
 
     The synchronous part is the least-squares Fourier series of the residual over phi_F,
     orders 0 ... ``upper_hz / speed`` (the revolution mean, gaps allowed); the non-synchronous
     part is the rest.
+
+    Parameters
+    ----------
+    series : sequence of ResidualSeries
+        Residuals at the first's samples (:meth:`ResidualSeries.same_samples`): the
+        comparisons of one stream, one comparison against several models. They share the order
+        fit's design rows; a measured signal two of them have (one comparison, two models) is
+        decimated once, and their parts hold the same array.
+    upper_hz : float
+        Upper end of the band analysed (Hz).
+
+    Returns
+    -------
+    list of ResidualParts
+        Per series, what :func:`residual_spectra` takes its spectra of; each as the series
+        alone gives it, to the bit.
+
+    Raises
+    ------
+    ValueError
+        If a series is not at the first's samples.
     """
-    q = max(int(series.fs // (4.0 * upper_hz)), 1)
-    residual, run, index = decimated_runs(series.residual, series.run, q)
-    measured, _, _ = decimated_runs(series.measured, series.run, q)
-    phi = series.phi[index]
-    coef = _order_fit(phi, residual, max(int(upper_hz / series.speed_rev_s), 1))
-    nonsynchronous = _orders_at(coef, phi)
-    np.subtract(residual, nonsynchronous, out=nonsynchronous)
-    return ResidualParts(series.fs / q, residual, nonsynchronous, measured, run, coef)
+    first = series[0]
+    if not all(first.same_samples(other) for other in series[1:]):
+        raise ValueError("residual parts of several series need the same samples")
+    q = max(int(first.fs // (4.0 * upper_hz)), 1)
+    source = _measurements(series)
+    measured = {i: decimated_runs(series[i].measured, series[i].run, q)
+                for i in sorted(set(source))}
+    _, run, index = measured[0]
+    residuals = [decimated_runs(s.residual, s.run, q)[0] for s in series]
+    phi = first.phi[index]
+    coefs = _order_fit(phi, residuals, max(int(upper_hz / first.speed_rev_s), 1))
+    parts = []
+    for i, (residual, coef, nonsynchronous) in enumerate(
+            zip(residuals, coefs, _orders_at(coefs, phi), strict=True)):
+        np.subtract(residual, nonsynchronous, out=nonsynchronous)
+        parts.append(ResidualParts(first.fs / q, residual, nonsynchronous,
+                                   measured[source[i]][0], run, coef))
+    return parts
+
+
+def _measurements(series: Sequence[ResidualSeries]) -> list[int]:
+    """Return, per series at one set of samples, the first series of its measured signal.
+
+    Series of one comparison (name and unit) with equal measured values share it.
+    """
+    first: list[int] = []
+    for i, s in enumerate(series):
+        first.append(next((j for j in range(i) if first[j] == j and series[j].name == s.name
+                           and series[j].units == s.units
+                           and np.array_equal(series[j].measured, s.measured)), i))
+    return first
 
 
 def residual_spectra(series: ResidualSeries, upper_hz: float = 40.0) -> ResidualSpectra:
@@ -275,15 +335,54 @@ def residual_spectra(series: ResidualSeries, upper_hz: float = 40.0) -> Residual
     ResidualSpectra
         The parts (:func:`residual_parts`) and their spectra.
     """
-    upper_hz = min(upper_hz, 0.25 * series.fs)
+    return shared_residual_spectra([series], upper_hz)[0]
+
+
+def shared_residual_spectra(series: Sequence[ResidualSeries], upper_hz: float = 40.0
+                            ) -> list[ResidualSpectra]:
+    """Return the residual spectra of several series at the same samples, sharing the work.
+
+    What :func:`residual_spectra` returns for each series, to the bit, with the work that
+    depends on the samples alone done once (the order fit's design rows and normal matrix, the
+    orders' basis) and that on a measured signal once per signal (its decimation and spectrum):
+    the comparisons of one stream, and ``rigval identify``'s nominal and identified model of
+    one comparison.
+
+    Parameters
+    ----------
+    series : sequence of ResidualSeries
+        The series, each at the first's samples (:meth:`ResidualSeries.same_samples`).
+    upper_hz : float, default 40
+        Upper end of the band analysed (Hz); at most ``0.25 fs``.
+
+    Returns
+    -------
+    list of ResidualSpectra
+        In the order of ``series``.
+    """
+    first = series[0]
+    upper_hz = min(upper_hz, 0.25 * first.fs)
     parts = residual_parts(series, upper_hz)
+    measured: list[tuple[FloatArray, Spectrum]] = []
+    for p in parts:  # parts of one measured signal hold the same array
+        if not any(signal is p.measured for signal, _ in measured):
+            measured.append((p.measured, welch_runs(p.measured, p.run, p.fs)))
+    coefs = [p.coefficients for p in parts]
+    return [_spectra(s, upper_hz, p, next(sp for signal, sp in measured if signal is p.measured),
+                     synchronous)
+            for s, p, synchronous in zip(series, parts, _orders_at(coefs, first.angle),
+                                         strict=True)]
+
+
+def _spectra(series: ResidualSeries, upper_hz: float, parts: ResidualParts, measured: Spectrum,
+             synchronous: FloatArray) -> ResidualSpectra:
+    """Return one series' spectra from its parts, its measured spectrum and synchronous curve."""
     amplitude = np.abs(parts.coefficients)
-    spectra = [welch_runs(x, parts.run, parts.fs)
-               for x in (parts.measured, parts.residual, parts.nonsynchronous)]
-    return ResidualSpectra(series.name, series.units, series.speed_rev_s, upper_hz,
-                           _orders_at(parts.coefficients, series.angle),
+    residual, nonsynchronous = (welch_runs(x, parts.run, parts.fs)
+                                for x in (parts.residual, parts.nonsynchronous))
+    return ResidualSpectra(series.name, series.units, series.speed_rev_s, upper_hz, synchronous,
                            OrderSpectrum(np.arange(amplitude.size), amplitude),
-                           *spectra, spectra[0].variance(0.0, upper_hz),
-                           spectra[1].variance(0.0, upper_hz),
+                           measured, residual, nonsynchronous,
+                           measured.variance(0.0, upper_hz), residual.variance(0.0, upper_hz),
                            float(np.sum(amplitude[1:] ** 2) / 2.0),
-                           spectra[2].variance(0.0, upper_hz))
+                           nonsynchronous.variance(0.0, upper_hz))

@@ -29,7 +29,11 @@ import xarray as xr
 
 from rigval.acquisition.json_values import json_ready
 from rigval.acquisition.outputs import atomic_output, staged_folder, write_text_atomic
-from rigval.validation.diagnosis.rigidity import evidence_record, run_rigidity
+from rigval.validation.diagnosis.rigidity import (
+    RigidityEvidence,
+    evidence_record,
+    run_rigidity,
+)
 from rigval.validation.health import health_dataset
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
@@ -42,7 +46,7 @@ from rigval.validation.verdict import failure_reasons, run_verdict
 from rigval.validation.version import rigval_version
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable, Sequence
+    from collections.abc import Iterable, Mapping, Sequence
 
     from matplotlib.figure import Figure
 
@@ -86,14 +90,27 @@ def write_metrics(result: ValidationResult, out_dir: Path) -> list[Path]:
     return [csv_path, json_path]
 
 
-def write_rigidity(result: ValidationResult, out_dir: Path) -> Path:
+def write_rigidity(result: ValidationResult, out_dir: Path,
+                   rigidity: Mapping[str, RigidityEvidence] | None = None) -> Path:
     """Write ``rigidity.json``: each comparison's residual spectra and resonances.
 
     See :func:`rigval.validation.diagnosis.rigidity.evidence_record` and docs/diagnosis.md.
+
+    Parameters
+    ----------
+    result : ValidationResult
+        The validation.
+    out_dir : pathlib.Path
+        The folder.
+    rigidity : mapping of str to RigidityEvidence, optional
+        The run's evidence by comparison, analysed before (``rigval identify``:
+        :func:`~rigval.validation.diagnosis.rigidity.run_rigidity_pair`); default: its
+        diagnosis's, else :func:`~rigval.validation.diagnosis.rigidity.run_rigidity` here.
     """
-    found = result.diagnosis.rigidity if result.diagnosis is not None else {}
-    document = {name: evidence_record(evidence)
-                for name, evidence in (found or run_rigidity(result)).items()}
+    if rigidity is None:
+        found = result.diagnosis.rigidity if result.diagnosis is not None else {}
+        rigidity = found or run_rigidity(result)
+    document = {name: evidence_record(evidence) for name, evidence in rigidity.items()}
     return write_text_atomic(out_dir / "rigidity.json", json.dumps(document, indent=1) + "\n")
 
 
@@ -134,12 +151,15 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
     path : pathlib.Path
         The file to write.
     """
-    tree = result.tree.copy()
     scene = result.scene
-    tree["health"] = xr.DataTree(health_dataset(result.health))
+    # the file's tree built at once (each group added to a tree aligns it again)
+    nodes = {node.path: node.to_dataset(inherit=False) for node in result.tree.subtree}
+    nodes["/health"] = health_dataset(result.health)
+    # breadth first, as the tree lists its groups: /health among the root's children
+    groups = [path for path in sorted(nodes, key=lambda path: path.rstrip("/").count("/"))
+              if path != "/" and nodes[path].variables]
     # what plain xr.open_dataset shows
-    tree.dataset = root_summary(result, tree, result.input_digests)
-    tree.attrs.update({
+    nodes["/"] = root_summary(result, nodes["/"], groups, result.input_digests).assign_attrs({
         "Conventions": "CF-1.13",
         "title": scene.title,
         "rigval_version": rigval_version(),
@@ -148,8 +168,8 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
         "scene_file": str(scene.path),
         "validation_passed": int(result.passed),
     })
-    encoding = {node.path: _encoding(node.to_dataset(inherit=False))
-                for node in tree.subtree if node.has_data}
+    encoding = {path: _encoding(ds) for path, ds in nodes.items() if ds.variables}
+    tree = xr.DataTree.from_dict(nodes)
     with atomic_output(path) as partial:
         tree.to_netcdf(partial, engine="netcdf4", encoding=encoding)
     return path
@@ -508,7 +528,8 @@ def _build_page(result: ValidationResult, drawing: Drawing) -> Page:
 
 
 def write_report(result: ValidationResult, out_dir: str | Path,
-                 figures: Drawing | None = None) -> list[Path]:
+                 figures: Drawing | None = None,
+                 rigidity: Mapping[str, RigidityEvidence] | None = None) -> list[Path]:
     """Write the report folder of a validation and return the files written.
 
     Parameters
@@ -520,6 +541,9 @@ def write_report(result: ValidationResult, out_dir: str | Path,
     figures : Drawing, optional
         The page's figures, started by :func:`start_figures` on this run (also before its
         diagnosis); default: drawn here as the page needs them.
+    rigidity : mapping of str to RigidityEvidence, optional
+        The run's rigidity evidence for ``rigidity.json``, analysed before
+        (:func:`write_rigidity`); default: its diagnosis's, else analysed here.
 
     Returns
     -------
@@ -537,7 +561,7 @@ def write_report(result: ValidationResult, out_dir: str | Path,
     with staged_folder(out) as stage:
         staged = write_metrics(result, stage)
         staged.append(write_alignment(result, stage))
-        staged.append(write_rigidity(result, stage))
+        staged.append(write_rigidity(result, stage, rigidity))
         staged.append(write_netcdf(result, stage / f"{result.scene.path.stem}.nc"))
         staged.insert(0, _build_page(result, drawing).write(stage / "report.html"))
     written = [out / path.name for path in staged]
