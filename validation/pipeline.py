@@ -90,14 +90,8 @@ from rigval.processing.stream_alignment import (
     reference_pulses,
 )
 from rigval.processing.stretch_decimation import diagnosis_signal
+from rigval.validation.comparison_scores import Scored, pair, score_comparisons
 from rigval.validation.health import HealthLog
-from rigval.validation.metrics.compare import (
-    IsoScores,
-    baseline,
-    check_thresholds,
-    compare,
-    periodic_ratings,
-)
 from rigval.validation.model_run import (
     FINE_FACTOR,
     MeanDrives,
@@ -127,7 +121,7 @@ from rigval.validation.stage_settings import (
     model_settings,
     scene_errors,
 )
-from rigval.validation.verdict import carried_uncertainty, with_common_gain
+from rigval.validation.verdict import carried_uncertainty
 
 __all__ = ["STAGES", "Measurement", "run_scene", "run_scene_kept"]
 
@@ -557,77 +551,25 @@ def _numerics(scene: Scene, model: _Model) -> _Numerics:
                      int(model.fine.sizes["angle"]))
 
 
-@dataclass(frozen=True)
-class _Pair:
-    """A comparison's measured side and model, as its metrics take them."""
-
-    whole: np.ndarray  # the revolutions without gaps, (n_cycles, n)
-    mean: np.ndarray
-    model: np.ndarray  # scaled, offset added
-    offset: float
-
-
-def _pair(comparison: ComparisonSpec, cycles: np.ndarray, model: np.ndarray) -> _Pair:
-    """Return the whole revolutions, their mean, the model scaled and offset as the scene asks."""
-    whole = cycles[np.all(np.isfinite(cycles), axis=1)]
-    if whole.shape[0] < 2:
-        raise DataError(f"{comparison.name}: only {whole.shape[0]} whole revolutions without "
-                        "gaps", where={"key": comparison.key, "channel": str(comparison.measured)},
-                        hint="record longer or check the stream's gaps")
-    mean = whole.mean(axis=0)
-    model = model * comparison.scale
-    offset = float(mean.mean() - model.mean()) if comparison.remove_offset else 0.0
-    return _Pair(whole, mean, model + offset, offset)
-
-
-def _compare(comparison: ComparisonSpec, units: str, long_name: str, angle: np.ndarray,
-             pair: _Pair, u_num: float, carried: Mapping[str, float] | None = None,
-             iso: tuple[IsoScores, list[IsoScores]] | None = None) -> ComparisonResult:
-    """Score the model against the measured mean, the baseline and the thresholds.
-
-    ``u_num`` is the numerical uncertainty of the model (signal units) for V&V 20; ``carried``
-    the uncertainties carried from alignment and drives (``u_time`` s, ``speed`` rad/s,
-    ``u_drive_angle`` rad, see :func:`rigval.validation.metrics.vv20.vv20_curve`); ``iso`` the
-    model's and the cycles' periodic ISO ratings, rated beforehand with the other comparisons'.
-    """
-    scores = compare(pair.mean, pair.model, angle, metrics=(*comparison.metrics, "vv20"),
-                     normaliser=comparison.nrmse_normaliser, cycles=pair.whole,
-                     uncertainty={"u_num": u_num, **dict(carried or {}),
-                                  **comparison.uncertainty},
-                     iso=iso[0] if iso else None)
-    base = baseline(pair.whole, pair.mean, angle=angle, metrics=comparison.metrics,
-                    normaliser=comparison.nrmse_normaliser, iso=iso[1] if iso else None)
-    checks = check_thresholds(scores, comparison.thresholds,
-                              key_path=f"{comparison.key}.thresholds")
-    return ComparisonResult(spec=comparison, units=units, long_name=long_name, angle=angle,
-                            cycles=pair.whole, model=pair.model, offset=pair.offset,
-                            scores=scores, baseline={"median": base.median, "worst": base.worst},
-                            checks=tuple(checks))
-
-
-def _compare_all(scene: Scene, measured: _Measured, numerics: _Numerics
+def _compare_all(scene: Scene, measured: _Measured, numerics: _Numerics,
+                 like: tuple[ComparisonResult, ...] | None = None
                  ) -> tuple[ComparisonResult, ...]:
-    """Score every comparison; the common-gain statement across them.
+    """Score every comparison (:func:`~rigval.validation.comparison_scores.score_comparisons`).
 
-    The periodic ISO ratings of all comparisons come first, in shared DTW sweeps
-    (:func:`rigval.validation.metrics.compare.periodic_ratings`).
+    ``like``: the same measurement's results against another mechanism, whose baselines are
+    taken as they are.
     """
-    grid, results = measured.timeline.grid, []
-    values = {c.name: model_values(measured.model.chosen, c.model) for c in scene.comparisons}
-    pairs = {c.name: _pair(c, measured.cycles[c.name], values[c.name])
-             for c in scene.comparisons}
-    rated = [c.name for c in scene.comparisons if "iso18571_periodic" in c.metrics]
-    iso = dict(zip(rated, periodic_ratings([(pairs[n].mean, pairs[n].model, pairs[n].whole)
-                                            for n in rated]), strict=True))
+    grid, scored = measured.timeline.grid, {}
     for comparison in scene.comparisons:
         name = comparison.name
-        u_num = numerics.errors[name] * float(np.ptp(values[name])) * abs(comparison.scale)
-        carried = carried_uncertainty(
-            scene, measured.timeline.diagnostics[comparison.measured.stream], grid.speed_rev_s)
-        results.append(_compare(comparison, scene.units(comparison.measured),
-                                measured.long_names[name], grid.angle, pairs[name], u_num,
-                                carried, iso.get(name)))
-    return with_common_gain(scene, results)
+        values = model_values(measured.model.chosen, comparison.model)
+        scored[name] = Scored(
+            pair(comparison, measured.cycles[name], values), scene.units(comparison.measured),
+            measured.long_names[name],
+            numerics.errors[name] * float(np.ptp(values)) * abs(comparison.scale),
+            carried_uncertainty(scene, measured.timeline.diagnostics[comparison.measured.stream],
+                                grid.speed_rev_s))
+    return score_comparisons(scene, scored, grid.angle, like)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -678,13 +620,15 @@ class Measurement:
     """A validated run's measurement, kept to validate it against another mechanism.
 
     Holds what the model, numerics and compare stages take (the timeline's grids, the measured
-    revolutions, and in its model the mean measured drives), so that :meth:`against` runs those
-    three stages only, with the drive motion as averaged for this run: the measured side does
-    not depend on the mechanism.
+    revolutions, and in its model the mean measured drives) and the run's comparisons, so that
+    :meth:`against` runs those three stages only, with the drive motion as averaged for this
+    run and each comparison's baseline (every revolution scored against the mean) as found for
+    it: the measured side does not depend on the mechanism.
     """
 
     scene: Scene
     measured: _Measured
+    comparisons: tuple[ComparisonResult, ...]
 
     def against(self, mechanism: Path) -> ValidationResult:
         """Validate the same measurement against another mechanism file.
@@ -711,7 +655,7 @@ class Measurement:
             with watch.stage("numerics"):
                 numerics = _numerics(scene, model)
             with watch.stage("compare"):
-                results = _compare_all(scene, measured, numerics)
+                results = _compare_all(scene, measured, numerics, like=self.comparisons)
         return _result(scene, watch, measured, numerics, results)
 
 
@@ -760,7 +704,7 @@ def _run(scene: Scene | str | Path, *, keep: bool
         with watch.stage("compare"):
             results = _compare_all(scene, run, numerics)
     result = _result(scene, watch, run, numerics, results)
-    return result, Measurement(scene, run) if keep else None
+    return result, Measurement(scene, run, results) if keep else None
 
 
 def _result(scene: Scene, watch: _Stopwatch, measured: _Measured, numerics: _Numerics,

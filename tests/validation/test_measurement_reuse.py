@@ -46,6 +46,7 @@ def test_another_mechanism_on_the_kept_measurement_equals_a_second_run(kept, tmp
                              strict=True):
         assert a.name == b.name
         assert a.scores == b.scores
+        assert a.baseline == b.baseline  # taken from the kept run's: the same revolutions
         np.testing.assert_array_equal(a.model, b.model)
         np.testing.assert_array_equal(a.cycles, nominal.cycles)
     xr.testing.assert_identical(again.tree["/model"].to_dataset(),
