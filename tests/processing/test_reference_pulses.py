@@ -16,7 +16,6 @@ import pytest
 
 from rigval.acquisition.schema import Channel, stream_dataset
 from rigval.processing.alignment_summary import (
-    StreamAlignment,
     pulse_samples,
     stream_summary,
     with_pulse_window,
@@ -27,17 +26,9 @@ from rigval.sample_data import runs_dir
 from rigval.validation.read_plan import read_streams
 from rigval.validation.scene import load_scene
 from rigval.validation.stage_settings import alignment_settings, convert_stream
+from tests.processing.alignment_checks import assert_same_alignment
 
 FS = 1000.0
-
-
-def _same_alignment(a: StreamAlignment, b: StreamAlignment) -> None:
-    for field in dataclasses.fields(StreamAlignment):
-        x, y = getattr(a, field.name), getattr(b, field.name)
-        if isinstance(x, np.ndarray):
-            assert x.dtype == y.dtype and np.array_equal(x, y), field.name
-        else:
-            assert x == y, field.name
 
 
 @pytest.mark.parametrize("speed", ["0p8", "1p2"])
@@ -58,7 +49,7 @@ def test_alignment_with_pulses_found_as_read_equals_the_whole_channels(speed: st
     reduced = align_streams(settings, {**converted, settings.reference: reference}, found=found)
 
     for name in scene.streams:
-        _same_alignment(whole[1][name], reduced[1][name])
+        assert_same_alignment(whole[1][name], reduced[1][name])
         assert np.array_equal(whole[0][name]["time"].to_numpy(),
                               reduced[0][name]["time"].to_numpy())
     assert whole[1][settings.reference].pulse_signal.size > 0
@@ -114,7 +105,7 @@ def test_window_from_kept_samples_equals_the_window_from_the_channel() -> None:
             old = with_pulse_window(summary, aligned, "opt", edges, centre, half_width)
             new = with_pulse_window(summary, aligned.drop_vars("opt"), "opt", edges, centre,
                                     half_width, kept)
-            _same_alignment(old, new)
+            assert_same_alignment(old, new)
             assert old.pulse_signal.size > 0
 
 

@@ -9,14 +9,12 @@ replacing its input, holds no more of phi_F, of the encoders or of the fine grid
 
 from __future__ import annotations
 
-import dataclasses
 import gc
 import weakref
 
 import numpy as np
 import pytest
 
-from rigval.processing.alignment_summary import StreamAlignment
 from rigval.processing.angle import angle_grid, cycle_grid
 from rigval.processing.excitation import mean_drive_cycle
 from rigval.processing.stream_alignment import align_streams
@@ -26,15 +24,7 @@ from rigval.validation.model_run import FINE_FACTOR
 from rigval.validation.read_plan import read_plan
 from rigval.validation.scene import load_scene
 from rigval.validation.stage_settings import alignment_settings, drive_encoders
-
-
-def _same_alignment(a: StreamAlignment, b: StreamAlignment) -> None:
-    for field in dataclasses.fields(StreamAlignment):
-        x, y = getattr(a, field.name), getattr(b, field.name)
-        if isinstance(x, np.ndarray):
-            assert x.dtype == y.dtype and np.array_equal(x, y), field.name
-        else:
-            assert x == y, field.name
+from tests.processing.alignment_checks import assert_same_alignment
 
 
 @pytest.mark.parametrize("speed", ["0p8", "1p2"])
@@ -83,5 +73,5 @@ def test_align_steps_equal_the_old_order_and_let_phi_f_and_encoders_go(speed: st
             assert np.array_equal(got, expected), name
     assert set(timeline.diagnostics) == set(diagnostics) == set(scene.streams)
     for name, summary in diagnostics.items():
-        _same_alignment(timeline.diagnostics[name], summary)
+        assert_same_alignment(timeline.diagnostics[name], summary)
         assert np.array_equal(timeline.streams[name]["time"].to_numpy(), old_times[name])
