@@ -29,6 +29,7 @@ __all__ = [
     "RevolutionCheck",
     "compact_counts",
     "count_angle",
+    "counter_steps",
     "counts_to_angle",
     "decode_quadrature",
     "increasing_angle",
@@ -101,19 +102,60 @@ def _whole_counts(values: np.ndarray) -> None:
                             hint="pass the raw counter channel, not a scaled one")
 
 
+def _wrapped(steps: IntArray, bits: int) -> IntArray:
+    """Return counter steps wrapped into ``[-2**(bits-1), 2**(bits-1))``, the counter's range."""
+    modulus = np.int64(1) << bits
+    half = modulus >> 1
+    return (steps + half) % modulus - half
+
+
+def _reloads(steps: IntArray, counts_per_rev: float) -> tuple[IntArray, IntArray]:
+    """Return the steps of more than half a revolution (index reloads) and their whole turns."""
+    at = np.flatnonzero(np.abs(steps) > counts_per_rev / 2)
+    return at, np.round(steps[at] / counts_per_rev).astype(np.int64)
+
+
+def counter_steps(values: ArrayLike, counts_per_rev: float | None = None,
+                  bits: int = 32) -> IntArray:
+    """Return the steps between consecutive counter values, as the cumulative counts take them.
+
+    ``numpy.diff`` of :func:`unwrap_counts` of the values, with :func:`remove_index_resets`
+    when ``counts_per_rev`` is given: each step wrapped into the counter's range, a step of
+    more than half a revolution less its whole revolutions. A step needs only its two values,
+    so a record's steps can be taken a piece at a time.
+
+    Parameters
+    ----------
+    values : array_like of int
+        Counter values as logged (a piece of a record).
+    counts_per_rev : float, optional
+        Counts per revolution: index reloads removed.
+    bits : int, default 32
+        Counter width in bits.
+
+    Returns
+    -------
+    numpy.ndarray of int64
+        ``values.size - 1`` steps, counts.
+    """
+    steps = _wrapped(np.diff(np.asarray(values).astype(np.int64)), bits)
+    if counts_per_rev:
+        at, turns = _reloads(steps, counts_per_rev)
+        steps[at] -= turns * round(counts_per_rev)
+    return steps
+
+
 def _wraps(values: np.ndarray, bits: int) -> tuple[IntArray, IntArray]:
     """Return where a counter wraps and the cumulative correction (counts) from each wrap on.
 
     Each step wrapped into ``[-2**(bits-1), 2**(bits-1))``: the correction (a multiple of the
     modulus) is non-zero only at the counter's wraps; the steps are taken a chunk at a time.
     """
-    modulus = np.int64(1) << bits
-    half = modulus >> 1
     chunk = 1 << 20
     wraps, corrections = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     for lo in range(0, values.size - 1, chunk):
         steps = np.diff(values[lo:lo + chunk + 1].astype(np.int64))
-        fix = (steps + half) % modulus - half - steps
+        fix = _wrapped(steps, bits) - steps
         where = np.flatnonzero(fix)
         wraps.append(lo + 1 + where)
         corrections.append(fix[where])
@@ -284,10 +326,9 @@ def remove_index_resets(counts: ArrayLike, counts_per_rev: float, *, overwrite: 
     chunk = 1 << 20  # the steps a chunk at a time; reloads are few (memory)
     found, turns = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     for lo in range(0, c.size - 1, chunk):
-        steps = np.diff(c[lo:lo + chunk + 1])
-        at = np.flatnonzero(np.abs(steps) > counts_per_rev / 2)
+        at, whole = _reloads(np.diff(c[lo:lo + chunk + 1]), counts_per_rev)
         found.append(lo + 1 + at)
-        turns.append(np.round(steps[at] / counts_per_rev).astype(np.int64))
+        turns.append(whole)
     resets = np.concatenate(found)
     fix = -np.concatenate(turns) * round(counts_per_rev)
     in_place = overwrite and _own_int64(c)

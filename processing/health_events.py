@@ -28,6 +28,7 @@ from rigval.acquisition.errors import DataError
 from rigval.acquisition.sample_times import times_of
 from rigval.processing.arrays import BoolArray, FloatArray, IntArray
 from rigval.processing.block_median import exact_median
+from rigval.processing.encoder import counter_steps
 from rigval.processing.health import Finding
 from rigval.processing.pulses import detect_edges
 
@@ -40,8 +41,6 @@ logger = logging.getLogger(__name__)
 _RATE_WINDOW, _JUMP_COUNTS, _JUMP_SIGMAS, _GLITCH_SAMPLES = 101, 8.0, 10.0, 3
 #: Count steps the running rate takes at a time (bounds its working arrays).
 _BLOCK = 1 << 20
-#: Half the range of a 32-bit counter: a step is wrapped into ``[-_HALF_RANGE, _HALF_RANGE)``.
-_HALF_RANGE = np.int64(1) << 31
 #: Pulse widths: least relative change, robust sigmas, fewest pulses on each side.
 _WIDTH_SHARE, _WIDTH_SIGMAS, _WIDTH_SIDE = 0.05, 8.0, 3
 #: Split costs closer than this fraction of the largest are equal (rounding of their sums).
@@ -69,23 +68,13 @@ def _count_steps(raw: np.ndarray, ok: BoolArray, lo: int, hi: int,
                  counts_per_rev: float | None) -> IntArray:
     """Return steps ``lo ... hi - 1`` of the cumulative counts (step ``k``: ``k`` to ``k + 1``).
 
-    As ``numpy.diff`` of :func:`~rigval.processing.encoder.unwrap_counts` of the counter values
-    (0 where not usable), with :func:`~rigval.processing.encoder.remove_index_resets` when
-    ``counts_per_rev`` is given, over the whole record: each step is wrapped into the 32-bit
-    counter's range and a step of more than half a revolution loses its whole revolutions, so
-    a block's steps need no other sample than its own and the next.
+    :func:`~rigval.processing.encoder.counter_steps` of the counter values (0 where not
+    usable): the steps of the whole record's cumulative counts, a block at a time.
     """
     ok_part = ok[lo:hi + 1]
     filled = np.zeros(ok_part.size, np.int64)
     filled[ok_part] = raw[lo:hi + 1][ok_part]
-    step = np.diff(filled)
-    step += _HALF_RANGE
-    step %= 2 * _HALF_RANGE
-    step -= _HALF_RANGE
-    if counts_per_rev:
-        at = np.flatnonzero(np.abs(step) > counts_per_rev / 2)
-        step[at] -= np.round(step[at] / counts_per_rev).astype(np.int64) * round(counts_per_rev)
-    return step
+    return counter_steps(filled, counts_per_rev)
 
 
 def _rate_departure(raw: np.ndarray, ok: BoolArray, lo: int, hi: int, typical: float,

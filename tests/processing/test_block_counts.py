@@ -104,3 +104,14 @@ def test_counter_health_same_through_wraps_and_reloads(monkeypatch: pytest.Monke
     glitch = next(f for f in plain if f.fault == "count glitch")
     assert glitch.indices == (30_000,) and glitch.value == -25
     assert glitch.revolutions == ((counts[30_000] - counts[0]) // cpr,)
+
+
+def test_counter_steps_by_pieces_equal_the_cumulative_counts_steps() -> None:
+    cpr = 1000
+    truth = np.floor(np.linspace(0, 25.3 * cpr, 30_001)).astype(np.int64)
+    raw = ((truth % cpr) + (1 << 32) - 500) % (1 << 32)  # reloads, each turn across 2**32
+    whole, _ = remove_index_resets(unwrap_counts(raw.astype(np.uint32)), cpr)
+    pieces = [encoder.counter_steps(raw[lo:lo + 998].astype(np.uint32), cpr)
+              for lo in range(0, raw.size - 1, 997)]
+    np.testing.assert_array_equal(np.concatenate(pieces), np.diff(whole))
+    np.testing.assert_array_equal(np.concatenate(pieces), np.diff(truth))
