@@ -126,26 +126,30 @@ def score_comparisons(scene: Scene, scored: Mapping[str, Scored], angle: np.ndar
     """
     rated = [c.name for c in scene.comparisons if "iso18571_periodic" in c.metrics]
     pairs = [scored[name].pair for name in rated]
-    bases: dict[str, Mapping[str, Mapping[str, float]]] = {}
     if like is None:
-        ratings = periodic_ratings([(p.mean, p.model, p.whole) for p in pairs])
-        models = {name: model for name, (model, _) in zip(rated, ratings, strict=True)}
-        cycles = {name: rows for name, (_, rows) in zip(rated, ratings, strict=True)}
+        ratings = dict(zip(rated, periodic_ratings([(p.mean, p.model, p.whole) for p in pairs]),
+                           strict=True))
+        models = {name: model for name, (model, _) in ratings.items()}
+        bases = {c.name: _baseline(c, scored[c.name].pair, angle,
+                                   ratings[c.name][1] if c.name in ratings else None)
+                 for c in scene.comparisons}
     else:
         rows = iso18571_periodic_sets([(p.mean, p.model[np.newaxis]) for p in pairs])
         models = {name: row[0] for name, row in zip(rated, rows, strict=True)}
         bases = {result.name: result.baseline for result in like}
-    results = []
-    for comparison in scene.comparisons:
-        name = comparison.name
-        base = bases.get(name)
-        if base is None:
-            found = baseline(scored[name].pair.whole, scored[name].pair.mean, angle=angle,
-                             metrics=comparison.metrics, normaliser=comparison.nrmse_normaliser,
-                             iso=cycles.get(name) if like is None else None)
-            base = {"median": found.median, "worst": found.worst}
-        results.append(_score(comparison, scored[name], angle, models.get(name), base))
-    return with_common_gain(scene, results)
+    return with_common_gain(scene, [_score(c, scored[c.name], angle, models.get(c.name),
+                                           bases[c.name]) for c in scene.comparisons])
+
+
+def _baseline(comparison: ComparisonSpec, found: Pair, angle: np.ndarray,
+              iso: list[IsoScores] | None) -> Mapping[str, Mapping[str, float]]:
+    """Score every revolution against the mean: the median and the worst of each score.
+
+    ``iso``: the revolutions' periodic ISO ratings, rated beforehand with the model's.
+    """
+    scores = baseline(found.whole, found.mean, angle=angle, metrics=comparison.metrics,
+                      normaliser=comparison.nrmse_normaliser, iso=iso)
+    return {"median": scores.median, "worst": scores.worst}
 
 
 def _score(comparison: ComparisonSpec, scored: Scored, angle: np.ndarray,
