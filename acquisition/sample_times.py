@@ -66,22 +66,12 @@ class SampleTimes:
     def searchsorted(self, values: Any, side: str = "left", sorter: Any = None) -> Any:
         """Return where ``values`` would go among the times, as :func:`numpy.searchsorted`.
 
-        A bisection over the positions, evaluating the times at its midpoints only (the axis
-        increases, as a stream's does).
+        :meth:`BlockTimeTransform.searchsorted <rigval.acquisition.time_index.
+        BlockTimeTransform.searchsorted>`: a bisection evaluating the times at its midpoints.
         """
         if sorter is not None:
             raise TypeError("SampleTimes.searchsorted takes no sorter (the times increase)")
-        wanted = np.asarray(values, dtype=np.float64)
-        low = np.zeros(wanted.shape, dtype=np.int64)
-        high = np.full(wanted.shape, self.size, dtype=np.int64)
-        while np.any(low < high):
-            open_ = low < high
-            middle = (low + high) // 2
-            at = self._at(np.where(open_, np.minimum(middle, self.size - 1), 0))
-            right = (at < wanted) if side == "left" else (at <= wanted)
-            low = np.where(open_ & right, middle + 1, low)
-            high = np.where(open_ & ~right, middle, high)
-        return int(low) if wanted.ndim == 0 else low
+        return self._transform.searchsorted(values, side)
 
 
 def sample_times(stream: xr.Dataset) -> SampleTimes | np.ndarray:

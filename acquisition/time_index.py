@@ -93,28 +93,33 @@ class BlockTimeTransform(CoordinateTransform):
         return BlockTimeTransform(self.timebase, self.offset + start, max(stop - start, 0),
                                   self.dim)
 
+    def searchsorted(self, labels: Any, side: str = "left") -> Any:
+        """Return where times ``labels`` (s) go among the window's, as :func:`numpy.searchsorted`.
+
+        A bisection over the positions, evaluating the times at its midpoints only (the times
+        increase): ``"left"`` the first position whose time is ``>= label``, ``"right"`` the
+        first whose time is ``> label`` (``size`` if none).
+        """
+        wanted = np.asarray(labels, dtype=np.float64)
+        low = np.zeros(wanted.shape, dtype=np.int64)
+        high = np.full(wanted.shape, self.size, dtype=np.int64)
+        while np.any(low < high):
+            open_ = low < high
+            middle = (low + high) // 2
+            at = self.forward({self.dim: np.where(open_, np.minimum(middle, self.size - 1),
+                                                  0)})[self.dim]
+            right = (at < wanted) if side == "left" else (at <= wanted)
+            low = np.where(open_ & right, middle + 1, low)
+            high = np.where(open_ & ~right, middle, high)
+        return int(low) if wanted.ndim == 0 else low
+
     def first_at_or_after(self, label: float) -> int:
         """Return the first position whose time is ``>= label`` (``size`` if none)."""
-        lo, hi = 0, self.size
-        # bisect on the monotonic time values, evaluating single positions only
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if self.forward({self.dim: mid})[self.dim] < label:
-                lo = mid + 1
-            else:
-                hi = mid
-        return lo
+        return int(self.searchsorted(label, "left"))
 
     def first_after(self, label: float) -> int:
         """Return the first position whose time is ``> label`` (``size`` if none)."""
-        lo, hi = 0, self.size
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if self.forward({self.dim: mid})[self.dim] <= label:
-                lo = mid + 1
-            else:
-                hi = mid
-        return lo
+        return int(self.searchsorted(label, "right"))
 
 
 class BlockTimeIndex(CoordinateTransformIndex):
