@@ -18,6 +18,7 @@ for, so an error shows here with its traceback and the outcome is the same eithe
 
 from __future__ import annotations
 
+import contextlib
 import copyreg
 import importlib
 import io
@@ -114,18 +115,33 @@ class Standby:
 
     def __init__(self, modules: Iterable[str] = ()) -> None:
         self._unanswered: list[Pending[Any]] = []
-        self._child: tuple[Connection, Connection, BaseProcess] | None = None
+        self._child = _fork_children(tuple(modules), 1)[0] if can_fork() else None
+        self._followers: tuple[Standby, ...] = ()
+
+    @classmethod
+    def group(cls, count: int, modules: Iterable[str] = ()) -> list[Standby]:
+        """Return ``count`` standbys whose children import ``modules`` once between them.
+
+        One child is forked now and imports ``modules``; it then forks the others from itself,
+        so that they start with the modules imported (one import's CPU instead of ``count``).
+        Closing the first standby closes the others too (its child waits for theirs to end).
+        Where :func:`can_fork` says no, every call of every standby runs in this process.
+        """
+        children: list[_Child | None] = [None] * count
         if can_fork():
-            context = multiprocessing.get_context("fork")
-            call_out, call_in = context.Pipe(duplex=False)
-            value_out, value_in = context.Pipe(duplex=False)
-            process = context.Process(target=_serve, args=(call_out, value_in, tuple(modules)),
-                                      name="rigval standby", daemon=True)
-            _HELD_HERE.extend((call_in, value_out))  # the child closes its copies of these
-            process.start()
-            call_out.close()  # the child holds the only other ends
-            value_in.close()
-            self._child = call_in, value_out, process
+            children[:] = _fork_children(tuple(modules), count)
+        standbys = [cls._holding(child) for child in children]
+        standbys[0]._followers = tuple(standbys[1:])
+        return standbys
+
+    @classmethod
+    def _holding(cls, child: _Child | None) -> Standby:
+        """Return a standby serving its calls by ``child`` (none: here)."""
+        standby = cls.__new__(cls)
+        standby._unanswered = []
+        standby._child = child
+        standby._followers = ()
+        return standby
 
     def submit(self, function: Callable[..., T], *args: Any) -> Pending[T]:
         """Hand ``function(*args)`` to the child; the value comes with :meth:`Pending.result`.
@@ -162,6 +178,8 @@ class Standby:
         With ``stop``, end it at once instead (its unanswered calls are not needed: an error
         or Ctrl-C ends the work that handed them).
         """
+        for follower in self._followers:  # their children end before this one's
+            follower.close(stop=stop)
         self._unanswered.clear()  # their values are computed here when asked for
         if self._child is not None:
             call_in, value_out, process = self._child
@@ -169,9 +187,10 @@ class Standby:
             for end in (call_in, value_out):
                 end.close()
                 _HELD_HERE.remove(end)
-            if stop:
-                process.terminate()
-            process.join()
+            if process is not None:  # a child forked by another child ends with that one
+                if stop:
+                    process.terminate()
+                process.join()
 
     def __enter__(self) -> Standby:
         return self
@@ -181,28 +200,98 @@ class Standby:
         self.close(stop=kind is not None)
 
 
-def _serve(calls: Connection, values: Connection, modules: tuple[str, ...]) -> None:
-    """Be the standby child: import ``modules``, then answer each call until there are no more.
+#: A standby child as this process holds it: the end its calls are sent on, the end its values
+#: come from, and its process (none for a child forked by another standby child).
+_Child = tuple["Connection", "Connection", "BaseProcess | None"]
+
+
+def _fork_children(modules: tuple[str, ...], count: int) -> list[_Child]:
+    """Fork a child serving the first of ``count`` pipe pairs; it forks the others' children.
+
+    See :meth:`Standby.group`; ``count`` 1 is a plain :class:`Standby`'s child.
+    """
+    context = multiprocessing.get_context("fork")
+    calls = [context.Pipe(duplex=False) for _ in range(count)]
+    values = [context.Pipe(duplex=False) for _ in range(count)]
+    ends = [(call_out, value_in) for (call_out, _), (_, value_in) in zip(calls, values,
+                                                                          strict=True)]
+    held = [(call_in, value_out) for (_, call_in), (value_out, _) in zip(calls, values,
+                                                                         strict=True)]
+    _HELD_HERE.extend(end for pair in held for end in pair)  # the children close their copies
+    process = context.Process(target=_serve_group, args=(ends, modules), name="rigval standby",
+                              daemon=True)
+    process.start()
+    for pair in ends:  # the children hold the only other ends
+        for end in pair:
+            end.close()
+    return [(call_in, value_out, process if k == 0 else None)
+            for k, (call_in, value_out) in enumerate(held)]
+
+
+def _serve_group(ends: list[tuple[Connection, Connection]], modules: tuple[str, ...]) -> None:
+    """Be the first standby child of a group: import ``modules``, fork the others, serve.
+
+    Each child serves its own pair of ``ends`` and closes the others'. The first child waits
+    for the others before it ends; ended at once (SIGTERM: an error or Ctrl-C in the parent),
+    it ends them first, so that none outlives it.
+    """
+    # Ctrl-C is the parent's to handle (it then ends this child): no traceback from here
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for end in _HELD_HERE:  # the parent's ends, of this group's pipes and the earlier ones'
+        end.close()
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except Exception:  # the calls that need it fail and run in the parent
+            logger.debug("the standby child cannot import %s", name, exc_info=True)
+    others: list[int] = []
+    for k in range(1, len(ends)):
+        pid = os.fork()  # before any thread of this child starts
+        if pid == 0:
+            try:
+                _close_all_but(ends, k)
+                _serve(*ends[k])
+            finally:
+                os._exit(0)
+        others.append(pid)
+    _close_all_but(ends, 0)
+    signal.signal(signal.SIGTERM, lambda *_: _end_now(others))
+    _serve(*ends[0])
+    for pid in others:
+        os.waitpid(pid, 0)
+
+
+def _close_all_but(ends: list[tuple[Connection, Connection]], keep: int) -> None:
+    for k, pair in enumerate(ends):
+        if k != keep:
+            for end in pair:
+                end.close()
+
+
+def _end_now(others: list[int]) -> None:
+    """End the other children of a group at once, wait for them, and end this one."""
+    for pid in others:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
+    for pid in others:
+        with contextlib.suppress(ChildProcessError):
+            os.waitpid(pid, 0)
+    os._exit(1)
+
+
+def _serve(calls: Connection, values: Connection) -> None:
+    """Be a standby child: answer each call until there are no more.
 
     The calls are read by a thread as they come, so that this process's parent never waits
     to hand one over while the child works on another; the values are sent by another, so
     that the child goes on with the next call while the parent has not yet asked for the value
     before (a pipe holds 64 KiB: one figure group's text fills it).
     """
-    # Ctrl-C is the parent's to handle (it then ends this child): no traceback from here
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    for end in _HELD_HERE:  # the parent's ends, of this standby's pipes and the earlier ones'
-        end.close()
     inbox: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
     outbox: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
     threading.Thread(target=_read_calls, args=(calls, inbox), daemon=True).start()
     sender = threading.Thread(target=_send_values, args=(values, outbox), daemon=True)
     sender.start()
-    for name in modules:
-        try:
-            importlib.import_module(name)
-        except Exception:  # the calls that need it fail and run in the parent
-            logger.debug("the standby child cannot import %s", name, exc_info=True)
     while (call := inbox.get()) is not None:
         outbox.put(_answer(call))
     outbox.put(None)

@@ -109,6 +109,22 @@ class _Subcommands:
         return self._action.add_parser(name, **kwargs)
 
 
+class _VersionAction(argparse.Action):
+    """``--version``: print the installed version and exit (looked up only when asked for)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS,
+                 default: str = argparse.SUPPRESS) -> None:
+        super().__init__(option_strings, dest=dest, default=default, nargs=0,
+                         help="show the installed rigval version and exit")
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: object, option_string: str | None = None) -> None:
+        from rigval.validation.version import rigval_version
+
+        print(f"rigval {rigval_version()}")  # on standard output, as argparse's own action
+        parser.exit()
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser with every subcommand registered."""
     parser = argparse.ArgumentParser(
@@ -119,9 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
                f"{COMMON_EXIT_CODES} 'rigval COMMAND --help' describes each command.",
         formatter_class=HelpFormatter,
     )
-    from rigval.validation.version import rigval_version
-
-    parser.add_argument("--version", action="version", version=f"rigval {rigval_version()}")
+    parser.add_argument("--version", action=_VersionAction)
     _verbosity_options(parser, sub=False)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     wrapped = _Subcommands(subparsers)

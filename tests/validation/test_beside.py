@@ -124,3 +124,71 @@ def _an_error_ends_the_child_at_once() -> None:
 
 def test_an_error_ends_the_child_without_waiting_for_its_calls():
     run_in_a_fresh_process("test_beside", "_an_error_ends_the_child_at_once", timeout_s=120)
+
+
+def _pid_and_imported(name: str) -> tuple[int, bool]:
+    import sys
+
+    return os.getpid(), name in sys.modules
+
+
+def _group_imports_once() -> None:
+    """A group of three: three children, the module imported by the first alone, all end."""
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    if not can_fork():
+        print("no fork")
+        return
+    folder = Path(tempfile.mkdtemp())
+    (folder / "counted_import.py").write_text(
+        "import os\nwith open(__file__ + '.pids', 'a') as f:\n    f.write(f'{os.getpid()}\\n')\n")
+    sys.path.insert(0, str(folder))
+    standbys = Standby.group(3, ["counted_import"])
+    with standbys[0]:
+        seen = [s.submit(_pid_and_imported, "counted_import").result() for s in standbys]
+    pids = [pid for pid, _ in seen]
+    assert len(set(pids)) == 3 and os.getpid() not in pids
+    assert all(imported for _, imported in seen)
+    importers = (folder / "counted_import.py.pids").read_text().split()
+    assert importers == [str(pids[0])]  # the others were forked from it, the module imported
+    assert "counted_import" not in sys.modules  # never here
+    for pid in pids:  # closing the first ended every child
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)
+
+
+def test_a_group_imports_its_modules_once_and_ends_together():
+    run_in_a_fresh_process("test_beside", "_group_imports_once", timeout_s=120)
+
+
+def _group_error_ends_all_at_once() -> None:
+    if not can_fork():
+        print("no fork")
+        return
+    standbys = Standby.group(2)
+    with pytest.raises(RuntimeError, match="stop"), standbys[0]:
+        pids = [s.submit(os.getpid).result() for s in standbys]
+        standbys[1].submit(time.sleep, 600)  # never waited for: the error ends both children
+        raise RuntimeError("stop")
+    for pid in pids:
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)
+
+
+def test_an_error_ends_every_child_of_a_group_without_waiting_for_its_calls():
+    run_in_a_fresh_process("test_beside", "_group_error_ends_all_at_once", timeout_s=120)
+
+
+def test_a_group_without_fork_runs_its_calls_here():
+    stop = threading.Event()
+    worker = threading.Thread(target=stop.wait)
+    worker.start()
+    try:
+        standbys = Standby.group(2)
+        with standbys[0]:
+            assert [s.submit(os.getpid).result() for s in standbys] == [os.getpid()] * 2
+    finally:
+        stop.set()
+        worker.join()

@@ -25,8 +25,8 @@ print(json.dumps({{"code": code, "out": out.getvalue(),
 """
 
 
-def run_cli(argv, block_dask=False):
-    code = SCRIPT.format(argv=list(argv), heavy=HEAVY, block_dask=block_dask)
+def run_cli(argv, block_dask=False, watch=HEAVY):
+    code = SCRIPT.format(argv=list(argv), heavy=watch, block_dask=block_dask)
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=120, check=True)
     return json.loads(done.stdout.strip().splitlines()[-1])
@@ -39,6 +39,16 @@ def test_help_imports_no_numeric_library(argv):
     assert result["code"] == 0
     assert "rigval" in result["out"]
     assert result["modules"] == []
+
+
+def test_help_looks_up_no_version_and_no_process_pool():
+    # the version is read from the distribution's metadata only for --version; the bench
+    # command's stages come without its runner (a process pool)
+    result = run_cli(["validate", "--help"],
+                     watch=("importlib.metadata", "concurrent.futures.process"))
+    assert result["code"] == 0 and result["modules"] == []
+    version = run_cli(["--version"], watch=("importlib.metadata",))
+    assert version["out"].startswith("rigval ") and version["modules"] == ["importlib.metadata"]
 
 
 def test_info_of_a_tdms_file_reads_metadata_with_numpy_alone():

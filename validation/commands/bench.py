@@ -23,7 +23,7 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``bench`` subcommand."""
-    from rigval.validation.bench.core import STAGES
+    from rigval.validation.bench.rows import STAGES
 
     parser = add_command(
         subparsers, run, "bench",

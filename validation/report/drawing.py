@@ -84,7 +84,10 @@ class Drawers:
 
 @contextlib.contextmanager
 def standby_drawers(count: int = DRAWERS) -> Iterator[Drawers]:
-    """Fork ``count`` drawers now, each importing :data:`DRAWING_MODULES`; end them on exit.
+    """Fork ``count`` drawers now, importing :data:`DRAWING_MODULES` once; end them on exit.
+
+    The first drawer imports the modules, then forks the others from itself
+    (:meth:`~rigval.validation.beside.Standby.group`): one import's CPU, not ``count``.
 
     Where forking cannot help (see :mod:`rigval.validation.beside`), the drawers have no
     child and their figures are drawn in this process.
@@ -94,8 +97,9 @@ def standby_drawers(count: int = DRAWERS) -> Iterator[Drawers]:
     Drawers
         Hand them to each :class:`Drawing` of the command.
     """
-    with contextlib.ExitStack() as stack:
-        yield Drawers([stack.enter_context(Standby(DRAWING_MODULES)) for _ in range(count)])
+    standbys = Standby.group(count, DRAWING_MODULES)
+    with standbys[0]:  # closing the first closes the others
+        yield Drawers(standbys)
 
 
 class Drawing:

@@ -6,9 +6,11 @@ everything the report needs; :func:`validate_scene` adds why the model disagrees
 pipeline's results, so the pipeline does not call it) and writes the folder from that result alone
 (:func:`rigval.validation.report.run_report.write_report`) and returns the result with the files
 written. Two drawers are forked first (:func:`rigval.validation.report.drawing.standby_drawers`):
-they import matplotlib while the pipeline runs, then draw the page's figures while this process
-diagnoses and writes the data files, so this process never imports matplotlib. The pipeline
-itself never imports the report package (docs/architecture.md).
+the first imports matplotlib while the pipeline runs and forks the second from itself, then they
+draw the page's figures while this process diagnoses and writes the data files, so this process
+never imports matplotlib. As they keep the other core busy, this process runs one BLAS thread
+throughout: a second would only wait for them (its idle spinning cost about 0.5 s of CPU
+beside them). The pipeline itself never imports the report package (docs/architecture.md).
 """
 
 from __future__ import annotations
@@ -43,11 +45,10 @@ def validate_scene(scene_path: str | Path, out_dir: str | Path) -> ValidationRes
         With ``passed``, ``metric_rows()``, ``outputs`` (files written), ``inputs`` (files read),
         ``speed_rev_s`` and ``diagnosis``.
     """
-    with standby_drawers() as drawers:
+    with standby_drawers() as drawers, single_blas_thread():
         result = run_scene(scene_path)
         release_free_heap()  # the pipeline's freed memory, before the diagnosis's large arrays
         figures = start_figures(result, drawers)  # no figure but the Why's shows the diagnosis
-        with single_blas_thread():  # the drawers keep the other core: BLAS threads would wait
-            result = attach_diagnosis(result)
+        result = attach_diagnosis(result)
         outputs = write_report(result, out_dir, figures)
     return dataclasses.replace(result, outputs=tuple(outputs))
