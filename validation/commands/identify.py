@@ -168,14 +168,12 @@ def run(args: argparse.Namespace) -> int:
     # the drawers import matplotlib while the nominal run is validated, draw its figures while
     # the parameters are identified, then the identified run's (this process: the data files);
     # they keep the other core busy, so BLAS threads here would only wait
-    with standby_drawers() as drawers:
+    with standby_drawers() as drawers, single_blas_thread():
         nominal, measurement = run_scene_kept(args.scene)
         nominal_figures = start_figures(nominal, drawers)
-        with single_blas_thread():
-            identification = identify(nominal.scene, parameters, friction=args.friction,
-                                      comparisons=comparisons, result=nominal)
-            write_identification(identification, args.out, measurement, drawers,
-                                 nominal_figures)
+        identification = identify(nominal.scene, parameters, friction=args.friction,
+                                  comparisons=comparisons, result=nominal)
+        write_identification(identification, args.out, measurement, drawers, nominal_figures)
     stream = sys.stdout
     for name, value, std, nom, unit in zip(identification.names, identification.value,
                                            identification.std, identification.nominal,
