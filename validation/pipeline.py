@@ -52,7 +52,7 @@ import dataclasses
 import logging
 import math
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -109,7 +109,12 @@ from rigval.validation.read_plan import (
     read_first,
     read_plan,
 )
-from rigval.validation.results import ComparisonResult, NumericsSummary, ValidationResult
+from rigval.validation.results import (
+    ComparisonResult,
+    ModelledRun,
+    NumericsSummary,
+    ValidationResult,
+)
 from rigval.validation.run_tree import history_lines, run_tree
 from rigval.validation.scene import load_scene
 from rigval.validation.scene_types import ComparisonSpec, Scene
@@ -580,7 +585,8 @@ def _compare_all(scene: Scene, measured: _Measured, numerics: _Numerics,
 STAGES = ("read", "align", "model", "angle", "numerics", "compare")
 
 
-def run_scene(scene: Scene | str | Path) -> ValidationResult:
+def run_scene(scene: Scene | str | Path, *,
+              after_model: Callable[[ModelledRun], None] | None = None) -> ValidationResult:
     """Validate one scene: read, align, model, angle domain, numerics, compare.
 
     :func:`run_scene_kept` does the same and keeps the measurement, to validate it against
@@ -594,6 +600,9 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
     ----------
     scene : Scene, str or pathlib.Path
         A parsed scene or the path of a scene file.
+    after_model : callable, optional
+        Called with the run's :class:`~rigval.validation.results.ModelledRun` as soon as the
+        model stage ends (the report's drawers start on the alignment and model figures).
 
     Returns
     -------
@@ -612,7 +621,7 @@ def run_scene(scene: Scene | str | Path) -> ValidationResult:
         ``AlignmentError``, ``ModelError``).
     """
     with kept_layouts():  # each TDMS file's segments walked once: the scene's check, every read
-        return _run(scene, keep=False)[0]
+        return _run(scene, keep=False, after_model=after_model)[0]
 
 
 @dataclass(frozen=True)
@@ -659,7 +668,9 @@ class Measurement:
         return _result(scene, watch, measured, numerics, results)
 
 
-def run_scene_kept(scene: Scene | str | Path) -> tuple[ValidationResult, Measurement]:
+def run_scene_kept(scene: Scene | str | Path, *,
+                   after_model: Callable[[ModelledRun], None] | None = None
+                   ) -> tuple[ValidationResult, Measurement]:
     """Validate one scene as :func:`run_scene` does, and keep its measurement.
 
     The measurement holds the measured revolutions and the mean measured drives beside the result
@@ -673,12 +684,13 @@ def run_scene_kept(scene: Scene | str | Path) -> tuple[ValidationResult, Measure
         For :meth:`Measurement.against`.
     """
     with kept_layouts():  # as in run_scene
-        result, measurement = _run(scene, keep=True)
+        result, measurement = _run(scene, keep=True, after_model=after_model)
     assert measurement is not None
     return result, measurement
 
 
-def _run(scene: Scene | str | Path, *, keep: bool
+def _run(scene: Scene | str | Path, *, keep: bool,
+         after_model: Callable[[ModelledRun], None] | None = None
          ) -> tuple[ValidationResult, Measurement | None]:
     """Run the stages of a run; with ``keep`` return its measurement too."""
     watch = _Stopwatch()
@@ -697,6 +709,10 @@ def _run(scene: Scene | str | Path, *, keep: bool
             run = _align(scene, plan, settings, run)
         with watch.stage("model"):
             run = _model(scene, run)
+        if after_model is not None:
+            after_model(ModelledRun(run.timeline.diagnostics, run.model.mechanism,
+                                    run.model.configuration,
+                                    _predicted_outputs(scene, run.model.chosen)))
         with watch.stage("angle"):
             run = _angle(scene, plan, run)
         with watch.stage("numerics"):

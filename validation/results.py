@@ -23,6 +23,7 @@ from rigval.validation.scene_types import ComparisonSpec, Scene
 
 __all__ = [
     "ComparisonResult",
+    "ModelledRun",
     "NumericsSummary",
     "ValidationResult",
 ]
@@ -111,6 +112,33 @@ class NumericsSummary:
     model_residuals: Mapping[str, float]
     grid_error: Mapping[str, float]
     model_points: int
+
+
+@dataclass(frozen=True)
+class ModelledRun:
+    """What a run knows once its model is solved, before its comparisons are scored.
+
+    The pipeline hands it to a caller that asks for it
+    (:func:`rigval.validation.pipeline.run_scene` ``after_model``), so that the report's
+    figures of the alignment and the model can be drawn while the comparisons are made; each
+    field equals the :class:`ValidationResult` field of the same name.
+
+    Parameters
+    ----------
+    alignment : mapping of str to StreamAlignment
+        Per stream.
+    mechanism : rigval.model.Mechanism
+        The mechanism the model ran.
+    configuration : xarray.Dataset
+        The mechanism at t = 0 of its file's drive laws.
+    predictions : xarray.Dataset
+        Support forces and point kinematics on the phi_F grid.
+    """
+
+    alignment: Mapping[str, StreamAlignment]
+    mechanism: Mechanism
+    configuration: xr.Dataset
+    predictions: xr.Dataset
 
 
 @dataclass(frozen=True)

@@ -190,3 +190,39 @@ def test_a_part_equal_to_an_earlier_one_is_drawn_once_for_both_pages():
     plain = _plain()
     assert texts[0] == texts[1] == [plain["three"], plain["two"]]
     assert texts[2][0] == plain["three"] and texts[2][1] != plain["two"]
+
+
+def test_the_model_figures_handed_after_the_model_stage_are_not_drawn_again():
+    """start_model_figures hands the alignment's and model's parts; start_figures reuses them.
+
+    Drawers without children draw nothing until asked, so the test sees what is handed: the
+    parts handed early are the very drawings the page's start gets back, and their texts equal
+    those of a page whose figures all start after the run.
+    """
+    from rigval.sample_data import shipped_runs
+    from rigval.validation.pipeline import run_scene
+    from rigval.validation.report.run_report import (
+        FIGURE_PARTS,
+        start_figures,
+        start_model_figures,
+    )
+
+    drawers = drawing.Drawers(())
+    handed = []
+    submit = drawers.submit
+
+    def recording(*args, **kwargs):
+        handed.append(submit(*args, **kwargs))
+        return handed[-1]
+
+    drawers.submit = recording
+    result = run_scene(shipped_runs()[0],
+                       after_model=lambda run: start_model_figures(run, drawers))
+    early = list(handed)
+    assert len(early) == len(FIGURE_PARTS)
+    page = start_figures(result, drawers)
+    assert all(later is first for later, first in zip(handed[-len(early):], early, strict=True))
+    plain = start_figures(result)
+    for names in FIGURE_PARTS:
+        for name in names:
+            assert page.texts(name) == plain.texts(name)

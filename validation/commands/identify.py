@@ -159,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
     from rigval.validation.identify import identify
     from rigval.validation.pipeline import run_scene_kept
     from rigval.validation.report.drawing import standby_drawers
-    from rigval.validation.report.run_report import start_figures
+    from rigval.validation.report.run_report import start_figures, start_model_figures
 
     parameters = ("auto" if args.parameters.strip() == "auto"
                   else [p.strip() for p in args.parameters.split(",") if p.strip()])
@@ -169,7 +169,8 @@ def run(args: argparse.Namespace) -> int:
     # the parameters are identified, then the identified run's (this process: the data files);
     # they keep the other core busy, so BLAS threads here would only wait
     with standby_drawers() as drawers, single_blas_thread():
-        nominal, measurement = run_scene_kept(args.scene)
+        nominal, measurement = run_scene_kept(
+            args.scene, after_model=lambda run: start_model_figures(run, drawers))
         nominal_figures = start_figures(nominal, drawers)
         identification = identify(nominal.scene, parameters, friction=args.friction,
                                   comparisons=comparisons, result=nominal)

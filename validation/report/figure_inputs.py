@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from rigval.validation.results import ComparisonResult, ValidationResult
+from rigval.validation.results import ComparisonResult
 
 __all__ = ["MAX_DRAWN_CYCLES", "ComparisonCurves", "shown_points"]
 
@@ -63,6 +63,12 @@ class ComparisonCurves:
                    result.mean, low, high, result.model, result.offset)
 
 
-def shown_points(result: ValidationResult) -> tuple[str, ...]:
-    """Return the points whose kinematics the report shows (red in the sketch)."""
-    return tuple(str(p) for p in result.predictions.coords.get("point", xr.DataArray([])).values)
+def shown_points(predictions: xr.Dataset) -> tuple[str, ...]:
+    """Return the points whose kinematics the report shows (red in the sketch).
+
+    Parameters
+    ----------
+    predictions : xarray.Dataset
+        The run's predictions (:attr:`~rigval.validation.results.ValidationResult.predictions`).
+    """
+    return tuple(str(p) for p in predictions.coords.get("point", xr.DataArray([])).values)

@@ -41,7 +41,7 @@ from rigval.validation.report.drawing import Drawers, Drawing, draw_texts
 from rigval.validation.report.figure_inputs import ComparisonCurves, shown_points
 from rigval.validation.report.page import Page
 from rigval.validation.report.why import start_why_figures, why_section
-from rigval.validation.results import ComparisonResult, ValidationResult
+from rigval.validation.results import ComparisonResult, ModelledRun, ValidationResult
 from rigval.validation.verdict import failure_reasons, run_verdict
 from rigval.validation.version import rigval_version
 
@@ -50,7 +50,8 @@ if TYPE_CHECKING:
 
     from matplotlib.figure import Figure
 
-__all__ = ["start_figures", "write_metrics", "write_netcdf", "write_report"]
+__all__ = ["start_figures", "start_model_figures", "write_metrics", "write_netcdf",
+           "write_report"]
 
 logger = logging.getLogger(__name__)
 
@@ -370,7 +371,7 @@ def _predictions(page: Page, result: ValidationResult, figures: _Figures) -> Non
     page.section("Predictions")
     page.paragraph("What the model says about quantities that were not measured, for the drive "
                    "motion of this run (the paper's figs. 15 to 17).")
-    points = shown_points(result)
+    points = shown_points(result.predictions)
     page.figure(figures["sketch"][0],
                 caption="the mechanism at t = 0 of its file's drive laws: bodies (letters), "
                         "joints (open circles), ground pins (hatched: the supports), drives "
@@ -435,17 +436,49 @@ FIGURE_PARTS = (("pulse_edges", "clock_residuals", "stream_coverage"), ("sketch"
 
 def _data(result: ValidationResult) -> dict[str, tuple[Any, int]]:
     """Return each figure group's data (small: it travels to a drawer) and figure count."""
-    predictions, points = result.predictions, shown_points(result)
+    return {"comparisons": (tuple(ComparisonCurves.of(c) for c in result.comparisons),
+                            len(result.comparisons)),
+            **_model_data(ModelledRun(result.alignment, result.mechanism, result.configuration,
+                                      result.predictions))}
+
+
+def _model_data(run: ModelledRun) -> dict[str, tuple[Any, int]]:
+    """:func:`_data` of the groups of :data:`FIGURE_PARTS`: the alignment's and the model's."""
+    predictions, points = run.predictions, shown_points(run.predictions)
     kinematics = predictions[[name for name in predictions.data_vars
                               if str(name).startswith("point_")]]
     support = predictions[["support_force"]] if "support_force" in predictions else None
-    return {"comparisons": (tuple(ComparisonCurves.of(c) for c in result.comparisons),
-                            len(result.comparisons)),
-            **{name: (dict(result.alignment), 1)
+    return {**{name: (dict(run.alignment), 1)
                for name in ("pulse_edges", "clock_residuals", "stream_coverage")},
-            "sketch": ((result.mechanism, result.configuration, points), 1),
+            "sketch": ((run.mechanism, run.configuration, points), 1),
             "points": ((kinematics, points), len(points)),
             "support_forces": (support, int(support is not None))}
+
+
+def _start_parts(drawing: Drawing, data: Mapping[str, tuple[Any, int]]) -> None:
+    for names in FIGURE_PARTS:
+        drawing.start(draw_figure_groups, tuple(data[name][0] for name in names), names,
+                      sum(data[name][1] for name in names))
+
+
+def start_model_figures(run: ModelledRun, drawers: Drawers) -> None:
+    """Hand the figures of the alignment and the model to ``drawers`` now.
+
+    A run's model is solved before its comparisons are made: given as the pipeline's
+    ``after_model`` (:func:`rigval.validation.pipeline.run_scene`), the drawers draw these
+    figures while the pipeline goes on (they would otherwise wait for the comparisons).
+    :func:`start_figures` of the run then hands the same parts with equal inputs, and
+    ``drawers`` give it these drawings instead of drawing them again
+    (:meth:`~rigval.validation.report.drawing.Drawers.submit`).
+
+    Parameters
+    ----------
+    run : ModelledRun
+        The run after its model stage.
+    drawers : rigval.validation.report.drawing.Drawers
+        From :func:`rigval.validation.report.drawing.standby_drawers`.
+    """
+    _start_parts(Drawing(drawers), _model_data(run))
 
 
 def start_figures(result: ValidationResult, drawers: Drawers | None = None) -> Drawing:
@@ -454,7 +487,7 @@ def start_figures(result: ValidationResult, drawers: Drawers | None = None) -> D
     No figure but the "Why" section's shows the diagnosis, so the drawing may start before
     :func:`rigval.validation.diagnosis.explain.attach_diagnosis` and the drawers draw beside
     it (:func:`rigval.validation.run.validate.validate_scene`); :func:`write_report` collects
-    the figures.
+    the figures. Parts handed before by :func:`start_model_figures` are not drawn again.
 
     Parameters
     ----------
@@ -475,9 +508,7 @@ def start_figures(result: ValidationResult, drawers: Drawers | None = None) -> D
     half = (len(curves) + 1) // 2  # the comparisons, a third of the drawing, in two shares
     for share in (curves[:half], curves[half:]):
         drawing.start(draw_figure_groups, (share,), ("comparisons",), len(share))
-    for names in FIGURE_PARTS:
-        drawing.start(draw_figure_groups, tuple(data[name][0] for name in names), names,
-                      sum(data[name][1] for name in names))
+    _start_parts(drawing, data)
     return drawing
 
 

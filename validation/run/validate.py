@@ -6,11 +6,14 @@ everything the report needs; :func:`validate_scene` adds why the model disagrees
 pipeline's results, so the pipeline does not call it) and writes the folder from that result alone
 (:func:`rigval.validation.report.run_report.write_report`) and returns the result with the files
 written. Two drawers are forked first (:func:`rigval.validation.report.drawing.standby_drawers`):
-the first imports matplotlib while the pipeline runs and forks the second from itself, then they
-draw the page's figures while this process diagnoses and writes the data files, so this process
-never imports matplotlib. As they keep the other core busy, this process runs one BLAS thread
-throughout: a second would only wait for them (its idle spinning cost about 0.5 s of CPU
-beside them). The pipeline itself never imports the report package (docs/architecture.md).
+the first imports matplotlib while the pipeline runs and forks the second from itself; they draw
+the figures of the alignment and the model as soon as the model is solved
+(:func:`~rigval.validation.report.run_report.start_model_figures`), while the pipeline makes the
+comparisons, then the comparisons' figures while this process diagnoses and writes the data
+files, so this process never imports matplotlib. As they keep the other core busy, this process
+runs one BLAS thread throughout: a second would only wait for them (its idle spinning cost about
+0.5 s of CPU beside them). The pipeline itself never imports the report package
+(docs/architecture.md).
 """
 
 from __future__ import annotations
@@ -23,7 +26,11 @@ from rigval.acquisition.threads import single_blas_thread
 from rigval.validation.diagnosis.explain import attach_diagnosis
 from rigval.validation.pipeline import run_scene
 from rigval.validation.report.drawing import standby_drawers
-from rigval.validation.report.run_report import start_figures, write_report
+from rigval.validation.report.run_report import (
+    start_figures,
+    start_model_figures,
+    write_report,
+)
 from rigval.validation.results import ValidationResult
 
 __all__ = ["validate_scene"]
@@ -46,7 +53,8 @@ def validate_scene(scene_path: str | Path, out_dir: str | Path) -> ValidationRes
         ``speed_rev_s`` and ``diagnosis``.
     """
     with standby_drawers() as drawers, single_blas_thread():
-        result = run_scene(scene_path)
+        result = run_scene(scene_path,
+                           after_model=lambda run: start_model_figures(run, drawers))
         release_free_heap()  # the pipeline's freed memory, before the diagnosis's large arrays
         figures = start_figures(result, drawers)  # no figure but the Why's shows the diagnosis
         result = attach_diagnosis(result)
