@@ -55,6 +55,7 @@ __all__ = [
     "ReferenceRecord",
     "align_streams",
     "align_to_reference",
+    "clock_pulses",
     "pulse_events",
     "reference_angle",
     "reference_pulses",
@@ -271,6 +272,35 @@ def reference_pulses(settings: AlignmentSettings, stream: xr.Dataset
     return stream.drop_vars(channel), ReferencePulses(found, samples)
 
 
+def clock_pulses(settings: AlignmentSettings, name: str, stream: xr.Dataset
+                 ) -> StreamPulses | None:
+    """Find the pulses stream ``name``'s clock is fitted on, before phi_F is known.
+
+    A stream's pulse edges depend on its own samples alone, so they may be found as it is read
+    (beside other work) and handed to :func:`align_to_reference` (``found``): the results are
+    the same.
+
+    Parameters
+    ----------
+    settings : AlignmentSettings
+        How each other stream is aligned.
+    name : str
+        One of the other streams (``settings.streams``).
+    stream : xarray.Dataset
+        It in physical units, as read.
+
+    Returns
+    -------
+    StreamPulses or None
+        None for a stream aligned by its stamps or without a pulse channel (its alignment says
+        why, or needs none).
+    """
+    clock = settings.streams[name]
+    if clock.method != "pulses" or clock.pulse is None:
+        return None
+    return _pulses(stream, clock.pulse)
+
+
 def _encoder_turns(ref: xr.Dataset, encoder: ChannelSpec) -> float:
     """Return the revolutions the main encoder turned over the record (NaN: counts unusable)."""
     try:
@@ -459,18 +489,20 @@ def pulse_events(settings: AlignmentSettings, main: MainAngle) -> dict[str, np.n
 
 def _align_by_pulses(name: str, stream: xr.Dataset, clock: ClockSettings, coarse: CoarseOffset,
                      events: np.ndarray, record: ReferenceRecord, reference_start: str, *,
-                     device_time: bool = True
+                     device_time: bool = True, found: StreamPulses | None = None
                      ) -> tuple[xr.Dataset, StreamAlignment, np.ndarray]:
     """Align one stream on its pulses; return it, its record and its mapped edges (s).
 
     ``events`` are the reference times phi_F predicts for its pulses (:func:`pulse_events`);
-    ``reference_start`` is the reference stream's ``start_time``, the origin of the CF time units.
+    ``reference_start`` is the reference stream's ``start_time``, the origin of the CF time units;
+    ``found``: its pulses (:func:`clock_pulses`), found here by default.
     """
     if clock.pulse is None:
         raise AlignmentError(f"stream {name} has no pulse channel to fit its clock on",
                              where={"stream": name, "key": clock.key},
                              hint='name its pulse channel or use method = "stamps"')
-    found = _pulses(stream, clock.pulse)
+    if found is None:
+        found = _pulses(stream, clock.pulse)
     edges, segments = found.times[~found.spurious], found.segment[~found.spurious]
     where = {"stream": name, "channel": clock.pulse.name}
     model = _fit_clock(events, found, coarse, clock_groups(stream), clock, name, where)
@@ -513,7 +545,8 @@ def _align_by_stamps(name: str, stream: xr.Dataset, ref: xr.Dataset, coarse: Coa
 
 def align_to_reference(settings: AlignmentSettings, ref: xr.Dataset,
                        converted: Mapping[str, xr.Dataset], record: ReferenceRecord,
-                       events: Mapping[str, np.ndarray], *, device_time: bool = True
+                       events: Mapping[str, np.ndarray], *, device_time: bool = True,
+                       found: Mapping[str, StreamPulses] | None = None
                        ) -> tuple[dict[str, xr.Dataset], dict[str, StreamAlignment]]:
     """Put every other stream on the reference timeline; attach every stream's pulse window.
 
@@ -534,6 +567,8 @@ def align_to_reference(settings: AlignmentSettings, ref: xr.Dataset,
         :func:`pulse_events` of phi_F.
     device_time : bool, default True
         As in :func:`align_streams`.
+    found : mapping of str to StreamPulses, optional
+        Streams' pulses found before (:func:`clock_pulses`); the others' are found here.
 
     Returns
     -------
@@ -559,7 +594,7 @@ def align_to_reference(settings: AlignmentSettings, ref: xr.Dataset,
             continue
         aligned[name], diagnostics[name], mapped = _align_by_pulses(
             name, stream, clock, coarse, events[name], record, ref.attrs["start_time"],
-            device_time=device_time)
+            device_time=device_time, found=(found or {}).get(name))
         shown[name] = (clock.pulse.name if clock.pulse else "", mapped)
     half_width = PULSE_WINDOW * record.period
     centre = diagnose.common_pulse(record.pulses, [d.span_s for d in diagnostics.values()],

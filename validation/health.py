@@ -67,6 +67,17 @@ class HealthLog:
             period=self._period.get(name))
 
 
+    def extend(self, other: HealthLog) -> None:
+        """Add the findings (and revolution periods) of a log of other streams' channels.
+
+        A stream checked apart (in another process, :mod:`rigval.validation.pipeline`'s read
+        stage) comes with a log of its own; extended in stream order, this log holds what
+        checking the streams here one after the other would have given.
+        """
+        self.findings += other.findings
+        self._period.update(other._period)
+
+
 def comparison_health(comparison: ComparisonSpec, findings: tuple[Finding, ...]
                       ) -> tuple[Finding, ...]:
     """Return the findings on the channels a comparison measures."""

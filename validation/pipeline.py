@@ -15,8 +15,10 @@ read
     Each stream's file, only the channels the alignment and the model need (pulses, the
     encoders of phi_F and of measured drives; a text file's compared channels too), one stream
     after the other, converted to physical units (:mod:`rigval.processing.sensors`) as it is
-    read; the main reference pulse's edges found as its stream is read, and its channel then
-    held as the samples near them (:func:`rigval.processing.stream_alignment.reference_pulses`);
+    read (small files of the other streams in a child beside this process, their clock pulses
+    found there too); the main reference pulse's edges found as its stream is read, and its
+    channel then held as the samples near them
+    (:func:`rigval.processing.stream_alignment.reference_pulses`);
     the files' SHA-256 and the operator's note. With ``[output] raw`` or ``aligned`` every
     channel is read here and kept.
 align
@@ -53,7 +55,7 @@ import logging
 import math
 import time
 from collections.abc import Callable, Iterator, Mapping
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -61,7 +63,7 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.detect import source_checksum
-from rigval.acquisition.errors import DataError
+from rigval.acquisition.errors import DataError, RigvalError
 from rigval.acquisition.heap import release_free_heap
 from rigval.acquisition.tdms_layout import kept_layouts
 from rigval.model.balance import energy_residual
@@ -78,6 +80,7 @@ from rigval.processing.angle import (
     resample_to_angle,
 )
 from rigval.processing.filters import zero_phase
+from rigval.processing.pulses import StreamPulses
 from rigval.processing.stream_alignment import (
     AlignmentSettings,
     MainAngle,
@@ -85,11 +88,13 @@ from rigval.processing.stream_alignment import (
     ReferencePulses,
     ReferenceRecord,
     align_to_reference,
+    clock_pulses,
     pulse_events,
     reference_angle,
     reference_pulses,
 )
 from rigval.processing.stretch_decimation import diagnosis_signal
+from rigval.validation.beside import Standby, can_fork
 from rigval.validation.comparison_scores import Scored, pair, score_comparisons
 from rigval.validation.health import HealthLog
 from rigval.validation.model_run import (
@@ -139,9 +144,13 @@ ANALYTIC_SPEED_TOLERANCE = 0.02
 
 
 class _Stopwatch:
-    """Wall time per named stage, in the order the stages ran; a stage inside another pauses it."""
+    """Wall time per named stage, in the order the stages ran; a stage inside another pauses it.
 
-    def __init__(self) -> None:
+    Each stage's end is logged, unless ``quiet`` (the work of a child beside this process).
+    """
+
+    def __init__(self, *, quiet: bool = False) -> None:
+        self.quiet = quiet
         self.seconds: dict[str, float] = {}
         self._running: list[str] = []
         self._since = time.perf_counter()
@@ -164,8 +173,9 @@ class _Stopwatch:
             self._book()
             self._running.pop()
             release_free_heap()  # what the stage freed is not left idle beside the next one
-            logger.info("stage %s: %.3f s (process CPU %.1f s, peak memory %s)", name,
-                        self.seconds[name], time.process_time(), _peak_memory())
+            if not self.quiet:
+                logger.info("stage %s: %.3f s (process CPU %.1f s, peak memory %s)", name,
+                            self.seconds[name], time.process_time(), _peak_memory())
 
 
 def _peak_memory() -> str:
@@ -209,11 +219,63 @@ class _Inputs:
 
 @dataclass(frozen=True)
 class _Read:
-    """The read stage's output: the main reference pulses apart when found as read."""
+    """The read stage's output: the main reference pulses apart when found as read.
+
+    ``clock_pulses``: the other streams' pulses their clocks are fitted on, where found as they
+    were read (beside, :func:`_read`); the align stage finds the others'.
+    """
 
     inputs: _Inputs
     converted: Mapping[str, xr.Dataset]
     reference: ReferencePulses | None
+    clock_pulses: Mapping[str, StreamPulses]
+
+
+#: The other streams' files, together, up to which they are read beside the reference stream
+#: (:func:`_read`): bytes. Beyond, their streams as read would travel pickled between
+#: processes, a copy of each in memory, and the record's stages dwarf the read.
+BESIDE_BYTES = 64 * 2**20
+
+
+@dataclass(frozen=True)
+class _StreamRead:
+    """One stream as read: converted, its file's SHA-256, kept as read, its health, its pulses.
+
+    ``pulses``: those its clock is fitted on when found as it was read, else None.
+    """
+
+    converted: xr.Dataset
+    digest: str
+    raw: xr.Dataset | None
+    health: HealthLog
+    pulses: StreamPulses | None = None
+
+
+def _read_other(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, name: str
+                ) -> _StreamRead:
+    """Read another stream than the reference, and find the pulses its clock is fitted on.
+
+    Runs beside this process (:func:`_read`): a problem of the pulses is left to the align
+    stage, which finds them again and reports it where it always does, after phi_F.
+    """
+    health = HealthLog(scene)
+    converted, digest, kept = _read_stream(scene, plan, name, _Stopwatch(quiet=True), health)
+    try:
+        pulses = clock_pulses(settings, name, converted)
+    except RigvalError:
+        pulses = None
+    return _StreamRead(converted, digest, kept, health, pulses)
+
+
+def _reads_beside(scene: Scene, settings: AlignmentSettings) -> bool:
+    """Whether the other streams are read beside the reference stream (see :func:`_read`)."""
+    others = [spec.file for name, spec in scene.streams.items() if name != settings.reference]
+    if not others or not can_fork():
+        return False
+    try:
+        return sum(path.stat().st_size for path in others) <= BESIDE_BYTES
+    except OSError:  # a missing file: the read says which, here
+        return False
 
 
 def _read(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, watch: _Stopwatch
@@ -224,23 +286,45 @@ def _read(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, watch: _Sto
     main reference pulse channel, needed for its edges alone, is held as they and the samples
     near them once its stream is converted. The data files' SHA-256 come from this read, the
     mechanism's and the note's are computed here.
+
+    Where a core is free and the other streams' files are small (:data:`BESIDE_BYTES`), the
+    other streams are read, converted and checked, and their clock pulses found, in a child
+    forked now (:class:`~rigval.validation.beside.Standby`) while this process reads the
+    reference stream; they are taken in the scene's order, so the results, the health findings'
+    order and the first error reported are those of the reading here.
     """
     converted: dict[str, xr.Dataset] = {}
     raw: dict[str, xr.Dataset] = {}
     digests: dict[Path, str] = {}
+    pulses: dict[str, StreamPulses] = {}
     health = HealthLog(scene)
     reference = None
-    for name, spec in scene.streams.items():
-        converted[name], digests[spec.file], kept = _read_stream(scene, plan, name, watch,
-                                                                 health)
-        if name == settings.reference and plan.edges_only(name, settings.reference_pulse.name):
-            converted[name], reference = reference_pulses(settings, converted[name])
-        if kept is not None:
-            raw[name] = kept
+    beside = _reads_beside(scene, settings)
+    with Standby() if beside else nullcontext() as standby:
+        pending = {name: standby.submit(_read_other, scene, plan, settings, name)
+                   for name in scene.streams if beside and name != settings.reference}
+        if pending:
+            logger.info("streams %s read beside the reference stream %s, in a child process",
+                        ", ".join(pending), settings.reference)
+        for name, spec in scene.streams.items():
+            if name in pending:
+                read = pending[name].result()
+                if read.pulses is not None:
+                    pulses[name] = read.pulses
+                health.extend(read.health)
+                converted[name], digests[spec.file], kept = read.converted, read.digest, read.raw
+            else:
+                converted[name], digests[spec.file], kept = _read_stream(scene, plan, name, watch,
+                                                                         health)
+            if name == settings.reference and plan.edges_only(name,
+                                                              settings.reference_pulse.name):
+                converted[name], reference = reference_pulses(settings, converted[name])
+            if kept is not None:
+                raw[name] = kept
     inputs = tuple((path, digests.get(path) or source_checksum(path))
                    for path in scene.input_files)
     note = read_note(scene.note) if scene.note is not None else None
-    return _Read(_Inputs(raw, note, inputs, health), converted, reference)
+    return _Read(_Inputs(raw, note, inputs, health), converted, reference, pulses)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -280,6 +364,7 @@ class _PhiF:
 
     inputs: _Inputs
     others: Mapping[str, xr.Dataset]
+    clock_pulses: Mapping[str, StreamPulses]
     reference: ReferenceAngle
 
 
@@ -293,6 +378,7 @@ class _Predicted:
 
     inputs: _Inputs
     others: Mapping[str, xr.Dataset]
+    clock_pulses: Mapping[str, StreamPulses]
     reference: xr.Dataset
     record: ReferenceRecord
     events: Mapping[str, np.ndarray]
@@ -310,6 +396,7 @@ class _Driven:
 
     inputs: _Inputs
     others: Mapping[str, xr.Dataset]
+    clock_pulses: Mapping[str, StreamPulses]
     reference: xr.Dataset
     record: ReferenceRecord
     events: Mapping[str, np.ndarray]
@@ -324,7 +411,7 @@ def _phi_f(scene: Scene, settings: AlignmentSettings, read: _Read) -> _PhiF:
     reference = reference_angle(settings, read.converted[settings.reference],
                                 device_time=scene.output.aligned, found=read.reference)
     others = {name: ds for name, ds in read.converted.items() if name != settings.reference}
-    return _PhiF(read.inputs, others, reference)
+    return _PhiF(read.inputs, others, read.clock_pulses, reference)
 
 
 def _predict(scene: Scene, settings: AlignmentSettings, phi: _PhiF) -> _Predicted:
@@ -332,8 +419,9 @@ def _predict(scene: Scene, settings: AlignmentSettings, phi: _PhiF) -> _Predicte
     main = phi.reference.main
     events = pulse_events(settings, main)
     grid, fine_times = _grid(scene, main)
-    return _Predicted(phi.inputs, phi.others, phi.reference.stream, phi.reference.record, events,
-                      grid, fine_times, main.grid(scene.angle.points_per_revolution))
+    return _Predicted(phi.inputs, phi.others, phi.clock_pulses, phi.reference.stream,
+                      phi.reference.record, events, grid, fine_times,
+                      main.grid(scene.angle.points_per_revolution))
 
 
 def _drives(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, predicted: _Predicted
@@ -347,8 +435,9 @@ def _drives(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, predicted
                               predicted.fine_times) if plan.drives else None)
     reference = _kept(plan, settings.reference, predicted.reference,
                       settings.reference_pulse.name)
-    return _Driven(predicted.inputs, predicted.others, reference, predicted.record,
-                   predicted.events, predicted.grid, predicted.angle_times, drives)
+    return _Driven(predicted.inputs, predicted.others, predicted.clock_pulses, reference,
+                   predicted.record, predicted.events, predicted.grid, predicted.angle_times,
+                   drives)
 
 
 def _kept(plan: ReadPlan, name: str, stream: xr.Dataset, *also: str) -> xr.Dataset:
@@ -371,7 +460,7 @@ def _align(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, driven: _D
     """
     aligned, diagnostics = align_to_reference(
         settings, driven.reference, driven.others, driven.record, driven.events,
-        device_time=scene.output.aligned)
+        device_time=scene.output.aligned, found=driven.clock_pulses)
     history = [line for ds in aligned.values()
                for line in str(ds.attrs.get("history", "")).splitlines()]
     aligned = {name: _kept(plan, name, ds) for name, ds in aligned.items()}
