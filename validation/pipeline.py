@@ -53,18 +53,14 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-import time
-from collections.abc import Callable, Iterator, Mapping
-from contextlib import contextmanager, nullcontext
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
-from rigval.acquisition.detect import source_checksum
-from rigval.acquisition.errors import DataError, RigvalError
-from rigval.acquisition.heap import release_free_heap
+from rigval.acquisition.errors import DataError
 from rigval.acquisition.tdms_layout import kept_layouts
 from rigval.model.balance import energy_residual
 from rigval.model.drives import law_angles_at_reference
@@ -85,18 +81,13 @@ from rigval.processing.stream_alignment import (
     AlignmentSettings,
     MainAngle,
     ReferenceAngle,
-    ReferencePulses,
     ReferenceRecord,
     align_to_reference,
-    clock_pulses,
     pulse_events,
     reference_angle,
-    reference_pulses,
 )
 from rigval.processing.stretch_decimation import diagnosis_signal
-from rigval.validation.beside import Standby, can_fork
 from rigval.validation.comparison_scores import Scored, pair, score_comparisons
-from rigval.validation.health import HealthLog
 from rigval.validation.model_run import (
     FINE_FACTOR,
     MeanDrives,
@@ -105,15 +96,8 @@ from rigval.validation.model_run import (
     measured_drives,
     run_model,
 )
-from rigval.validation.note import read_note
-from rigval.validation.read_plan import (
-    MeasuredSignal,
-    ReadPlan,
-    convert_first,
-    measured_signals,
-    read_first,
-    read_plan,
-)
+from rigval.validation.read_plan import MeasuredSignal, ReadPlan, measured_signals, read_plan
+from rigval.validation.read_stage import Inputs, Read, read_streams
 from rigval.validation.results import (
     ComparisonResult,
     ModelledRun,
@@ -126,11 +110,11 @@ from rigval.validation.scene_types import ComparisonSpec, Scene
 from rigval.validation.stage_settings import (
     ModelSettings,
     alignment_settings,
-    check_sample_rates,
     drive_encoders,
     model_settings,
     scene_errors,
 )
+from rigval.validation.stopwatch import Stopwatch
 from rigval.validation.verdict import carried_uncertainty
 
 __all__ = ["STAGES", "Measurement", "run_scene", "run_scene_kept"]
@@ -141,190 +125,6 @@ logger = logging.getLogger(__name__)
 INTERPOLATION_ORDER = {"linear": 1, "cubic": 3}
 #: Relative difference of the analytic drive law's speed from the run's that is reported.
 ANALYTIC_SPEED_TOLERANCE = 0.02
-
-
-class _Stopwatch:
-    """Wall time per named stage, in the order the stages ran; a stage inside another pauses it.
-
-    Each stage's end is logged, unless ``quiet`` (the work of a child beside this process).
-    """
-
-    def __init__(self, *, quiet: bool = False) -> None:
-        self.quiet = quiet
-        self.seconds: dict[str, float] = {}
-        self._running: list[str] = []
-        self._since = time.perf_counter()
-
-    def _book(self) -> None:
-        now = time.perf_counter()
-        if self._running:
-            name = self._running[-1]
-            self.seconds[name] = self.seconds.get(name, 0.0) + now - self._since
-        self._since = now
-
-    @contextmanager
-    def stage(self, name: str) -> Iterator[None]:
-        self._book()
-        self._running.append(name)
-        self.seconds.setdefault(name, 0.0)
-        try:
-            yield
-        finally:
-            self._book()
-            self._running.pop()
-            release_free_heap()  # what the stage freed is not left idle beside the next one
-            if not self.quiet:
-                logger.info("stage %s: %.3f s (process CPU %.1f s, peak memory %s)", name,
-                            self.seconds[name], time.process_time(), _peak_memory())
-
-
-def _peak_memory() -> str:
-    """Return the process's peak resident memory so far as text (``"n/a"`` off Unix)."""
-    try:
-        import resource
-    except ImportError:
-        return "n/a"
-    kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux
-    return f"{kib / 1024:.0f} MiB"
-
-
-# ---------------------------------------------------------------------------------------------
-# read
-
-
-def _read_stream(scene: Scene, plan: ReadPlan, name: str, watch: _Stopwatch, health: HealthLog
-                 ) -> tuple[xr.Dataset, str, xr.Dataset | None]:
-    """Return one stream's first channels converted, its file's SHA-256 and, kept, as read.
-
-    The channels' health is checked on them as read (``health``).
-    """
-    stream = read_first(scene, plan, name)
-    check_sample_rates(scene, {name: stream})
-    with watch.stage("health"):
-        health.check(name, stream)
-    with watch.stage("convert"):
-        converted = convert_first(scene, name, stream)
-    return converted, str(stream.attrs["source_sha256"]), stream if scene.output.raw else None
-
-
-@dataclass(frozen=True)
-class _Inputs:
-    """What the run read besides the channels: kept for the result."""
-
-    raw: Mapping[str, xr.Dataset]
-    note: str | None
-    digests: tuple[tuple[Path, str], ...]
-    health: HealthLog
-
-
-@dataclass(frozen=True)
-class _Read:
-    """The read stage's output: the main reference pulses apart when found as read.
-
-    ``clock_pulses``: the other streams' pulses their clocks are fitted on, where found as they
-    were read (beside, :func:`_read`); the align stage finds the others'.
-    """
-
-    inputs: _Inputs
-    converted: Mapping[str, xr.Dataset]
-    reference: ReferencePulses | None
-    clock_pulses: Mapping[str, StreamPulses]
-
-
-#: The other streams' files, together, up to which they are read beside the reference stream
-#: (:func:`_read`): bytes. Beyond, their streams as read would travel pickled between
-#: processes, a copy of each in memory, and the record's stages dwarf the read.
-BESIDE_BYTES = 64 * 2**20
-
-
-@dataclass(frozen=True)
-class _StreamRead:
-    """One stream as read: converted, its file's SHA-256, kept as read, its health, its pulses.
-
-    ``pulses``: those its clock is fitted on when found as it was read, else None.
-    """
-
-    converted: xr.Dataset
-    digest: str
-    raw: xr.Dataset | None
-    health: HealthLog
-    pulses: StreamPulses | None = None
-
-
-def _read_other(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, name: str
-                ) -> _StreamRead:
-    """Read another stream than the reference, and find the pulses its clock is fitted on.
-
-    Runs beside this process (:func:`_read`): a problem of the pulses is left to the align
-    stage, which finds them again and reports it where it always does, after phi_F.
-    """
-    health = HealthLog(scene)
-    converted, digest, kept = _read_stream(scene, plan, name, _Stopwatch(quiet=True), health)
-    try:
-        pulses = clock_pulses(settings, name, converted)
-    except RigvalError:
-        pulses = None
-    return _StreamRead(converted, digest, kept, health, pulses)
-
-
-def _reads_beside(scene: Scene, settings: AlignmentSettings) -> bool:
-    """Whether the other streams are read beside the reference stream (see :func:`_read`)."""
-    others = [spec.file for name, spec in scene.streams.items() if name != settings.reference]
-    if not others or not can_fork():
-        return False
-    try:
-        return sum(path.stat().st_size for path in others) <= BESIDE_BYTES
-    except OSError:  # a missing file: the read says which, here
-        return False
-
-
-def _read(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, watch: _Stopwatch
-          ) -> _Read:
-    """Read and convert each stream's first channels, one stream after the other.
-
-    Stream by stream, so that memory holds one stream as read beside the converted ones; the
-    main reference pulse channel, needed for its edges alone, is held as they and the samples
-    near them once its stream is converted. The data files' SHA-256 come from this read, the
-    mechanism's and the note's are computed here.
-
-    Where a core is free and the other streams' files are small (:data:`BESIDE_BYTES`), the
-    other streams are read, converted and checked, and their clock pulses found, in a child
-    forked now (:class:`~rigval.validation.beside.Standby`) while this process reads the
-    reference stream; they are taken in the scene's order, so the results, the health findings'
-    order and the first error reported are those of the reading here.
-    """
-    converted: dict[str, xr.Dataset] = {}
-    raw: dict[str, xr.Dataset] = {}
-    digests: dict[Path, str] = {}
-    pulses: dict[str, StreamPulses] = {}
-    health = HealthLog(scene)
-    reference = None
-    beside = _reads_beside(scene, settings)
-    with Standby() if beside else nullcontext() as standby:
-        pending = {name: standby.submit(_read_other, scene, plan, settings, name)
-                   for name in scene.streams if beside and name != settings.reference}
-        if pending:
-            logger.info("streams %s read beside the reference stream %s, in a child process",
-                        ", ".join(pending), settings.reference)
-        for name, spec in scene.streams.items():
-            if name in pending:
-                read = pending[name].result()
-                if read.pulses is not None:
-                    pulses[name] = read.pulses
-                health.extend(read.health)
-                converted[name], digests[spec.file], kept = read.converted, read.digest, read.raw
-            else:
-                converted[name], digests[spec.file], kept = _read_stream(scene, plan, name, watch,
-                                                                         health)
-            if name == settings.reference and plan.edges_only(name,
-                                                              settings.reference_pulse.name):
-                converted[name], reference = reference_pulses(settings, converted[name])
-            if kept is not None:
-                raw[name] = kept
-    inputs = tuple((path, digests.get(path) or source_checksum(path))
-                   for path in scene.input_files)
-    note = read_note(scene.note) if scene.note is not None else None
-    return _Read(_Inputs(raw, note, inputs, health), converted, reference, pulses)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -350,7 +150,7 @@ class _Timeline:
 class _Aligned:
     """The align stage's output: the timeline and, apart, the mean measured drives for the model."""
 
-    inputs: _Inputs
+    inputs: Inputs
     timeline: _Timeline
     drives: MeanDrives | None
 
@@ -362,7 +162,7 @@ class _PhiF:
     The other streams are as read.
     """
 
-    inputs: _Inputs
+    inputs: Inputs
     others: Mapping[str, xr.Dataset]
     clock_pulses: Mapping[str, StreamPulses]
     reference: ReferenceAngle
@@ -376,7 +176,7 @@ class _Predicted:
     stream's reference events as phi_F predicts them; the other streams are as read.
     """
 
-    inputs: _Inputs
+    inputs: Inputs
     others: Mapping[str, xr.Dataset]
     clock_pulses: Mapping[str, StreamPulses]
     reference: xr.Dataset
@@ -394,7 +194,7 @@ class _Driven:
     The reference stream holds only the channels later stages take.
     """
 
-    inputs: _Inputs
+    inputs: Inputs
     others: Mapping[str, xr.Dataset]
     clock_pulses: Mapping[str, StreamPulses]
     reference: xr.Dataset
@@ -405,7 +205,7 @@ class _Driven:
     drives: MeanDrives | None
 
 
-def _phi_f(scene: Scene, settings: AlignmentSettings, read: _Read) -> _PhiF:
+def _phi_f(scene: Scene, settings: AlignmentSettings, read: Read) -> _PhiF:
     """Put the reference stream on its timeline and find phi_F(t) on it."""
     # the device clocks go into the output only with [output] aligned
     reference = reference_angle(settings, read.converted[settings.reference],
@@ -529,7 +329,7 @@ class _Model:
 class _Modelled:
     """The model stage's output: the drives' encoders are let go."""
 
-    inputs: _Inputs
+    inputs: Inputs
     timeline: _Timeline
     model: _Model
 
@@ -568,7 +368,7 @@ class _Measured:
     The timeline keeps only the streams the output keeps (``[output] aligned``).
     """
 
-    inputs: _Inputs
+    inputs: Inputs
     timeline: _Timeline
     model: _Model
     cycles: Mapping[str, np.ndarray]
@@ -744,7 +544,7 @@ class Measurement:
             are the model, numerics and compare stages only.
         """
         scene = dataclasses.replace(self.scene, mechanism=mechanism)
-        watch = _Stopwatch()
+        watch = Stopwatch()
         with scene_errors(scene):
             with watch.stage("model"):
                 model = _model(scene, _Aligned(self.measured.inputs, self.measured.timeline,
@@ -782,7 +582,7 @@ def _run(scene: Scene | str | Path, *, keep: bool,
          after_model: Callable[[ModelledRun], None] | None = None
          ) -> tuple[ValidationResult, Measurement | None]:
     """Run the stages of a run; with ``keep`` return its measurement too."""
-    watch = _Stopwatch()
+    watch = Stopwatch()
     with watch.stage("read"):
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
@@ -790,7 +590,7 @@ def _run(scene: Scene | str | Path, *, keep: bool,
         plan = read_plan(scene, settings)
     with scene_errors(scene):
         with watch.stage("read"):
-            run = _read(scene, plan, settings, watch)
+            run = read_streams(scene, plan, settings, watch)
         with watch.stage("align"):
             run = _phi_f(scene, settings, run)
             run = _predict(scene, settings, run)
@@ -812,7 +612,7 @@ def _run(scene: Scene | str | Path, *, keep: bool,
     return result, Measurement(scene, run, results) if keep else None
 
 
-def _result(scene: Scene, watch: _Stopwatch, measured: _Measured, numerics: _Numerics,
+def _result(scene: Scene, watch: Stopwatch, measured: _Measured, numerics: _Numerics,
             results: tuple[ComparisonResult, ...]) -> ValidationResult:
     """Return the run's result: everything the report needs."""
     grid, timeline, model = measured.timeline.grid, measured.timeline, measured.model

@@ -22,8 +22,10 @@ from rigval.sample_data import runs_dir
 from rigval.validation import pipeline
 from rigval.validation.model_run import FINE_FACTOR
 from rigval.validation.read_plan import read_plan
+from rigval.validation.read_stage import read_streams
 from rigval.validation.scene import load_scene
 from rigval.validation.stage_settings import alignment_settings, drive_encoders
+from rigval.validation.stopwatch import Stopwatch
 from tests.processing.alignment_checks import assert_same_alignment
 
 
@@ -33,7 +35,7 @@ def test_align_steps_equal_the_old_order_and_let_phi_f_and_encoders_go(speed: st
     settings = alignment_settings(scene)
     plan = read_plan(scene, settings)
     n = scene.angle.points_per_revolution
-    run = pipeline._read(scene, plan, settings, pipeline._Stopwatch())
+    run = read_streams(scene, plan, settings, Stopwatch())
 
     # the old order: every stream aligned with phi_F at hand, phi_F's times a delayed copy
     old, diagnostics, main = align_streams(settings, run.converted,

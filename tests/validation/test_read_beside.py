@@ -1,11 +1,11 @@
 """Other streams read beside the reference stream give the run the reading here gives.
 
 The read stage reads small files of the other streams in a child forked beside this process,
-and finds their clock pulses there (:func:`rigval.validation.pipeline._read`). The reference is
-the same run read one stream after the other in this process (``BESIDE_BYTES`` below every
-file): equal results, the same health findings in the same order, and the same first error
-for a scene with a broken stream. Each check runs in a new interpreter, where no other thread
-stops the fork.
+and finds their clock pulses there (:func:`rigval.validation.read_stage.read_streams`). The
+reference is the same run read one stream after the other in this process (``BESIDE_BYTES``
+below every file): equal results, the same health findings in the same order, and the same
+first error for a scene with a broken stream. Each check runs in a new interpreter, where no
+other thread stops the fork.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from rigval.validation import pipeline
+from rigval.validation import pipeline, read_stage
 from rigval.validation.beside import can_fork
 from tests.validation.fresh_process import run_in_a_fresh_process
 
@@ -38,8 +38,8 @@ def _shipped_copy() -> Path:
 def _both_ways(scene: Path, records: list[logging.LogRecord]):
     """Run ``scene`` beside and here; return each outcome (result or error) and the log."""
     outcomes = []
-    for limit in (pipeline.BESIDE_BYTES, -1):  # beside, then one stream after the other here
-        pipeline.BESIDE_BYTES = limit
+    for limit in (read_stage.BESIDE_BYTES, -1):  # beside, then one stream after the other here
+        read_stage.BESIDE_BYTES = limit
         records.clear()
         try:
             outcomes.append(pipeline.run_scene(scene))
@@ -60,8 +60,8 @@ class _Keep(logging.Handler):
 
 def _logged() -> list[logging.LogRecord]:
     records: list[logging.LogRecord] = []
-    logging.getLogger("rigval.validation.pipeline").addHandler(_Keep(records))
-    logging.getLogger("rigval.validation.pipeline").setLevel(logging.INFO)
+    logging.getLogger("rigval.validation.read_stage").addHandler(_Keep(records))
+    logging.getLogger("rigval.validation.read_stage").setLevel(logging.INFO)
     return records
 
 
@@ -119,12 +119,12 @@ def test_a_broken_other_stream_gives_the_same_error_beside():
 
 def test_large_files_are_read_here(tmp_path, monkeypatch):
     """Beyond BESIDE_BYTES (a long record) the streams are read one after the other here."""
-    monkeypatch.setattr(pipeline, "BESIDE_BYTES", 0)
+    monkeypatch.setattr(read_stage, "BESIDE_BYTES", 0)
     scene = pipeline.load_scene(_shipped_copy())
-    assert not pipeline._reads_beside(scene, pipeline.alignment_settings(scene))
+    assert not read_stage.reads_beside(scene, pipeline.alignment_settings(scene))
 
 
 @pytest.mark.usefixtures("forks_beside")
 def test_small_files_are_read_beside():
     scene = pipeline.load_scene(_shipped_copy())
-    assert pipeline._reads_beside(scene, pipeline.alignment_settings(scene))
+    assert read_stage.reads_beside(scene, pipeline.alignment_settings(scene))

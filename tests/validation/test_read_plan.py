@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from rigval.sample_data import runs_dir
-from rigval.validation import pipeline
 from rigval.validation import read_plan as plan_module
+from rigval.validation import read_stage
 from rigval.validation.health import HealthLog
 from rigval.validation.pipeline import run_scene
 from rigval.validation.scene import load_scene
@@ -35,7 +35,7 @@ def test_a_run_reads_every_channel_once(monkeypatch: pytest.MonkeyPatch) -> None
 
     monkeypatch.setattr(plan_module, "load_stream", spy)
     # every stream read here, where the spy sees it (not beside, in a child of this process)
-    monkeypatch.setattr(pipeline, "BESIDE_BYTES", -1)
+    monkeypatch.setattr(read_stage, "BESIDE_BYTES", -1)
     result = run_scene(SCENE)
     assert result.comparisons
     twice = [key for key, n in reads.items() if n > 1]
