@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import threading
@@ -97,17 +98,30 @@ def test_closing_a_standby_ends_its_child_while_a_later_one_runs():
     run_in_a_fresh_process("test_beside", "_closing_ends_each_child", timeout_s=120)
 
 
-def test_a_second_thread_keeps_the_calls_in_this_process():
+@contextlib.contextmanager
+def _another_thread():
+    """Run a second thread in this process for the ``with`` block (no fork is safe then)."""
     stop = threading.Event()
     worker = threading.Thread(target=stop.wait)
     worker.start()
     try:
-        assert not can_fork()
-        with Standby() as standby:
-            assert standby.submit(os.getpid).result() == os.getpid()
+        yield
     finally:
         stop.set()
         worker.join()
+
+
+def _assert_ended(pids) -> None:
+    for pid in pids:
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)
+
+
+def test_a_second_thread_keeps_the_calls_in_this_process():
+    with _another_thread():
+        assert not can_fork()
+        with Standby() as standby:
+            assert standby.submit(os.getpid).result() == os.getpid()
 
 
 def _an_error_ends_the_child_at_once() -> None:
@@ -118,8 +132,7 @@ def _an_error_ends_the_child_at_once() -> None:
         pid = standby.submit(os.getpid).result()
         standby.submit(time.sleep, 600)  # never waited for: the error ends the child
         raise RuntimeError("stop")
-    with pytest.raises(ProcessLookupError):
-        os.kill(pid, 0)
+    _assert_ended([pid])
 
 
 def test_an_error_ends_the_child_without_waiting_for_its_calls():
@@ -154,9 +167,7 @@ def _group_imports_once() -> None:
     importers = (folder / "counted_import.py.pids").read_text().split()
     assert importers == [str(pids[0])]  # the others were forked from it, the module imported
     assert "counted_import" not in sys.modules  # never here
-    for pid in pids:  # closing the first ended every child
-        with pytest.raises(ProcessLookupError):
-            os.kill(pid, 0)
+    _assert_ended(pids)  # closing the first ended every child
 
 
 def test_a_group_imports_its_modules_once_and_ends_together():
@@ -172,9 +183,7 @@ def _group_error_ends_all_at_once() -> None:
         pids = [s.submit(os.getpid).result() for s in standbys]
         standbys[1].submit(time.sleep, 600)  # never waited for: the error ends both children
         raise RuntimeError("stop")
-    for pid in pids:
-        with pytest.raises(ProcessLookupError):
-            os.kill(pid, 0)
+    _assert_ended(pids)
 
 
 def test_an_error_ends_every_child_of_a_group_without_waiting_for_its_calls():
@@ -182,13 +191,7 @@ def test_an_error_ends_every_child_of_a_group_without_waiting_for_its_calls():
 
 
 def test_a_group_without_fork_runs_its_calls_here():
-    stop = threading.Event()
-    worker = threading.Thread(target=stop.wait)
-    worker.start()
-    try:
+    with _another_thread():
         standbys = Standby.group(2)
         with standbys[0]:
             assert [s.submit(os.getpid).result() for s in standbys] == [os.getpid()] * 2
-    finally:
-        stop.set()
-        worker.join()
