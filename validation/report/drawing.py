@@ -26,8 +26,8 @@ from rigval.validation.beside import Pending, Standby, pickled
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["DRAWERS", "DRAWING_MODULES", "Drawers", "Drawing", "GroupFunction", "draw_texts",
-           "standby_drawers"]
+__all__ = ["DRAWERS", "DRAWER_NICE", "DRAWING_MODULES", "Drawers", "Drawing", "GroupFunction",
+           "draw_texts", "standby_drawers"]
 
 #: Modules a standby drawer imports while this process does other work.
 DRAWING_MODULES = ("rigval.validation.report.plots", "rigval.validation.report.sketch",
@@ -36,6 +36,12 @@ DRAWING_MODULES = ("rigval.validation.report.plots", "rigval.validation.report.s
 #: Two drawers: on two cores, they and this process (the diagnosis, the data files) share
 #: the time after the pipeline about evenly.
 DRAWERS = 2
+
+#: The drawers' niceness increment: their figures are wanted only when this process writes
+#: the page, so while both want a core (the pipeline, the read beside it), this process's
+#: work goes first (a nice-5 process gets about a quarter of a core shared with a nice-0
+#: one); an idle core is theirs all the same.
+DRAWER_NICE = 5
 
 Inputs = TypeVar("Inputs")
 
@@ -97,7 +103,7 @@ def standby_drawers(count: int = DRAWERS) -> Iterator[Drawers]:
     Drawers
         Hand them to each :class:`Drawing` of the command.
     """
-    standbys = Standby.group(count, DRAWING_MODULES)
+    standbys = Standby.group(count, DRAWING_MODULES, nice=DRAWER_NICE)
     with standbys[0]:  # closing the first closes the others
         yield Drawers(standbys)
 
