@@ -50,8 +50,8 @@ if TYPE_CHECKING:
 
     from matplotlib.figure import Figure
 
-__all__ = ["start_figures", "start_model_figures", "write_metrics", "write_netcdf",
-           "write_report"]
+__all__ = ["HELD_BYTES", "file_tree", "start_figures", "start_model_figures", "write_metrics",
+           "write_netcdf", "write_report"]
 
 logger = logging.getLogger(__name__)
 
@@ -152,6 +152,18 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
     path : pathlib.Path
         The file to write.
     """
+    tree, encoding = file_tree(result)
+    with atomic_output(path) as partial:
+        _write_tree(tree, partial, encoding)
+    return path
+
+
+def file_tree(result: ValidationResult) -> tuple[xr.DataTree, dict[str, dict[str, Any]]]:
+    """Return the tree of the run's netCDF file and its encoding by group (:func:`write_netcdf`).
+
+    The run's tree with ``/health`` and the root's summary and provenance; numeric variables
+    zlib level 4 with shuffle (:func:`_encoding`).
+    """
     scene = result.scene
     # the file's tree built at once (each group added to a tree aligns it again)
     nodes = {node.path: node.to_dataset(inherit=False) for node in result.tree.subtree}
@@ -170,10 +182,80 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
         "validation_passed": int(result.passed),
     })
     encoding = {path: _encoding(ds) for path, ds in nodes.items() if ds.variables}
-    tree = xr.DataTree.from_dict(nodes)
-    with atomic_output(path) as partial:
-        tree.to_netcdf(partial, engine="netcdf4", encoding=encoding)
-    return path
+    return xr.DataTree.from_dict(nodes), encoding
+
+
+#: Bytes of variable data :class:`_DeferredWrites` holds at most before writing them: the
+#: encoded copies it keeps (times as numbers, strings) stay small beside a long record's groups.
+HELD_BYTES = 2**26
+
+
+class _DeferredWrites:
+    """The data of a file's variables, written when many are defined or at the end.
+
+    Takes the place of xarray's ``ArrayWriter`` in :meth:`xarray.Dataset.dump_to_store`, which
+    writes each variable's data as soon as it is defined: netCDF-C then leaves define mode for
+    each write and writes the metadata of the whole file again on entering it for the next
+    variable (about 0.5 ms per variable of a run's file, most of its writing time). Held data
+    reaching :data:`HELD_BYTES` are written at once (one switch of mode per such batch).
+    """
+
+    def __init__(self) -> None:
+        self._writes: list[tuple[Any, Any]] = []
+        self._held = 0
+
+    def add(self, source: Any, target: Any, region: Any = None) -> None:
+        """Hold ``source`` for ``target`` (a whole variable); write what is held when it is much.
+
+        Parameters
+        ----------
+        source : array-like
+            The variable's encoded data.
+        target : array-like
+            Where it goes (xarray's wrapper of the netCDF4 variable).
+        region : None
+            Whole variables only (xarray passes none when writing a new file).
+        """
+        if region is not None:
+            raise NotImplementedError("deferred writes are of whole variables")
+        self._writes.append((source, target))
+        self._held += int(getattr(source, "nbytes", 0))
+        if self._held >= HELD_BYTES:
+            self.write()
+
+    def write(self) -> None:
+        """Write the held data, in the order the variables were defined."""
+        for source, target in self._writes:
+            target[...] = source
+        self._writes.clear()
+        self._held = 0
+
+
+def _write_tree(tree: xr.DataTree, path: Path, encoding: Mapping[str, Mapping[str, Any]]) -> None:
+    """Write a tree to netCDF-4 as ``tree.to_netcdf(path, engine="netcdf4", encoding=...)`` does.
+
+    The same groups, dimensions, variables, attributes, encodings and data, in the same order;
+    the variables defined before their data is written (:class:`_DeferredWrites`).
+
+    Parameters
+    ----------
+    tree : xarray.DataTree
+        The tree.
+    path : pathlib.Path
+        The file to write (overwritten).
+    encoding : mapping of str to mapping
+        Per group path, the encoding of its variables (as for ``DataTree.to_netcdf``).
+    """
+    root = xr.backends.NetCDF4DataStore.open(path, mode="w", format="NETCDF4")
+    writes = _DeferredWrites()
+    try:
+        for node in tree.subtree:
+            store = root if node is tree else root.get_child_store(node.path)
+            node.to_dataset(inherit=node is tree).dump_to_store(
+                store, writer=writes, encoding=encoding.get(node.path))
+        writes.write()
+    finally:
+        root.close()
 
 
 def _metric_table(comparison: ComparisonResult, *, everything: bool = False
