@@ -9,6 +9,7 @@ from rigval.validation.diagnosis.attribution import (
     Block,
     Cause,
     Nuisance,
+    _stack_effects,
     attribute,
     order_coefficients,
 )
@@ -45,6 +46,22 @@ def test_order_coefficients_are_the_amplitudes() -> None:
     expect = np.zeros(11)
     expect[0], expect[1], expect[8] = 3.0, 2.0, 5.0   # Re c1 = 2; Im c4 = +5 (-5 sin = Re(5i e))
     np.testing.assert_allclose(c, expect, atol=1e-12)
+
+
+def test_stacked_effects_are_each_effects_own_coefficients() -> None:
+    # the effects on a block are transformed together; each column must be what the effect's
+    # own transform gives, block by block, to the bit (zeros where it does not touch a block)
+    blocks = [Block("c", _cycles(np.zeros(N), 1), 8, with_offset=True),
+              Block("d", _cycles(np.zeros(N), 2), 5), Block("e", _cycles(np.zeros(N), 3), 3)]
+    effects = [c.effect for c in _causes()] + [{"e": 1e-3 * MODEL**2}, {}]
+    expected = np.column_stack([np.concatenate([
+        order_coefficients(effect[b.name], b.orders, b.with_offset) if b.name in effect
+        else np.zeros(2 * b.orders + int(b.with_offset)) for b in blocks])
+        for effect in effects])
+    found = _stack_effects(effects, blocks)
+    assert found.shape == expected.shape
+    assert np.array_equal(found, expected)
+    assert _stack_effects([], blocks).shape == (expected.shape[0], 0)
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])

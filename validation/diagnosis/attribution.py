@@ -288,10 +288,8 @@ def attribute(blocks: Sequence[Block], causes: Sequence[Cause],
     """
     rows, variance = _stack_blocks(blocks)
     names = [b.name for b in blocks]
-    design = np.column_stack([_stack_effect(c.effect, blocks) for c in causes]) if causes \
-        else np.zeros((rows.size, 0))
-    noise = (np.column_stack([_stack_effect(n.effect, blocks) for n in nuisances]) if nuisances
-             else np.zeros((rows.size, 0)))
+    design = _stack_effects([c.effect for c in causes], blocks)
+    noise = _stack_effects([n.effect for n in nuisances], blocks)
     variance = _widen(blocks, rows, variance, noise, design, [], accepted_only=True)
     chosen, gains, first = _select(rows, variance, noise, design, max_causes)
     if chosen:
@@ -337,15 +335,33 @@ def _stack_blocks(blocks: Sequence[Block]) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate(rows), np.maximum(stacked, tiny)
 
 
-def _stack_effect(effect: Mapping[str, np.ndarray], blocks: Sequence[Block]) -> np.ndarray:
-    """Return a cause's or nuisance's effect as stacked order coefficients (0 where absent)."""
+def _stack_effects(effects: Sequence[Mapping[str, np.ndarray]], blocks: Sequence[Block]
+                   ) -> np.ndarray:
+    """Return causes' or nuisances' effects as stacked order coefficients, one column each.
+
+    Parameters
+    ----------
+    effects : sequence of mapping of str to numpy.ndarray
+        Each cause's or nuisance's effect by comparison, ``(n,)`` over its block's grid.
+    blocks : sequence of Block
+        The comparisons, in the order of the rows.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(rows, len(effects))``: per block its rows (:func:`order_coefficients`), 0 where an
+        effect does not touch it. The effects on one block are transformed together, each row
+        as it would be alone (to the bit: the transform runs row by row).
+    """
     parts = []
     for block in blocks:
-        values = effect.get(block.name)
-        size = 2 * block.orders + int(block.with_offset)
-        parts.append(np.zeros(size) if values is None
-                     else order_coefficients(np.asarray(values, dtype=float), block.orders,
-                                             block.with_offset))
+        part = np.zeros((2 * block.orders + int(block.with_offset), len(effects)))
+        touching = [j for j, effect in enumerate(effects) if effect.get(block.name) is not None]
+        if touching:
+            values = np.array([np.asarray(effects[j][block.name], dtype=float)
+                               for j in touching])
+            part[:, touching] = order_coefficients(values, block.orders, block.with_offset).T
+        parts.append(part)
     return np.concatenate(parts)
 
 
