@@ -35,7 +35,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 import scipy.linalg
-import scipy.stats
+import scipy.special
 
 from rigval.acquisition.errors import DataError
 from rigval.acquisition.threads import single_blas_thread
@@ -383,13 +383,21 @@ def _select(rows: np.ndarray, variance: np.ndarray, noise: np.ndarray, design: n
             first = trial
         best = min(trial, key=trial.__getitem__)
         scale = max(1.0, trial[best] / max(y.size - len(chosen) - 1, 1))
-        penalty = max(math.log(y.size), float(scipy.stats.chi2.isf(ALPHA / len(trial), 1)))
-        if (chi2 - trial[best]) / scale <= penalty:
+        if (chi2 - trial[best]) / scale <= _penalty(y.size, len(trial)):
             break
         gains.append(chi2 - trial[best])
         chosen.append(best)
         chi2 = trial[best]
     return chosen, gains, first
+
+
+def _penalty(rows: int, candidates: int) -> float:
+    """Return the drop of ``chi^2`` a cause must exceed: BIC's ``ln(rows)``, Bonferroni's quantile.
+
+    The chi-square quantile of one degree of freedom with the upper tail ``ALPHA /
+    candidates`` (``scipy.stats.chi2.isf``, whose value it is, to the bit).
+    """
+    return max(math.log(rows), float(scipy.special.chdtri(1, ALPHA / candidates)))
 
 
 def _widen(blocks: Sequence[Block], rows: np.ndarray, variance: np.ndarray, noise: np.ndarray,

@@ -21,7 +21,7 @@ import logging
 import math
 
 import numpy as np
-import scipy.stats
+import scipy.special
 
 from rigval.acquisition.errors import DataError
 from rigval.validation.metrics.core import Scores
@@ -185,7 +185,8 @@ def pair_shares(first: np.ndarray, second: np.ndarray, *, u_first: float, u_seco
     u_share = math.hypot(u_scatter, u_calibration)
     # Welch-Satterthwaite: the calibration part is known (infinite degrees of freedom)
     dof = (u_share**4 / (u_scatter**4 / (n - 1))) if u_scatter > 0.0 else math.inf
-    k = float(scipy.stats.t.ppf(0.975, dof)) if math.isfinite(dof) else 1.959963984540054
+    # Student's t quantile (t.ppf)
+    k = float(scipy.special.stdtrit(dof, 0.975)) if math.isfinite(dof) else 1.959963984540054
     lag, u_lag = _lag(a, b)
     result = PairShares(share=share, u_share=u_share, u_scatter=u_scatter,
                         u_calibration=u_calibration, k=k, lower=share - k * u_share,
