@@ -50,7 +50,7 @@ if TYPE_CHECKING:
 
     from matplotlib.figure import Figure
 
-__all__ = ["HELD_BYTES", "file_tree", "start_figures", "start_model_figures", "write_metrics",
+__all__ = ["HELD_BYTES", "file_groups", "start_figures", "start_model_figures", "write_metrics",
            "write_netcdf", "write_report"]
 
 logger = logging.getLogger(__name__)
@@ -152,25 +152,32 @@ def write_netcdf(result: ValidationResult, path: Path) -> Path:
     path : pathlib.Path
         The file to write.
     """
-    tree, encoding = file_tree(result)
+    groups, encoding = file_groups(result)
     with atomic_output(path) as partial:
-        _write_tree(tree, partial, encoding)
+        _write_groups(groups, partial, encoding)
     return path
 
 
-def file_tree(result: ValidationResult) -> tuple[xr.DataTree, dict[str, dict[str, Any]]]:
-    """Return the tree of the run's netCDF file and its encoding by group (:func:`write_netcdf`).
+def _depth(path: str) -> int:
+    """Return a group's depth in the file: 0 for the root ``/``, 1 for ``/angle``, ..."""
+    return path.rstrip("/").count("/")
 
-    The run's tree with ``/health`` and the root's summary and provenance; numeric variables
-    zlib level 4 with shuffle (:func:`_encoding`).
+
+def file_groups(result: ValidationResult
+                ) -> tuple[dict[str, xr.Dataset], dict[str, dict[str, Any]]]:
+    """Return the groups of the run's netCDF file and their encodings (:func:`write_netcdf`).
+
+    The run's tree's groups with ``/health`` and the root's summary and provenance, breadth
+    first as ``xr.DataTree.from_dict`` of them lists its groups (which would hold the same
+    Datasets: the run's tree is one already, and the root has no coordinates to inherit);
+    numeric variables zlib level 4 with shuffle (:func:`_encoding`).
     """
     scene = result.scene
-    # the file's tree built at once (each group added to a tree aligns it again)
     nodes = {node.path: node.to_dataset(inherit=False) for node in result.tree.subtree}
     nodes["/health"] = health_dataset(result.health)
-    # breadth first, as the tree lists its groups: /health among the root's children
-    groups = [path for path in sorted(nodes, key=lambda path: path.rstrip("/").count("/"))
-              if path != "/" and nodes[path].variables]
+    # breadth first: /health among the root's children
+    nodes = dict(sorted(nodes.items(), key=lambda item: _depth(item[0])))
+    groups = [path for path, ds in nodes.items() if path != "/" and ds.variables]
     # what plain xr.open_dataset shows
     nodes["/"] = root_summary(result, nodes["/"], groups, result.input_digests).assign_attrs({
         "Conventions": "CF-1.13",
@@ -182,7 +189,7 @@ def file_tree(result: ValidationResult) -> tuple[xr.DataTree, dict[str, dict[str
         "validation_passed": int(result.passed),
     })
     encoding = {path: _encoding(ds) for path, ds in nodes.items() if ds.variables}
-    return xr.DataTree.from_dict(nodes), encoding
+    return nodes, encoding
 
 
 #: Bytes of variable data :class:`_DeferredWrites` holds at most before writing them: the
@@ -231,16 +238,20 @@ class _DeferredWrites:
         self._held = 0
 
 
-def _write_tree(tree: xr.DataTree, path: Path, encoding: Mapping[str, Mapping[str, Any]]) -> None:
-    """Write a tree to netCDF-4 as ``tree.to_netcdf(path, engine="netcdf4", encoding=...)`` does.
+def _write_groups(groups: Mapping[str, xr.Dataset], path: Path,
+                  encoding: Mapping[str, Mapping[str, Any]]) -> None:
+    """Write groups to netCDF-4 as ``DataTree.to_netcdf(path, engine="netcdf4")`` writes a tree.
 
-    The same groups, dimensions, variables, attributes, encodings and data, in the same order;
-    the variables defined before their data is written (:class:`_DeferredWrites`).
+    The tree ``xr.DataTree.from_dict(groups)`` whose nodes hold ``groups``' Datasets, written
+    with the same groups, dimensions, variables, attributes, encodings and data, in the same
+    order, without building it; the variables defined before their data is written
+    (:class:`_DeferredWrites`).
 
     Parameters
     ----------
-    tree : xarray.DataTree
-        The tree.
+    groups : mapping of str to xarray.Dataset
+        Each group's own variables by path, the root ``/`` first, every group after its parent
+        (breadth first, as such a tree lists them).
     path : pathlib.Path
         The file to write (overwritten).
     encoding : mapping of str to mapping
@@ -249,10 +260,9 @@ def _write_tree(tree: xr.DataTree, path: Path, encoding: Mapping[str, Mapping[st
     root = xr.backends.NetCDF4DataStore.open(path, mode="w", format="NETCDF4")
     writes = _DeferredWrites()
     try:
-        for node in tree.subtree:
-            store = root if node is tree else root.get_child_store(node.path)
-            node.to_dataset(inherit=node is tree).dump_to_store(
-                store, writer=writes, encoding=encoding.get(node.path))
+        for group, ds in groups.items():
+            store = root if group == "/" else root.get_child_store(group)
+            ds.dump_to_store(store, writer=writes, encoding=encoding.get(group))
         writes.write()
     finally:
         root.close()
