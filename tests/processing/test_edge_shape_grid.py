@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 import pytest
-from scipy.special import sici
+from scipy.special import erf, sici
 
 from rigval.processing import edge_shape
 
@@ -51,3 +51,24 @@ def test_grid_misfits_equal_the_pairwise_evaluation(shape, width):
                                rtol=0, atol=0)
     expected = _direct(y, candidates, width, shape)
     np.testing.assert_allclose(grid, expected, rtol=0, atol=1e-12 * expected.max())
+
+
+def test_symmetric_shape_equals_the_full_error_function_to_the_bit():
+    # the error function is evaluated only where it is not +-1: the values are those of the
+    # full evaluation, on both sides of the saturation and across the widths scanned
+    rng = np.random.default_rng(3)
+    x = np.concatenate([rng.normal(0.0, 4.0, 200_000), rng.uniform(-1e4, 1e4, 20_000),
+                        np.linspace(-7.0, 7.0, 100_001), [0.0, -0.0, 6.0, -6.0, np.inf, -np.inf]])
+    full = 0.5 * (1.0 + erf(x))
+    assert edge_shape._symmetric(x).tobytes() == full.tobytes()
+    u = edge_shape._DISTANCES[None, :] - rng.uniform(-1.0, 1.0, 5)[:, None]
+    for width in edge_shape._WIDTHS:
+        expected = 0.5 * (1.0 + erf(u / (width * np.sqrt(2.0))))
+        assert edge_shape._shape(u, width, "symmetric").tobytes() == expected.tobytes()
+
+
+def test_error_function_is_one_beyond_the_saturation():
+    x = np.concatenate([np.linspace(edge_shape._ERF_SATURATED, 40.0, 1_000_001),
+                        np.geomspace(40.0, 1e300, 10_001)])
+    assert np.all(erf(x) == 1.0)
+    assert np.all(erf(-x) == -1.0)
