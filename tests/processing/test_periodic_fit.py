@@ -68,3 +68,16 @@ def test_period_sensitivity_equals_the_fit_and_normal_equations_it_replaces() ->
         for got, expected in ((angle, expected_angle), (sensitivity, expected_sensitivity),
                               (gram, expected_gram), (projection, expected_projection)):
             assert got.tobytes() == expected.tobytes()
+
+
+def test_harmonics_equal_the_cumulative_product_of_the_phasor_to_the_bit() -> None:
+    # the direct computation: exp(j tau) multiplied along each row
+    rng = np.random.default_rng(11)
+    for tau in (rng.uniform(-50.0, 400.0, periodic_fit._CHUNK_ROWS),
+                rng.normal(0.0, 1e4, 1001), np.linspace(0.0, 2 * math.pi, 7), np.zeros(0)):
+        for order in range(13):
+            phasor = np.cumprod(np.broadcast_to(np.exp(1j * tau)[:, None], (tau.size, order)),
+                                axis=1)
+            cos, sin = periodic_fit._harmonics(tau, order)
+            assert cos.tobytes() == phasor.real.tobytes()
+            assert sin.tobytes() == phasor.imag.tobytes()
