@@ -176,8 +176,8 @@ _RECENT_FITS_LOCK = threading.Lock()
 
 
 def _record_key(t: FloatArray, theta: FloatArray, harmonics: int) -> bytes:
-    """Return a digest of an angle record's samples and a fit's harmonics (BLAKE2b, 32 bytes)."""
-    digest = hashlib.blake2b(digest_size=32)
+    """Return a digest of an angle record's samples and a fit's harmonics (SHA-256)."""
+    digest = hashlib.sha256()
     for samples in (t, theta):
         data = np.ascontiguousarray(samples, dtype=np.float64)
         digest.update(np.int64(data.size).tobytes())
