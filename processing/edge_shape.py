@@ -44,10 +44,10 @@ _OFFSETS = np.linspace(-1.6, 1.6, 161)
 #: Step of :data:`_OFFSETS` in samples, and the steps in a sample interval (a whole number).
 _STEP = 0.02
 _STEPS_PER_SAMPLE = round(1.0 / _STEP)
-#: Every distance in samples of a sample after a candidate time, lattice index 0 being the first
-#: sample and the last candidate.
+#: Every distance in samples of a sample after a candidate time, decreasing: lattice index 0 is
+#: the last sample's from the first candidate, the last index the first sample's from the last.
 _DISTANCES = (_STEP * np.arange(_STEPS_PER_SAMPLE * (_BEFORE + _AFTER) + _OFFSETS.size)
-              - (_BEFORE + _OFFSETS[-1]))
+              - (_BEFORE + _OFFSETS[-1]))[::-1].copy()
 #: Edges the first scan looks at (evenly picked).
 _SCAN_EDGES = 60
 #: Least noise rms (share of the step) the fit assumes: no sample is known better (a 16-bit
@@ -160,8 +160,9 @@ def _grid(y: FloatArray, guess: FloatArray, width: float, shape: str
     centre = guess - (width * np.log(2.0) if shape == "first-order" else 0.0)
     candidates = centre[:, None] + _OFFSETS[None, :]
     model = _shape(_DISTANCES[None, :] - centre[:, None], width, shape)
-    # pairs[e, k, j] = model[e, k * steps per sample + (last candidate - j)]
-    pairs = sliding_window_view(model, _OFFSETS.size, axis=1)[:, ::_STEPS_PER_SAMPLE, ::-1]
+    # pairs[e, k, j] = model[e, (last sample - k) * steps per sample + j]: each sample's
+    # candidates read forward (the residuals' fast loop)
+    pairs = sliding_window_view(model, _OFFSETS.size, axis=1)[:, ::-_STEPS_PER_SAMPLE]
     residual = y[:, :, None] - pairs
     residual *= residual
     return candidates, residual.sum(axis=1)

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import pytest
+from numpy.lib.stride_tricks import sliding_window_view
 from scipy.special import erf, sici
 
 from rigval.processing import edge_shape
@@ -72,3 +73,20 @@ def test_error_function_is_one_beyond_the_saturation():
                         np.geomspace(40.0, 1e300, 10_001)])
     assert np.all(erf(x) == 1.0)
     assert np.all(erf(-x) == -1.0)
+
+
+@pytest.mark.parametrize("shape", ["first-order", "symmetric", "band-limited"])
+def test_grid_reads_the_lattice_either_way_to_the_bit(shape):
+    # the lattice decreasing, each sample's candidates read forward, gives the misfits of the
+    # lattice increasing read backward
+    rng = np.random.default_rng(5)
+    y = rng.uniform(-0.1, 1.1, (7, edge_shape._BEFORE + edge_shape._AFTER + 1))
+    guess = rng.uniform(-1.0, 1.0, 7)
+    increasing = edge_shape._DISTANCES[::-1]
+    for width in (0.013, 0.37, 3.9):
+        centre = guess - (width * np.log(2.0) if shape == "first-order" else 0.0)
+        model = edge_shape._shape(increasing[None, :] - centre[:, None], width, shape)
+        pairs = sliding_window_view(model, edge_shape._OFFSETS.size, axis=1)[
+            :, ::edge_shape._STEPS_PER_SAMPLE, ::-1]
+        expected = ((y[:, :, None] - pairs) ** 2).sum(axis=1)
+        assert edge_shape._grid(y, guess, width, shape)[1].tobytes() == expected.tobytes()
