@@ -44,10 +44,10 @@ _OFFSETS = np.linspace(-1.6, 1.6, 161)
 #: Step of :data:`_OFFSETS` in samples, and the steps in a sample interval (a whole number).
 _STEP = 0.02
 _STEPS_PER_SAMPLE = round(1.0 / _STEP)
-#: Every distance in samples of a sample after a candidate time, lattice index 0 being the first
-#: sample and the last candidate.
+#: Every distance in samples of a sample after a candidate time, decreasing: lattice index 0 is
+#: the last sample's from the first candidate, the last index the first sample's from the last.
 _DISTANCES = (_STEP * np.arange(_STEPS_PER_SAMPLE * (_BEFORE + _AFTER) + _OFFSETS.size)
-              - (_BEFORE + _OFFSETS[-1]))
+              - (_BEFORE + _OFFSETS[-1]))[::-1].copy()
 #: Edges the first scan looks at (evenly picked).
 _SCAN_EDGES = 60
 #: Least noise rms (share of the step) the fit assumes: no sample is known better (a 16-bit
@@ -61,6 +61,8 @@ _DECIDE = 25.0
 #: windowed-sinc reconstruction's own error and the state levels' bias (run means up to 0.0016
 #: sample measured on band-limited steps, docs/processing.md "Edge shapes").
 SYMMETRIC_BOUND = 0.005
+#: Least ``|x|`` whose error function rounds to +-1, with a margin (it does from 5.92 on).
+_ERF_SATURATED = 6.0
 #: A symmetric edge narrower than this (sigma, samples) is not resolved by the samples.
 _UNRESOLVED = 0.3
 #: Widths whose total misfit exceeds the best by less than this many noise variances stay
@@ -122,7 +124,20 @@ def _shape(u: FloatArray, width: float, shape: str) -> FloatArray:
         return -np.expm1(-np.clip(u, 0.0, None) / width)
     if shape == "band-limited":
         return 0.5 + sici(u / width)[0] / np.pi
-    return 0.5 * (1.0 + erf(u / (width * np.sqrt(2.0))))
+    return _symmetric(u / (width * np.sqrt(2.0)))
+
+
+def _symmetric(x: FloatArray) -> FloatArray:
+    """Return ``(1 + erf(x)) / 2``, the error function evaluated only where it is not +-1.
+
+    ``erf(x)`` rounds to +-1 from ``|x| = 5.92`` on (``erfc(5.92) < 2**-54``): beyond
+    :data:`_ERF_SATURATED` the value is 1 or 0, as the full evaluation gives it. A narrow edge
+    leaves most of the lattice there (a fifth of it is evaluated at sigma 0.3 sample).
+    """
+    value = (x > 0.0).astype(np.float64)
+    inside = np.abs(x) < _ERF_SATURATED
+    value[inside] = 0.5 * (1.0 + erf(x[inside]))
+    return value
 
 
 def _misfit(y: FloatArray, times: FloatArray, width: float, shape: str) -> FloatArray:
@@ -145,8 +160,9 @@ def _grid(y: FloatArray, guess: FloatArray, width: float, shape: str
     centre = guess - (width * np.log(2.0) if shape == "first-order" else 0.0)
     candidates = centre[:, None] + _OFFSETS[None, :]
     model = _shape(_DISTANCES[None, :] - centre[:, None], width, shape)
-    # pairs[e, k, j] = model[e, k * steps per sample + (last candidate - j)]
-    pairs = sliding_window_view(model, _OFFSETS.size, axis=1)[:, ::_STEPS_PER_SAMPLE, ::-1]
+    # pairs[e, k, j] = model[e, (last sample - k) * steps per sample + j]: each sample's
+    # candidates read forward (the residuals' fast loop)
+    pairs = sliding_window_view(model, _OFFSETS.size, axis=1)[:, ::-_STEPS_PER_SAMPLE]
     residual = y[:, :, None] - pairs
     residual *= residual
     return candidates, residual.sum(axis=1)

@@ -29,8 +29,11 @@ measured errors were 0.4-0.5 times the Butterworth estimate but 1.7-2.8 times th
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import math
+import threading
+from collections import OrderedDict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Literal
@@ -148,13 +151,54 @@ def _fourier_fit(t: FloatArray, theta: FloatArray | CountAngle, harmonics: int,
     The fundamental W is the mean speed: the period ``2 pi / W`` starts from the straight line
     through the record and is refined by Gauss-Newton on the fit's residual
     (:func:`~rigval.processing.periodic_fit.refine_period`). At most ``max_samples`` evenly
-    thinned samples are fitted (bounded time).
+    thinned samples are fitted (bounded time). A record fitted lately (the same samples and
+    harmonics: a run's main drive is smoothed for its phi_F and again for its mean cycle) gets
+    the fit it got then (:func:`_recent_fit`).
     """
     thin = max(1, t.size // max_samples)
     t, theta = t[::thin], theta[::thin]
-    slope = float(np.polyfit(t - t.mean(), theta, 1)[0])
-    period = refine_period(t, theta, 2.0 * np.pi / abs(slope), harmonics)
-    return fit_periodic(t, theta, period, harmonics)
+    key = _record_key(t, theta, harmonics)
+    fit = _recent_fit(key)
+    if fit is None:
+        slope = float(np.polyfit(t - t.mean(), theta, 1)[0])
+        period = refine_period(t, theta, 2.0 * np.pi / abs(slope), harmonics)
+        fit = fit_periodic(t, theta, period, harmonics)
+        fit.coef.setflags(write=False)  # shared by the calls that find it
+    _keep_fit(key, fit)
+    return fit
+
+
+#: Fourier fits of the records fitted last (:func:`_fourier_fit`), the most recent last.
+_RECENT_FITS: OrderedDict[bytes, PeriodicFit] = OrderedDict()
+#: Fits :data:`_RECENT_FITS` holds at most.
+_FITS_KEPT = 4
+_RECENT_FITS_LOCK = threading.Lock()
+
+
+def _record_key(t: FloatArray, theta: FloatArray, harmonics: int) -> bytes:
+    """Return a digest of an angle record's samples and a fit's harmonics (SHA-256)."""
+    digest = hashlib.sha256()
+    for samples in (t, theta):
+        data = np.ascontiguousarray(samples, dtype=np.float64)
+        digest.update(np.int64(data.size).tobytes())
+        digest.update(data)
+    digest.update(np.int64(harmonics).tobytes())
+    return digest.digest()
+
+
+def _recent_fit(key: bytes) -> PeriodicFit | None:
+    """Return the fit kept under ``key`` (:func:`_record_key`), or None."""
+    with _RECENT_FITS_LOCK:
+        return _RECENT_FITS.get(key)
+
+
+def _keep_fit(key: bytes, fit: PeriodicFit) -> None:
+    """Keep ``fit`` under ``key`` as the most recent; drop the oldest beyond :data:`_FITS_KEPT`."""
+    with _RECENT_FITS_LOCK:
+        _RECENT_FITS.pop(key, None)
+        _RECENT_FITS[key] = fit
+        while len(_RECENT_FITS) > _FITS_KEPT:
+            _RECENT_FITS.popitem(last=False)
 
 
 def _butterworth_pieces(t: FloatArray, theta: FloatArray | CountAngle, fs: float,

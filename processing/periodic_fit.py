@@ -47,8 +47,19 @@ def _harmonics(tau: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
 
     By repeated products of ``exp(j tau)``: one complex exponential per sample instead of
     ``2 order`` trigonometric calls; the products add about ``k`` ulp of rounding to harmonic k.
+    They are taken a column at a time, as the cumulative product along each row took them
+    (numpy's complex product on strided columns; with two harmonics the one product is
+    numpy's on whole arrays, as ``np.cumprod`` takes a single product): the same values to the
+    bit at half the time.
     """
-    phasor = np.cumprod(np.broadcast_to(np.exp(1j * tau)[:, None], (tau.size, order)), axis=1)
+    first = np.exp(1j * tau)
+    phasor = np.empty((tau.size, order), dtype=first.dtype)
+    phasor[:, :1] = first[:, None]  # none without harmonics
+    if order == 2:
+        phasor[:, 1] = first * first
+    else:
+        for k in range(1, order):
+            np.multiply(phasor[:, k - 1], first, out=phasor[:, k])
     return phasor.real, phasor.imag
 
 
@@ -64,9 +75,22 @@ def fourier_basis(tau: np.ndarray, order: int, derivative: int = 0) -> np.ndarra
     derivative : {0, 1, 2}
         Derivative with respect to tau.
     """
+    return _design(*_harmonics(tau, order), derivative)
+
+
+def _design(cos: np.ndarray, sin: np.ndarray, derivative: int = 0) -> np.ndarray:
+    """Return the Fourier design (:func:`fourier_basis`) from the harmonics of its phases.
+
+    Parameters
+    ----------
+    cos, sin : numpy.ndarray
+        ``cos k tau`` and ``sin k tau`` for k = 1..K, shape (n, K) (:func:`_harmonics`).
+    derivative : {0, 1, 2}
+        Derivative with respect to tau.
+    """
+    size, order = cos.shape
     k = np.arange(1, order + 1)
-    cos, sin = _harmonics(tau, order)
-    columns = np.empty((tau.size, 2 * order + 1))
+    columns = np.empty((size, 2 * order + 1))
     columns[:, 0] = 1.0 if derivative == 0 else 0.0
     if derivative == 0:
         columns[:, 1::2], columns[:, 2::2] = cos, sin
@@ -139,10 +163,26 @@ class PeriodicFit:
             tau = self.phase(t[lo:lo + _CHUNK_ROWS])
             cos, sin = _harmonics(tau, n)
             part = slice(lo, lo + tau.size)
-            angle[part] = self.ratio * tau + self.coef[0] + cos @ a + sin @ b
-            speed[part] = w * (self.ratio + sin @ (-k * a) + cos @ (k * b))
+            angle[part], speed[part] = self.angle_and_speed(tau, cos, sin)
             acceleration[part] = w**2 * (cos @ (-(k**2) * a) + sin @ (-(k**2) * b))
         return angle, speed, acceleration
+
+    def angle_and_speed(self, tau: np.ndarray, cos: np.ndarray, sin: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray]:
+        """Return angle (rad) and angular speed (rad/s) at phases ``tau`` from their harmonics.
+
+        Parameters
+        ----------
+        tau : numpy.ndarray
+            Phases, rad, shape (n,) (:meth:`phase`).
+        cos, sin : numpy.ndarray
+            ``cos k tau`` and ``sin k tau`` for k = 1..K, shape (n, K) (:func:`_harmonics`).
+        """
+        k = np.arange(1, self.order + 1)
+        a, b = self.coef[1::2], self.coef[2::2]
+        angle = self.ratio * tau + self.coef[0] + cos @ a + sin @ b
+        speed = self.omega * (self.ratio + sin @ (-k * a) + cos @ (k * b))
+        return angle, speed
 
 
 def turns_per_period(t: np.ndarray, theta: np.ndarray, period: float) -> float:
@@ -213,10 +253,7 @@ def refine_period(t: np.ndarray, theta: np.ndarray, period: float, order: int, *
     t0 = float(t[0]) if t0 is None else float(t0)
     for _ in range(_PERIOD_STEPS):
         fit = fit_periodic(t, theta, period, order, t0=t0)
-        model, speed, _ = fit(t)
-        elapsed = t - t0
-        sensitivity = -elapsed / period * speed
-        gram, projection = fourier_normal_equations(fit.phase(t), sensitivity, order)
+        model, sensitivity, gram, projection = _period_sensitivity(fit, t)
         explained = float(projection @ scipy.linalg.solve(gram, projection, assume_a="pos"))
         step = float(sensitivity @ (theta - model)) / (float(sensitivity @ sensitivity)
                                                         - explained)
@@ -227,3 +264,41 @@ def refine_period(t: np.ndarray, theta: np.ndarray, period: float, order: int, *
         if abs(step) <= 1e-13 * period:
             break
     return period
+
+
+def _period_sensitivity(fit: PeriodicFit, t: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Return a fit's angle at ``t`` and its derivative by the period, with their normal equations.
+
+    The derivative is ``s = -((t - t0) / period) d theta / dt`` (:func:`refine_period`); the
+    normal equations are ``A^T A`` and ``A^T s`` of the fit's Fourier design ``A`` at ``t``. One
+    pass over blocks of rows: each block's harmonics serve the angle, the speed and the design,
+    which ``fit(t)`` and :func:`fourier_normal_equations` would each compute again (the same
+    operations in the same order: the results are the same to the bit).
+
+    Parameters
+    ----------
+    fit : PeriodicFit
+        The periodic fit.
+    t : numpy.ndarray
+        Times, s, shape (n,).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray, numpy.ndarray, numpy.ndarray)
+        Angle (rad) and ``s`` (rad/s) at ``t``, shape (n,); ``A^T A`` (``2 K + 1`` square) and
+        ``A^T s``.
+    """
+    p = 2 * fit.order + 1
+    angle, sensitivity = np.empty(t.size), np.empty(t.size)
+    gram, projection = np.zeros((p, p)), np.zeros(p)
+    for lo in range(0, t.size, _CHUNK_ROWS):
+        tau = fit.phase(t[lo:lo + _CHUNK_ROWS])
+        cos, sin = _harmonics(tau, fit.order)
+        part = slice(lo, lo + tau.size)
+        angle[part], speed = fit.angle_and_speed(tau, cos, sin)
+        sensitivity[part] = -(t[part] - fit.t0) / fit.period * speed
+        block = _design(cos, sin)
+        gram += block.T @ block
+        projection += block.T @ sensitivity[part]
+    return angle, sensitivity, gram, projection

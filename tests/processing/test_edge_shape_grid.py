@@ -13,7 +13,8 @@ import math
 
 import numpy as np
 import pytest
-from scipy.special import sici
+from numpy.lib.stride_tricks import sliding_window_view
+from scipy.special import erf, sici
 
 from rigval.processing import edge_shape
 
@@ -51,3 +52,41 @@ def test_grid_misfits_equal_the_pairwise_evaluation(shape, width):
                                rtol=0, atol=0)
     expected = _direct(y, candidates, width, shape)
     np.testing.assert_allclose(grid, expected, rtol=0, atol=1e-12 * expected.max())
+
+
+def test_symmetric_shape_equals_the_full_error_function_to_the_bit():
+    # the error function is evaluated only where it is not +-1: the values are those of the
+    # full evaluation, on both sides of the saturation and across the widths scanned
+    rng = np.random.default_rng(3)
+    x = np.concatenate([rng.normal(0.0, 4.0, 200_000), rng.uniform(-1e4, 1e4, 20_000),
+                        np.linspace(-7.0, 7.0, 100_001), [0.0, -0.0, 6.0, -6.0, np.inf, -np.inf]])
+    full = 0.5 * (1.0 + erf(x))
+    assert edge_shape._symmetric(x).tobytes() == full.tobytes()
+    u = edge_shape._DISTANCES[None, :] - rng.uniform(-1.0, 1.0, 5)[:, None]
+    for width in edge_shape._WIDTHS:
+        expected = 0.5 * (1.0 + erf(u / (width * np.sqrt(2.0))))
+        assert edge_shape._shape(u, width, "symmetric").tobytes() == expected.tobytes()
+
+
+def test_error_function_is_one_beyond_the_saturation():
+    x = np.concatenate([np.linspace(edge_shape._ERF_SATURATED, 40.0, 1_000_001),
+                        np.geomspace(40.0, 1e300, 10_001)])
+    assert np.all(erf(x) == 1.0)
+    assert np.all(erf(-x) == -1.0)
+
+
+@pytest.mark.parametrize("shape", ["first-order", "symmetric", "band-limited"])
+def test_grid_reads_the_lattice_either_way_to_the_bit(shape):
+    # the lattice decreasing, each sample's candidates read forward, gives the misfits of the
+    # lattice increasing read backward
+    rng = np.random.default_rng(5)
+    y = rng.uniform(-0.1, 1.1, (7, edge_shape._BEFORE + edge_shape._AFTER + 1))
+    guess = rng.uniform(-1.0, 1.0, 7)
+    increasing = edge_shape._DISTANCES[::-1]
+    for width in (0.013, 0.37, 3.9):
+        centre = guess - (width * np.log(2.0) if shape == "first-order" else 0.0)
+        model = edge_shape._shape(increasing[None, :] - centre[:, None], width, shape)
+        pairs = sliding_window_view(model, edge_shape._OFFSETS.size, axis=1)[
+            :, ::edge_shape._STEPS_PER_SAMPLE, ::-1]
+        expected = ((y[:, :, None] - pairs) ** 2).sum(axis=1)
+        assert edge_shape._grid(y, guess, width, shape)[1].tobytes() == expected.tobytes()

@@ -6,7 +6,13 @@ import math
 
 import numpy as np
 
-from rigval.processing.periodic_fit import fit_periodic, fourier_basis, refine_period
+from rigval.processing import periodic_fit
+from rigval.processing.periodic_fit import (
+    fit_periodic,
+    fourier_basis,
+    fourier_normal_equations,
+    refine_period,
+)
 
 PERIOD = 0.8
 
@@ -44,3 +50,34 @@ def test_basis_derivatives_are_finite_differences() -> None:
         numeric = (fourier_basis(tau + h, 5, derivative - 1)
                    - fourier_basis(tau - h, 5, derivative - 1)) / (2 * h)
         np.testing.assert_allclose(fourier_basis(tau, 5, derivative), numeric, atol=2e-7)
+
+
+def test_period_sensitivity_equals_the_fit_and_normal_equations_it_replaces() -> None:
+    # several blocks of rows, a last one short; harmonic orders beyond the law's
+    rng = np.random.default_rng(7)
+    t = np.sort(rng.uniform(0.0, 30.0, 2 * periodic_fit._CHUNK_ROWS + 1234))
+    theta, _, _ = _angle(t)
+    theta += rng.normal(0.0, 1e-3, t.size)
+    for order in (1, 2, 4, 8):
+        fit = fit_periodic(t, theta, PERIOD * (1 + 1e-4), order, t0=0.1)
+        angle, sensitivity, gram, projection = periodic_fit._period_sensitivity(fit, t)
+        expected_angle, speed, _ = fit(t)
+        expected_sensitivity = -(t - 0.1) / fit.period * speed
+        expected_gram, expected_projection = fourier_normal_equations(
+            fit.phase(t), expected_sensitivity, order)
+        for got, expected in ((angle, expected_angle), (sensitivity, expected_sensitivity),
+                              (gram, expected_gram), (projection, expected_projection)):
+            assert got.tobytes() == expected.tobytes()
+
+
+def test_harmonics_equal_the_cumulative_product_of_the_phasor_to_the_bit() -> None:
+    # the direct computation: exp(j tau) multiplied along each row
+    rng = np.random.default_rng(11)
+    for tau in (rng.uniform(-50.0, 400.0, periodic_fit._CHUNK_ROWS),
+                rng.normal(0.0, 1e4, 1001), np.linspace(0.0, 2 * math.pi, 7), np.zeros(0)):
+        for order in range(13):
+            phasor = np.cumprod(np.broadcast_to(np.exp(1j * tau)[:, None], (tau.size, order)),
+                                axis=1)
+            cos, sin = periodic_fit._harmonics(tau, order)
+            assert cos.tobytes() == phasor.real.tobytes()
+            assert sin.tobytes() == phasor.imag.tobytes()
