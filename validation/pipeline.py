@@ -156,6 +156,18 @@ class _Aligned:
 
 
 @dataclass(frozen=True)
+class _Others:
+    """The streams other than the reference as read, and their clocks' pulses found as read.
+
+    ``clock_pulses``: where the read stage found them (beside it); the align stage finds the
+    others'.
+    """
+
+    streams: Mapping[str, xr.Dataset]
+    clock_pulses: Mapping[str, StreamPulses]
+
+
+@dataclass(frozen=True)
 class _PhiF:
     """The align stage's first step: the reference stream on its timeline with phi_F(t).
 
@@ -163,8 +175,7 @@ class _PhiF:
     """
 
     inputs: Inputs
-    others: Mapping[str, xr.Dataset]
-    clock_pulses: Mapping[str, StreamPulses]
+    others: _Others
     reference: ReferenceAngle
 
 
@@ -177,8 +188,7 @@ class _Predicted:
     """
 
     inputs: Inputs
-    others: Mapping[str, xr.Dataset]
-    clock_pulses: Mapping[str, StreamPulses]
+    others: _Others
     reference: xr.Dataset
     record: ReferenceRecord
     events: Mapping[str, np.ndarray]
@@ -195,8 +205,7 @@ class _Driven:
     """
 
     inputs: Inputs
-    others: Mapping[str, xr.Dataset]
-    clock_pulses: Mapping[str, StreamPulses]
+    others: _Others
     reference: xr.Dataset
     record: ReferenceRecord
     events: Mapping[str, np.ndarray]
@@ -211,7 +220,7 @@ def _phi_f(scene: Scene, settings: AlignmentSettings, read: Read) -> _PhiF:
     reference = reference_angle(settings, read.converted[settings.reference],
                                 device_time=scene.output.aligned, found=read.reference)
     others = {name: ds for name, ds in read.converted.items() if name != settings.reference}
-    return _PhiF(read.inputs, others, read.clock_pulses, reference)
+    return _PhiF(read.inputs, _Others(others, read.clock_pulses), reference)
 
 
 def _predict(scene: Scene, settings: AlignmentSettings, phi: _PhiF) -> _Predicted:
@@ -219,9 +228,8 @@ def _predict(scene: Scene, settings: AlignmentSettings, phi: _PhiF) -> _Predicte
     main = phi.reference.main
     events = pulse_events(settings, main)
     grid, fine_times = _grid(scene, main)
-    return _Predicted(phi.inputs, phi.others, phi.clock_pulses, phi.reference.stream,
-                      phi.reference.record, events, grid, fine_times,
-                      main.grid(scene.angle.points_per_revolution))
+    return _Predicted(phi.inputs, phi.others, phi.reference.stream, phi.reference.record, events,
+                      grid, fine_times, main.grid(scene.angle.points_per_revolution))
 
 
 def _drives(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, predicted: _Predicted
@@ -235,9 +243,8 @@ def _drives(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, predicted
                               predicted.fine_times) if plan.drives else None)
     reference = _kept(plan, settings.reference, predicted.reference,
                       settings.reference_pulse.name)
-    return _Driven(predicted.inputs, predicted.others, predicted.clock_pulses, reference,
-                   predicted.record, predicted.events, predicted.grid, predicted.angle_times,
-                   drives)
+    return _Driven(predicted.inputs, predicted.others, reference, predicted.record,
+                   predicted.events, predicted.grid, predicted.angle_times, drives)
 
 
 def _kept(plan: ReadPlan, name: str, stream: xr.Dataset, *also: str) -> xr.Dataset:
@@ -259,8 +266,8 @@ def _align(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, driven: _D
     pulses and device clocks are let go.
     """
     aligned, diagnostics = align_to_reference(
-        settings, driven.reference, driven.others, driven.record, driven.events,
-        device_time=scene.output.aligned, found=driven.clock_pulses)
+        settings, driven.reference, driven.others.streams, driven.record, driven.events,
+        device_time=scene.output.aligned, found=driven.others.clock_pulses)
     history = [line for ds in aligned.values()
                for line in str(ds.attrs.get("history", "")).splitlines()]
     aligned = {name: _kept(plan, name, ds) for name, ds in aligned.items()}
@@ -315,7 +322,8 @@ class _Model:
     """The model of the run: on the fine grid, the chosen one and at t = 0 of the drive laws.
 
     The chosen grid is every fourth point of the fine one; the configuration at t = 0 is what
-    the report's sketch draws.
+    the report's sketch draws; the predictions are the chosen grid's outputs that were not
+    measured (:func:`_predicted_outputs`).
     """
 
     mechanism: Mechanism
@@ -323,6 +331,7 @@ class _Model:
     fine: xr.Dataset
     chosen: xr.Dataset
     configuration: xr.Dataset
+    predictions: xr.Dataset
 
 
 @dataclass(frozen=True)
@@ -352,9 +361,11 @@ def _model(scene: Scene, aligned: _Aligned, like: xr.Dataset | None = None) -> _
             logger.warning("the mechanism's drive law turns at %.4g rev/s, the run at %.4g "
                            "rev/s: forces scale with the square of the speed; consider "
                            'drives = "measured"', law_speed, grid.speed_rev_s)
+    chosen = fine.isel(angle=slice(None, None, FINE_FACTOR))
     return _Modelled(aligned.inputs, aligned.timeline, _Model(
-        mechanism, settings, fine, fine.isel(angle=slice(None, None, FINE_FACTOR)),
-        solve(mechanism, np.zeros(1), outputs=["position", "point_position"])))
+        mechanism, settings, fine, chosen,
+        solve(mechanism, np.zeros(1), outputs=["position", "point_position"]),
+        _predicted_outputs(scene, chosen)))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -600,8 +611,7 @@ def _run(scene: Scene | str | Path, *, keep: bool,
             run = _model(scene, run)
         if after_model is not None:
             after_model(ModelledRun(run.timeline.diagnostics, run.model.mechanism,
-                                    run.model.configuration,
-                                    _predicted_outputs(scene, run.model.chosen)))
+                                    run.model.configuration, run.model.predictions))
         with watch.stage("angle"):
             run = _angle(scene, plan, run)
         with watch.stage("numerics"):
@@ -630,7 +640,7 @@ def _result(scene: Scene, watch: Stopwatch, measured: _Measured, numerics: _Nume
                 "passed" if passed else "failed")
     return ValidationResult(
         scene=scene, comparisons=results, alignment=timeline.diagnostics,
-        predictions=_predicted_outputs(scene, model.chosen), numerics=summary,
+        predictions=model.predictions, numerics=summary,
         speed_rev_s=grid.speed_rev_s, n_cycles=int(grid.turns.size), tree=tree,
         mechanism=model.mechanism, note=measured.inputs.note,
         input_digests=measured.inputs.digests, configuration=model.configuration,
