@@ -21,15 +21,11 @@ import xarray as xr
 from rigval.sample_data import shipped_runs
 from rigval.validation import pipeline
 from rigval.validation.diagnosis.explain import Diagnosis, _typed, _unit, diagnose
+from tests.validation.diagnosis_cases import PAIR
 
-#: Two pairs of each kind, so that both pair dimensions are written.
-PAIRS = """
-[[symmetry]]
-name = "main drive shafts"
-comparisons = ["tor1", "tor2"]
-u_measurement_rel = 0.01
-u_measurement_rel_common = 0.0098
-
+#: Two pairs of each kind, so that both pair dimensions are written: the rig's pair of main
+#: drive shafts, then two more.
+PAIRS = PAIR + """
 [[symmetry]]
 name = "side shafts"
 comparisons = ["tor3", "tor4"]
