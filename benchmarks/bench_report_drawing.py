@@ -29,8 +29,7 @@ from pathlib import Path
 from rigval.sample_data import shipped_runs
 from rigval.validation.diagnosis.explain import attach_diagnosis
 from rigval.validation.pipeline import run_scene
-from rigval.validation.report import plots, run_report
-from rigval.validation.report.drawing import draw_texts
+from rigval.validation.report import figure_groups, plots, run_report
 from rigval.validation.results import ValidationResult
 
 PLOTS = "rigval.validation.report.plots"
@@ -51,9 +50,9 @@ def per_group(result: ValidationResult, repeats: int) -> None:
     seconds: dict[str, float] = collections.defaultdict(float)
     for _ in range(repeats):
         data = run_report._data(result)
-        for name in run_report.FIGURE_GROUPS:
+        for name in figure_groups.RUN_GROUPS:
             start = time.process_time()
-            draw_texts(run_report._figures(name, data[name][0]))
+            figure_groups.draw_figure_groups((data[name][0],), (name,))
             seconds[name] += time.process_time() - start
     print(f"figures: {sum(seconds.values()) / repeats:.3f} s CPU per page; by group:")
     for name, total in sorted(seconds.items(), key=lambda kv: -kv[1]):

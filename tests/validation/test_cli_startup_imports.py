@@ -68,3 +68,33 @@ def test_info_without_the_parallel_extra_imports_no_scipy(name):
     assert "samples" in result["out"]
     assert "matplotlib" not in result["modules"]
     assert "scipy" not in result["modules"]
+
+
+FORK_WATCH = """
+import contextlib, io, json, sys
+from rigval.validation import beside
+seen = []
+group = beside.Standby.group
+def watching(*args, **kwargs):
+    seen.append([m for m in {watch!r} if m in sys.modules])
+    return group(*args, **kwargs)
+beside.Standby.group = watching
+from rigval.validation.cli import main
+with contextlib.redirect_stdout(io.StringIO()):
+    code = main({argv!r})
+print(json.dumps({{"code": code, "seen": seen}}))
+"""
+
+
+@pytest.mark.parametrize("command", [["validate"], ["identify", "--parameters", "A.mass"]])
+def test_the_drawers_are_forked_before_the_pipeline_is_imported(command, tmp_path):
+    # so that they import matplotlib on the core left idle while this process imports the
+    # pipeline (watch: what was imported when they were forked)
+    argv = [command[0], str(runs_dir() / "run_0p8_scene.toml"), "--out", str(tmp_path / "out"),
+            *command[1:]]
+    code = FORK_WATCH.format(argv=argv, watch=(*HEAVY, "rigval.validation.pipeline"))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300, check=True)
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result["code"] == 0
+    assert result["seen"] == [[]]  # one group of drawers, forked before any of them

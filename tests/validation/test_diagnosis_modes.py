@@ -35,9 +35,10 @@ from rigval.validation.diagnosis.residual import ResidualSeries, residual_series
 from rigval.validation.diagnosis.rigidity import RigidityEvidence, rigidity_evidence
 from rigval.validation.diagnosis.spectra import residual_spectra, welch_runs
 from rigval.validation.pipeline import run_scene
+from rigval.validation.report.figure_groups import draw_why_figures
 from rigval.validation.report.page import Page
 from rigval.validation.report.run_report import write_metrics, write_netcdf
-from rigval.validation.report.why import draw_why_figures, residual_orders, why_section
+from rigval.validation.report.why import residual_orders, why_section
 from rigval.validation.results import ValidationResult
 from rigval.validation.verdict import run_verdict
 

@@ -226,3 +226,55 @@ def test_the_model_figures_handed_after_the_model_stage_are_not_drawn_again():
     for names in FIGURE_PARTS:
         for name in names:
             assert page.texts(name) == plain.texts(name)
+
+
+#: What a drawer must not need to draw a run's page: the libraries and modules of the pipeline.
+PIPELINE_ONLY = ("xarray", "pandas", "scipy", "netCDF4", "nptdms", "rigval.model",
+                 "rigval.processing", "rigval.validation.pipeline", "rigval.validation.results")
+
+DRAW_AFRESH = """
+import hashlib, pickle, sys
+calls = pickle.loads(open(sys.argv[1], "rb").read())
+texts = [function(inputs, names) for function, inputs, names in calls]
+print(hashlib.sha256(pickle.dumps(texts)).hexdigest())
+print(" ".join(m for m in {watch!r} if m in sys.modules))
+"""
+
+
+def test_a_new_drawer_draws_a_run_page_with_numpy_and_matplotlib_alone(tmp_path):
+    """The figures' inputs are plain arrays: a drawer forked before the pipeline's imports
+    unpickles and draws every group of a run's page (and the "Why" figure) with numpy and
+    matplotlib alone, and draws what this process draws."""
+    import hashlib
+    import pickle
+
+    from rigval.sample_data import shipped_runs
+    from rigval.validation.pipeline import run_scene
+    from rigval.validation.report.figure_groups import WHY_GROUP, draw_why_figures
+    from rigval.validation.report.figure_inputs import ResidualOrders
+    from rigval.validation.report.run_report import start_figures
+
+    calls = []
+    drawers = drawing.Drawers(())
+    submit = drawers.submit
+
+    def recording(function, inputs, names, figures):
+        calls.append((function, inputs, names))
+        return submit(function, inputs, names, figures)
+
+    drawers.submit = recording
+    start_figures(run_scene(shipped_runs()[0]), drawers)
+    rows = (ResidualOrders("acc1", "m/s^2", np.linspace(1.0, 0.1, 20), np.full(20, 0.05),
+                           np.ones((20, 2)) * 0.1, "a gain"),)
+    calls.append((draw_why_figures, rows, (WHY_GROUP,)))
+    assert {name for _, _, names in calls for name in names} >= {
+        "comparisons", "pulse_edges", "sketch", "points", "support_forces", WHY_GROUP}
+    (tmp_path / "calls.pkl").write_bytes(pickle.dumps(calls))
+    script = DRAW_AFRESH.format(watch=PIPELINE_ONLY)
+    done = subprocess.run([sys.executable, "-c", script, str(tmp_path / "calls.pkl")], cwd=REPO,
+                          capture_output=True, text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr
+    digest, *imported = done.stdout.splitlines()
+    assert imported == [""]  # none of the pipeline's modules
+    here = [function(inputs, names) for function, inputs, names in calls]
+    assert digest == hashlib.sha256(pickle.dumps(here)).hexdigest()

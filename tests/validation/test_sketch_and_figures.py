@@ -17,9 +17,10 @@ from rigval.model import builtin_mechanism, load_mechanism, solve
 from rigval.model.predict import predict
 from rigval.validation.bench.core import BenchRow
 from rigval.validation.bench.report import plot_stage
+from rigval.validation.report.figure_inputs import body_outlines
 from rigval.validation.report.plots import honest_ylim, plot_support_forces
 from rigval.validation.report.predict_report import _angle_panels, _tip_path_figure
-from rigval.validation.report.sketch import body_outlines, sketch_mechanism
+from rigval.validation.report.sketch import sketch_mechanism
 
 
 @pytest.fixture(scope="module")

@@ -61,12 +61,13 @@ def test_figures_started_before_the_diagnosis_equal_those_drawn_after_it(sample)
     """validate_scene starts the page's figures before the diagnosis (a child draws beside it):
     no figure may show the diagnosis, so both orders give the same SVG texts."""
     from rigval.validation.diagnosis.explain import attach_diagnosis
-    from rigval.validation.report.run_report import FIGURE_GROUPS, start_figures
+    from rigval.validation.report.figure_groups import RUN_GROUPS
+    from rigval.validation.report.run_report import start_figures
 
     early = start_figures(sample)
     diagnosed = attach_diagnosis(sample)
     assert diagnosed.diagnosis is not None
     late = start_figures(diagnosed)
-    before, after = ([drawn.texts(name) for name in FIGURE_GROUPS] for drawn in (early, late))
+    before, after = ([drawn.texts(name) for name in RUN_GROUPS] for drawn in (early, late))
     assert sum(len(group) for group in after) >= 10
     assert before == after

@@ -155,26 +155,30 @@ def _page(identification: Any, identified: Any) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     """Identify, write the outputs and print the parameters; return 0."""
-    from rigval.acquisition.threads import single_blas_thread
-    from rigval.validation.identify import identify
-    from rigval.validation.pipeline import run_scene_kept
     from rigval.validation.report.drawing import standby_drawers
-    from rigval.validation.report.run_report import start_figures, start_model_figures
 
     parameters = ("auto" if args.parameters.strip() == "auto"
                   else [p.strip() for p in args.parameters.split(",") if p.strip()])
     comparisons = (None if args.comparisons is None
                    else [c.strip() for c in args.comparisons.split(",") if c.strip()])
-    # the drawers import matplotlib while the nominal run is validated, draw its figures while
-    # the parameters are identified, then the identified run's (this process: the data files);
-    # they keep the other core busy, so BLAS threads here would only wait
-    with standby_drawers() as drawers, single_blas_thread():
-        nominal, measurement = run_scene_kept(
-            args.scene, after_model=lambda run: start_model_figures(run, drawers))
-        nominal_figures = start_figures(nominal, drawers)
-        identification = identify(nominal.scene, parameters, friction=args.friction,
-                                  comparisons=comparisons, result=nominal)
-        write_identification(identification, args.out, measurement, drawers, nominal_figures)
+    # the drawers, forked before the pipeline's imports, import matplotlib on the core idle
+    # meanwhile, draw the nominal run's figures while the parameters are identified, then the
+    # identified run's (this process: the data files); they keep the other core busy, so BLAS
+    # threads here would only wait
+    with standby_drawers() as drawers:
+        from rigval.acquisition.threads import single_blas_thread
+        from rigval.validation.identify import identify
+        from rigval.validation.pipeline import run_scene_kept
+        from rigval.validation.report.run_report import start_figures, start_model_figures
+
+        with single_blas_thread():
+            nominal, measurement = run_scene_kept(
+                args.scene, after_model=lambda run: start_model_figures(run, drawers))
+            nominal_figures = start_figures(nominal, drawers)
+            identification = identify(nominal.scene, parameters, friction=args.friction,
+                                      comparisons=comparisons, result=nominal)
+            write_identification(identification, args.out, measurement, drawers,
+                                 nominal_figures)
     stream = sys.stdout
     for name, value, std, nom, unit in zip(identification.names, identification.value,
                                            identification.std, identification.nominal,

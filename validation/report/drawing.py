@@ -29,9 +29,12 @@ if TYPE_CHECKING:
 __all__ = ["DRAWERS", "DRAWER_NICE", "DRAWING_MODULES", "Drawers", "Drawing", "GroupFunction",
            "draw_texts", "standby_drawers"]
 
-#: Modules a standby drawer imports while this process does other work.
-DRAWING_MODULES = ("rigval.validation.report.plots", "rigval.validation.report.sketch",
-                   "rigval.validation.report.why", "matplotlib.backends.backend_svg")
+#: Modules a standby drawer imports while this process does other work: numpy, matplotlib
+#: and the drawing modules, which import nothing else (the figures' inputs are plain arrays,
+#: :mod:`rigval.validation.report.figure_inputs`).
+DRAWING_MODULES = ("rigval.validation.report.figure_groups", "rigval.validation.report.plots",
+                   "rigval.validation.report.sketch", "rigval.validation.report.page",
+                   "matplotlib.backends.backend_svg")
 
 #: Two drawers: on two cores, they and this process (the diagnosis, the data files) share
 #: the time after the pipeline about evenly.

@@ -5,23 +5,38 @@ one figure, redrawn for each comparison or point) and keeps no global state, so 
 long-running processes and worker pools. Margins are fixed rather than computed by a layout
 engine, which would draw every figure twice. Angles are shown in degrees of phi_F, the main
 shaft angle from the reference position; labels carry units.
+
+Each figure draws plain arrays (:mod:`rigval.validation.report.figure_inputs`): this module
+imports numpy and matplotlib alone, so that a drawer forked before the pipeline's imports
+(:mod:`rigval.validation.report.drawing`) has what it draws with without xarray or scipy. The
+functions also take the result's objects, whose inputs they make first.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator, Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.figure import Figure
 from matplotlib.ticker import MultipleLocator, ScalarFormatter
 from matplotlib.transforms import ScaledTranslation
 
-from rigval.validation.report.figure_inputs import ComparisonCurves
-from rigval.validation.results import ComparisonResult, StreamAlignment
+from rigval.validation.report.figure_inputs import (
+    ComparisonCurves,
+    PointCurves,
+    ResidualOrders,
+    StreamCurves,
+    SupportCurves,
+)
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from rigval.processing.alignment_summary import StreamAlignment
+    from rigval.validation.results import ComparisonResult
 
 __all__ = [
     "display_units",
@@ -29,9 +44,11 @@ __all__ = [
     "plot_clock_residuals",
     "plot_comparison",
     "plot_comparisons",
+    "plot_point_curves",
     "plot_point_kinematics",
     "plot_points_kinematics",
     "plot_pulse_edges",
+    "plot_residual_orders",
     "plot_stream_coverage",
     "plot_support_forces",
 ]
@@ -254,7 +271,7 @@ class _ComparisonFigure:
 
     def show(self, result: ComparisonResult | ComparisonCurves) -> Figure:
         """Draw one comparison (see :func:`plot_comparison`) and return the figure."""
-        if isinstance(result, ComparisonResult):
+        if not isinstance(result, ComparisonCurves):
             result = ComparisonCurves.of(result)
         self._clear()
         top, bottom, spectrum, orders = self.top, self.bottom, self.spectrum, self.orders
@@ -370,7 +387,8 @@ def _key_row(ax: Axes, entries: Sequence[tuple[str, str]]) -> list[object]:
     return texts
 
 
-def plot_pulse_edges(alignment: Mapping[str, StreamAlignment], *, width: float = 9.0) -> Figure:
+def plot_pulse_edges(alignment: Mapping[str, StreamAlignment | StreamCurves], *,
+                     width: float = 9.0) -> Figure:
     """Plot one reference pulse as each stream recorded it, with the detected edges marked.
 
     After alignment the edges of all streams fall at the same time (the pulses fire at the same
@@ -378,12 +396,12 @@ def plot_pulse_edges(alignment: Mapping[str, StreamAlignment], *, width: float =
 
     Parameters
     ----------
-    alignment : mapping of str to StreamAlignment
+    alignment : mapping of str to StreamAlignment or StreamCurves
         Per stream, a stretch of its pulse channel and the edges found in it.
     width : float
         Figure width in inches.
     """
-    streams = [a for a in alignment.values() if a.pulse_time.size]
+    streams = [a for a in map(StreamCurves.of, alignment.values()) if a.pulse_time.size]
     fig = _figure(width, 1.2 + 1.5 * max(len(streams), 1))
     axes = np.atleast_1d(fig.subplots(max(len(streams), 1), 1, sharex=True, squeeze=False)[:, 0])
     for ax, stream in zip(axes, streams, strict=False):
@@ -399,20 +417,20 @@ def plot_pulse_edges(alignment: Mapping[str, StreamAlignment], *, width: float =
     return fig
 
 
-def plot_clock_residuals(alignment: Mapping[str, StreamAlignment], *,
+def plot_clock_residuals(alignment: Mapping[str, StreamAlignment | StreamCurves], *,
                          width: float = 9.0) -> Figure:
     """Residuals of each stream's clock fit (offset + drift) at its matched events, in µs.
 
     Parameters
     ----------
-    alignment : mapping of str to StreamAlignment
+    alignment : mapping of str to StreamAlignment or StreamCurves
         Per stream; the reference stream has no fit and is left out.
     width : float
         Figure width in inches.
     """
     fig = _figure(width, 3.2)
     ax = fig.subplots()
-    for stream in alignment.values():
+    for stream in map(StreamCurves.of, alignment.values()):
         if stream.is_reference or not stream.residual_s.size:
             continue
         ax.plot(stream.residual_time, stream.residual_s * 1e6, ".", ms=3,
@@ -427,13 +445,13 @@ def plot_clock_residuals(alignment: Mapping[str, StreamAlignment], *,
     return fig
 
 
-def plot_stream_coverage(alignment: Mapping[str, StreamAlignment], *,
+def plot_stream_coverage(alignment: Mapping[str, StreamAlignment | StreamCurves], *,
                          width: float = 9.0) -> Figure:
     """Each stream's span on the reference timeline with its gaps (dropouts, restarts) in red.
 
     Parameters
     ----------
-    alignment : mapping of str to StreamAlignment
+    alignment : mapping of str to StreamAlignment or StreamCurves
         Per stream.
     width : float
         Figure width in inches.
@@ -442,11 +460,11 @@ def plot_stream_coverage(alignment: Mapping[str, StreamAlignment], *,
     fig = _figure(width, 1.1 + 0.45 * len(names))
     ax = fig.subplots()
     for row, name in enumerate(names):
-        stream = alignment[name]
+        stream = StreamCurves.of(alignment[name])
         start, end = stream.span_s
         ax.broken_barh([(start, end - start)], (row - 0.3, 0.6), color=BAND)
         # gap times are on the stream's own clock from its first sample; drift is negligible here
-        spans = [(start + g["after_s"], max(g["duration_s"], 1e-3)) for g in stream.gaps]
+        spans = [(start + after, max(duration, 1e-3)) for after, duration in stream.gaps]
         if spans:
             ax.broken_barh(spans, (row - 0.3, 0.6), color=MODEL)
     ax.set_yticks(range(len(names)), names)
@@ -455,32 +473,32 @@ def plot_stream_coverage(alignment: Mapping[str, StreamAlignment], *,
     return fig
 
 
-def plot_support_forces(predictions: xr.Dataset, *, width: float = 9.0) -> Figure:
+def plot_support_forces(predictions: xr.Dataset | SupportCurves, *,
+                        width: float = 9.0) -> Figure:
     """Support forces on the frame over phi_F, horizontal and vertical (the paper's figs. 16, 17).
 
     Parameters
     ----------
-    predictions : xarray.Dataset
-        With ``support_force`` (angle, support, axis) in N and the coordinate ``angle`` in rad.
+    predictions : xarray.Dataset or SupportCurves
+        With ``support_force`` (angle, support, axis) in N and the coordinate ``angle`` in rad;
+        or its curves.
     width : float
         Figure width in inches.
     """
-    force = predictions["support_force"]
+    curves = SupportCurves.of(predictions)
     fig = _figure(width, 5.6)
     fig.subplots_adjust(top=1 - 0.62 / 5.6)
     axes = fig.subplots(2, 1, sharex=True)
-    values = force.transpose("support", "axis", "angle").to_numpy()
-    angle = predictions["angle"].to_numpy()
-    for ax, axis, label in zip(axes, ("x", "y"), ("horizontal", "vertical"), strict=True):
-        column = list(force["axis"].values).index(axis)
-        for row, support in enumerate(force["support"].values):
-            x, y = _closed(angle, values[row, column])
-            ax.plot(x, y / 1e3, lw=1.3, label=str(support))
+    for ax, values, label in zip(axes, (curves.horizontal, curves.vertical),
+                                 ("horizontal", "vertical"), strict=True):
+        for row, support in enumerate(curves.supports):
+            x, y = _closed(curves.angle, values[row])
+            ax.plot(x, y / 1e3, lw=1.3, label=support)
         ax.set_ylabel(f"{label} force on frame [kN]")
-        honest_ylim(ax, values[:, column] / 1e3)
+        honest_ylim(ax, values / 1e3)
         _angle_axis(ax, label=ax is axes[-1])
-    axes[0].legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=len(values), fontsize=8,
-                   frameon=False, borderaxespad=0.1)
+    axes[0].legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=len(curves.supports),
+                   fontsize=8, frameon=False, borderaxespad=0.1)
     axes[0].set_title("support forces on the frame (model prediction)", loc="left", y=1.0,
                       pad=TITLE_PAD, fontsize=10)
     return fig
@@ -499,7 +517,7 @@ def plot_point_kinematics(predictions: xr.Dataset, point: str, *,
     width : float
         Figure width in inches.
     """
-    return _KinematicsFigure(width).show(predictions, point)
+    return _KinematicsFigure(width).show(PointCurves.of(predictions, [point])[0])
 
 
 def plot_points_kinematics(predictions: xr.Dataset, points: Iterable[str], *,
@@ -518,9 +536,18 @@ def plot_points_kinematics(predictions: xr.Dataset, points: Iterable[str], *,
     width : float
         Figure width in inches.
     """
+    return plot_point_curves(PointCurves.of(predictions, points), width=width)
+
+
+def plot_point_curves(curves: Iterable[PointCurves], *, width: float = 9.0
+                      ) -> Iterator[Figure]:
+    """Yield the kinematics figure of each point's curves, drawn into one reused figure.
+
+    :func:`plot_points_kinematics` of the points' :class:`PointCurves`.
+    """
     figure = _KinematicsFigure(width)
-    for point in points:
-        yield figure.show(predictions, point)
+    for one in curves:
+        yield figure.show(one)
 
 
 class _KinematicsFigure:
@@ -533,26 +560,21 @@ class _KinematicsFigure:
             _angle_axis(ax, label=ax is self.axes[-1])
         self.drawn: list[object] = []
 
-    def show(self, predictions: xr.Dataset, point: str) -> Figure:
+    def show(self, curves: PointCurves) -> Figure:
         """Draw one point (see :func:`plot_point_kinematics`) and return the figure."""
         for artist in self.drawn:
             artist.remove()  # type: ignore[attr-defined]
         self.drawn.clear()
-        angle = predictions["angle"].values
-        position = predictions["point_position"].sel(point=point)
-        speed = np.hypot(*(predictions["point_velocity"].sel(point=point, axis=a).values
-                           for a in ("x", "y")))
-        accel = np.hypot(*(predictions["point_acceleration"].sel(point=point, axis=a).values
-                           for a in ("x", "y")))
+        point = curves.point
         panels: Sequence[tuple[np.ndarray, str]] = (
-            (position.sel(axis="y").values, f"y of {point} [m]"),
-            (speed, f"|v| of {point} [m/s]"),
-            (accel, f"|a| of {point} [m/s\u00b2]"),
+            (curves.y, f"y of {point} [m]"),
+            (curves.speed, f"|v| of {point} [m/s]"),
+            (curves.acceleration, f"|a| of {point} [m/s\u00b2]"),
         )
         for ax, (values, label) in zip(self.axes, panels, strict=True):
             ax.relim()
             ax.set_autoscaley_on(True)  # honest_ylim may have fixed the previous point's limits
-            x, y = _closed(angle, values)
+            x, y = _closed(curves.angle, values)
             self.drawn += ax.plot(x, y, color=MODEL, lw=1.5)
             ax.set_ylabel(label)
             texts = len(ax.texts)
@@ -561,3 +583,45 @@ class _KinematicsFigure:
         self.axes[0].set_title(f"{point}: position, speed and acceleration (model prediction)",
                                y=TITLE_Y)
         return self.fig
+
+
+def plot_residual_orders(rows: Sequence[ResidualOrders], *, width: float = 9.0) -> Figure:
+    """Draw each comparison's residual amplitude per order beside what the causes explain.
+
+    The "Why" section's figure (:mod:`rigval.validation.report.why`).
+
+    Parameters
+    ----------
+    rows : sequence of ResidualOrders
+        The comparisons drawn (one panel each;
+        :func:`~rigval.validation.report.why.residual_orders`).
+    width : float
+        Figure width, inches.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Bars: ``|c_k|`` of the mean residual (measured minus model), orders 1 to
+        :data:`~rigval.validation.report.why.ORDERS`, with whiskers of twice the
+        revolution-to-revolution standard uncertainty of the mean; dots: the chosen causes'
+        fitted contribution.
+    """
+    fig = Figure(figsize=(width, 1.9 * len(rows) + 0.6))
+    fig.subplots_adjust(left=0.95 / width, right=1 - 0.25 / width, hspace=0.6)
+    axes = fig.subplots(len(rows), 1, squeeze=False)[:, 0]
+    for ax, row in zip(axes, rows, strict=True):
+        k = np.arange(1, row.amplitude.size + 1)
+        ax.bar(k, row.amplitude, width=0.6, color="#9bb7d4", label="residual |c_k|")
+        ax.errorbar(k, row.amplitude, yerr=row.spread, fmt="none", ecolor="#333333", lw=0.8,
+                    capsize=2, label="2 u (scatter)")
+        if np.any(row.fitted):
+            ax.plot(k, np.hypot(row.fitted[:, 0], row.fitted[:, 1]), "o", color="#c0392b",
+                    ms=4, label=f"explained: {row.cause}")
+        ax.set_title(f"{row.name}: residual per order of the main shaft", fontsize=9,
+                     loc="left")
+        ax.set_ylabel(row.units, fontsize=8)
+        ax.set_xticks(k)
+        ax.tick_params(labelsize=7)
+        ax.legend(fontsize=7, frameon=False, loc="upper right")
+    axes[-1].set_xlabel("order (per revolution of the main shaft)", fontsize=8)
+    return fig

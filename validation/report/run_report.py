@@ -37,8 +37,16 @@ from rigval.validation.diagnosis.rigidity import (
 from rigval.validation.health import health_dataset
 from rigval.validation.metrics.iso18571 import IsoParameters
 from rigval.validation.nc_summary import root_summary
-from rigval.validation.report.drawing import Drawers, Drawing, draw_texts
-from rigval.validation.report.figure_inputs import ComparisonCurves, shown_points
+from rigval.validation.report.drawing import Drawers, Drawing
+from rigval.validation.report.figure_groups import RUN_GROUPS, draw_figure_groups
+from rigval.validation.report.figure_inputs import (
+    ComparisonCurves,
+    MechanismSketch,
+    PointCurves,
+    StreamCurves,
+    SupportCurves,
+    shown_points,
+)
 from rigval.validation.report.page import Page
 from rigval.validation.report.why import start_why_figures, why_section
 from rigval.validation.results import ComparisonResult, ModelledRun, ValidationResult
@@ -46,9 +54,7 @@ from rigval.validation.verdict import failure_reasons, run_verdict
 from rigval.validation.version import rigval_version
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable, Mapping, Sequence
-
-    from matplotlib.figure import Figure
+    from collections.abc import Mapping
 
 __all__ = ["HELD_BYTES", "file_groups", "start_figures", "start_model_figures", "write_metrics",
            "write_netcdf", "write_report"]
@@ -476,47 +482,6 @@ def _predictions(page: Page, result: ValidationResult, figures: _Figures) -> Non
         page.table(_peaks(result.predictions), caption="support force extremes")
 
 
-def _figures(name: str, data: Any) -> Iterable[Figure]:
-    """Return the figures of the page's group ``name``, drawn from its data (:func:`_data`)."""
-    from rigval.validation.report import plots
-    from rigval.validation.report.sketch import sketch_mechanism
-
-    if name == "comparisons":
-        return plots.plot_comparisons(data)
-    if name == "sketch":
-        mechanism, configuration, points = data
-        return [sketch_mechanism(mechanism, highlight=list(points), configuration=configuration)]
-    if name == "points":
-        predictions, points = data
-        return plots.plot_points_kinematics(predictions, points)
-    if name == "support_forces":
-        return [] if data is None else [plots.plot_support_forces(data)]
-    draw = {"pulse_edges": plots.plot_pulse_edges, "clock_residuals": plots.plot_clock_residuals,
-            "stream_coverage": plots.plot_stream_coverage}[name]
-    return [draw(data)]
-
-
-def draw_figure_groups(data: Sequence[Any], names: Sequence[str]) -> list[list[str]]:
-    """Return the SVG texts of the named figure groups of a run's page (a drawer's work).
-
-    Parameters
-    ----------
-    data : sequence
-        Each group's data, as :func:`start_figures` hands it over.
-    names : sequence of str
-        The groups' names (of :data:`FIGURE_GROUPS`).
-
-    Returns
-    -------
-    list of list of str
-        Per group, in the order of ``names``, the SVG text of each of its figures.
-    """
-    return [draw_texts(_figures(name, one)) for name, one in zip(names, data, strict=True)]
-
-
-#: The page's figure groups, in its order.
-FIGURE_GROUPS = ("comparisons", "pulse_edges", "clock_residuals", "stream_coverage", "sketch",
-                 "points", "support_forces")
 #: The groups as the drawers take them besides the comparisons (two shares of those first),
 #: each part with only its own data (:func:`_data`), so that a part of one page equal to one
 #: of another page of the command is drawn once
@@ -535,15 +500,18 @@ def _data(result: ValidationResult) -> dict[str, tuple[Any, int]]:
 
 
 def _model_data(run: ModelledRun) -> dict[str, tuple[Any, int]]:
-    """:func:`_data` of the groups of :data:`FIGURE_PARTS`: the alignment's and the model's."""
+    """:func:`_data` of the groups of :data:`FIGURE_PARTS`: the alignment's and the model's.
+
+    Plain arrays (:mod:`~rigval.validation.report.figure_inputs`): a drawer draws them with
+    numpy and matplotlib alone.
+    """
     predictions, points = run.predictions, shown_points(run.predictions)
-    kinematics = predictions[[name for name in predictions.data_vars
-                              if str(name).startswith("point_")]]
-    support = predictions[["support_force"]] if "support_force" in predictions else None
-    return {**{name: (dict(run.alignment), 1)
-               for name in ("pulse_edges", "clock_residuals", "stream_coverage")},
-            "sketch": ((run.mechanism, run.configuration, points), 1),
-            "points": ((kinematics, points), len(points)),
+    support = SupportCurves.of(predictions) if "support_force" in predictions else None
+    streams = {name: StreamCurves.of(a) for name, a in run.alignment.items()}
+    return {**dict.fromkeys(("pulse_edges", "clock_residuals", "stream_coverage"),
+                            (streams, 1)),
+            "sketch": ((MechanismSketch.of(run.mechanism, run.configuration), points), 1),
+            "points": (PointCurves.of(predictions, points), len(points)),
             "support_forces": (support, int(support is not None))}
 
 
@@ -640,7 +608,7 @@ def _build_page(result: ValidationResult, drawing: Drawing) -> Page:
                 subtitle=f"{status} · {len(result.comparisons)} comparisons · "
                          f"{result.n_cycles} revolutions at {result.speed_rev_s:.3f} rev/s",
                 figure_format="svg")
-    figures = {name: drawing.texts(name) for name in FIGURE_GROUPS}
+    figures = {name: drawing.texts(name) for name in RUN_GROUPS}
     _summary(page, result, status)
     why_section(page, result, drawing)
     for drawn_section in (_comparisons, _alignment, _predictions):

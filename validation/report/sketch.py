@@ -4,23 +4,30 @@ The sketch shows the mechanism assembled at one instant (default t = 0 of the fi
 laws), so that point names used in reports (the tip P1, the supports P3, P10, P11) can be found
 on the machine: each body is a bar through its points, labelled with its name; a revolute joint
 is an open circle; a ground pin a hatched triangle; a driven body carries a curved arrow with
-the driver's name; every named point is labelled. The figure is built without pyplot.
+the driver's name; every named point is labelled. The figure is built without pyplot, from
+the mechanism's assembled geometry (:class:`~rigval.validation.report.figure_inputs.
+MechanismSketch`), so that a drawer draws it without the model or xarray.
 """
 
 from __future__ import annotations
 
 import itertools
 from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import FancyArrowPatch, Polygon
 
-from rigval.model import Mechanism, solve
+from rigval.validation.report.figure_inputs import MechanismSketch
 
-__all__ = ["body_outlines", "place_labels", "sketch_mechanism"]
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from rigval.model import Mechanism
+
+__all__ = ["draw_sketch", "place_labels", "sketch_mechanism"]
 
 _BODY = "#4a6fa5"
 _GROUND = "#57606a"
@@ -28,33 +35,6 @@ _DRIVE = "#c8322b"
 _HIGHLIGHT = "#c8322b"
 #: Figure margins left, right, bottom, top in inches: room for tick labels, axis labels, title.
 _MARGINS = (0.85, 0.2, 0.6, 0.4)
-
-
-def body_outlines(mechanism: Mechanism, positions: dict[str, np.ndarray]
-                  ) -> dict[str, np.ndarray]:
-    """Return, per body, its points' global positions ordered along the body's long axis.
-
-    Parameters
-    ----------
-    mechanism : Mechanism
-        The mechanism.
-    positions : dict of str to numpy.ndarray
-        Global position (x, y) of every named point, m.
-
-    Returns
-    -------
-    dict of str to numpy.ndarray
-        Body name -> (n, 2) array of its points, sorted along the principal direction.
-    """
-    outlines = {}
-    for body in mechanism.bodies:
-        points = np.array([positions[name] for name in body.points])
-        if len(points) > 1:
-            centred = points - points.mean(axis=0)
-            direction = np.linalg.svd(centred, full_matrices=False)[2][0]
-            points = points[np.argsort(centred @ direction)]
-        outlines[body.name] = points
-    return outlines
 
 
 def sketch_mechanism(mechanism: Mechanism, *, time: float = 0.0,
@@ -81,18 +61,32 @@ def sketch_mechanism(mechanism: Mechanism, *, time: float = 0.0,
     Returns
     -------
     matplotlib.figure.Figure
+        The sketch (:func:`draw_sketch` of the mechanism's :class:`MechanismSketch`).
+    """
+    return draw_sketch(MechanismSketch.of(mechanism, configuration, time=time), time=time,
+                       highlight=highlight, title=title, width=width)
+
+
+def draw_sketch(sketch: MechanismSketch, *, time: float = 0.0, highlight: Iterable[str] = (),
+                title: str | None = None, width: float = 8.0) -> Figure:
+    """Draw a mechanism's sketch from its assembled geometry.
+
+    Parameters
+    ----------
+    sketch : MechanismSketch
+        The mechanism assembled at ``time``.
+    time : float
+        That instant of the drive laws, s (the default title names it).
+    highlight, title, width
+        As for :func:`sketch_mechanism`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
         The sketch.
     """
-    result = configuration
-    if result is None:
-        result = solve(mechanism, np.array([float(time)]), outputs=["position", "point_position"])
-    names = [str(p) for p in result["point"].values]
-    xy = result["point_position"].isel(time=0).transpose("point", "axis").values
+    names, xy = sketch.names, sketch.xy
     positions = dict(zip(names, xy, strict=True))
-    body_xy = result["position"].isel(time=0).sel(coord=["x", "y"]).values
-    centres = dict(zip((str(b) for b in result["body"].values), body_xy, strict=True))
-    outlines = body_outlines(mechanism, positions)
-
     span = np.ptp(xy, axis=0)
     aspect = (span[1] + 0.4) / max(span[0] + 0.4, 1e-9)
     height = float(np.clip(0.85 * width * aspect + 0.6, 3.5, 1.4 * width))
@@ -103,34 +97,29 @@ def sketch_mechanism(mechanism: Mechanism, *, time: float = 0.0,
                         bottom=_MARGINS[2] / height, top=1 - _MARGINS[3] / height)
     ax = fig.add_subplot()
     ax.set_aspect("equal")
-    for body in mechanism.bodies:
-        points = outlines[body.name]
+    for body, points, centre in zip(sketch.bodies, sketch.outlines, sketch.centres, strict=True):
         ax.plot(points[:, 0], points[:, 1], "-", color=_BODY, lw=5, alpha=0.55,
                 solid_capstyle="round", zorder=1)
-        centre = centres[body.name]
         ax.plot(*centre, "+", color=_BODY, ms=6, zorder=2)
-        ax.annotate(body.name, centre, xytext=(-4, -11), textcoords="offset points",
+        ax.annotate(body, centre, xytext=(-4, -11), textcoords="offset points",
                     fontsize=9, fontstyle="italic", color=_BODY, fontweight="bold")
     size = 0.025 * max(float(span.max()), 1e-6)
-    for joint in mechanism.joints:
-        x, y = positions[joint.name]
-        if joint.kind == "ground":
+    for joint, grounded in zip(sketch.joints, sketch.grounded, strict=True):
+        x, y = positions[joint]
+        if grounded:
             _ground_symbol(ax, x, y, size)
         ax.plot(x, y, "o", mfc="white", mec="#1b1f24", ms=6, mew=1.3, zorder=4)
-    free = [p for p in names if p not in {j.name for j in mechanism.joints}]
+    free = [p for p in names if p not in set(sketch.joints)]
     if free:
         ax.plot(*np.array([positions[p] for p in free]).T, "o", color="#1b1f24", ms=4, zorder=4)
     marked = set(highlight)
     for point in (p for p in names if p in marked):  # in the names' order: the same SVG every run
         ax.plot(*positions[point], "o", color=_HIGHLIGHT, ms=8, zorder=5)
-    for driver in mechanism.drivers:
-        pin = next((j.name for j in mechanism.joints
-                    if j.kind == "ground" and j.bodies == (driver.body,)), None)
-        centre = positions[pin] if pin is not None else centres[driver.body]
-        _drive_arrow(ax, centre, 4.0 * size, driver.name)
+    for driver, centre in zip(sketch.drivers, sketch.driver_centres, strict=True):
+        _drive_arrow(ax, centre, 4.0 * size, driver)
     ax.margins(0.08)
     place_labels(fig, ax, xy[:, 0], xy[:, 1], names,
-                 avoid=np.vstack([_densify(o) for o in outlines.values()]),
+                 avoid=np.vstack([_densify(o) for o in sketch.outlines]),
                  colors=[_HIGHLIGHT if n in marked else "#1b1f24" for n in names])
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")

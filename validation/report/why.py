@@ -10,26 +10,19 @@ the chosen causes explain, and the ``[[symmetry]]`` pairs. The method: docs/diag
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from rigval.validation.diagnosis.attribution import order_coefficients
 from rigval.validation.diagnosis.explain import Diagnosis
-from rigval.validation.report.drawing import Drawing, draw_texts
+from rigval.validation.report.drawing import Drawing
+from rigval.validation.report.figure_groups import WHY_GROUP, draw_why_figures
+from rigval.validation.report.figure_inputs import ResidualOrders
 from rigval.validation.report.page import Page
 from rigval.validation.results import ComparisonResult, ValidationResult
 
-if TYPE_CHECKING:
-    from matplotlib.figure import Figure
-
-__all__ = ["ResidualOrders", "draw_why_figures", "plot_residual_orders", "residual_orders",
-           "start_why_figures", "why_section"]
-
-#: The section's figure group (:func:`start_why_figures`).
-GROUP = "why"
+__all__ = ["residual_orders", "start_why_figures", "why_section"]
 
 #: Orders shown in the residual's spectrum.
 ORDERS = 20
@@ -74,35 +67,6 @@ def _pair_rows(diagnosis: Diagnosis) -> list[dict[str, Any]]:
     return rows
 
 
-@dataclass(frozen=True)
-class ResidualOrders:
-    """What the section's figure shows of one comparison: its residual per order of the shaft.
-
-    Small whatever the record's length (it travels to a drawer); :func:`residual_orders`
-    makes it.
-
-    Attributes
-    ----------
-    name, units : str
-        The comparison and its unit.
-    amplitude : numpy.ndarray
-        ``|c_k|`` of the mean residual (measured minus model), orders 1 to :data:`ORDERS`.
-    spread : numpy.ndarray
-        Twice the revolution-to-revolution standard uncertainty of the mean, per order.
-    fitted : numpy.ndarray
-        The chosen causes' fitted contribution, (orders, 2) cosine and sine parts.
-    cause : str
-        The most likely cause's name.
-    """
-
-    name: str
-    units: str
-    amplitude: np.ndarray
-    spread: np.ndarray
-    fitted: np.ndarray
-    cause: str
-
-
 def residual_orders(comparison: ComparisonResult, diagnosis: Diagnosis) -> ResidualOrders:
     """Return a comparison's residual per order and what its diagnosis's causes explain."""
     residual = comparison.cycles - comparison.model
@@ -118,57 +82,12 @@ def residual_orders(comparison: ComparisonResult, diagnosis: Diagnosis) -> Resid
         diagnosis.causes[comparison.name].name)
 
 
-def plot_residual_orders(rows: Sequence[ResidualOrders], *, width: float = 9.0) -> Figure:
-    """Draw each comparison's residual amplitude per order beside what the causes explain.
-
-    Parameters
-    ----------
-    rows : sequence of ResidualOrders
-        The comparisons drawn (one panel each; :func:`residual_orders`).
-    width : float
-        Figure width, inches.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        Bars: ``|c_k|`` of the mean residual (measured minus model), orders 1 to
-        :data:`ORDERS`, with whiskers of twice the revolution-to-revolution standard uncertainty
-        of the mean; dots: the chosen causes' fitted contribution.
-    """
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(width, 1.9 * len(rows) + 0.6))
-    fig.subplots_adjust(left=0.95 / width, right=1 - 0.25 / width, hspace=0.6)
-    axes = fig.subplots(len(rows), 1, squeeze=False)[:, 0]
-    for ax, row in zip(axes, rows, strict=True):
-        k = np.arange(1, row.amplitude.size + 1)
-        ax.bar(k, row.amplitude, width=0.6, color="#9bb7d4", label="residual |c_k|")
-        ax.errorbar(k, row.amplitude, yerr=row.spread, fmt="none", ecolor="#333333", lw=0.8,
-                    capsize=2, label="2 u (scatter)")
-        if np.any(row.fitted):
-            ax.plot(k, np.hypot(row.fitted[:, 0], row.fitted[:, 1]), "o", color="#c0392b",
-                    ms=4, label=f"explained: {row.cause}")
-        ax.set_title(f"{row.name}: residual per order of the main shaft", fontsize=9,
-                     loc="left")
-        ax.set_ylabel(row.units, fontsize=8)
-        ax.set_xticks(k)
-        ax.tick_params(labelsize=7)
-        ax.legend(fontsize=7, frameon=False, loc="upper right")
-    axes[-1].set_xlabel("order (per revolution of the main shaft)", fontsize=8)
-    return fig
-
-
 def _detected(result: ValidationResult) -> list[ComparisonResult]:
     """Return the comparisons with a detected model error (none without a diagnosis)."""
     diagnosis = result.diagnosis
     if diagnosis is None:
         return []
     return [c for c in result.comparisons if diagnosis.causes[c.name].detected]
-
-
-def draw_why_figures(rows: Sequence[ResidualOrders], names: Sequence[str]) -> list[list[str]]:
-    """Return the SVG text of the section's one figure (a drawer's work; ``names``: its group)."""
-    return [draw_texts([plot_residual_orders(rows)])]
 
 
 def start_why_figures(drawing: Drawing, result: ValidationResult) -> None:
@@ -184,7 +103,7 @@ def start_why_figures(drawing: Drawing, result: ValidationResult) -> None:
     drawn = _detected(result)[:MAX_DRAWN]
     if drawn and result.diagnosis is not None:
         rows = tuple(residual_orders(c, result.diagnosis) for c in drawn)
-        drawing.start(draw_why_figures, rows, (GROUP,), len(rows))
+        drawing.start(draw_why_figures, rows, (WHY_GROUP,), len(rows))
 
 
 def why_section(page: Page, result: ValidationResult, drawing: Drawing | None = None) -> None:
@@ -225,9 +144,9 @@ def why_section(page: Page, result: ValidationResult, drawing: Drawing | None = 
     if detected:
         if drawing is None:
             drawing = Drawing()
-        if GROUP not in drawing:
+        if WHY_GROUP not in drawing:
             start_why_figures(drawing, result)
-        page.figure(drawing.texts(GROUP)[0], caption="residual per order of the main shaft, "
+        page.figure(drawing.texts(WHY_GROUP)[0], caption="residual per order of the main shaft, "
                     "and what the chosen causes explain")
     if diagnosis.pairs:
         page.table(_pair_rows(diagnosis), caption="symmetry pairs ([[symmetry]])")

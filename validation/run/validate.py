@@ -5,8 +5,9 @@ everything the report needs; :func:`validate_scene` adds why the model disagrees
 (:func:`rigval.validation.diagnosis.explain.attach_diagnosis`: the diagnosis package reads the
 pipeline's results, so the pipeline does not call it) and writes the folder from that result alone
 (:func:`rigval.validation.report.run_report.write_report`) and returns the result with the files
-written. Two drawers are forked first (:func:`rigval.validation.report.drawing.standby_drawers`):
-the first imports matplotlib while the pipeline runs and forks the second from itself; they draw
+written. Two drawers are forked first (:func:`rigval.validation.report.drawing.standby_drawers`;
+``rigval validate`` forks them before it imports this module): the first imports matplotlib
+while this process imports and runs the pipeline and forks the second from itself; they draw
 the figures of the alignment and the model as soon as the model is solved
 (:func:`~rigval.validation.report.run_report.start_model_figures`), while the pipeline makes the
 comparisons, then the comparisons' figures while this process diagnoses and writes the data
@@ -18,6 +19,7 @@ runs one BLAS thread throughout: a second would only wait for them (its idle spi
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from pathlib import Path
 
@@ -25,7 +27,7 @@ from rigval.acquisition.heap import release_free_heap
 from rigval.acquisition.threads import single_blas_thread
 from rigval.validation.diagnosis.explain import attach_diagnosis
 from rigval.validation.pipeline import run_scene
-from rigval.validation.report.drawing import standby_drawers
+from rigval.validation.report.drawing import Drawers, standby_drawers
 from rigval.validation.report.run_report import (
     start_figures,
     start_model_figures,
@@ -36,7 +38,8 @@ from rigval.validation.results import ValidationResult
 __all__ = ["validate_scene"]
 
 
-def validate_scene(scene_path: str | Path, out_dir: str | Path) -> ValidationResult:
+def validate_scene(scene_path: str | Path, out_dir: str | Path,
+                   drawers: Drawers | None = None) -> ValidationResult:
     """Validate a scene and write its report folder.
 
     Parameters
@@ -45,6 +48,9 @@ def validate_scene(scene_path: str | Path, out_dir: str | Path) -> ValidationRes
         The scene file.
     out_dir : str or pathlib.Path
         The report folder (created; files in it are overwritten).
+    drawers : rigval.validation.report.drawing.Drawers, optional
+        Drawers forked earlier (``rigval validate`` forks them before it imports this
+        module); default: forked now, and ended on return.
 
     Returns
     -------
@@ -52,7 +58,8 @@ def validate_scene(scene_path: str | Path, out_dir: str | Path) -> ValidationRes
         With ``passed``, ``metric_rows()``, ``outputs`` (files written), ``inputs`` (files read),
         ``speed_rev_s`` and ``diagnosis``.
     """
-    with standby_drawers() as drawers, single_blas_thread():
+    forked = standby_drawers() if drawers is None else contextlib.nullcontext(drawers)
+    with forked as drawers, single_blas_thread():
         result = run_scene(scene_path,
                            after_model=lambda run: start_model_figures(run, drawers))
         release_free_heap()  # the pipeline's freed memory, before the diagnosis's large arrays
