@@ -168,3 +168,53 @@ def test_fork_only_while_this_process_runs_one_thread() -> None:
     finally:
         stop.set()
         thread.join()
+
+
+def draw_pid(inputs: object, names: tuple[str, ...]) -> list[list[str]]:
+    """A figure group function whose "figure" names the process that drew it."""
+    return [[f"{os.getpid()}"] for _ in names]
+
+
+def drawing_standin(scene: Path, run_dir: Path) -> RunReport:
+    """Draw one group with the drawers of this run's process; note who drew it."""
+    from rigval.validation.report.drawing import Drawing, standby_drawers
+
+    with standby_drawers() as drawers:
+        page = Drawing(drawers)
+        page.start(draw_pid, None, ("g",))
+        drawer = int(page.texts("g")[0])
+    (run_dir / "process.txt").write_text(f"{os.getpid()} {drawer}")
+    return RunReport(passed=True, metrics=(), outputs=(), inputs=(), speed_rev_s=None)
+
+
+def _drawers_serve_one_run_process_each() -> None:
+    """Three runs, two at a time, two drawers forked first: each of the first two runs draws
+    with a drawer of its own (another process), the third in its own process."""
+    import tempfile
+
+    from rigval.validation.beside import Standby, can_fork
+    from rigval.validation.report.drawing import Drawers
+
+    if not can_fork():
+        print("no fork")
+        return
+    with tempfile.TemporaryDirectory() as folder:
+        scenes = [_scene(Path(folder) / "scenes", f"r{k}") for k in range(3)]
+        standbys = Standby.group(2)
+        with standbys[0]:
+            outcomes = run_campaign(scenes, Path(folder) / "out", scheduler="processes",
+                                    workers=2, validate=drawing_standin,
+                                    drawers=[Drawers((s,)) for s in standbys])
+        assert [o.status for o in outcomes] == ["passed"] * 3
+        drawn = [tuple(map(int, (o.run_dir / "process.txt").read_text().split()))
+                 for o in outcomes]
+    (run1, drawer1), (run2, drawer2), (run3, drawer3) = drawn
+    assert len({run1, run2, run3, drawer1, drawer2}) == 5  # two drawers, each its own process
+    assert drawer3 == run3  # no drawer left for it: drawn in its own process
+    assert os.getpid() not in {drawer1, drawer2}
+
+
+def test_drawers_forked_for_the_runs_serve_one_run_process_each():
+    from tests.validation.fresh_process import run_in_a_fresh_process
+
+    run_in_a_fresh_process("test_campaign_processes", "_drawers_serve_one_run_process_each")

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 from rigval.validation.campaign.engine import RunError, RunOutcome
-from rigval.validation.campaign.report import run_reason
+from rigval.validation.campaign.runs import run_reason
 from rigval.validation.report.page import Page
 
 STANDIN = '''

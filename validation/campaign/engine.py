@@ -53,6 +53,8 @@ from rigval.validation.console import run_context
 if TYPE_CHECKING:
     from distributed import Client
 
+    from rigval.validation.report.drawing import Drawers
+
 __all__ = [
     "MANIFEST_NAME",
     "RunError",
@@ -156,6 +158,7 @@ def run_campaign(
     validate: ValidateFunction | None = None,
     force: bool = False,
     on_result: Callable[[RunOutcome], None] | None = None,
+    drawers: Sequence[Drawers] = (),
 ) -> list[RunOutcome]:
     """Validate every scene of a campaign, in parallel when Dask is available.
 
@@ -184,6 +187,10 @@ def run_campaign(
     on_result : callable, optional
         Called in this process with each :class:`RunOutcome` as soon as its run ends (for a
         progress display), in completion order.
+    drawers : sequence of rigval.validation.report.drawing.Drawers
+        With ``"processes"``: drawers this process forked for the runs' processes, one each
+        for the first runs (:meth:`~rigval.validation.report.drawing.Drawers.each`); the others
+        draw their figures themselves.
 
     Returns
     -------
@@ -208,7 +215,8 @@ def run_campaign(
         if n_workers > 1:
             from rigval.validation.campaign.processes import run_in_processes
 
-            return _collect(runs, run_in_processes(runs, validate, force, n_workers), notify)
+            return _collect(runs, run_in_processes(runs, validate, force, n_workers,
+                                                   drawers), notify)
         scheduler = "none"
     if scheduler == "none":
         return _collect(runs, (run_one(run.scene, run.run_dir, validate=validate, name=run.name,

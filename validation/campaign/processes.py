@@ -25,26 +25,28 @@ from typing import TYPE_CHECKING
 
 from rigval.acquisition.threads import single_blas_thread
 from rigval.validation.campaign.runs import RunError, RunOutcome, run_one
-from rigval.validation.report.drawing import DRAWING_MODULES
+from rigval.validation.report.drawing import DRAWING_MODULES, Drawers, hand_drawers
 
 if TYPE_CHECKING:
     from multiprocessing.process import BaseProcess
 
     from rigval.validation.campaign.runs import PlannedRun, ValidateFunction
 
-__all__ = ["PIPELINE_MODULES", "WORKER_DIED", "preload_pipeline", "run_in_processes"]
+__all__ = ["PIPELINE_MODULES", "PLOTTING_MODULES", "WORKER_DIED", "preload_pipeline",
+           "run_in_processes"]
 
 logger = logging.getLogger(__name__)
 
 #: Modules a validation imports, some only when it first needs them (the TDMS reader, netCDF4,
-#: matplotlib and the plotting modules, which a run's own process leaves to its drawers (a
-#: worker has none), and dask.array if Dask is installed, which xarray imports when it
-#: first checks for dask arrays: about 0.7 s of CPU alone).
+#: and dask.array if Dask is installed, which xarray imports when it first checks for dask
+#: arrays: about 0.7 s of CPU alone).
 PIPELINE_MODULES = ("rigval.validation.pipeline", "rigval.validation.run.validate",
                     "rigval.validation.commands.validate", "rigval.acquisition.reader",
                     "rigval.acquisition.tdms", "rigval.acquisition.text_csv",
-                    "rigval.acquisition.lvm", "dask.array", "netCDF4",
-                    "matplotlib.backends.backend_agg", "threadpoolctl", *DRAWING_MODULES)
+                    "rigval.acquisition.lvm", "dask.array", "netCDF4", "threadpoolctl")
+#: The plotting modules a run imports where it draws its figures itself (a run process
+#: without drawers: a run's own process leaves them to its drawers).
+PLOTTING_MODULES = ("matplotlib.backends.backend_agg", *DRAWING_MODULES)
 
 #: ``RunError.kind`` of a run whose process ended without a result.
 WORKER_DIED = "WorkerDied"
@@ -58,36 +60,47 @@ def start_method() -> str:
     return "forkserver" if "forkserver" in methods else "spawn"
 
 
-def preload_pipeline() -> None:
-    """Import :data:`PIPELINE_MODULES`: done before forking, once instead of once per child."""
-    for name in PIPELINE_MODULES:
+def preload_pipeline(*, plotting: bool = True) -> None:
+    """Import :data:`PIPELINE_MODULES`: done before forking, once instead of once per child.
+
+    ``plotting``: :data:`PLOTTING_MODULES` too; without, where drawers forked for the
+    children draw their figures (:func:`run_in_processes`'s ``drawers``), which import them.
+    """
+    for name in (*PIPELINE_MODULES, *(PLOTTING_MODULES if plotting else ())):
         with contextlib.suppress(ModuleNotFoundError):  # dask.array without the parallel extra
             importlib.import_module(name)
 
 
 def run_in_processes(runs: Sequence[PlannedRun], validate: ValidateFunction | None, force: bool,
-                     workers: int) -> Generator[RunOutcome, None, None]:
+                     workers: int, drawers: Sequence[Drawers] = ()
+                     ) -> Generator[RunOutcome, None, None]:
     """Validate each run in a child process, ``workers`` at a time; yield outcomes as they end.
 
     ``validate`` and ``force`` are passed on to :func:`~rigval.validation.campaign.runs.run_one`.
     Outcomes come in completion order; when the caller stops early (Ctrl-C), the children still
-    running are killed.
+    running are killed. ``drawers``: forked by this process (before it imported the pipeline)
+    for the first runs' processes, one each (:func:`~rigval.validation.report.drawing.
+    hand_drawers`): a drawer serves one process, as values it sent to a process that failed
+    could reach the next one; the other runs draw in their own process.
     """
     method = start_method()
     if method == "fork" and validate is None:
         preload_pipeline()
     context = multiprocessing.get_context(method)
     if method == "forkserver":  # its server imports these once; its children have them
-        context.set_forkserver_preload(["__main__", *PIPELINE_MODULES])
+        context.set_forkserver_preload(["__main__", *PIPELINE_MODULES, *PLOTTING_MODULES])
     logger.info("%d runs in up to %d child processes (%s)", len(runs), workers, method)
     waiting = list(reversed(runs))
+    unused = list(drawers)
     running: dict[Connection, tuple[PlannedRun, BaseProcess]] = {}
     try:
         while waiting or running:
             while waiting and len(running) < workers:
                 run = waiting.pop()
                 receiver, sender = context.Pipe(duplex=False)
-                process = context.Process(target=_child, args=(sender, run, validate, force),
+                handed = unused.pop(0) if unused and method == "fork" else None
+                process = context.Process(target=_child,
+                                          args=(sender, run, validate, force, handed),
                                           name=f"rigval run {run.name}")
                 process.start()
                 sender.close()  # the child holds the only sending end: its exit means EOF
@@ -111,9 +124,11 @@ def run_in_processes(runs: Sequence[PlannedRun], validate: ValidateFunction | No
             receiver.close()
 
 
-def _child(sender: Connection, run: PlannedRun, validate: ValidateFunction | None, force: bool
-           ) -> None:
+def _child(sender: Connection, run: PlannedRun, validate: ValidateFunction | None, force: bool,
+           drawers: Drawers | None) -> None:
     """Validate one run in the child process and send its outcome to the parent."""
+    if drawers is not None:
+        hand_drawers(drawers)
     if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.SIG_DFL)  # Ctrl-C ends the child, no traceback
     # numpy started one BLAS thread per core before the fork: two children on two cores would

@@ -49,6 +49,7 @@ __all__ = [
     "ValidateFunction",
     "default_run_name",
     "run_one",
+    "run_reason",
 ]
 
 logger = logging.getLogger(__name__)
@@ -233,6 +234,41 @@ class RunOutcome:
             "error": self.error.to_dict() if self.error else None,
             "warnings": [str(w) for w in self.warnings],
         }
+
+
+def run_reason(outcome: RunOutcome, *, limit: int = 3) -> str:
+    """Return why a run did not pass, in one line ("" for a run that passed).
+
+    Parameters
+    ----------
+    outcome : RunOutcome
+        The run.
+    limit : int
+        Missed thresholds listed before "and N more".
+
+    Returns
+    -------
+    str
+        For an error its class, message and place; for a failed run the missed thresholds
+        (comparison, metric, value and what it needed).
+    """
+    if outcome.error is not None:
+        where = ", ".join(f"{k}: {v}" for k, v in outcome.error.where.items())
+        text = " ".join(f"{outcome.error.kind}: {outcome.error.message}".split())
+        return text + (f" ({where})" if where else "")
+    missed = [row for row in outcome.metrics
+              if row.get("row", "model") == "model" and row.get("passed") is False]
+    if outcome.status != "failed" and not missed:
+        return ""
+    parts = []
+    for row in missed[:limit]:
+        value = row.get("value")
+        shown = f"{value:.4g}" if isinstance(value, int | float) else str(value)
+        parts.append(f"{row.get('comparison')} {row.get('metric')} {shown} "
+                     f"(needs {row.get('threshold')})")
+    if len(missed) > limit:
+        parts.append(f"and {len(missed) - limit} more")
+    return "missed " + "; ".join(parts) if parts else "a threshold was missed"
 
 
 @dataclass(frozen=True)

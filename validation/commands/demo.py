@@ -7,23 +7,33 @@ this one, one per core (``--workers 1``: one after the other in this process), a
 inputs and outputs are unchanged since an earlier demo is reused. ``DIR/index.html`` is the
 campaign summary page (:func:`rigval.validation.campaign.report.write_campaign_report`, the
 page ``rigval campaign`` writes): the V&V 20 verdict, one row per run linking its report, the
-metrics over the runs. Exit code 0 when every run
-meets its thresholds, 1 when one misses a threshold, 3 when one cannot be validated.
+metrics over the runs. Exit code 0 when every run meets its thresholds, 1 when one misses a
+threshold, 3 when one cannot be validated.
+
+Standby children (:class:`rigval.validation.beside.Standby`) are forked first, before this
+process imports the pipeline, and import matplotlib and the summary page's modules on the core
+left idle meanwhile: with runs in processes one draws each run's figures
+(:func:`rigval.validation.report.drawing.hand_drawers`) and the last writes the summary page,
+so this process and the runs' processes never import matplotlib.
 """
 
 from __future__ import annotations
 
 import argparse
 import io
+import os
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rigval.validation.commands.common import add_command, add_out_option
 
 if TYPE_CHECKING:
-    from rigval.validation.campaign.engine import RunReport
+    from rigval.validation.campaign.engine import RunOutcome, RunReport
+    from rigval.validation.campaign.report import CampaignFiles
+    from rigval.validation.report.drawing import Drawers
 
 __all__ = ["SUMMARY_NAME", "add_parser", "run", "validate_one"]
 
@@ -83,10 +93,8 @@ def run(args: argparse.Namespace) -> int:
     """Validate every shipped run; return 0 when all pass, 1 when one fails, 3 on an error."""
     from rigval.acquisition.errors import DataError
     from rigval.sample_data import shipped_runs
-    from rigval.validation.campaign.engine import run_campaign, stop_worker_processes
-    from rigval.validation.campaign.processes import preload_pipeline
-    from rigval.validation.campaign.report import run_reason, write_campaign_report
-    from rigval.validation.console import interrupt_quietly
+    from rigval.validation.beside import Standby
+    from rigval.validation.report.drawing import DRAWER_NICE, DRAWING_MODULES, Drawers
 
     scenes = shipped_runs()
     if not scenes:
@@ -94,27 +102,62 @@ def run(args: argparse.Namespace) -> int:
                         hint="reinstall rigval; the wheel carries sample_data/runs")
     start = time.perf_counter()
     # a child process per run (forked, so faster than a Dask cluster's start, also with Dask)
-    in_process = args.workers == 1 or len(scenes) == 1
-    if not in_process:
-        preload_pipeline()  # once here, not in each forked process
-    with interrupt_quietly(stop_worker_processes):
-        outcomes = run_campaign(scenes, args.out, scheduler="none" if in_process else "processes",
-                                workers=args.workers, validate=validate_one, force=args.force)
-    for outcome in outcomes:
-        summary = outcome.output(SUMMARY_NAME)
-        if summary is not None:
-            print(summary.read_text(encoding="utf-8"), end="")
-        reason = run_reason(outcome)
-        if outcome.status == "error":
-            print(f"rigval: run {outcome.name} error: {reason}", file=sys.stderr)
-    details = {"runs": "the virtual-rig runs shipped with rigval (known truth), validated "
-                       "against the pendulum model",
-               "workers": "1 (this process)" if in_process else args.workers or
-               "one per CPU, at most one per run",
-               "wall time [s]": round(time.perf_counter() - start, 2)}
-    files = write_campaign_report(outcomes, args.out, title="rigval demo: the shipped sample "
-                                  "runs", details=details)
+    workers = 1 if args.workers == 1 else min(args.workers or os.cpu_count() or 1, len(scenes))
+    # forked first, while this process has imported little: the children import matplotlib
+    # and the summary page's modules on the core left idle while this process imports the
+    # pipeline; one draws each run's figures, the last writes the summary page
+    standbys = Standby.group(workers + 1 if workers > 1 else 1,
+                             (*DRAWING_MODULES, "rigval.validation.campaign.report"),
+                             nice=DRAWER_NICE)
+    with standbys[0]:  # closing the first closes the others
+        outcomes = _validate_runs(args, scenes, workers,
+                                  [Drawers((standby,)) for standby in standbys[:-1]])
+        from rigval.validation.campaign.runs import run_reason
+
+        for outcome in outcomes:
+            summary = outcome.output(SUMMARY_NAME)
+            if summary is not None:
+                print(summary.read_text(encoding="utf-8"), end="")
+            if outcome.status == "error":
+                print(f"rigval: run {outcome.name} error: {run_reason(outcome)}",
+                      file=sys.stderr)
+        details = {"runs": "the virtual-rig runs shipped with rigval (known truth), validated "
+                           "against the pendulum model",
+                   "workers": "1 (this process)" if workers == 1 else args.workers or
+                   "one per CPU, at most one per run",
+                   "wall time [s]": round(time.perf_counter() - start, 2)}
+        files = standbys[-1].submit(write_summary, outcomes, args.out, details).result()
     print(f"demo: {len(outcomes)} runs in {time.perf_counter() - start:.1f} s; open {files.html}")
     if any(o.status == "error" for o in outcomes):
         return 3
     return 0 if all(o.status == "passed" for o in outcomes) else 1
+
+
+def _validate_runs(args: argparse.Namespace, scenes: Sequence[Path], workers: int,
+                   drawers: Sequence[Drawers]) -> list[RunOutcome]:
+    """Validate the scenes, ``workers`` at a time (1: here).
+
+    The runs' processes draw their figures with ``drawers``, one each.
+    """
+    from rigval.validation.campaign.engine import run_campaign, stop_worker_processes
+    from rigval.validation.campaign.processes import preload_pipeline
+    from rigval.validation.console import interrupt_quietly
+
+    if workers > 1:
+        preload_pipeline(plotting=not drawers)  # once here, not in each forked process
+    with interrupt_quietly(stop_worker_processes):
+        return run_campaign(scenes, args.out, scheduler="processes" if workers > 1 else "none",
+                            workers=workers, validate=validate_one, force=args.force,
+                            drawers=drawers)
+
+
+def write_summary(outcomes: Sequence[RunOutcome], out_dir: Path, details: dict[str, Any]
+                  ) -> CampaignFiles:
+    """Write the demo's campaign summary page into ``out_dir`` (a standby child's work).
+
+    :func:`rigval.validation.campaign.report.write_campaign_report` of the runs.
+    """
+    from rigval.validation.campaign.report import write_campaign_report
+
+    return write_campaign_report(outcomes, out_dir, title="rigval demo: the shipped sample runs",
+                                 details=details)

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = ["DRAWERS", "DRAWER_NICE", "DRAWING_MODULES", "Drawers", "Drawing", "GroupFunction",
-           "draw_texts", "standby_drawers"]
+           "draw_texts", "hand_drawers", "standby_drawers"]
 
 #: Modules a standby drawer imports while this process does other work: numpy, matplotlib
 #: and the drawing modules, which import nothing else (the figures' inputs are plain arrays,
@@ -67,6 +67,14 @@ class Drawers:
         self._figures = [0] * len(self._standbys)
         self._handed: dict[bytes, Pending[list[list[str]]]] = {}
 
+    def each(self) -> list[Drawers]:
+        """Return one :class:`Drawers` per drawer, to hand to a process of its own each.
+
+        A campaign's run processes (:mod:`rigval.validation.campaign.processes`) each draw with
+        one drawer forked for them (:func:`hand_drawers`): a drawer serves one process only.
+        """
+        return [Drawers((standby,)) for standby in self._standbys]
+
     def submit(self, function: GroupFunction[Inputs], inputs: Inputs, names: tuple[str, ...],
                figures: int) -> Pending[list[list[str]]]:
         """Hand ``function(inputs, names)``, about ``figures`` figures, to the least busy drawer.
@@ -91,6 +99,22 @@ class Drawers:
         return pending
 
 
+#: The drawers the process that forked this one handed it (:func:`hand_drawers`).
+_handed: Drawers | None = None
+
+
+def hand_drawers(drawers: Drawers) -> None:
+    """Have :func:`standby_drawers` in this process yield ``drawers`` instead of forking.
+
+    Called in a process forked to validate a run (a campaign's run process, which may not
+    fork drawers of its own, :mod:`rigval.validation.beside`) with drawers its parent forked
+    for it (:meth:`Drawers.each`) before it imported the pipeline. They serve this process
+    alone, and the parent ends them.
+    """
+    global _handed
+    _handed = drawers
+
+
 @contextlib.contextmanager
 def standby_drawers(count: int = DRAWERS) -> Iterator[Drawers]:
     """Fork ``count`` drawers now, importing :data:`DRAWING_MODULES` once; end them on exit.
@@ -99,13 +123,17 @@ def standby_drawers(count: int = DRAWERS) -> Iterator[Drawers]:
     (:meth:`~rigval.validation.beside.Standby.group`): one import's CPU, not ``count``.
 
     Where forking cannot help (see :mod:`rigval.validation.beside`), the drawers have no
-    child and their figures are drawn in this process.
+    child and their figures are drawn in this process. In a process handed drawers by its
+    parent (:func:`hand_drawers`) those are yielded, and left to the parent to end.
 
     Yields
     ------
     Drawers
         Hand them to each :class:`Drawing` of the command.
     """
+    if _handed is not None:
+        yield _handed
+        return
     standbys = Standby.group(count, DRAWING_MODULES, nice=DRAWER_NICE)
     with standbys[0]:  # closing the first closes the others
         yield Drawers(standbys)
