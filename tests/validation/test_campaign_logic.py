@@ -277,3 +277,36 @@ def test_runs_at_one_speed_are_not_joined_by_a_line(tmp_path: Path) -> None:
     (line,) = plot_metrics_against_speed(metrics_table(outcomes)).axes[0].get_lines()[:1]
     assert line.get_linestyle() == "None"
     np.testing.assert_allclose(line.get_xydata(), [[1.0, 0.1], [1.0, 0.1]])
+
+
+def _summary_drawn_by_a_drawer() -> None:
+    """The summary page's figure drawn by a drawer forked first equals the one drawn here,
+    and this process never imports matplotlib (what ``rigval demo`` relies on)."""
+    import re
+    import sys
+    import tempfile
+
+    from rigval.validation.beside import Standby, can_fork
+    from rigval.validation.report.drawing import DRAWING_MODULES, Drawers
+
+    if not can_fork():
+        print("no fork")
+        return
+    standbys = Standby.group(1, (*DRAWING_MODULES, "rigval.validation.campaign.speed_plot"))
+    with standbys[0], tempfile.TemporaryDirectory() as folder:
+        data = Path(folder) / "data"
+        runs = [write_run(data, "slow", 0.5, [0.2, 0.4]), write_run(data, "fast", 1.5, [1.0, 2.0])]
+        outcomes = run_campaign(runs, Path(folder) / "out", scheduler="none",
+                                validate=standin_validate)
+        drawn = write_campaign_report(outcomes, Path(folder) / "a", drawers=Drawers(standbys))
+        drawn_page = drawn.html.read_text(encoding="utf-8")
+        assert "matplotlib" not in sys.modules
+        here = write_campaign_report(outcomes, Path(folder) / "b").html.read_text(encoding="utf-8")
+    svgs = [re.findall(r"<svg.*?</svg>", page, flags=re.S) for page in (drawn_page, here)]
+    assert len(svgs[0]) == 1 and svgs[0] == svgs[1]
+
+
+def test_the_summary_page_figure_is_drawn_by_a_drawer_without_matplotlib_here():
+    from tests.validation.fresh_process import run_in_a_fresh_process
+
+    run_in_a_fresh_process("test_campaign_logic", "_summary_drawn_by_a_drawer")

@@ -25,22 +25,21 @@ import importlib.util
 import json
 import logging
 import os
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 import xarray as xr
-from matplotlib.figure import Figure
 
 from rigval.acquisition.errors import DataFileError
 from rigval.acquisition.outputs import atomic_output, write_text_atomic
 from rigval.validation.campaign.engine import RunOutcome, dask_available
 from rigval.validation.campaign.runs import run_reason
+from rigval.validation.campaign.speed_panels import SPEED_GROUP, draw_speed_figure, speed_panels
 from rigval.validation.diagnosis.campbell import (
     MIN_SPEEDS,
     Campbell,
@@ -49,7 +48,11 @@ from rigval.validation.diagnosis.campbell import (
     plot_campbell,
 )
 from rigval.validation.diagnosis.rigidity import resonances_from_record
+from rigval.validation.report.drawing import Drawers, Drawing
 from rigval.validation.report.page import Link, Page
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = [
     "SUMMARY_PAGE",
@@ -67,13 +70,6 @@ logger = logging.getLogger(__name__)
 SUMMARY_PAGE = "index.html"
 _METRIC_COLUMNS = ["run", "status", "speed_rev_s", "comparison", "row", "metric", "value",
                    "text", "threshold", "passed"]
-#: Most metrics the speed plot shows (those with thresholds first).
-_MAX_PLOTTED = 6
-#: The speed plot's fixed margins in inches (a layout engine would draw it twice): left, bottom,
-#: above each row (a title of up to two lines), and the legend's column at the right.
-_LEFT_IN, _BOTTOM_IN, _TITLE_IN, _LEGEND_IN = 0.7, 0.55, 0.55, 1.5
-#: Longest panel title on one line; a longer one puts its threshold on a second line.
-_TITLE_CHARS = 36
 
 
 @dataclass(frozen=True)
@@ -148,59 +144,18 @@ def plot_metrics_against_speed(table: pd.DataFrame, *, metrics: Sequence[str] | 
     Returns
     -------
     matplotlib.figure.Figure
-        Markers show runs, joined by lines unless several runs share a speed; a hollow red ring
-        marks a run that missed that metric's threshold,
-        a dashed line shows the threshold when all comparisons share one.
+        :func:`~rigval.validation.campaign.speed_plot.plot_speed_panels` of the table's
+        :func:`~rigval.validation.campaign.speed_panels.speed_panels`.
     """
-    table = table[(table["row"] == "model") & table["value"].notna()]
-    if metrics is None:
-        with_threshold = table.loc[table["threshold"].notna(), "metric"].unique().tolist()
-        others = [m for m in table["metric"].unique() if m not in with_threshold]
-        metrics = (with_threshold + others)[:_MAX_PLOTTED]
-    n = max(len(metrics), 1)
-    columns = min(n, 3)
-    rows = -(-n // columns)
-    width, height = ax_width * columns + _LEGEND_IN, 2.8 * rows + _TITLE_IN
-    fig = Figure(figsize=(width, height))
-    fig.subplots_adjust(left=_LEFT_IN / width, right=1.0 - _LEGEND_IN / width,
-                        bottom=_BOTTOM_IN / height, top=1.0 - _TITLE_IN / height,
-                        wspace=0.3, hspace=0.55)
-    axes = fig.subplots(rows, columns, squeeze=False).ravel()
-    for ax in axes[len(metrics):]:
-        ax.set_visible(False)
-    for ax, metric in zip(axes, metrics, strict=False):
-        part = table[table["metric"] == metric]
-        for comparison, group in part.groupby("comparison", sort=False):
-            group = group.sort_values("speed_rev_s")
-            repeated = group["speed_rev_s"].duplicated().any()  # repeated runs: no zigzag line
-            ax.plot(group["speed_rev_s"], group["value"], marker="o", label=str(comparison),
-                    linestyle="none" if repeated else "-", alpha=0.7 if repeated else 1.0)
-            missed = group[group["passed"].map(lambda p: p is False or p is np.False_)]
-            ax.plot(missed["speed_rev_s"], missed["value"], linestyle="none", marker="o",
-                    markersize=11, markerfacecolor="none", color="tab:red")  # keeps the cycle
-        thresholds = part["threshold"].dropna().unique()
-        title = metric
-        if len(thresholds) == 1:
-            title = f"{metric} (pass: {thresholds[0]})"
-            if len(title) > _TITLE_CHARS:
-                title = f"{metric}\n(pass: {thresholds[0]})"
-            limit = re.fullmatch(r"\s*[<>]=?\s*([-+0-9.eE]+)\s*", str(thresholds[0]))
-            if limit:
-                ax.axhline(float(limit.group(1)), color="0.4", linestyle="--", linewidth=1)
-        ax.set_title(title, fontsize="medium")
-        ax.set_xlabel("running speed [rev/s]")
-        ax.grid(alpha=0.3)
-    if len(metrics):
-        handles, labels = axes[0].get_legend_handles_labels()
-        fig.legend(handles, labels, loc="upper left", fontsize="small", title="comparison",
-                   title_fontsize="small",
-                   bbox_to_anchor=(1.0 - (_LEGEND_IN - 0.15) / width, 1.0 - _TITLE_IN / height))
-    return fig
+    from rigval.validation.campaign.speed_plot import plot_speed_panels
+
+    return plot_speed_panels(speed_panels(table, metrics), ax_width=ax_width)
 
 
 def write_campaign_report(outcomes: Sequence[RunOutcome], out_dir: str | Path, *,
                           title: str = "rigval campaign",
-                          details: dict[str, Any] | None = None) -> CampaignFiles:
+                          details: dict[str, Any] | None = None,
+                          drawers: Drawers | None = None) -> CampaignFiles:
     """Write the campaign summary (HTML page, metrics CSV, outcomes JSON) into ``out_dir``.
 
     Parameters
@@ -213,6 +168,9 @@ def write_campaign_report(outcomes: Sequence[RunOutcome], out_dir: str | Path, *
         Page title.
     details : dict, optional
         Further facts shown on the page and stored in the JSON (scheduler, workers, wall time).
+    drawers : rigval.validation.report.drawing.Drawers, optional
+        Who draws the figure of the metrics against speed; default this process. The Campbell
+        diagrams, drawn only where a run shows a resonance, are drawn here.
 
     Returns
     -------
@@ -223,6 +181,9 @@ def write_campaign_report(outcomes: Sequence[RunOutcome], out_dir: str | Path, *
     out_dir.mkdir(parents=True, exist_ok=True)
     details = dict(details or {})
     table = metrics_table(outcomes)
+    drawing = Drawing(drawers)
+    if not table.empty:  # drawn while the files are written
+        drawing.start(draw_speed_figure, speed_panels(table), (SPEED_GROUP,))
     files = CampaignFiles(html=out_dir / SUMMARY_PAGE,
                           metrics_csv=out_dir / "campaign_metrics.csv",
                           outcomes_json=out_dir / "campaign.json")
@@ -235,7 +196,8 @@ def write_campaign_report(outcomes: Sequence[RunOutcome], out_dir: str | Path, *
                 **details, "runs": [{**outcome.to_dict(), "data_not_used": unused[outcome.name]}
                                     for outcome in outcomes]}
     write_text_atomic(files.outcomes_json, json.dumps(document, indent=1, allow_nan=False))
-    _summary_page(outcomes, table, out_dir, title, counts, details, unused).write(files.html)
+    _summary_page(outcomes, table, out_dir, title, counts, details, unused,
+                  drawing).write(files.html)
     logger.info("campaign summary written to %s", files.html)
     return files
 
@@ -357,8 +319,11 @@ def _report_link(outcome: RunOutcome, out_dir: Path) -> Link | str:
 
 def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: Path,
                   title: str, counts: dict[str, int], details: dict[str, Any],
-                  unused: Mapping[str, list[dict[str, Any]]]) -> Page:
-    """Build the campaign page; ``unused``: :func:`data_not_used` per run name."""
+                  unused: Mapping[str, list[dict[str, Any]]], drawing: Drawing) -> Page:
+    """Build the campaign page; ``unused``: :func:`data_not_used` per run name.
+
+    ``drawing``: where the figure of the metrics against speed was started.
+    """
     verdict = ("errors" if counts["error"] else "failed" if counts["failed"] else "passed")
     page = Page(title, subtitle=f"{len(outcomes)} runs: {counts['passed']} passed, "
                                 f"{counts['failed']} failed, {counts['error']} errors")
@@ -394,10 +359,9 @@ def _summary_page(outcomes: Sequence[RunOutcome], table: pd.DataFrame, out_dir: 
 
     if not table.empty:
         page.section("Metrics against running speed")
-        fig = plot_metrics_against_speed(table)
-        page.figure(fig, caption="Each marker is a run; a red ring marks a missed threshold; a "
-                                 "dashed line is the threshold where all comparisons share one.",
-                    fmt="svg")
+        page.figure(drawing.texts(SPEED_GROUP)[0], caption="Each marker is a run; a red ring "
+                    "marks a missed threshold; a dashed line is the threshold where all "
+                    "comparisons share one.")
         page.section("Metrics per comparison")
         model_rows = table[table["row"] == "model"]
         for comparison, part in model_rows.groupby("comparison", sort=False):

@@ -10,11 +10,11 @@ page ``rigval campaign`` writes): the V&V 20 verdict, one row per run linking it
 metrics over the runs. Exit code 0 when every run meets its thresholds, 1 when one misses a
 threshold, 3 when one cannot be validated.
 
-Standby children (:class:`rigval.validation.beside.Standby`) are forked first, before this
-process imports the pipeline, and import matplotlib and the summary page's modules on the core
-left idle meanwhile: with runs in processes one draws each run's figures
-(:func:`rigval.validation.report.drawing.hand_drawers`) and the last writes the summary page,
-so this process and the runs' processes never import matplotlib.
+Drawers (:class:`rigval.validation.beside.Standby` children) are forked first, before this
+process imports the pipeline, and import matplotlib on the core left idle meanwhile: with runs
+in processes one draws each run's figures (:func:`rigval.validation.report.drawing.
+hand_drawers`) and the last the summary page's, so this process and the runs' processes never
+import matplotlib.
 """
 
 from __future__ import annotations
@@ -32,7 +32,6 @@ from rigval.validation.commands.common import add_command, add_out_option
 
 if TYPE_CHECKING:
     from rigval.validation.campaign.engine import RunOutcome, RunReport
-    from rigval.validation.campaign.report import CampaignFiles
     from rigval.validation.report.drawing import Drawers
 
 __all__ = ["SUMMARY_NAME", "add_parser", "run", "validate_one"]
@@ -103,15 +102,16 @@ def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     # a child process per run (forked, so faster than a Dask cluster's start, also with Dask)
     workers = 1 if args.workers == 1 else min(args.workers or os.cpu_count() or 1, len(scenes))
-    # forked first, while this process has imported little: the children import matplotlib
-    # and the summary page's modules on the core left idle while this process imports the
-    # pipeline; one draws each run's figures, the last writes the summary page
+    # forked first, while this process has imported little: the drawers import matplotlib on
+    # the core left idle while this process imports the pipeline; one draws each run's
+    # figures (runs in processes), the last the summary page's
     standbys = Standby.group(workers + 1 if workers > 1 else 1,
-                             (*DRAWING_MODULES, "rigval.validation.campaign.report"),
+                             (*DRAWING_MODULES, "rigval.validation.campaign.speed_plot"),
                              nice=DRAWER_NICE)
     with standbys[0]:  # closing the first closes the others
         outcomes = _validate_runs(args, scenes, workers,
                                   [Drawers((standby,)) for standby in standbys[:-1]])
+        from rigval.validation.campaign.report import write_campaign_report
         from rigval.validation.campaign.runs import run_reason
 
         for outcome in outcomes:
@@ -126,7 +126,9 @@ def run(args: argparse.Namespace) -> int:
                    "workers": "1 (this process)" if workers == 1 else args.workers or
                    "one per CPU, at most one per run",
                    "wall time [s]": round(time.perf_counter() - start, 2)}
-        files = standbys[-1].submit(write_summary, outcomes, args.out, details).result()
+        files = write_campaign_report(outcomes, args.out, title="rigval demo: the shipped "
+                                      "sample runs", details=details,
+                                      drawers=Drawers(standbys[-1:]))
     print(f"demo: {len(outcomes)} runs in {time.perf_counter() - start:.1f} s; open {files.html}")
     if any(o.status == "error" for o in outcomes):
         return 3
@@ -149,15 +151,3 @@ def _validate_runs(args: argparse.Namespace, scenes: Sequence[Path], workers: in
         return run_campaign(scenes, args.out, scheduler="processes" if workers > 1 else "none",
                             workers=workers, validate=validate_one, force=args.force,
                             drawers=drawers)
-
-
-def write_summary(outcomes: Sequence[RunOutcome], out_dir: Path, details: dict[str, Any]
-                  ) -> CampaignFiles:
-    """Write the demo's campaign summary page into ``out_dir`` (a standby child's work).
-
-    :func:`rigval.validation.campaign.report.write_campaign_report` of the runs.
-    """
-    from rigval.validation.campaign.report import write_campaign_report
-
-    return write_campaign_report(outcomes, out_dir, title="rigval demo: the shipped sample runs",
-                                 details=details)

@@ -15,12 +15,15 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from rigval.processing.arrays import FloatArray
 from rigval.validation.diagnosis.modes import Resonance
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["MIN_SPEEDS", "SAME_FREQUENCY", "Campbell", "CampbellLine", "RunSpectrum",
            "campbell", "plot_campbell"]
@@ -200,6 +203,8 @@ def plot_campbell(diagram: Campbell, *, max_order: int = 40) -> Figure:
     order lines ``f = k speed`` are grey rays (every fifth darker), each resonance found is a
     ring, and each structural mode a dashed horizontal line.
     """
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(7.0, 4.2), layout="constrained")
     ax = fig.add_subplot()
     speeds = np.array([r.speed_rev_s for r in diagram.runs])
