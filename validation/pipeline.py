@@ -12,7 +12,9 @@ whose errors that are problems of the scene are reported once as a
 plan's (:mod:`rigval.validation.read_plan`), so every channel is read once.
 
 read
-    Each stream's file, only the channels the alignment and the model need (pulses, the
+    The scene's mechanism, assembled at t = 0 of its drive laws (the report's sketch; the
+    model stage runs it). Each stream's file, only the channels the alignment and the model
+    need (pulses, the
     encoders of phi_F and of measured drives; a text file's compared channels too), one stream
     after the other, converted to physical units (:mod:`rigval.processing.sensors`) as it is
     read (small files of the other streams in a child beside this process, their clock pulses
@@ -31,7 +33,8 @@ align
     let go; each other stream's clock fitted on its reference pulses against its events
     (:mod:`rigval.processing.stream_alignment`), module input delays removed.
 model
-    Only the outputs the comparisons and predictions name, on the phi_F grid: with measured
+    Only the outputs the comparisons and predictions name, on the phi_F grid, of the
+    mechanism assembled in the read stage: with measured
     drives, the mean drives of the align stage; with analytic drives, the mechanism file's
     laws. The model runs on a grid four times finer, so that the error of the chosen grid is
     measured (:mod:`rigval.validation.model_run`).
@@ -99,6 +102,7 @@ from rigval.validation.model_run import (
 from rigval.validation.read_plan import MeasuredSignal, ReadPlan, measured_signals, read_plan
 from rigval.validation.read_stage import Inputs, Read, read_streams
 from rigval.validation.results import (
+    Assembly,
     ComparisonResult,
     ModelledRun,
     NumericsSummary,
@@ -343,14 +347,23 @@ class _Modelled:
     model: _Model
 
 
-def _model(scene: Scene, aligned: _Aligned, like: xr.Dataset | None = None) -> _Modelled:
+def _assemble(scene: Scene) -> Assembly:
+    """Load the scene's mechanism and assemble it at t = 0 of its file's drive laws."""
+    mechanism = load_mechanism(scene.mechanism)
+    return Assembly(mechanism,
+                    solve(mechanism, np.zeros(1), outputs=["position", "point_position"]),
+                    tuple(str(p) for p in scene.predictions.points or ()))
+
+
+def _model(scene: Scene, aligned: _Aligned, assembly: Assembly,
+           like: xr.Dataset | None = None) -> _Modelled:
     """Solve the mechanism on the fine phi_F grid; the chosen grid is every fourth point.
 
     ``like``: another mechanism's fine model of the same run, whose mean measured drives are
     taken as they are (:func:`rigval.validation.model_run.drives_of`).
     """
     grid = aligned.timeline.grid
-    mechanism = load_mechanism(scene.mechanism)
+    mechanism = assembly.mechanism
     settings = model_settings(scene, mechanism)
     drives = drives_of(like) if like is not None and settings.drives == "measured" \
         else aligned.drives
@@ -363,8 +376,7 @@ def _model(scene: Scene, aligned: _Aligned, like: xr.Dataset | None = None) -> _
                            'drives = "measured"', law_speed, grid.speed_rev_s)
     chosen = fine.isel(angle=slice(None, None, FINE_FACTOR))
     return _Modelled(aligned.inputs, aligned.timeline, _Model(
-        mechanism, settings, fine, chosen,
-        solve(mechanism, np.zeros(1), outputs=["position", "point_position"]),
+        mechanism, settings, fine, chosen, assembly.configuration,
         _predicted_outputs(scene, chosen)))
 
 
@@ -486,6 +498,7 @@ STAGES = ("read", "align", "model", "angle", "numerics", "compare")
 
 
 def run_scene(scene: Scene | str | Path, *,
+              after_assembly: Callable[[Assembly], None] | None = None,
               after_model: Callable[[ModelledRun], None] | None = None) -> ValidationResult:
     """Validate one scene: read, align, model, angle domain, numerics, compare.
 
@@ -500,6 +513,10 @@ def run_scene(scene: Scene | str | Path, *,
     ----------
     scene : Scene, str or pathlib.Path
         A parsed scene or the path of a scene file.
+    after_assembly : callable, optional
+        Called with the scene's :class:`~rigval.validation.results.Assembly` as soon as its
+        mechanism is assembled, before the data are read (the report's drawers start on the
+        mechanism's sketch).
     after_model : callable, optional
         Called with the run's :class:`~rigval.validation.results.ModelledRun` as soon as the
         model stage ends (the report's drawers start on the alignment and model figures).
@@ -521,7 +538,8 @@ def run_scene(scene: Scene | str | Path, *,
         ``AlignmentError``, ``ModelError``).
     """
     with kept_layouts():  # each TDMS file's segments walked once: the scene's check, every read
-        return _run(scene, keep=False, after_model=after_model)[0]
+        return _run(scene, keep=False, after_assembly=after_assembly,
+                    after_model=after_model)[0]
 
 
 @dataclass(frozen=True)
@@ -559,7 +577,8 @@ class Measurement:
         with scene_errors(scene):
             with watch.stage("model"):
                 model = _model(scene, _Aligned(self.measured.inputs, self.measured.timeline,
-                                               None), like=self.measured.model.fine).model
+                                               None), _assemble(scene),
+                               like=self.measured.model.fine).model
             measured = dataclasses.replace(self.measured, model=model)
             with watch.stage("numerics"):
                 numerics = _numerics(scene, model)
@@ -569,6 +588,7 @@ class Measurement:
 
 
 def run_scene_kept(scene: Scene | str | Path, *,
+                   after_assembly: Callable[[Assembly], None] | None = None,
                    after_model: Callable[[ModelledRun], None] | None = None
                    ) -> tuple[ValidationResult, Measurement]:
     """Validate one scene as :func:`run_scene` does, and keep its measurement.
@@ -584,12 +604,14 @@ def run_scene_kept(scene: Scene | str | Path, *,
         For :meth:`Measurement.against`.
     """
     with kept_layouts():  # as in run_scene
-        result, measurement = _run(scene, keep=True, after_model=after_model)
+        result, measurement = _run(scene, keep=True, after_assembly=after_assembly,
+                                   after_model=after_model)
     assert measurement is not None
     return result, measurement
 
 
 def _run(scene: Scene | str | Path, *, keep: bool,
+         after_assembly: Callable[[Assembly], None] | None = None,
          after_model: Callable[[ModelledRun], None] | None = None
          ) -> tuple[ValidationResult, Measurement | None]:
     """Run the stages of a run; with ``keep`` return its measurement too."""
@@ -601,6 +623,10 @@ def _run(scene: Scene | str | Path, *, keep: bool,
         plan = read_plan(scene, settings)
     with scene_errors(scene):
         with watch.stage("read"):
+            assembly = _assemble(scene)
+        if after_assembly is not None:
+            after_assembly(assembly)
+        with watch.stage("read"):
             run = read_streams(scene, plan, settings, watch)
         with watch.stage("align"):
             run = _phi_f(scene, settings, run)
@@ -608,7 +634,7 @@ def _run(scene: Scene | str | Path, *, keep: bool,
             run = _drives(scene, plan, settings, run)
             run = _align(scene, plan, settings, run)
         with watch.stage("model"):
-            run = _model(scene, run)
+            run = _model(scene, run, assembly)
         if after_model is not None:
             after_model(ModelledRun(run.timeline.diagnostics, run.model.mechanism,
                                     run.model.configuration, run.model.predictions))

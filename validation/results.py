@@ -22,6 +22,7 @@ from rigval.validation.metrics.thresholds import ThresholdCheck
 from rigval.validation.scene_types import ComparisonSpec, Scene
 
 __all__ = [
+    "Assembly",
     "ComparisonResult",
     "ModelledRun",
     "NumericsSummary",
@@ -112,6 +113,29 @@ class NumericsSummary:
     model_residuals: Mapping[str, float]
     grid_error: Mapping[str, float]
     model_points: int
+
+
+@dataclass(frozen=True)
+class Assembly:
+    """The scene's mechanism assembled at t = 0 of its file's drive laws, before any data.
+
+    The pipeline assembles the mechanism before it reads the data and hands this to a caller
+    that asks for it (:func:`rigval.validation.pipeline.run_scene` ``after_assembly``): the
+    report's sketch of the mechanism is drawn while the data are read.
+
+    Parameters
+    ----------
+    mechanism : rigval.model.Mechanism
+        The scene's mechanism.
+    configuration : xarray.Dataset
+        It solved at t = 0 of its file's drive laws (``position`` and ``point_position``).
+    shown_points : tuple of str
+        The points whose kinematics the run predicts (the scene's ``[predictions] points``).
+    """
+
+    mechanism: Mechanism
+    configuration: xr.Dataset
+    shown_points: tuple[str, ...]
 
 
 @dataclass(frozen=True)

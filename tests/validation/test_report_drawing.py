@@ -193,7 +193,8 @@ def test_a_part_equal_to_an_earlier_one_is_drawn_once_for_both_pages():
 
 
 def test_the_model_figures_handed_after_the_model_stage_are_not_drawn_again():
-    """start_model_figures hands the alignment's and model's parts; start_figures reuses them.
+    """start_sketch hands the sketch when the mechanism is assembled, start_model_figures the
+    alignment's and model's parts (the sketch again); start_figures reuses them all.
 
     Drawers without children draw nothing until asked, so the test sees what is handed: the
     parts handed early are the very drawings the page's start gets back, and their texts equal
@@ -205,6 +206,7 @@ def test_the_model_figures_handed_after_the_model_stage_are_not_drawn_again():
         FIGURE_PARTS,
         start_figures,
         start_model_figures,
+        start_sketch,
     )
 
     drawers = drawing.Drawers(())
@@ -217,9 +219,11 @@ def test_the_model_figures_handed_after_the_model_stage_are_not_drawn_again():
 
     drawers.submit = recording
     result = run_scene(shipped_runs()[0],
+                       after_assembly=lambda assembly: start_sketch(assembly, drawers),
                        after_model=lambda run: start_model_figures(run, drawers))
-    early = list(handed)
+    sketch, *early = handed
     assert len(early) == len(FIGURE_PARTS)
+    assert early[FIGURE_PARTS.index(("sketch",))] is sketch  # not handed twice
     page = start_figures(result, drawers)
     assert all(later is first for later, first in zip(handed[-len(early):], early, strict=True))
     plain = start_figures(result)

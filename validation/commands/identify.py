@@ -169,11 +169,16 @@ def run(args: argparse.Namespace) -> int:
         from rigval.acquisition.threads import single_blas_thread
         from rigval.validation.identify import identify
         from rigval.validation.pipeline import run_scene_kept
-        from rigval.validation.report.run_report import start_figures, start_model_figures
+        from rigval.validation.report.run_report import (
+            start_figures,
+            start_model_figures,
+            start_sketch,
+        )
 
         with single_blas_thread():
             nominal, measurement = run_scene_kept(
-                args.scene, after_model=lambda run: start_model_figures(run, drawers))
+                args.scene, after_assembly=lambda assembly: start_sketch(assembly, drawers),
+                after_model=lambda run: start_model_figures(run, drawers))
             nominal_figures = start_figures(nominal, drawers)
             identification = identify(nominal.scene, parameters, friction=args.friction,
                                       comparisons=comparisons, result=nominal)

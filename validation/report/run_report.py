@@ -49,15 +49,20 @@ from rigval.validation.report.figure_inputs import (
 )
 from rigval.validation.report.page import Page
 from rigval.validation.report.why import start_why_figures, why_section
-from rigval.validation.results import ComparisonResult, ModelledRun, ValidationResult
+from rigval.validation.results import (
+    Assembly,
+    ComparisonResult,
+    ModelledRun,
+    ValidationResult,
+)
 from rigval.validation.verdict import failure_reasons, run_verdict
 from rigval.validation.version import rigval_version
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
 
-__all__ = ["HELD_BYTES", "file_groups", "start_figures", "start_model_figures", "write_metrics",
-           "write_netcdf", "write_report"]
+__all__ = ["HELD_BYTES", "file_groups", "start_figures", "start_model_figures", "start_sketch",
+           "write_metrics", "write_netcdf", "write_report"]
 
 logger = logging.getLogger(__name__)
 
@@ -510,15 +515,39 @@ def _model_data(run: ModelledRun) -> dict[str, tuple[Any, int]]:
     streams = {name: StreamCurves.of(a) for name, a in run.alignment.items()}
     return {**dict.fromkeys(("pulse_edges", "clock_residuals", "stream_coverage"),
                             (streams, 1)),
-            "sketch": ((MechanismSketch.of(run.mechanism, run.configuration), points), 1),
+            "sketch": _sketch_data(Assembly(run.mechanism, run.configuration, points)),
             "points": (PointCurves.of(predictions, points), len(points)),
             "support_forces": (support, int(support is not None))}
+
+
+def _sketch_data(assembly: Assembly) -> tuple[Any, int]:
+    """:func:`_data` of the sketch: the mechanism assembled, the points drawn red."""
+    return (MechanismSketch.of(assembly.mechanism, assembly.configuration),
+            assembly.shown_points), 1
 
 
 def _start_parts(drawing: Drawing, data: Mapping[str, tuple[Any, int]]) -> None:
     for names in FIGURE_PARTS:
         drawing.start(draw_figure_groups, tuple(data[name][0] for name in names), names,
                       sum(data[name][1] for name in names))
+
+
+def start_sketch(assembly: Assembly, drawers: Drawers) -> None:
+    """Hand the mechanism's sketch to ``drawers`` now, before the run's data are read.
+
+    Given as the pipeline's ``after_assembly`` (:func:`rigval.validation.pipeline.run_scene`),
+    the drawers draw it while the data are read and aligned; :func:`start_figures` of the run
+    then hands the same part with equal inputs and gets this drawing back.
+
+    Parameters
+    ----------
+    assembly : Assembly
+        The scene's mechanism assembled at t = 0.
+    drawers : rigval.validation.report.drawing.Drawers
+        From :func:`rigval.validation.report.drawing.standby_drawers`.
+    """
+    data = _sketch_data(assembly)
+    Drawing(drawers).start(draw_figure_groups, (data[0],), ("sketch",), data[1])
 
 
 def start_model_figures(run: ModelledRun, drawers: Drawers) -> None:

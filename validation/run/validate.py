@@ -8,7 +8,9 @@ pipeline's results, so the pipeline does not call it) and writes the folder from
 written. Two drawers are forked first (:func:`rigval.validation.report.drawing.standby_drawers`;
 ``rigval validate`` forks them before it imports this module): the first imports matplotlib
 while this process imports and runs the pipeline and forks the second from itself; they draw
-the figures of the alignment and the model as soon as the model is solved
+the mechanism's sketch as soon as it is assembled, before the data are read
+(:func:`~rigval.validation.report.run_report.start_sketch`), the figures of the alignment and
+the model as soon as the model is solved
 (:func:`~rigval.validation.report.run_report.start_model_figures`), while the pipeline makes the
 comparisons, then the comparisons' figures while this process diagnoses and writes the data
 files, so this process never imports matplotlib. As they keep the other core busy, this process
@@ -31,6 +33,7 @@ from rigval.validation.report.drawing import Drawers, standby_drawers
 from rigval.validation.report.run_report import (
     start_figures,
     start_model_figures,
+    start_sketch,
     write_report,
 )
 from rigval.validation.results import ValidationResult
@@ -61,6 +64,7 @@ def validate_scene(scene_path: str | Path, out_dir: str | Path,
     forked = standby_drawers() if drawers is None else contextlib.nullcontext(drawers)
     with forked as drawers, single_blas_thread():
         result = run_scene(scene_path,
+                           after_assembly=lambda assembly: start_sketch(assembly, drawers),
                            after_model=lambda run: start_model_figures(run, drawers))
         release_free_heap()  # the pipeline's freed memory, before the diagnosis's large arrays
         figures = start_figures(result, drawers)  # no figure but the Why's shows the diagnosis
