@@ -38,8 +38,9 @@ import xarray as xr
 from rigval.acquisition.errors import DataFileError
 from rigval.acquisition.outputs import atomic_output, write_text_atomic
 from rigval.validation.campaign.engine import RunOutcome, dask_available
+from rigval.validation.campaign.figure_groups import SPEED_GROUP, draw_speed_figure
 from rigval.validation.campaign.runs import run_reason
-from rigval.validation.campaign.speed_panels import SPEED_GROUP, draw_speed_figure, speed_panels
+from rigval.validation.campaign.speed_panels import speed_panels
 from rigval.validation.diagnosis.campbell import (
     MIN_SPEEDS,
     Campbell,

@@ -20,13 +20,10 @@ import numpy as np
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["MAX_PLOTTED", "SPEED_GROUP", "SpeedPanel", "SpeedSeries", "draw_speed_figure",
-           "speed_panels"]
+__all__ = ["MAX_PLOTTED", "SpeedPanel", "SpeedSeries", "speed_panels"]
 
 #: Most metrics the figure shows (those with thresholds first).
 MAX_PLOTTED = 6
-#: The figure's group name (:func:`draw_speed_figure`).
-SPEED_GROUP = "metrics against speed"
 
 
 @dataclass(frozen=True)
@@ -114,14 +111,3 @@ def speed_panels(table: pd.DataFrame, metrics: Sequence[str] | None = None, *,
                 line = float(limit.group(1))
         panels.append(SpeedPanel(title, line, tuple(series)))
     return tuple(panels)
-
-
-def draw_speed_figure(panels: Sequence[SpeedPanel], names: Sequence[str]) -> list[list[str]]:
-    """Return the SVG text of the figure of ``panels`` (a drawer's work; ``names``: its group).
-
-    The figure group function of :class:`rigval.validation.report.drawing.Drawing`.
-    """
-    from rigval.validation.campaign.speed_plot import plot_speed_panels
-    from rigval.validation.report.drawing import draw_texts
-
-    return [draw_texts([plot_speed_panels(panels)])]

@@ -106,7 +106,8 @@ def run(args: argparse.Namespace) -> int:
     # the core left idle while this process imports the pipeline; one draws each run's
     # figures (runs in processes), the last the summary page's
     standbys = Standby.group(workers + 1 if workers > 1 else 1,
-                             (*DRAWING_MODULES, "rigval.validation.campaign.speed_plot"),
+                             (*DRAWING_MODULES, "rigval.validation.campaign.figure_groups",
+                              "rigval.validation.campaign.speed_plot"),
                              nice=DRAWER_NICE)
     with standbys[0]:  # closing the first closes the others
         outcomes = _validate_runs(args, scenes, workers,
