@@ -204,7 +204,7 @@ def _drawers_serve_one_run_process_each() -> None:
         with standbys[0]:
             outcomes = run_campaign(scenes, Path(folder) / "out", scheduler="processes",
                                     workers=2, validate=drawing_standin,
-                                    drawers=[Drawers((s,)) for s in standbys])
+                                    drawers=Drawers(standbys).each())
         assert [o.status for o in outcomes] == ["passed"] * 3
         drawn = [tuple(map(int, (o.run_dir / "process.txt").read_text().split()))
                  for o in outcomes]

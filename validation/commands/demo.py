@@ -109,9 +109,9 @@ def run(args: argparse.Namespace) -> int:
                              (*DRAWING_MODULES, "rigval.validation.campaign.figure_groups",
                               "rigval.validation.campaign.speed_plot"),
                              nice=DRAWER_NICE)
+    *runs_drawers, summary_drawer = Drawers(standbys).each()
     with standbys[0]:  # closing the first closes the others
-        outcomes = _validate_runs(args, scenes, workers,
-                                  [Drawers((standby,)) for standby in standbys[:-1]])
+        outcomes = _validate_runs(args, scenes, workers, runs_drawers)
         from rigval.validation.campaign.report import write_campaign_report
         from rigval.validation.campaign.runs import run_reason
 
@@ -129,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
                    "wall time [s]": round(time.perf_counter() - start, 2)}
         files = write_campaign_report(outcomes, args.out, title="rigval demo: the shipped "
                                       "sample runs", details=details,
-                                      drawers=Drawers(standbys[-1:]))
+                                      drawers=summary_drawer)
     print(f"demo: {len(outcomes)} runs in {time.perf_counter() - start:.1f} s; open {files.html}")
     if any(o.status == "error" for o in outcomes):
         return 3
