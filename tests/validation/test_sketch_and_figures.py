@@ -301,3 +301,23 @@ def test_a_long_record_draws_some_revolutions_and_its_band_of_all() -> None:
         t.get_text() for t in top.texts]
     few = ComparisonCurves.of(dataclasses.replace(comparison, cycles=cycles[:15]))
     np.testing.assert_array_equal(few.drawn, cycles[:15])  # a short record: every revolution
+
+
+@pytest.mark.parametrize("lines", [1, 2])
+def test_a_plain_title_stands_where_matplotlib_places_one(lines):
+    # the figures give their titles y = 1.0 and PLAIN_TITLE_PAD so that matplotlib does not
+    # measure every tick label to place them; it must be the place it would have chosen
+    from matplotlib.backends.backend_agg import FigureCanvasAgg as Canvas
+
+    from rigval.validation.report.plots import PLAIN_TITLE_PAD
+
+    boxes = []
+    for fixed in (False, True):
+        fig = Figure(figsize=(4, 3))
+        ax = fig.add_subplot()
+        ax.plot([0.0, 360.0], [-2.5e3, 7.0e3])
+        where = {"y": 1.0, "pad": PLAIN_TITLE_PAD} if fixed else {}
+        title = ax.set_title("\n".join(["a title"] * lines), loc="left", **where)
+        Canvas(fig).draw()
+        boxes.append(title.get_window_extent().bounds)
+    assert boxes[0] == boxes[1]

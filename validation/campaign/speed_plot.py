@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from matplotlib.figure import Figure
 
 from rigval.validation.campaign.speed_panels import SpeedPanel
+from rigval.validation.report.plots import PLAIN_TITLE_PAD
 
 __all__ = ["plot_speed_panels"]
 
@@ -55,7 +56,7 @@ def plot_speed_panels(panels: Sequence[SpeedPanel], *, ax_width: float = 3.6) ->
                     markersize=11, markerfacecolor="none", color="tab:red")  # keeps the cycle
         if panel.threshold is not None:
             ax.axhline(panel.threshold, color="0.4", linestyle="--", linewidth=1)
-        ax.set_title(panel.title, fontsize="medium")
+        ax.set_title(panel.title, fontsize="medium", y=1.0, pad=PLAIN_TITLE_PAD)
         ax.set_xlabel("running speed [rev/s]")
         ax.grid(alpha=0.3)
     if len(panels):

@@ -60,6 +60,10 @@ BAND = "#9ec3ea"
 #: Title height in axes coordinates; fixed, so matplotlib does not measure every tick label to
 #: place it.
 TITLE_Y = 1.01
+#: matplotlib's default distance of a title above its axes (``axes.titlepad``), points: given
+#: with the height 1.0, the title stands where matplotlib would put it over axes without tick
+#: labels on top, and it does not measure every tick label to place it.
+PLAIN_TITLE_PAD = 6.0
 #: Harmonic orders shown under each comparison.
 HARMONIC_ORDERS = 10
 #: Smallest y span of a panel relative to the largest absolute value shown: a curve that varies
@@ -618,7 +622,7 @@ def plot_residual_orders(rows: Sequence[ResidualOrders], *, width: float = 9.0) 
             ax.plot(k, np.hypot(row.fitted[:, 0], row.fitted[:, 1]), "o", color="#c0392b",
                     ms=4, label=f"explained: {row.cause}")
         ax.set_title(f"{row.name}: residual per order of the main shaft", fontsize=9,
-                     loc="left")
+                     loc="left", y=1.0, pad=PLAIN_TITLE_PAD)
         ax.set_ylabel(row.units, fontsize=8)
         ax.set_xticks(k)
         ax.tick_params(labelsize=7)

@@ -21,6 +21,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import FancyArrowPatch, Polygon
 
 from rigval.validation.report.figure_inputs import MechanismSketch
+from rigval.validation.report.plots import PLAIN_TITLE_PAD
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -125,7 +126,8 @@ def draw_sketch(sketch: MechanismSketch, *, time: float = 0.0, highlight: Iterab
     ax.set_ylabel("y [m]")
     ax.grid(True, lw=0.3, alpha=0.5)
     ax.set_title(title or f"mechanism at t = {time:g} s of its file's drive laws (red: "
-                          f"{', '.join(sorted(marked)) or 'no point'})", loc="left", fontsize=10)
+                          f"{', '.join(sorted(marked)) or 'no point'})", loc="left", fontsize=10,
+                 y=1.0, pad=PLAIN_TITLE_PAD)
     return fig
 
 
