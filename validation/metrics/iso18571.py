@@ -81,8 +81,10 @@ _SLOPE_HALF_WIDTH = 4
 
 #: Most rows :func:`iso18571_periodic_sets` sweeps together: a sweep's fixed cost (one
 #: Python-level step per anti-diagonal) is mostly amortised by then, while its cost band stays
-#: small (about 0.65 MB per row for a 360-point revolution, three times repeated).
-ROWS_PER_SWEEP = 32
+#: small (about 0.65 MB per row for a 360-point revolution, three times repeated). Two sets of
+#: a 20 s record (15 to 24 rows: a comparison's model and revolutions) share a sweep (at 32 the
+#: nine sets of 22-24 rows of ``run_1p2`` took nine sweeps, five now).
+ROWS_PER_SWEEP = 48
 
 
 @dataclasses.dataclass(frozen=True)
