@@ -20,6 +20,7 @@ how far the onset moves over every ``tau`` the edges as a whole allow.
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -130,18 +131,19 @@ def _shape_in_place(u: FloatArray, width: float, shape: str, spare: FloatArray) 
     The operations of the closed forms, in their order, written over ``u`` and ``spare`` (of
     ``u``'s shape): the result is one of the two. The values are the closed forms' to the bit.
     """
-    if shape == "first-order":  # -expm1(-clip(u, 0) / width)
-        np.clip(u, 0.0, None, out=u)
-        np.negative(u, out=u)
-        np.divide(u, width, out=u)
-        np.expm1(u, out=u)
-        return np.negative(u, out=u)
+    if shape == "first-order":  # -expm1(-clip(u, 0) / width); clip(u, 0) is maximum(u, 0)
+        np.maximum(u, 0.0, out=u)
+        np.negative(u, u)
+        u /= width
+        np.expm1(u, u)
+        return np.negative(u, u)
     if shape == "band-limited":  # 0.5 + Si(u / width) / pi
-        np.divide(u, width, out=u)
-        sici(u, out=(u, spare))
-        np.divide(u, np.pi, out=u)
-        return np.add(u, 0.5, out=u)
-    np.divide(u, width * np.sqrt(2.0), out=u)
+        u /= width
+        sici(u, u, spare)
+        u /= np.pi
+        u += 0.5
+        return u
+    u /= width * np.sqrt(2.0)
     return _symmetric_in_place(u, spare)
 
 
@@ -184,7 +186,7 @@ class _Work:
 
     def array(self, name: str, shape: tuple[int, ...]) -> FloatArray:
         """Return the work array ``name`` with ``shape`` (contents undefined, C-contiguous)."""
-        size = int(np.prod(shape))
+        size = math.prod(shape)
         held = self._held.get(name)
         if held is None or held.size < size:
             held = self._held[name] = np.empty(size)
