@@ -28,7 +28,7 @@ import numpy as np
 
 from rigval.acquisition.errors import DataError
 
-__all__ = ["BATCH_BYTES", "dtw_path", "dtw_paths"]
+__all__ = ["BATCH_BYTES", "dtw_path", "dtw_paths", "workspace_size"]
 
 logger = logging.getLogger(__name__)
 
@@ -71,8 +71,8 @@ def dtw_path(x: np.ndarray, y: np.ndarray, radius: int) -> tuple[np.ndarray, np.
     return next(dtw_paths(np.asarray(x)[np.newaxis], np.asarray(y)[np.newaxis], radius))
 
 
-def dtw_paths(x: np.ndarray, y: np.ndarray, radius: int, *,
-              y_from: int = 0) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+def dtw_paths(x: np.ndarray, y: np.ndarray, radius: int, *, y_from: int = 0,
+              workspace: np.ndarray | None = None) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """Yield the DTW path of each pair of a stack of equally long signals, in order.
 
     The pairs are swept batch by batch: only one batch's costs and paths are held at a time.
@@ -89,6 +89,10 @@ def dtw_paths(x: np.ndarray, y: np.ndarray, radius: int, *,
     y_from : int
         Return only the end of each path, its cells with ``iy >= y_from`` (the backtracking
         stops there); 0: the whole path.
+    workspace : numpy.ndarray, optional
+        Float64 work space of at least :func:`workspace_size` values, written over: a caller
+        sweeping several stacks in turn hands each the same one, whose pages are then touched
+        (faulted in) once. Default: one of its own.
 
     Yields
     ------
@@ -114,20 +118,49 @@ def dtw_paths(x: np.ndarray, y: np.ndarray, radius: int, *,
         raise DataError(f"DTW needs equal lengths, got {lengths[0]} and {lengths[1]} samples "
                         f"(shapes {x.shape} and {y.shape})",
                         hint="truncate or resample both signals to one grid")
-    return _paths(x, y, int(min(max(radius, 0), max(x.shape[1] - 1, 0))), y_from)
+    radius = _within(radius, x.shape[1])
+    size = _batch(x.shape[0], x.shape[1], radius)
+    if workspace is None or workspace.size < size * _pair_values(x.shape[1], radius):
+        workspace = np.empty(size * _pair_values(x.shape[1], radius))
+    return _paths(x, y, radius, y_from, workspace)
 
 
-def _paths(x: np.ndarray, y: np.ndarray, radius: int,
-           y_from: int) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """Sweep and backtrack batch after batch (checked inputs, radius within the grid)."""
+def workspace_size(m: int, n: int, radius: int) -> int:
+    """Return the float64 values of work space :func:`dtw_paths` uses for ``m`` pairs of ``n``.
+
+    One batch's accumulated costs (:data:`BATCH_BYTES` at most, one pair at least).
+    """
+    radius = _within(radius, n)
+    return _batch(m, n, radius) * _pair_values(n, radius)
+
+
+def _within(radius: int, n: int) -> int:
+    """Return the band half-width within a grid of ``n`` samples (0 ... n - 1)."""
+    return int(min(max(radius, 0), max(n - 1, 0)))
+
+
+def _pair_values(n: int, radius: int) -> int:
+    """Return the accumulated-cost values of one pair (:func:`_accumulated_cost`'s rows)."""
+    return 2 * n * (radius + 3) + n + 1
+
+
+def _batch(m: int, n: int, radius: int) -> int:
+    """Return the pairs of a batch: ``m`` split into equal batches of :data:`BATCH_BYTES`."""
+    batches = math.ceil(m / max(1, min(m, BATCH_BYTES // (8 * _pair_values(n, radius)))))
+    return math.ceil(m / batches)
+
+
+def _paths(x: np.ndarray, y: np.ndarray, radius: int, y_from: int,
+           buffer: np.ndarray) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Sweep and backtrack batch after batch (checked inputs, radius within the grid).
+
+    Every batch's costs are held in ``buffer`` (one work space for all: its pages are touched
+    once).
+    """
     m, n = x.shape
-    per_pair = 8 * (2 * n * (radius + 3) + n + 1)
-    batches = math.ceil(m / max(1, min(m, BATCH_BYTES // per_pair)))
-    size = math.ceil(m / batches)  # equal batches
-    logger.debug("DTW of %d pairs of %d samples, band radius %d: %d batches of up to %d", m, n,
-                 radius, batches, size)
-    # one buffer for every batch: its pages are touched (faulted in) once per call
-    buffer = np.empty(per_pair // 8 * size)
+    size = _batch(m, n, radius)
+    logger.debug("DTW of %d pairs of %d samples, band radius %d: batches of up to %d", m, n,
+                 radius, size)
     for start in range(0, m, size):
         rows = slice(start, start + size)
         total = _accumulated_cost(x[rows], y if y.shape[0] == 1 else y[rows], radius, buffer)

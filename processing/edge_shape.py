@@ -20,6 +20,7 @@ how far the onset moves over every ``tau`` the edges as a whole allow.
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -120,11 +121,30 @@ def _windows(x: FloatArray, time: FloatArray, edges: FloatArray, fs: float
 
 def _shape(u: FloatArray, width: float, shape: str) -> FloatArray:
     """Return the normalised edge of ``shape`` and ``width`` ``u`` samples after its edge time."""
-    if shape == "first-order":
-        return -np.expm1(-np.clip(u, 0.0, None) / width)
-    if shape == "band-limited":
-        return 0.5 + sici(u / width)[0] / np.pi
-    return _symmetric(u / (width * np.sqrt(2.0)))
+    out = np.array(u, dtype=np.float64)
+    return _shape_in_place(out, width, shape, np.empty(out.shape))
+
+
+def _shape_in_place(u: FloatArray, width: float, shape: str, spare: FloatArray) -> FloatArray:
+    """Return the edge of ``shape`` and ``width`` at ``u`` samples after its edge time, in place.
+
+    The operations of the closed forms, in their order, written over ``u`` and ``spare`` (of
+    ``u``'s shape): the result is one of the two. The values are the closed forms' to the bit.
+    """
+    if shape == "first-order":  # -expm1(-clip(u, 0) / width); clip(u, 0) is maximum(u, 0)
+        np.maximum(u, 0.0, out=u)
+        np.negative(u, u)
+        u /= width
+        np.expm1(u, u)
+        return np.negative(u, u)
+    if shape == "band-limited":  # 0.5 + Si(u / width) / pi
+        u /= width
+        sici(u, u, spare)
+        u /= np.pi
+        u += 0.5
+        return u
+    u /= width * np.sqrt(2.0)
+    return _symmetric_in_place(u, spare)
 
 
 def _symmetric(x: FloatArray) -> FloatArray:
@@ -134,10 +154,43 @@ def _symmetric(x: FloatArray) -> FloatArray:
     :data:`_ERF_SATURATED` the value is 1 or 0, as the full evaluation gives it. A narrow edge
     leaves most of the lattice there (a fifth of it is evaluated at sigma 0.3 sample).
     """
-    value = (x > 0.0).astype(np.float64)
-    inside = np.abs(x) < _ERF_SATURATED
-    value[inside] = 0.5 * (1.0 + erf(x[inside]))
+    x = np.asarray(x, dtype=np.float64)
+    return _symmetric_in_place(x, np.empty(x.shape))
+
+
+def _symmetric_in_place(x: FloatArray, spare: FloatArray) -> FloatArray:
+    """Return :func:`_symmetric` of ``x`` in ``spare`` (of its shape); ``x`` is left as it was.
+
+    (scipy's ``erf`` is not called with ``where=``: in scipy 1.17 it writes outside the mask.)
+    """
+    inside = np.abs(x, out=spare) < _ERF_SATURATED
+    value = np.greater(x, 0.0, out=spare)
+    saturating = erf(x[inside])
+    saturating += 1.0
+    saturating *= 0.5
+    value[inside] = saturating
     return value
+
+
+class _Work:
+    """Work arrays the evaluations of one channel's edges share, each grown to the largest asked.
+
+    An evaluation of a width fills a lattice of model values per edge and the residuals of
+    every (sample, candidate) pair: about 0.3 and 0.9 MB at 32 edges, made anew for each of a
+    channel's 170 evaluations. glibc handed such arrays back to the system as they were freed
+    and mapped them again for the next (page faults: as much system time as the arithmetic).
+    """
+
+    def __init__(self) -> None:
+        self._held: dict[str, FloatArray] = {}
+
+    def array(self, name: str, shape: tuple[int, ...]) -> FloatArray:
+        """Return the work array ``name`` with ``shape`` (contents undefined, C-contiguous)."""
+        size = math.prod(shape)
+        held = self._held.get(name)
+        if held is None or held.size < size:
+            held = self._held[name] = np.empty(size)
+        return held[:size].reshape(shape)
 
 
 def _misfit(y: FloatArray, times: FloatArray, width: float, shape: str) -> FloatArray:
@@ -147,23 +200,28 @@ def _misfit(y: FloatArray, times: FloatArray, width: float, shape: str) -> Float
     return np.sum((y[:, None, :] - model) ** 2, axis=2)
 
 
-def _grid(y: FloatArray, guess: FloatArray, width: float, shape: str
-          ) -> tuple[FloatArray, FloatArray]:
+def _grid(y: FloatArray, guess: FloatArray, width: float, shape: str,
+          work: _Work | None = None) -> tuple[FloatArray, FloatArray]:
     """Candidate edge times (samples) per edge for one width, and their misfits.
 
     The distances of an edge's samples from its candidate times all lie on one lattice of step
     :data:`_STEP` (a sample interval is a whole number of steps): the shape is evaluated once
     per lattice point (:data:`_DISTANCES`) and each (sample, candidate) pair reads its value
     through a strided view, a third of the evaluations of one per pair and no copies. The
-    misfits equal :func:`_misfit`'s to rounding.
+    misfits equal :func:`_misfit`'s to rounding. The lattice and the residuals are held in
+    ``work`` (default: arrays of this call's own).
     """
+    work = work or _Work()
     centre = guess - (width * np.log(2.0) if shape == "first-order" else 0.0)
     candidates = centre[:, None] + _OFFSETS[None, :]
-    model = _shape(_DISTANCES[None, :] - centre[:, None], width, shape)
+    lattice = work.array("lattice", (guess.size, _DISTANCES.size))
+    np.subtract(_DISTANCES[None, :], centre[:, None], out=lattice)
+    model = _shape_in_place(lattice, width, shape, work.array("spare", lattice.shape))
     # pairs[e, k, j] = model[e, (last sample - k) * steps per sample + j]: each sample's
     # candidates read forward (the residuals' fast loop)
     pairs = sliding_window_view(model, _OFFSETS.size, axis=1)[:, ::-_STEPS_PER_SAMPLE]
-    residual = y[:, :, None] - pairs
+    residual = np.subtract(y[:, :, None], pairs,
+                           out=work.array("residual", (guess.size, *pairs.shape[1:])))
     residual *= residual
     return candidates, residual.sum(axis=1)
 
@@ -190,33 +248,33 @@ def _refined(y: FloatArray, candidates: FloatArray, grid: FloatArray, width: flo
             np.where(better, misfit, best))
 
 
-def _total(y: FloatArray, guess: FloatArray, width: float, shape: str) -> float:
+def _total(y: FloatArray, guess: FloatArray, width: float, shape: str, work: _Work) -> float:
     """Misfit summed over the edges, each at its best time (between the fine grid's points)."""
-    candidates, grid = _grid(y, guess, width, shape)
+    candidates, grid = _grid(y, guess, width, shape, work)
     return float(_refined(y, candidates, grid, width, shape)[1].sum())
 
 
-def _scan(y: FloatArray, guess: FloatArray, shape: str) -> tuple[float, float]:
+def _scan(y: FloatArray, guess: FloatArray, shape: str, work: _Work) -> tuple[float, float]:
     """Best width (samples) and its total misfit over the given edges.
 
     A scan over ``_WIDTHS``, then a golden-section search of the log width between the best
     one's neighbours; each edge at its best time (:func:`_total`).
     """
-    totals = [_total(y, guess, w, shape) for w in _WIDTHS]
+    totals = [_total(y, guess, w, shape, work) for w in _WIDTHS]
     i = int(np.argmin(totals))
     lo, hi = np.log(_WIDTHS[max(i - 1, 0)]), np.log(_WIDTHS[min(i + 1, _WIDTHS.size - 1)])
     ratio = (np.sqrt(5.0) - 1.0) / 2.0
     a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
-    fa, fb = _total(y, guess, np.exp(a), shape), _total(y, guess, np.exp(b), shape)
+    fa, fb = _total(y, guess, np.exp(a), shape, work), _total(y, guess, np.exp(b), shape, work)
     for _ in range(16):
         if fa <= fb:
             hi, b, fb = b, a, fa
             a = hi - ratio * (hi - lo)
-            fa = _total(y, guess, np.exp(a), shape)
+            fa = _total(y, guess, np.exp(a), shape, work)
         else:
             lo, a, fa = a, b, fb
             b = lo + ratio * (hi - lo)
-            fb = _total(y, guess, np.exp(b), shape)
+            fb = _total(y, guess, np.exp(b), shape, work)
     return (float(np.exp(a)), fa) if fa <= fb else (float(np.exp(b)), fb)
 
 
@@ -267,9 +325,10 @@ def fit_edges(x: ArrayLike, time: ArrayLike, edges: ArrayLike, *, fs: float, low
     guess = position[use]
     # the shapes are told apart on a few edges (cost); the onsets come from all of them
     pick = np.unique(np.linspace(0, guess.size - 1, min(guess.size, _SCAN_EDGES)).astype(int))
-    tau, first = _scan(y[pick], guess[pick], "first-order")
-    sigma, symmetric = _scan(y[pick], guess[pick], "symmetric")
-    band, limited = _scan(y[pick], guess[pick], "band-limited")
+    work = _Work()
+    tau, first = _scan(y[pick], guess[pick], "first-order", work)
+    sigma, symmetric = _scan(y[pick], guess[pick], "symmetric", work)
+    band, limited = _scan(y[pick], guess[pick], "band-limited", work)
     ratio = float(first / max(min(symmetric, limited), 1e-300))
     # the shapes' misfits differ by more than the noise can make them differ: decided
     noise_var = max((noise / (high - low)) ** 2, _NOISE_FLOOR**2)
@@ -282,17 +341,17 @@ def fit_edges(x: ArrayLike, time: ArrayLike, edges: ArrayLike, *, fs: float, low
             return EdgeFit("unresolved", given, np.full(given.size, crossing_bound), sigma,
                            ratio)
         return EdgeFit("symmetric", given, np.full(given.size, crossing_bound), width, ratio)
-    first = _total(y, guess, tau, "first-order")
+    first = _total(y, guess, tau, "first-order", work)
     dof = max(y.size - guess.size - 1, 1)
     variance = max((noise / (high - low)) ** 2, first / dof, _NOISE_FLOOR**2)
-    candidates, grid = _grid(y, guess, tau, "first-order")
+    candidates, grid = _grid(y, guess, tau, "first-order", work)
     lo_best, hi_best = _span(candidates, grid, variance)
     best_time, _ = _refined(y, candidates, grid, tau, "first-order")
     centre = 0.5 * (np.minimum(lo_best, best_time) + np.maximum(hi_best, best_time))
     reach = np.maximum(hi_best - centre, centre - lo_best)
     possible = 1
     for factor in _TAU_STEPS:
-        candidates, grid = _grid(y, guess, tau * factor, "first-order")
+        candidates, grid = _grid(y, guess, tau * factor, "first-order", work)
         if _refined(y, candidates, grid, tau * factor, "first-order")[1].sum() > (
                 first + _WIDTH_CHI2 * variance):
             continue

@@ -14,6 +14,7 @@ filter to rounding (1e-9 relative in the tests).
 
 from __future__ import annotations
 
+import functools
 import itertools
 import logging
 import warnings
@@ -58,13 +59,30 @@ def butter_sos(cutoff_hz: float | tuple[float, float], fs: float, *, order: int 
     Returns
     -------
     numpy.ndarray
-        SOS array of shape (n_sections, 6).
+        SOS array of shape (n_sections, 6), the caller's own (a copy of the design).
+
+    Notes
+    -----
+    A run designs the same few filters many times (every channel of a rate and corner, every
+    drive): each design is made once per process (:func:`_design`) and copied out.
     """
     edges = np.atleast_1d(np.asarray(cutoff_hz, dtype=np.float64))
     if np.any(edges <= 0) or np.any(edges >= fs / 2):
         raise ConfigError(f"cut-off {cutoff_hz} Hz must lie between 0 and fs/2 = {fs / 2} Hz",
                           where={"key": "cutoff_hz"})
-    return np.asarray(butter(order, cutoff_hz, btype=btype, fs=fs, output="sos"))
+    return _design(order, tuple(edges.tolist()), btype, float(fs)).copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _design(order: int, edges_hz: tuple[float, ...], btype: BandType, fs: float
+            ) -> NDArray[np.float64]:
+    """Return ``scipy.signal.butter``'s SOS of one filter (edges in Hz, ``fs`` in Hz).
+
+    One edge is handed to ``butter`` as a number, two as a pair, as :func:`butter_sos` takes
+    them. Cached: callers get copies (:func:`butter_sos`).
+    """
+    cutoff = edges_hz[0] if len(edges_hz) == 1 else edges_hz
+    return np.asarray(butter(order, cutoff, btype=btype, fs=fs, output="sos"))
 
 
 def default_padlen(cutoff_hz: float | tuple[float, float], fs: float) -> int:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.interpolate import CubicSpline
 
 import rigval.model as rm
@@ -62,3 +63,22 @@ def test_coarse_grid_error_equals_a_periodic_spline_through_every_step_th_angle(
     assert coarse_grid_error(fine, outputs, 4)["torque"] < coarse_grid_error(
         fine, outputs, 12)["torque"]
     assert coarse_grid_error(fine, outputs, 1) == {"x": 0.0, "torque": 0.0}
+
+
+def test_picked_values_are_a_float64_copy_and_an_unknown_label_is_refused() -> None:
+    # Independent expectation: xarray's own sel of every quantity, item and axis of a result,
+    # the values bit for bit; the picked array is the caller's (float64, not a view).
+    mechanism = rm.load_mechanism(mechanism_file("builtin:fourbar"))
+    result = rm.solve_cycle(mechanism, 24)
+    point, driver = mechanism.point_names[0], mechanism.driver_names[0]
+    for output, expected in (
+            (ModelOutput("point_acceleration", point, "x"),
+             result["point_acceleration"].sel(point=point, axis="x")),
+            (ModelOutput("driver_torque", driver), result["driver_torque"].sel(driver=driver))):
+        picked = model_values(result, output)
+        assert picked.dtype == np.float64 and picked.flags.owndata
+        assert picked.tobytes() == expected.to_numpy().astype(np.float64).tobytes()
+        picked[:] = np.nan
+        assert np.all(np.isfinite(model_values(result, output)))
+    with pytest.raises(KeyError):
+        model_values(result, ModelOutput("driver_torque", "no such driver"))

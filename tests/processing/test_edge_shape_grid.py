@@ -90,3 +90,35 @@ def test_grid_reads_the_lattice_either_way_to_the_bit(shape):
             :, ::edge_shape._STEPS_PER_SAMPLE, ::-1]
         expected = ((y[:, :, None] - pairs) ** 2).sum(axis=1)
         assert edge_shape._grid(y, guess, width, shape)[1].tobytes() == expected.tobytes()
+
+
+@pytest.mark.parametrize("shape", ["first-order", "symmetric", "band-limited"])
+def test_grid_in_shared_work_arrays_equals_its_own_to_the_bit(shape):
+    # one channel's evaluations share their lattice and residual arrays: edge counts that grow
+    # and shrink, widths across the scan, and arrays left dirty by the last evaluation
+    rng = np.random.default_rng(11)
+    n_samples = edge_shape._BEFORE + edge_shape._AFTER + 1
+    work = edge_shape._Work()
+    for edges, width in ((5, 0.02), (9, 0.4), (3, 3.7), (9, 0.011)):
+        y = rng.uniform(-0.1, 1.1, (edges, n_samples))
+        guess = rng.uniform(-1.0, 1.0, edges)
+        alone = edge_shape._grid(y, guess, width, shape)
+        shared = edge_shape._grid(y, guess, width, shape, work)
+        assert shared[0].tobytes() == alone[0].tobytes()
+        assert shared[1].tobytes() == alone[1].tobytes()
+
+
+@pytest.mark.parametrize("shape", ["first-order", "symmetric", "band-limited"])
+def test_shapes_are_the_closed_forms_to_the_bit_and_leave_their_input(shape):
+    rng = np.random.default_rng(13)
+    u = np.concatenate([rng.normal(0.0, 3.0, 5000), [0.0, -0.0, 1e-300, -50.0, 50.0]])
+    before = u.copy()
+    for width in (0.01, 0.3, 4.0):
+        if shape == "first-order":
+            expected = -np.expm1(-np.clip(u, 0.0, None) / width)
+        elif shape == "band-limited":
+            expected = 0.5 + sici(u / width)[0] / np.pi
+        else:
+            expected = 0.5 * (1.0 + erf(u / (width * np.sqrt(2.0))))
+        assert edge_shape._shape(u, width, shape).tobytes() == expected.tobytes()
+        assert u.tobytes() == before.tobytes()

@@ -14,7 +14,7 @@ import pytest
 import scipy.optimize
 
 from rigval.acquisition.errors import DataError
-from rigval.processing.dtw import dtw_path, dtw_paths
+from rigval.processing.dtw import dtw_path, dtw_paths, workspace_size
 from rigval.validation.metrics.compare import (
     DEFAULT_METRICS,
     baseline,
@@ -196,6 +196,23 @@ def test_dtw_paths_batches_equal_full_matrix(seed, monkeypatch):
         for (ix, iy), a in zip(shared, x, strict=True):
             ex, ey = _dtw_full(a, y[0], 4)
             assert ix.tolist() == ex.tolist() and iy.tolist() == ey.tolist()
+
+
+def test_dtw_paths_in_a_shared_workspace_equal_the_full_matrix(monkeypatch):
+    """Stacks of other lengths and radii swept in turn in one work space, dirty from the last."""
+    rng = np.random.default_rng(5)
+    monkeypatch.setattr("rigval.processing.dtw.BATCH_BYTES", 8 * 2 * 40 * 12)  # batches of 2
+    stacks = [(rng.normal(size=(5, 40)), rng.normal(size=(1, 40)), 6),
+              (np.round(rng.normal(size=(3, 25))), np.round(rng.normal(size=(3, 25))), 0),
+              (rng.normal(size=(4, 33)), rng.normal(size=(4, 33)), 40)]
+    workspace = np.full(max(workspace_size(x.shape[0], x.shape[1], radius)
+                            for x, _, radius in stacks), -1.0)
+    for x, y, radius in stacks:
+        paths = list(dtw_paths(x, y, radius, workspace=workspace))
+        for p, (ix, iy) in enumerate(paths):
+            ex, ey = _dtw_full(x[p], y[min(p, y.shape[0] - 1)], min(radius, x.shape[1] - 1))
+            assert ix.tolist() == ex.tolist() and iy.tolist() == ey.tolist()
+    assert not np.all(workspace == -1.0)  # the paths were swept in it
 
 
 def test_baseline_equals_compare_per_revolution_on_hard_cycles():

@@ -22,6 +22,7 @@ The mode's variance is the fitted peak's integral, ``A pi zeta f_n``, its amplit
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -142,18 +143,27 @@ class _Window:
         # resonances found before, fixed: their tails are not floor
         self.known = sum((peak * _resonance_shape(self.grid, fn, zeta) @ self.weights
                           for fn, zeta, peak in known), np.zeros(self.f.size))
+        # what every evaluation of the optimisers takes from the window, made once
+        self._offset = self.f - self.centre
+        self._half_dof = 0.5 * self.dof
 
     def model(self, theta: FloatArray) -> FloatArray:
-        floor = np.exp(theta[0] + theta[1] * (self.f - self.centre)) * self.scale + self.known
+        floor = np.exp(theta[0] + theta[1] * self._offset)
+        floor *= self.scale
+        floor += self.known
         if theta.size == 2:
             return floor
         fn, zeta, height = np.exp(theta[2:5])
         peak = _resonance_shape(self.grid, fn, zeta) @ self.weights
-        return floor + height * self.scale * peak
+        peak *= height * self.scale
+        peak += floor
+        return peak
 
     def nll(self, theta: FloatArray) -> float:
         m = self.model(theta)
-        return float(0.5 * self.dof * np.sum(np.log(m) + self.p / m))
+        terms = np.divide(self.p, m)
+        terms += np.log(m, out=m)
+        return float(self._half_dof * np.add.reduce(terms))
 
 
 def _hessian(fun, x: FloatArray, step: float = 1e-3) -> FloatArray:
@@ -233,8 +243,14 @@ def fit_resonance(spectrum: Spectrum, guess_hz: float, speed_rev_s: float,
                       np.log(height)])
     # screen: the peak's height alone at the first guess; a candidate far below the bar there
     # is not worth the full fit (the full fit can raise the ratio, rarely threefold)
-    quick = minimize_scalar(lambda h: window.nll(np.append(start[:4], h)),
-                            bounds=(start[4] - 8.0, start[4] + 3.0), method="bounded")
+    trial = start.copy()
+
+    def height_alone(h: float) -> float:
+        trial[4] = h
+        return window.nll(trial)
+
+    quick = minimize_scalar(height_alone, bounds=(start[4] - 8.0, start[4] + 3.0),
+                            method="bounded")
     if 2.0 * (null.fun - quick.fun) < SCREEN_SHARE * DETECTION_LR:
         return None
     best = minimize(window.nll, start, method="Nelder-Mead",
@@ -256,6 +272,18 @@ def fit_resonance(spectrum: Spectrum, guess_hz: float, speed_rev_s: float,
     return Resonance(float(fn), float(fn * np.sqrt(var[0])), float(zeta),
                      float(zeta * np.sqrt(var[1])), amplitude, 0.5 * amplitude * u_log_var,
                      float(variance), float(ratio), float(fn / speed_rev_s))
+
+
+def _median(values: FloatArray) -> float:
+    """Return ``np.median(values)`` (to the bit) of a non-empty 1-d array, without its overhead.
+
+    The middle value, or the mean of the two middle values ``(a + b) / 2``; NaN if any value is.
+    """
+    n = values.size
+    part = np.partition(values, [(n - 1) // 2, n // 2, n - 1])
+    if np.isnan(part[-1]):
+        return math.nan
+    return float(part[n // 2]) if n % 2 else (float(part[n // 2 - 1]) + float(part[n // 2])) / 2.0
 
 
 def default_band(speed_rev_s: float, upper_hz: float) -> tuple[float, float]:
@@ -293,11 +321,14 @@ def find_resonances(spectrum: Spectrum, speed_rev_s: float,
     if inside.size < 5:
         return ()
     smooth = np.convolve(p, np.ones(3) / 3.0, mode="same")
-    ratio = {}
-    for i in inside[1:-1]:
-        if smooth[i] >= smooth[i - 1] and smooth[i] >= smooth[i + 1]:
-            half = 0.5 * max(4.0, 0.5 * f[i])
-            ratio[i] = smooth[i] / np.median(p[(f >= f[i] - half) & (f <= f[i] + half)])
+    middle = inside[1:-1]
+    local = middle[(smooth[middle] >= smooth[middle - 1]) & (smooth[middle] >= smooth[middle + 1])]
+    half = 0.5 * np.maximum(4.0, 0.5 * f[local])
+    # the window f[i] +- half of ascending frequencies: samples lo ... hi - 1
+    lo = np.searchsorted(f, f[local] - half, side="left")
+    hi = np.searchsorted(f, f[local] + half, side="right")
+    ratio = {int(i): smooth[i] / _median(p[a:b])
+             for i, a, b in zip(local, lo.tolist(), hi.tolist(), strict=True)}
     peaks = sorted((i for i in ratio if ratio[i] >= CANDIDATE_RATIO), key=lambda i: -ratio[i])
     found: list[Resonance] = []
     for i in peaks[:MAX_CANDIDATES]:

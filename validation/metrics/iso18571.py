@@ -45,7 +45,7 @@ import numpy as np
 import scipy.signal
 
 from rigval.acquisition.errors import ConfigError, DataError
-from rigval.processing.dtw import dtw_path, dtw_paths
+from rigval.processing.dtw import dtw_path, dtw_paths, workspace_size
 from rigval.validation.metrics.core import Scores, paired, revolution_angle, row_dot
 
 __all__ = [
@@ -81,8 +81,10 @@ _SLOPE_HALF_WIDTH = 4
 
 #: Most rows :func:`iso18571_periodic_sets` sweeps together: a sweep's fixed cost (one
 #: Python-level step per anti-diagonal) is mostly amortised by then, while its cost band stays
-#: small (about 0.65 MB per row for a 360-point revolution, three times repeated).
-ROWS_PER_SWEEP = 32
+#: small (about 0.65 MB per row for a 360-point revolution, three times repeated). Two sets of
+#: a 20 s record (15 to 24 rows: a comparison's model and revolutions) share a sweep (at 32 the
+#: nine sets of 22-24 rows of ``run_1p2`` took nine sweeps, five now).
+ROWS_PER_SWEEP = 48
 
 
 @dataclasses.dataclass(frozen=True)
@@ -631,7 +633,13 @@ def _magnitude_errors_circular(sets: Sequence[_Prepared],
     several sets (:func:`_sweeps`).
     """
     errors: list[list[float]] = [[] for _ in sets]
-    for sweep in _sweeps(sets):
+    sweeps = _sweeps(sets)
+    # one work space for all sweeps (the largest's): its pages are faulted in once
+    workspace = np.empty(max((workspace_size(sum(sets[i].rotated.shape[0] for i in sweep),
+                                             3 * sets[sweep[0]].reference.size,
+                                             _band_radius(sets[sweep[0]].reference.size, params))
+                              for sweep in sweeps), default=0))
+    for sweep in sweeps:
         n = sets[sweep[0]].reference.size
         rows = np.concatenate([np.tile(sets[i].rotated, 3) for i in sweep])
         # one set: its reference once (dtw_paths spreads it); several: one per row
@@ -639,7 +647,8 @@ def _magnitude_errors_circular(sets: Sequence[_Prepared],
                       else np.concatenate([np.broadcast_to(np.tile(sets[i].reference, 3),
                                                            (sets[i].rotated.shape[0], 3 * n))
                                            for i in sweep]))
-        paths = dtw_paths(rows, references, _band_radius(n, params), y_from=n)
+        paths = dtw_paths(rows, references, _band_radius(n, params), y_from=n,
+                          workspace=workspace)
         for i in sweep:
             reference = sets[i].reference
             for comparison, (ix, iy) in zip(sets[i].rotated,
