@@ -115,25 +115,24 @@ class Standby:
 
     def __init__(self, modules: Iterable[str] = ()) -> None:
         self._unanswered: list[Pending[Any]] = []
-        self._child = _fork_children(tuple(modules), 1, 0)[0] if can_fork() else None
+        self._child = _fork_children(tuple(modules), 1)[0] if can_fork() else None
         self._followers: tuple[Standby, ...] = ()
 
     @classmethod
-    def group(cls, count: int, modules: Iterable[str] = (), *, nice: int = 0
-              ) -> list[Standby]:
+    def group(cls, count: int, modules: Iterable[str] = ()) -> list[Standby]:
         """Return ``count`` standbys whose children import ``modules`` once between them.
 
         One child is forked now and imports ``modules``; it then forks the others from itself,
         so that they start with the modules imported (one import's CPU instead of ``count``).
         Closing the first standby closes the others too (its child waits for theirs to end).
         Where :func:`can_fork` says no, every call of every standby runs in this process.
-
-        ``nice``: the children's niceness increment (:func:`os.nice`): work that can wait
-        yields the CPU to this process's while both want it.
+        The children run at this process's priority: lowered (nice 5), their work waited
+        behind other programs' on a busy machine (a page waited 0.5 s longer for its figures
+        at load 3-4), for 0.04 s gained on an idle one (docs/performance.md).
         """
         children: list[_Child | None] = [None] * count
         if can_fork():
-            children[:] = _fork_children(tuple(modules), count, nice)
+            children[:] = _fork_children(tuple(modules), count)
         standbys = [cls._holding(child) for child in children]
         standbys[0]._followers = tuple(standbys[1:])
         return standbys
@@ -209,7 +208,7 @@ class Standby:
 _Child = tuple["Connection", "Connection", "BaseProcess | None"]
 
 
-def _fork_children(modules: tuple[str, ...], count: int, nice: int) -> list[_Child]:
+def _fork_children(modules: tuple[str, ...], count: int) -> list[_Child]:
     """Fork a child serving the first of ``count`` pipe pairs; it forks the others' children.
 
     See :meth:`Standby.group`; ``count`` 1 is a plain :class:`Standby`'s child.
@@ -222,7 +221,7 @@ def _fork_children(modules: tuple[str, ...], count: int, nice: int) -> list[_Chi
     held = [(call_in, value_out) for (_, call_in), (value_out, _) in zip(calls, values,
                                                                          strict=True)]
     _HELD_HERE.extend(end for pair in held for end in pair)  # the children close their copies
-    process = context.Process(target=_serve_group, args=(ends, modules, nice),
+    process = context.Process(target=_serve_group, args=(ends, modules),
                               name="rigval standby", daemon=True)
     process.start()
     for pair in ends:  # the children hold the only other ends
@@ -232,8 +231,8 @@ def _fork_children(modules: tuple[str, ...], count: int, nice: int) -> list[_Chi
             for k, (call_in, value_out) in enumerate(held)]
 
 
-def _serve_group(ends: list[tuple[Connection, Connection]], modules: tuple[str, ...],
-                 nice: int) -> None:
+def _serve_group(ends: list[tuple[Connection, Connection]], modules: tuple[str, ...]
+                 ) -> None:
     """Be the first standby child of a group: import ``modules``, fork the others, serve.
 
     Each child serves its own pair of ``ends`` and closes the others'. The first child waits
@@ -242,8 +241,6 @@ def _serve_group(ends: list[tuple[Connection, Connection]], modules: tuple[str, 
     """
     # Ctrl-C is the parent's to handle (it then ends this child): no traceback from here
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if nice:
-        os.nice(nice)  # the others are forked from this child: as nice
     for end in _HELD_HERE:  # the parent's ends, of this group's pipes and the earlier ones'
         end.close()
     for name in modules:

@@ -195,22 +195,3 @@ def test_a_group_without_fork_runs_its_calls_here():
         standbys = Standby.group(2)
         with standbys[0]:
             assert [s.submit(os.getpid).result() for s in standbys] == [os.getpid()] * 2
-
-
-def _niceness_of(pid: int) -> int:
-    return os.getpriority(os.PRIO_PROCESS, pid)
-
-
-def _group_is_nice() -> None:
-    if not can_fork():
-        print("no fork")
-        return
-    here = _niceness_of(0)
-    standbys = Standby.group(2, nice=3)
-    with standbys[0]:
-        nices = [s.submit(_niceness_of, 0).result() for s in standbys]
-    assert nices == [min(here + 3, 19)] * 2 and _niceness_of(0) == here
-
-
-def test_a_group_s_children_are_as_nice_as_asked_and_this_process_unchanged():
-    run_in_a_fresh_process("test_beside", "_group_is_nice", timeout_s=120)

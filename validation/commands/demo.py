@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     from rigval.acquisition.errors import DataError
     from rigval.sample_data import shipped_runs
     from rigval.validation.beside import Standby
-    from rigval.validation.report.drawing import DRAWER_NICE, DRAWING_MODULES, Drawers
+    from rigval.validation.report.drawing import DRAWING_MODULES, Drawers
 
     scenes = shipped_runs()
     if not scenes:
@@ -107,8 +107,7 @@ def run(args: argparse.Namespace) -> int:
     # figures (runs in processes), the last the summary page's
     standbys = Standby.group(workers + 1 if workers > 1 else 1,
                              (*DRAWING_MODULES, "rigval.validation.campaign.figure_groups",
-                              "rigval.validation.campaign.speed_plot"),
-                             nice=DRAWER_NICE)
+                              "rigval.validation.campaign.speed_plot"))
     *runs_drawers, summary_drawer = Drawers(standbys).each()
     with standbys[0]:  # closing the first closes the others
         outcomes = _validate_runs(args, scenes, workers, runs_drawers)

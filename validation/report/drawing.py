@@ -26,7 +26,7 @@ from rigval.validation.beside import Pending, Standby, pickled
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["DRAWERS", "DRAWER_NICE", "DRAWING_MODULES", "Drawers", "Drawing", "GroupFunction",
+__all__ = ["DRAWERS", "DRAWING_MODULES", "Drawers", "Drawing", "GroupFunction",
            "draw_texts", "hand_drawers", "standby_drawers"]
 
 #: Modules a standby drawer imports while this process does other work: numpy, matplotlib
@@ -39,12 +39,6 @@ DRAWING_MODULES = ("rigval.validation.report.figure_groups", "rigval.validation.
 #: Two drawers: on two cores, they and this process (the diagnosis, the data files) share
 #: the time after the pipeline about evenly.
 DRAWERS = 2
-
-#: The drawers' niceness increment: their figures are wanted only when this process writes
-#: the page, so while both want a core (the pipeline, the read beside it), this process's
-#: work goes first (a nice-5 process gets about a quarter of a core shared with a nice-0
-#: one); an idle core is theirs all the same.
-DRAWER_NICE = 5
 
 Inputs = TypeVar("Inputs")
 
@@ -134,7 +128,7 @@ def standby_drawers(count: int = DRAWERS) -> Iterator[Drawers]:
     if _handed is not None:
         yield _handed
         return
-    standbys = Standby.group(count, DRAWING_MODULES, nice=DRAWER_NICE)
+    standbys = Standby.group(count, DRAWING_MODULES)
     with standbys[0]:  # closing the first closes the others
         yield Drawers(standbys)
 
