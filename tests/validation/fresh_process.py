@@ -14,9 +14,25 @@ from pathlib import Path
 
 import pytest
 
-__all__ = ["run_in_a_fresh_process"]
+from rigval.validation.beside import can_fork
+
+__all__ = ["no_fork_here", "run_in_a_fresh_process"]
 
 REPO = Path(__file__).resolve().parents[2]
+#: What a check prints where no child may be forked: :func:`run_in_a_fresh_process` skips.
+NO_FORK = "no fork"
+
+
+def no_fork_here() -> bool:
+    """Return whether this process may not fork standby children, and then say so.
+
+    A check returns at once when it is true; :func:`run_in_a_fresh_process` sees what it
+    printed and skips the test.
+    """
+    if can_fork():
+        return False
+    print(NO_FORK)
+    return True
 
 
 def run_in_a_fresh_process(module: str, check: str, timeout_s: float = 300.0) -> None:
@@ -28,5 +44,5 @@ def run_in_a_fresh_process(module: str, check: str, timeout_s: float = 300.0) ->
     done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
                           text=True, timeout=timeout_s, check=False)
     assert done.returncode == 0, done.stderr
-    if "no fork" in done.stdout:
+    if NO_FORK in done.stdout:
         pytest.skip("no fork here: no fork start method or one CPU")

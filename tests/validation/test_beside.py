@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from rigval.validation.beside import Standby, can_fork
-from tests.validation.fresh_process import run_in_a_fresh_process
+from tests.validation.fresh_process import no_fork_here, run_in_a_fresh_process
 
 needs_fork = pytest.mark.usefixtures("forks_beside")
 
@@ -80,8 +80,7 @@ def test_a_standby_error_shows_in_this_process():
 
 
 def _closing_ends_each_child() -> None:
-    if not can_fork():
-        print("no fork")
+    if no_fork_here():
         return
     first, second = Standby(), Standby()
     pids = [first.submit(os.getpid).result(), second.submit(os.getpid).result()]
@@ -125,8 +124,7 @@ def test_a_second_thread_keeps_the_calls_in_this_process():
 
 
 def _an_error_ends_the_child_at_once() -> None:
-    if not can_fork():
-        print("no fork")
+    if no_fork_here():
         return
     with pytest.raises(RuntimeError, match="stop"), Standby() as standby:
         pid = standby.submit(os.getpid).result()
@@ -151,8 +149,7 @@ def _group_imports_once() -> None:
     import tempfile
     from pathlib import Path
 
-    if not can_fork():
-        print("no fork")
+    if no_fork_here():
         return
     folder = Path(tempfile.mkdtemp())
     (folder / "counted_import.py").write_text(
@@ -175,8 +172,7 @@ def test_a_group_imports_its_modules_once_and_ends_together():
 
 
 def _group_error_ends_all_at_once() -> None:
-    if not can_fork():
-        print("no fork")
+    if no_fork_here():
         return
     standbys = Standby.group(2)
     with pytest.raises(RuntimeError, match="stop"), standbys[0]:

@@ -286,11 +286,11 @@ def _summary_drawn_by_a_drawer() -> None:
     import sys
     import tempfile
 
-    from rigval.validation.beside import Standby, can_fork
+    from rigval.validation.beside import Standby
     from rigval.validation.report.drawing import DRAWING_MODULES, Drawers
+    from tests.validation.fresh_process import no_fork_here
 
-    if not can_fork():
-        print("no fork")
+    if no_fork_here():
         return
     standbys = Standby.group(1, (*DRAWING_MODULES, "rigval.validation.campaign.speed_plot"))
     with standbys[0], tempfile.TemporaryDirectory() as folder:

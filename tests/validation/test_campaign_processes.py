@@ -192,11 +192,11 @@ def _drawers_serve_one_run_process_each() -> None:
     with a drawer of its own (another process), the third in its own process."""
     import tempfile
 
-    from rigval.validation.beside import Standby, can_fork
+    from rigval.validation.beside import Standby
     from rigval.validation.report.drawing import Drawers
+    from tests.validation.fresh_process import no_fork_here
 
-    if not can_fork():
-        print("no fork")
+    if no_fork_here():
         return
     with tempfile.TemporaryDirectory() as folder:
         scenes = [_scene(Path(folder) / "scenes", f"r{k}") for k in range(3)]

@@ -20,8 +20,7 @@ import numpy as np
 import xarray as xr
 
 from rigval.validation import pipeline, read_stage
-from rigval.validation.beside import can_fork
-from tests.validation.fresh_process import run_in_a_fresh_process
+from tests.validation.fresh_process import no_fork_here, run_in_a_fresh_process
 
 
 def _shipped_copy() -> Path:
@@ -65,8 +64,7 @@ def _logged() -> list[logging.LogRecord]:
 
 
 def _same_run_either_way() -> None:
-    if not can_fork():
-        print("no fork")
+    if no_fork_here():
         return
     beside, beside_log, here, here_log = _both_ways(_shipped_copy(), _logged())
     assert any("read beside the reference stream cdaq" in m for m in beside_log)
@@ -91,8 +89,7 @@ def test_other_streams_read_beside_give_the_same_run():
 
 
 def _same_error_either_way() -> None:
-    if not can_fork():
-        print("no fork")
+    if no_fork_here():
         return
     records = _logged()
     # a wireless stream's file cut short: the read reports it, beside or here
@@ -124,8 +121,7 @@ def test_large_files_are_read_here(tmp_path, monkeypatch):
 
 
 def _small_files_read_beside() -> None:
-    if not can_fork():
-        print("no fork")
+    if no_fork_here():
         return
     scene = pipeline.load_scene(_shipped_copy())
     assert read_stage.reads_beside(scene, pipeline.alignment_settings(scene))

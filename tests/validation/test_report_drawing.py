@@ -14,10 +14,9 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from rigval.validation.beside import can_fork
 from rigval.validation.report import drawing
 from rigval.validation.report.page import Page, svg_text
-from tests.validation.fresh_process import REPO, run_in_a_fresh_process
+from tests.validation.fresh_process import REPO, no_fork_here, run_in_a_fresh_process
 
 #: Figure groups: name -> (seed, figures).
 GROUPS = {"three": (1, 3), "one": (2, 1), "two": (3, 2), "none": (4, 0)}
@@ -84,8 +83,7 @@ def test_texts_here_equal_the_plain_route_for_every_split():
 
 
 def _drawers_equal_the_plain_route() -> None:
-    if not can_fork():
-        print("no fork")
+    if no_fork_here():
         return
     plain = _plain()
     for splits in SPLITS:
@@ -94,8 +92,7 @@ def _drawers_equal_the_plain_route() -> None:
 
 
 def _drawn_by_other_processes() -> None:
-    if not can_fork():
-        print("no fork")
+    if no_fork_here():
         return
     with drawing.standby_drawers() as drawers:
         page = drawing.Drawing(drawers)
@@ -107,8 +104,7 @@ def _drawn_by_other_processes() -> None:
 
 
 def _failing_drawer_drawn_here() -> None:
-    if not can_fork():
-        print("no fork")
+    if no_fork_here():
         return
     with drawing.standby_drawers() as drawers:
         page = drawing.Drawing(drawers)
