@@ -526,10 +526,20 @@ def _sketch_data(assembly: Assembly) -> tuple[Any, int]:
             assembly.shown_points), 1
 
 
+def _start_part(drawing: Drawing, data: Mapping[str, tuple[Any, int]],
+                names: tuple[str, ...]) -> None:
+    """Start the groups ``names`` with their data, as one call.
+
+    Equal data give an equal call, so that a part handed early is recognised when it is handed
+    again (:class:`~rigval.validation.report.drawing.Drawers` shares its drawing).
+    """
+    drawing.start(draw_figure_groups, tuple(data[name][0] for name in names), names,
+                  sum(data[name][1] for name in names))
+
+
 def _start_parts(drawing: Drawing, data: Mapping[str, tuple[Any, int]]) -> None:
     for names in FIGURE_PARTS:
-        drawing.start(draw_figure_groups, tuple(data[name][0] for name in names), names,
-                      sum(data[name][1] for name in names))
+        _start_part(drawing, data, names)
 
 
 def start_sketch(assembly: Assembly, drawers: Drawers) -> None:
@@ -546,8 +556,7 @@ def start_sketch(assembly: Assembly, drawers: Drawers) -> None:
     drawers : rigval.validation.report.drawing.Drawers
         From :func:`rigval.validation.report.drawing.standby_drawers`.
     """
-    data = _sketch_data(assembly)
-    Drawing(drawers).start(draw_figure_groups, (data[0],), ("sketch",), data[1])
+    _start_part(Drawing(drawers), {"sketch": _sketch_data(assembly)}, ("sketch",))
 
 
 def start_model_figures(run: ModelledRun, drawers: Drawers) -> None:
