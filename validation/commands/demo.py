@@ -104,8 +104,9 @@ def run(args: argparse.Namespace) -> int:
     workers = 1 if args.workers == 1 else min(args.workers or os.cpu_count() or 1, len(scenes))
     # forked first, while this process has imported little: the drawers import matplotlib on
     # the core left idle while this process imports the pipeline; one draws each run's
-    # figures (runs in processes), the last the summary page's
-    standbys = Standby.group(workers + 1 if workers > 1 else 1,
+    # figures (runs in processes: one drawer per run, as a drawer serves one process and a run
+    # without one would import matplotlib itself), the last the summary page's
+    standbys = Standby.group(len(scenes) + 1 if workers > 1 else 1,
                              (*DRAWING_MODULES, "rigval.validation.campaign.figure_groups",
                               "rigval.validation.campaign.speed_plot"))
     *runs_drawers, summary_drawer = Drawers(standbys).each()
