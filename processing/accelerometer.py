@@ -22,10 +22,10 @@ import logging
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import lfilter
 
 from rigval.acquisition.errors import ConfigError
 from rigval.processing.arrays import FloatArray
+from rigval.processing.scipy_signal import lfilter
 
 __all__ = [
     "STANDARD_GRAVITY",

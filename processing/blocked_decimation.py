@@ -15,9 +15,9 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-from scipy.signal import decimate
 
 from rigval.processing.arrays import FloatArray, IntArray
+from rigval.processing.scipy_signal import decimate
 
 __all__ = ["BLOCK", "EDGE", "decimate_stretch", "line_values"]
 

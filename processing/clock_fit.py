@@ -36,9 +36,9 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+import scipy.special
 import xarray as xr
 from numpy.typing import ArrayLike
-from scipy.stats import t as student_t
 from xarray.indexes import PandasIndex
 
 from rigval.acquisition.devices import ni9237_input_delay
@@ -64,6 +64,7 @@ __all__ = [
     "ni9237_input_delay",
     "quantisation_limit",
     "reference_event_times",
+    "student_t_975",
 ]
 
 logger = logging.getLogger(__name__)
@@ -271,9 +272,19 @@ def _intervals95(design: FloatArray, residual: FloatArray, bound: FloatArray,
     dof = design.shape[0] - design.shape[1]
     sigma2 = float(residual @ residual) / dof if dof > 0 else np.inf
     se = np.sqrt(sigma2 * np.sum(weights**2, axis=1))
-    quantile = float(student_t.ppf(0.975, dof)) if dof > 0 else np.inf
+    quantile = student_t_975(dof) if dof > 0 else np.inf
     worst = np.abs(weights) @ bound
     return se, np.sqrt((quantile * se) ** 2 + worst**2)
+
+
+def student_t_975(dof: float) -> float:
+    """Return Student's t quantile of 0.975 for ``dof`` degrees of freedom (95 % two-sided).
+
+    ``scipy.stats.t.ppf(0.975, dof)`` to the bit, from the function it calls
+    (``scipy.special.stdtrit``), without loading :mod:`scipy.stats` (a run never needs it:
+    :mod:`rigval.processing.scipy_signal`).
+    """
+    return float(scipy.special.stdtrit(dof, 0.975))
 
 
 def quantisation_limit(dev_times: ArrayLike, fs: float) -> tuple[float, float]:

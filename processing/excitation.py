@@ -41,7 +41,6 @@ from typing import Literal
 import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import sosfreqz
 
 from rigval.acquisition.errors import ConfigError, DataError
 from rigval.acquisition.schema import append_history
@@ -63,6 +62,7 @@ from rigval.processing.filters import (
     filtfilt_pieces,
 )
 from rigval.processing.periodic_fit import PeriodicFit, fit_periodic, refine_period
+from rigval.processing.scipy_signal import sosfreqz
 
 __all__ = ["DriveAngle", "drive_angle", "drive_excitation", "drive_excitation_at",
            "mean_drive_cycle", "quantisation_noise"]

@@ -23,10 +23,10 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import butter, sosfiltfilt
 
 from rigval.acquisition.errors import ConfigError, DataWarning
 from rigval.processing.arrays import FloatArray
+from rigval.processing.scipy_signal import butter, sosfiltfilt
 
 __all__ = ["butter_sos", "contiguous_runs", "default_padlen", "zero_phase"]
 

@@ -27,7 +27,6 @@ from typing import Any, Literal
 
 import numpy as np
 import xarray as xr
-from scipy.stats import t as student_t
 
 from rigval.acquisition.channel_map import ChannelSpec
 from rigval.acquisition.devices import get_module
@@ -346,7 +345,7 @@ def _main_angle(settings: AlignmentSettings, ref: xr.Dataset, pulses: StreamPuls
     period = float(np.median(np.diff(pulses.good)))
     # phi_f stores the scatter on the Dataset, not on the phi_F variable
     scatter_s = float(angle.attrs["reference_scatter_rad"]) / (2 * np.pi) * period
-    mean_u95 = float(student_t.ppf(0.975, used - 1)) * scatter_s / np.sqrt(used)
+    mean_u95 = clock_fit.student_t_975(used - 1) * scatter_s / np.sqrt(used)
     zero_u95 = float(np.hypot(mean_u95, pulses.timing_bound_s))
     return MainAngle(t, phi, zero_u95, delay)
 

@@ -13,10 +13,10 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.signal import lfilter, lsim
 
 from rigval.processing.accelerometer import _coefficients
 from rigval.processing.arrays import FloatArray
+from rigval.processing.scipy_signal import lfilter, lsim
 
 __all__ = ["CarriedHighPass", "CarriedLsim"]
 

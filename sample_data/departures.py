@@ -27,10 +27,10 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import lsim
 
 from rigval.acquisition.errors import ConfigError
 from rigval.processing.arrays import FloatArray
+from rigval.processing.scipy_signal import lsim
 from rigval.sample_data.truth import TruthGrid
 
 __all__ = ["CALIBRATION_UNCERTAINTY", "MODE_BODIES", "ROD_SECTION_MODULUS", "Departures",

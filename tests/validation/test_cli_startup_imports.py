@@ -98,3 +98,13 @@ def test_the_drawers_are_forked_before_the_pipeline_is_imported(command, tmp_pat
     result = json.loads(done.stdout.strip().splitlines()[-1])
     assert result["code"] == 0
     assert result["seen"] == [[]]  # one group of drawers, forked before any of them
+
+
+def test_a_validation_never_imports_scipy_stats(tmp_path):
+    # scipy.signal imports it for one function rigval never calls, and it is the largest
+    # import of a run (rigval.processing.scipy_signal); the run's quantiles come from
+    # scipy.special
+    argv = ["validate", str(runs_dir() / "run_0p8_scene.toml"), "--out", str(tmp_path / "out")]
+    result = run_cli(argv, block_dask=True, watch=("scipy.signal", "scipy.stats"))
+    assert result["code"] == 0
+    assert result["modules"] == ["scipy.signal"]

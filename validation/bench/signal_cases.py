@@ -23,10 +23,10 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from rigval.processing import angle, encoder, excitation
 from rigval.processing.arrays import FloatArray
+from rigval.processing.scipy_signal import savgol_filter
 from rigval.sample_data.synthetic_signals import ripple_angle, ripple_time
 from rigval.validation.bench.rows import BenchRow, measure, with_baseline
 

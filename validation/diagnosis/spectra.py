@@ -21,10 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import welch
 
 from rigval.acquisition.errors import DataError
 from rigval.processing.arrays import FloatArray
+from rigval.processing.scipy_signal import welch
 from rigval.processing.stretch_decimation import decimated_runs
 from rigval.validation.diagnosis.residual import ResidualSeries
 

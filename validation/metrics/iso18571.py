@@ -42,10 +42,10 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-import scipy.signal
 
 from rigval.acquisition.errors import ConfigError, DataError
 from rigval.processing.dtw import dtw_path, dtw_paths, workspace_size
+from rigval.processing.scipy_signal import correlate, decimate, resample
 from rigval.validation.metrics.core import Scores, paired, revolution_angle, row_dot
 
 __all__ = [
@@ -256,8 +256,8 @@ def iso18571(measured: Any, model: Any, *, dt: float | None = None, fs: float | 
     if factor > 1:
         logger.info("ISO 18571: decimating %d samples by %d (max_samples=%d)", reference.size,
                     factor, max_samples)
-        reference = scipy.signal.decimate(reference, factor, ftype="fir", zero_phase=True)
-        comparison = scipy.signal.decimate(comparison, factor, ftype="fir", zero_phase=True)
+        reference = decimate(reference, factor, ftype="fir", zero_phase=True)
+        comparison = decimate(comparison, factor, ftype="fir", zero_phase=True)
         step *= factor
     _check_reference(reference)
     n = reference.size
@@ -422,8 +422,8 @@ def _prepared(reference: np.ndarray, comparisons: np.ndarray, params: IsoParamet
     if reference.size > max_samples:
         logger.info("ISO 18571 periodic: resampling %d samples to %d", reference.size,
                     max_samples)
-        reference = scipy.signal.resample(reference, max_samples)
-        comparisons = np.array([scipy.signal.resample(row, max_samples) for row in comparisons])
+        reference = resample(reference, max_samples)
+        comparisons = np.array([resample(row, max_samples) for row in comparisons])
     _check_reference(reference)
     n = reference.size
     limit = int(np.floor(n * params.phase_window))
@@ -498,7 +498,7 @@ def _overlap_correlation(reference: np.ndarray, comparison: np.ndarray,
     t = (reference - reference.mean()) / (reference.std() or 1.0)
     c = (comparison - comparison.mean()) / (comparison.std() or 1.0)
     shifts = np.arange(-limit, limit + 1)
-    cross = scipy.signal.correlate(c, t, mode="full")[n - 1 + shifts]
+    cross = correlate(c, t, mode="full")[n - 1 + shifts]
     ct, ct2 = _cumulative(t), _cumulative(t * t)
     cc, cc2 = _cumulative(c), _cumulative(c * c)
     lag = np.maximum(shifts, 0)
