@@ -21,6 +21,7 @@ from rigval.validation.metrics.compare import (
     compare,
     periodic_ratings,
 )
+from rigval.validation.metrics.core import paired
 from rigval.validation.metrics.iso18571 import (
     IsoParameters,
     iso18571_periodic_many,
@@ -158,6 +159,25 @@ def test_periodic_many_equals_plain_per_revolution_rating(name, n):
             assert abs(getattr(scores, key) - expected[key]) <= _TOLERANCE, (name, key)
     if name == "equal":
         assert all(s.rating == 1.0 and s.magnitude == 1.0 for s in batched)
+
+
+def test_a_bad_row_is_refused_as_the_pair_check_refuses_the_first_one():
+    # the stack is checked at once; a bad row gets the pair check's own error, for the first
+    reference, models = _cases("random", 40)
+    models[2, 7], models[4, 1] = np.nan, np.inf
+    with pytest.raises(DataError) as caught:
+        iso18571_periodic_many(reference, models)
+    with pytest.raises(DataError) as first:
+        paired(reference, models[2])
+    assert str(caught.value) == str(first.value)
+    assert caught.value.where == first.value.where == {"signal": "model", "index": 7}
+
+
+def test_the_rated_stack_is_not_written_to():
+    reference, models = _cases("wrap", 45)
+    kept = models.copy()
+    iso18571_periodic_many(reference, models)
+    assert np.array_equal(models, kept)
 
 
 def test_flat_reference_is_refused():

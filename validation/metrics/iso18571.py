@@ -394,15 +394,22 @@ def iso18571_periodic_sets(sets: Sequence[tuple[Any, Any]], *,
 
 
 def _checked_many(measured: Any, models: Any, angle: Any = None) -> tuple[np.ndarray, np.ndarray]:
-    """Return the checked reference and model stack of :func:`iso18571_periodic_many`."""
-    stack = np.asarray(getattr(models, "values", models), dtype=np.float64)
+    """Return the checked reference and model stack of :func:`iso18571_periodic_many`.
+
+    The stack is the models' values themselves (float64, C order: a copy only where they are
+    not), never written to; its rows are checked as :func:`paired` checks a pair, at once, and
+    one by one only where one is not finite, so that the error is the first bad row's.
+    """
+    stack = np.ascontiguousarray(getattr(models, "values", models), dtype=np.float64)
     if stack.ndim != 2 or stack.shape[0] == 0:
         raise DataError(f"models must have shape (m >= 1, n_samples), got {stack.shape}",
                         where={"signal": "model"}, hint="stack the model signals row by row")
-    pairs = [paired(measured, row) for row in stack]
-    reference = pairs[0][0]
+    reference, _ = paired(measured, stack[0])
+    if not np.isfinite(stack).all():
+        for row in stack:
+            paired(measured, row)
     revolution_angle(angle, reference.size, measured)
-    return reference, np.array([row for _, row in pairs])
+    return reference, stack
 
 
 @dataclasses.dataclass(frozen=True)
@@ -412,8 +419,16 @@ class _Prepared:
     reference: np.ndarray
     comparisons: np.ndarray
     shifts: np.ndarray
-    #: each row rotated back by its shift: ``rotated[p, i] = comparisons[p, (i + shift_p) % n]``
-    rotated: np.ndarray
+
+    def rotated(self) -> np.ndarray:
+        """Return the rows rotated back by their shifts: ``comparisons[p, (i + shift_p) % n]``.
+
+        Made when asked for, not held: a run's sets each hold as many rows as it has
+        revolutions, and their DTW sweeps take them one after the other (memory).
+        """
+        n = self.reference.size
+        return np.take_along_axis(self.comparisons,
+                                  (np.arange(n) + self.shifts[:, np.newaxis]) % n, axis=1)
 
 
 def _prepared(reference: np.ndarray, comparisons: np.ndarray, params: IsoParameters,
@@ -428,8 +443,7 @@ def _prepared(reference: np.ndarray, comparisons: np.ndarray, params: IsoParamet
     n = reference.size
     limit = int(np.floor(n * params.phase_window))
     shifts = _best_shifts(*_circular_correlation(reference, comparisons, limit))
-    rotated = np.take_along_axis(comparisons, (np.arange(n) + shifts[:, np.newaxis]) % n, axis=1)
-    return _Prepared(reference, comparisons, shifts, rotated)
+    return _Prepared(reference, comparisons, shifts)
 
 
 def _rated(prepared: _Prepared, magnitude_errors: list[float],
@@ -438,7 +452,7 @@ def _rated(prepared: _Prepared, magnitude_errors: list[float],
     n = prepared.reference.size
     return _scores(prepared.reference, prepared.comparisons, np.asarray(magnitude_errors),
                    _smoothed_slope_circular(prepared.reference),
-                   _smoothed_slope_circular(prepared.rotated), prepared.shifts,
+                   _smoothed_slope_circular(prepared.rotated()), prepared.shifts,
                    prepared.shifts * 360.0 / n, params)
 
 
@@ -635,24 +649,26 @@ def _magnitude_errors_circular(sets: Sequence[_Prepared],
     errors: list[list[float]] = [[] for _ in sets]
     sweeps = _sweeps(sets)
     # one work space for all sweeps (the largest's): its pages are faulted in once
-    workspace = np.empty(max((workspace_size(sum(sets[i].rotated.shape[0] for i in sweep),
+    workspace = np.empty(max((workspace_size(sum(sets[i].comparisons.shape[0] for i in sweep),
                                              3 * sets[sweep[0]].reference.size,
                                              _band_radius(sets[sweep[0]].reference.size, params))
                               for sweep in sweeps), default=0))
     for sweep in sweeps:
         n = sets[sweep[0]].reference.size
-        rows = np.concatenate([np.tile(sets[i].rotated, 3) for i in sweep])
+        rotated = [sets[i].rotated() for i in sweep]
+        # one set: its rows tiled, no concatenated copy beside them (memory)
+        rows = (np.tile(rotated[0], 3) if len(sweep) == 1
+                else np.concatenate([np.tile(one, 3) for one in rotated]))
         # one set: its reference once (dtw_paths spreads it); several: one per row
         references = (np.tile(sets[sweep[0]].reference, 3)[np.newaxis] if len(sweep) == 1
                       else np.concatenate([np.broadcast_to(np.tile(sets[i].reference, 3),
-                                                           (sets[i].rotated.shape[0], 3 * n))
-                                           for i in sweep]))
+                                                           (one.shape[0], 3 * n))
+                                           for i, one in zip(sweep, rotated, strict=True)]))
         paths = dtw_paths(rows, references, _band_radius(n, params), y_from=n,
                           workspace=workspace)
-        for i in sweep:
+        for i, one in zip(sweep, rotated, strict=True):
             reference = sets[i].reference
-            for comparison, (ix, iy) in zip(sets[i].rotated,
-                                            itertools.islice(paths, sets[i].rotated.shape[0]),
+            for comparison, (ix, iy) in zip(one, itertools.islice(paths, one.shape[0]),
                                             strict=True):
                 inside = (iy >= n) & (iy < 2 * n)
                 errors[i].append(_relative_l1(comparison[ix[inside] % n],
@@ -669,7 +685,7 @@ def _sweeps(sets: Sequence[_Prepared]) -> list[list[int]]:
     sweeps: list[list[int]] = []
     filling: dict[int, tuple[list[int], int]] = {}
     for i, prepared in enumerate(sets):
-        n, count = prepared.reference.size, prepared.rotated.shape[0]
+        n, count = prepared.reference.size, prepared.comparisons.shape[0]
         members, rows = filling.get(n, ([], 0))
         if not members or rows + count > ROWS_PER_SWEEP:
             members, rows = [], 0
