@@ -654,25 +654,39 @@ def _magnitude_errors_circular(sets: Sequence[_Prepared],
                                              _band_radius(sets[sweep[0]].reference.size, params))
                               for sweep in sweeps), default=0))
     for sweep in sweeps:
-        n = sets[sweep[0]].reference.size
-        rotated = [sets[i].rotated() for i in sweep]
-        # one set: its rows tiled, no concatenated copy beside them (memory)
-        rows = (np.tile(rotated[0], 3) if len(sweep) == 1
-                else np.concatenate([np.tile(one, 3) for one in rotated]))
-        # one set: its reference once (dtw_paths spreads it); several: one per row
-        references = (np.tile(sets[sweep[0]].reference, 3)[np.newaxis] if len(sweep) == 1
-                      else np.concatenate([np.broadcast_to(np.tile(sets[i].reference, 3),
-                                                           (one.shape[0], 3 * n))
-                                           for i, one in zip(sweep, rotated, strict=True)]))
-        paths = dtw_paths(rows, references, _band_radius(n, params), y_from=n,
-                          workspace=workspace)
-        for i, one in zip(sweep, rotated, strict=True):
-            reference = sets[i].reference
-            for comparison, (ix, iy) in zip(one, itertools.islice(paths, one.shape[0]),
-                                            strict=True):
-                inside = (iy >= n) & (iy < 2 * n)
-                errors[i].append(_relative_l1(comparison[ix[inside] % n],
-                                              reference[iy[inside] % n], "magnitude"))
+        for i, errors_of_set in zip(sweep, _sweep_errors([sets[i] for i in sweep], params,
+                                                         workspace), strict=True):
+            errors[i] = errors_of_set
+    return errors
+
+
+def _sweep_errors(sets: Sequence[_Prepared], params: IsoParameters,
+                  workspace: np.ndarray) -> list[list[float]]:
+    """:func:`_magnitude_errors_circular` of the sets of one DTW sweep (one sample count).
+
+    A function of its own, so that a sweep's rows, three revolutions long, are let go before
+    the next sweep's are made (memory).
+    """
+    n = sets[0].reference.size
+    rotated = [prepared.rotated() for prepared in sets]
+    # one set: its rows tiled, no concatenated copy beside them (memory)
+    rows = (np.tile(rotated[0], 3) if len(sets) == 1
+            else np.concatenate([np.tile(one, 3) for one in rotated]))
+    # one set: its reference once (dtw_paths spreads it); several: one per row
+    references = (np.tile(sets[0].reference, 3)[np.newaxis] if len(sets) == 1
+                  else np.concatenate([np.broadcast_to(np.tile(prepared.reference, 3),
+                                                       (one.shape[0], 3 * n))
+                                       for prepared, one in zip(sets, rotated, strict=True)]))
+    paths = dtw_paths(rows, references, _band_radius(n, params), y_from=n, workspace=workspace)
+    errors: list[list[float]] = []
+    for prepared, one in zip(sets, rotated, strict=True):
+        reference = prepared.reference
+        errors.append([])
+        for comparison, (ix, iy) in zip(one, itertools.islice(paths, one.shape[0]),
+                                        strict=True):
+            inside = (iy >= n) & (iy < 2 * n)
+            errors[-1].append(_relative_l1(comparison[ix[inside] % n],
+                                           reference[iy[inside] % n], "magnitude"))
     return errors
 
 
