@@ -26,7 +26,9 @@ that keep the channel metadata and append a ``history`` line):
 - :mod:`~rigval.processing.cycles`: cycle statistics and outlier cycles;
 - :mod:`~rigval.processing.excitation`: drive angles and their derivatives with an error estimate;
 - :mod:`~rigval.processing.filters`: zero-phase filtering by gap-free run, in chunks;
-- :mod:`~rigval.processing.dtw`: dynamic time warping of many equally long signal pairs at once.
+- :mod:`~rigval.processing.dtw`: dynamic time warping of many equally long signal pairs at once;
+- :mod:`~rigval.processing.scipy_signal`: the scipy.signal functions rigval uses, imported
+  without scipy.stats (every module takes them from there).
 
 ``docs/processing.md`` lists the pipeline calls in order and the accuracy measured.
 """
