@@ -230,7 +230,8 @@ def torque_channel(ds: xr.Dataset, channel: str, *, rosette: Rosette, gauge_fact
                                        shear_modulus=shear_modulus, outer_diameter=outer_diameter,
                                        inner_diameter=inner_diameter,
                                        gauge_resistance=gauge_resistance,
-                                       lead_resistance=lead_resistance, sign=sign)
+                                       lead_resistance=lead_resistance, sign=sign,
+                                       overwrite=True)  # the ratio is this function's own copy
     return _with_variable(
         ds, name or f"{channel}_torque", torque, ds[channel], channel, units="N m",
         long_name=f"shaft torque from {channel}",

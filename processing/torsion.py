@@ -67,7 +67,8 @@ def polar_moment(outer_diameter: float, inner_diameter: float = 0.0) -> float:
 
 
 def torque_from_shear_strain(shear_strain: ArrayLike, *, shear_modulus: float,
-                             outer_diameter: float, inner_diameter: float = 0.0) -> FloatArray:
+                             outer_diameter: float, inner_diameter: float = 0.0,
+                             overwrite: bool = False) -> FloatArray:
     """Return shaft torque ``T = G gamma J / (D/2)`` in N m from surface shear strain.
 
     Parameters
@@ -78,9 +79,24 @@ def torque_from_shear_strain(shear_strain: ArrayLike, *, shear_modulus: float,
         Shear modulus G in Pa.
     outer_diameter, inner_diameter : float
         Shaft diameters in m (inner 0 for a solid shaft).
+    overwrite : bool, default False
+        A float64 ``shear_strain`` array of the caller's own becomes the torque (memory: no
+        whole-record temporaries; the same operations in the same order, identical values;
+        ``shear_strain`` must not be used afterwards).
     """
     j = polar_moment(outer_diameter, inner_diameter)
-    return np.asarray(shear_strain, dtype=np.float64) * shear_modulus * j / (outer_diameter / 2.0)
+    gamma = np.asarray(shear_strain, dtype=np.float64)
+    if not (overwrite and _own(gamma)):
+        return gamma * shear_modulus * j / (outer_diameter / 2.0)
+    gamma *= shear_modulus
+    gamma *= j
+    gamma /= outer_diameter / 2.0
+    return gamma
+
+
+def _own(values: np.ndarray) -> bool:
+    """Whether an array may be computed on in place (a writable float64 array, not a scalar)."""
+    return values.dtype == np.float64 and values.ndim > 0 and values.flags.writeable
 
 
 def shear_strain_from_torque(torque: ArrayLike, *, shear_modulus: float, outer_diameter: float,
@@ -151,7 +167,7 @@ def rosette_bridge_ratio(shear_strain: ArrayLike, rosette: Rosette, *, gauge_fac
 
 def shear_strain_from_ratio(ratio: ArrayLike, rosette: Rosette, *, gauge_factor: float,
                             gauge_resistance: float = 120.0, lead_resistance: float = 0.0,
-                            sign: float = 1.0) -> FloatArray:
+                            sign: float = 1.0, overwrite: bool = False) -> FloatArray:
     """Return torsional shear strain gamma (1) from an offset-nulled rosette bridge ratio.
 
     ``gamma = 2 eps_NI`` with NI Half Bridge II (``rosette="half"``) or Full Bridge I
@@ -170,27 +186,38 @@ def shear_strain_from_ratio(ratio: ArrayLike, rosette: Rosette, *, gauge_factor:
     sign : float, default 1
         +1 or -1: which grid sits in R4 decides the sign of the torque (calibration constant,
         check with a known load direction).
+    overwrite : bool, default False
+        A float64 ``ratio`` array of the caller's own becomes the shear strain (as
+        :func:`rigval.processing.bridge.strain_from_ratio`'s ``overwrite``).
     """
     if rosette not in ("half", "full"):
         raise ConfigError(f"rosette must be 'half' or 'full', got {rosette!r}",
                           where={"key": "rosette"})
     bridge_type = "half_ii" if rosette == "half" else "full_i"
-    return sign * 2.0 * strain_from_ratio(ratio, bridge_type, gauge_factor=gauge_factor,
-                                          gauge_resistance=gauge_resistance,
-                                          lead_resistance=lead_resistance)
+    strain = strain_from_ratio(ratio, bridge_type, gauge_factor=gauge_factor,
+                               gauge_resistance=gauge_resistance,
+                               lead_resistance=lead_resistance, overwrite=overwrite)
+    if not (overwrite and isinstance(strain, np.ndarray) and _own(strain)):
+        return sign * 2.0 * strain
+    # the strain is a new array or the ratio's own memory: scaled in place (a product)
+    return np.multiply(strain, sign * 2.0, out=strain)
 
 
 def torque_from_ratio(ratio: ArrayLike, rosette: Rosette, *, gauge_factor: float,
                       shear_modulus: float, outer_diameter: float, inner_diameter: float = 0.0,
                       gauge_resistance: float = 120.0, lead_resistance: float = 0.0,
-                      sign: float = 1.0) -> FloatArray:
+                      sign: float = 1.0, overwrite: bool = False) -> FloatArray:
     """Return shaft torque in N m from an offset-nulled rosette bridge ratio (V/V).
 
     Combines :func:`shear_strain_from_ratio` and :func:`torque_from_shear_strain`; parameters as
-    there (G in Pa, diameters in m).
+    there (G in Pa, diameters in m). ``overwrite``: a float64 ``ratio`` array of the caller's
+    own becomes the torque (memory; identical values; ``ratio`` must not be used afterwards).
     """
     gamma = shear_strain_from_ratio(ratio, rosette, gauge_factor=gauge_factor,
                                     gauge_resistance=gauge_resistance,
-                                    lead_resistance=lead_resistance, sign=sign)
+                                    lead_resistance=lead_resistance, sign=sign,
+                                    overwrite=overwrite)
+    # gamma is a new array unless it is the ratio's own memory, which overwrite allows
     return torque_from_shear_strain(gamma, shear_modulus=shear_modulus,
-                                    outer_diameter=outer_diameter, inner_diameter=inner_diameter)
+                                    outer_diameter=outer_diameter, inner_diameter=inner_diameter,
+                                    overwrite=True)
