@@ -32,6 +32,7 @@ from scipy.special import i0
 from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, DataError
 from rigval.acquisition.sample_times import sample_times, times_of
 from rigval.processing.arrays import BoolArray, FloatArray, IntArray
+from rigval.processing.block_median import exact_median
 from rigval.processing.clock_fit import input_delay
 from rigval.processing.edge_shape import SYMMETRIC_BOUND, fit_edges
 from rigval.processing.filters import contiguous_runs
@@ -623,26 +624,23 @@ def time_edges(x: ArrayLike, time: ArrayLike, edges: ArrayLike, *, fs: float,
 def _low_level_noise(x: FloatArray, ok: BoolArray, low: float, high: float) -> float:
     """Return the robust noise rms (1.4826 MAD) of the usable samples near the low level.
 
-    The samples within 10 % of the level span from ``low`` (unit of ``x``); found a chunk at a
-    time and copied once, both medians taken in place on that copy (memory; the medians are
-    order statistics, so the values equal those of whole-record temporaries). 0 without such
-    samples.
+    The samples within 10 % of the level span from ``low`` (unit of ``x``), taken a chunk at a
+    time: both medians are :func:`~rigval.processing.block_median.exact_median` of the chunks
+    (a digitised pulse level takes few distinct values), equal to those of the samples copied
+    out, without the copy (memory: at 1 h of a 5 kS/s channel, nearly all its samples). 0
+    without such samples.
     """
     band = 0.1 * (high - low)
-    near = [ok[lo:lo + _LEVEL_CHUNK] & (np.abs(x[lo:lo + _LEVEL_CHUNK] - low) < band)
-            for lo in range(0, x.size, _LEVEL_CHUNK)]
-    quiet = np.empty(sum(int(m.sum()) for m in near))
-    if quiet.size == 0:
+
+    def near_low() -> Iterator[FloatArray]:
+        for lo in range(0, x.size, _LEVEL_CHUNK):
+            part = x[lo:lo + _LEVEL_CHUNK]
+            yield part[ok[lo:lo + _LEVEL_CHUNK] & (np.abs(part - low) < band)]
+
+    centre = exact_median(near_low())
+    if np.isnan(centre):
         return 0.0
-    filled = 0
-    for k, mask in enumerate(near):
-        part = x[k * _LEVEL_CHUNK:(k + 1) * _LEVEL_CHUNK][mask]
-        quiet[filled:filled + part.size] = part
-        filled += part.size
-    centre = np.median(quiet, overwrite_input=True)
-    np.subtract(quiet, centre, out=quiet)
-    np.abs(quiet, out=quiet)
-    return 1.4826 * float(np.median(quiet, overwrite_input=True))
+    return 1.4826 * exact_median(np.abs(part - centre) for part in near_low())
 
 
 def _sample_switched(x: FloatArray, time: FloatArray, edges: FloatArray, polarity: str,
