@@ -33,12 +33,7 @@ from rigval.acquisition.schema import append_history
 from rigval.processing.arrays import FloatArray, IntArray
 from rigval.processing.block_median import exact_median
 from rigval.processing.clock_fit import channel_time
-from rigval.processing.encoder import (
-    increasing_angle,
-    remove_index_resets,
-    revolution_check,
-    unwrap_counts,
-)
+from rigval.processing.encoder import counter_revolution_check, increasing_angle
 from rigval.processing.excitation import Method, drive_excitation
 from rigval.processing.filters import contiguous_runs, zero_phase
 from rigval.processing.pulses import StreamPulses
@@ -520,16 +515,10 @@ def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
         phi_ok -= offset
     exc["phi_F"].attrs.update({"long_name": "main shaft angle phi_F from the optical reference",
                                "zero_offset_rad": offset})
-    counts = unwrap_counts(stream[encoder_channel].to_numpy())
-    if index_reset:
-        counts, _ = remove_index_resets(counts, counts_per_rev)
-    if direction == -1.0:
-        np.negative(counts, out=counts)
-    elif direction != 1.0:
-        counts = counts * direction
-    check = revolution_check(time, counts, reference.good, counts_per_rev,
-                             tolerance=glitch_tolerance)
-    del counts
+    # the counts at the pulses alone, not the whole record's int64 counts (memory)
+    check = counter_revolution_check(time, stream[encoder_channel].to_numpy(), reference.good,
+                                     counts_per_rev, direction=direction,
+                                     index_reset=index_reset, tolerance=glitch_tolerance)
     # An interval of m whole revolutions is m - 1 missing pulses, not an encoder fault; what is
     # left over beyond one count (quantisation) marks every cycle the interval spans.
     whole = np.maximum(np.round(check.residual / counts_per_rev), 0.0)

@@ -26,12 +26,14 @@ read
 align
     In four steps, each output replacing its input: phi_F(t) from the main encoder (smoothed,
     never differenced raw), zero at the reference pulse, on the reference stream's time axis
-    and the encoder's input delay (no delayed copy); from phi_F, the whole revolutions, the
-    reference times of the grids and the events each other stream's pulses are fitted on, and
-    phi_F is let go; with measured drives, each driver's angle, speed and acceleration from its
-    encoder averaged over the revolutions at each angle of the fine grid, and the encoders are
-    let go; each other stream's clock fitted on its reference pulses against its events
-    (:mod:`rigval.processing.stream_alignment`), module input delays removed.
+    and the encoder's input delay (no delayed copy), its revolution check made on the counts
+    at the samples around the pulses alone (not the whole record's int64 counts); from phi_F,
+    the whole revolutions, the reference times of the grids and the events each other
+    stream's pulses are fitted on, and phi_F is let go; with measured drives, each driver's
+    angle, speed and acceleration from its encoder averaged over the revolutions at each angle
+    of the fine grid, and the encoders are let go; each other stream's clock fitted on its
+    reference pulses against its events (:mod:`rigval.processing.stream_alignment`), module
+    input delays removed.
 model
     Only the outputs the comparisons and predictions name, on the phi_F grid, of the
     mechanism assembled in the read stage: with measured
