@@ -31,7 +31,8 @@ align
     the whole revolutions, the reference times of the grids and the events each other
     stream's pulses are fitted on, and phi_F is let go; with measured drives, each driver's
     angle, speed and acceleration from its encoder averaged over the revolutions at each angle
-    of the fine grid, and the encoders are let go; each other stream's clock fitted on its
+    of the fine grid as the encoder is smoothed, a block of revolutions at a time (never held
+    on the whole fine grid), and the encoders are let go; each other stream's clock fitted on its
     reference pulses against its events (:mod:`rigval.processing.stream_alignment`), module
     input delays removed.
 model
@@ -241,6 +242,10 @@ def _predict(scene: Scene, settings: AlignmentSettings, phi: _PhiF) -> _Predicte
 def _drives(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, predicted: _Predicted
             ) -> _Driven:
     """Average the measured drives on the fine grid; its times and the encoders are let go.
+
+    Each driver's revolutions are averaged as its encoder is smoothed
+    (:func:`rigval.validation.model_run.measured_drives`): its outputs are never held on the
+    whole fine grid.
 
     The reference stream keeps the channels later stages take and its pulse channel, if there,
     for the alignment figure's window.
