@@ -33,7 +33,11 @@ from rigval.acquisition.schema import append_history
 from rigval.processing.arrays import FloatArray, IntArray
 from rigval.processing.block_median import exact_median
 from rigval.processing.clock_fit import channel_time
-from rigval.processing.encoder import counter_revolution_check, increasing_angle
+from rigval.processing.encoder import (
+    counter_revolution_check,
+    increasing_angle,
+    interp_minus,
+)
 from rigval.processing.excitation import Method, drive_excitation
 from rigval.processing.filters import contiguous_runs, zero_phase
 from rigval.processing.pulses import StreamPulses
@@ -102,7 +106,7 @@ def zero_at_reference(time: ArrayLike, angle: ArrayLike, event_times: ArrayLike,
         raise DataError("no reference event lies inside the angle record",
                         hint="check that the pulse and encoder channels come from the same run")
     step = 2.0 * np.pi / events_per_rev
-    at_events = np.interp(events, t, phi)
+    at_events = interp_minus(events, t, phi)  # np.interp's values, no copy of a read-only t
     phase = np.angle(np.mean(np.exp(1j * at_events * events_per_rev))) / events_per_rev
     deviation = np.mod(at_events - phase + step / 2, step) - step / 2
     return float(phase + np.mean(deviation)), float(np.std(deviation))
@@ -523,7 +527,7 @@ def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
     # left over beyond one count (quantisation) marks every cycle the interval spans.
     whole = np.maximum(np.round(check.residual / counts_per_rev), 0.0)
     fault = np.abs(check.residual - whole * counts_per_rev) > 1
-    at_pulse = np.interp(check.event_times[:-1], t_ok, phi_ok)
+    at_pulse = interp_minus(check.event_times[:-1], t_ok, phi_ok)  # as np.interp, no copy
     first = np.round(at_pulse / (2 * np.pi)).astype(int)
     suspect = {int(k) for i in np.flatnonzero(fault)
                for k in range(first[i], first[i] + int(whole[i]) + 1)}

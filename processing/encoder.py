@@ -503,13 +503,16 @@ def increasing_angle(time: ArrayLike, angle: ArrayLike, *, use: str
 _INTERP_BLOCK = 1 << 16
 
 
-def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float) -> FloatArray:
-    """Return ``np.interp(x, xp, fp - shift)`` without the whole-record copy ``fp - shift``.
+def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float = 0.0
+                 ) -> FloatArray:
+    """Return ``np.interp(x, xp, fp - shift)`` without a whole-record copy.
 
-    The samples are taken a block at a time, shifted there, with the targets that fall in the
-    block: every value is the one ``np.interp`` gives on the shifted copy (it reads the two
-    samples around a target alone), so a record's time axis and a channel's input delay stand
-    for the channel's times (memory).
+    Neither the shifted copy ``fp - shift`` nor the one ``np.interp`` makes of a read-only
+    ``xp`` or ``fp`` (a Dataset's time index is read-only) is made: the samples are taken a
+    block at a time, shifted there, with the targets that fall in the block. Every value is the
+    one ``np.interp`` gives on the whole shifted copy (it reads the two samples around a target
+    alone), so a record's time axis and a channel's input delay stand for the channel's times
+    (memory).
 
     Parameters
     ----------
@@ -519,7 +522,7 @@ def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float) -> 
         Increasing sample points.
     fp : numpy.ndarray
         Sample values, as many as ``xp``.
-    shift : float
+    shift : float, default 0
         Subtracted from ``fp``.
 
     Returns
@@ -528,8 +531,6 @@ def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float) -> 
         The interpolated values, the shape of ``x``.
     """
     targets = np.asarray(x, dtype=np.float64)
-    if shift == 0.0:
-        return np.interp(targets, xp, fp)
     flat = targets.ravel()
     order = None if bool(np.all(flat[1:] >= flat[:-1])) else np.argsort(flat, kind="stable")
     ordered = flat if order is None else flat[order]
@@ -541,7 +542,8 @@ def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float) -> 
         if b > a:
             lo = max(block * _INTERP_BLOCK - 1, 0)
             hi = min((block + 1) * _INTERP_BLOCK + 1, xp.size)
-            values[a:b] = np.interp(ordered[a:b], xp[lo:hi], fp[lo:hi] - shift)
+            samples = fp[lo:hi] - shift if shift else fp[lo:hi]
+            values[a:b] = np.interp(ordered[a:b], xp[lo:hi], samples)
     if order is not None:
         values[order] = values.copy()
     return values.reshape(targets.shape)
