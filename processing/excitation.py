@@ -208,13 +208,16 @@ def _keep_fit(key: bytes, fit: PeriodicFit) -> None:
 
 
 def _butterworth_pieces(t: FloatArray, theta: FloatArray | CountAngle, fs: float,
-                        cutoff_hz: float, order: int, trend_harmonics: int, padtype: PadType
-                        ) -> Iterator[tuple[int, int, FloatArray, FloatArray, FloatArray]]:
+                        cutoff_hz: float, order: int, trend_harmonics: int, padtype: PadType,
+                        derivatives: bool = True
+                        ) -> Iterator[tuple[int | FloatArray, ...]]:
     """Smooth one gap-free run piece by piece: yield ``lo, hi, angle, velocity, acceleration``.
 
     The run is filtered in the pieces of :func:`~rigval.processing.filters.filtfilt_pieces`
     (bounded memory); each piece's differences use the filtered samples one beyond its ends,
-    which its read window holds, so they equal the whole run's to rounding.
+    which its read window holds, so they equal the whole run's to rounding. Without
+    ``derivatives`` only ``lo, hi, angle`` (the same angle; memory). A piece's arrays are let
+    go before the next is smoothed.
     """
     # The trend's harmonics lie inside the pass band, so its own noise is filtered like the
     # data's: a thinned fit is enough.
@@ -235,17 +238,26 @@ def _butterworth_pieces(t: FloatArray, theta: FloatArray | CountAngle, fs: float
         ext_lo, ext_hi = max(keep_lo - 1, lo), min(keep_hi + 1, hi)
         smooth = y[ext_lo - lo:ext_hi - lo]
         inner = slice(keep_lo - ext_lo, keep_lo - ext_lo + keep_hi - keep_lo)
-        angle, velocity, acceleration = (part[keep_lo - lo:keep_hi - lo].copy()
-                                         for part in window[lo, hi])
-        angle += smooth[inner]
-        velocity += np.gradient(smooth, dt)[inner]
-        # Central second difference, one-sided at the run's ends.
-        scratch = smooth[2:] + smooth[:-2]
-        scratch -= 2.0 * smooth[1:-1]
-        scratch /= dt**2
-        second = np.concatenate((scratch[:1], scratch, scratch[-1:]))
-        acceleration += second[inner]
-        yield keep_lo, keep_hi, angle, velocity, acceleration
+        # the trend's parts copied where kept, the rest of the trend let go (memory)
+        parts = [part[keep_lo - lo:keep_hi - lo].copy()
+                 for part in window.pop((lo, hi))[:3 if derivatives else 1]]
+        parts[0] += smooth[inner]
+        if derivatives:
+            parts[1] += np.gradient(smooth, dt)[inner]
+            parts[2] += _second_difference(smooth, dt)[inner]
+        yield keep_lo, keep_hi, *parts
+        del parts  # let go before the next piece is smoothed (memory)
+
+
+def _second_difference(smooth: FloatArray, dt: float) -> FloatArray:
+    """Return the central second difference of samples ``dt`` s apart, one-sided at the ends.
+
+    Units of ``smooth`` per s^2.
+    """
+    scratch = smooth[2:] + smooth[:-2]
+    scratch -= 2.0 * smooth[1:-1]
+    scratch /= dt**2
+    return np.concatenate((scratch[:1], scratch, scratch[-1:]))
 
 
 def _counter_angle(raw: np.ndarray, counts_per_rev: float, *, gear_ratio: float = 1.0,
@@ -363,9 +375,10 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
         if method == "butterworth":
             for lo, hi, *values in _butterworth_pieces(
                     t[start:stop], _run(theta, start, stop), fs, cutoff_hz, order,
-                    trend_harmonics, padtype):
-                for target, value in zip(out[:3 if derivatives else 1], values, strict=False):
+                    trend_harmonics, padtype, derivatives):
+                for target, value in zip(out, values, strict=False):
                     target[start + lo:start + hi] = value
+                del values  # let go before the next piece is smoothed (memory)
         else:
             views = (out[0][start:stop], *(o[start:stop] if derivatives else np.empty(stop - start)
                                            for o in out[1:]))
@@ -554,6 +567,7 @@ def _sampled_pieces(stream: xr.Dataset, channel: str, ordered: FloatArray, ends:
             yield a, b, np.array([np.interp(ordered[a:b], times, piece[k])
                                   for k in range(3)]), float(times[-1])
             previous = (float(times[-1]), np.array([p[-1] for p in piece]))
+            del times, piece  # let go before the next piece is smoothed (memory)
         if previous is not None:
             ends.add(*previous)
     if not ends.times:

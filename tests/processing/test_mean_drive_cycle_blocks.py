@@ -150,3 +150,15 @@ def test_times_left_nan_within_a_run_wait_for_its_end_as_in_the_whole_grid(monke
                                          index_reset=False))
     assert len(blocks) > 1  # rows wait for their run's end, not for the record's
     assert _same_bits(np.concatenate(blocks, axis=1), whole)
+
+
+@pytest.mark.usefixtures("small_pieces")
+def test_angle_without_derivatives_equals_the_angle_with_them() -> None:
+    # phi_F takes the angle alone: the pieces then skip the differences, the angle the same
+    ds = _record()
+    kwargs = {"counts_per_rev": CPR, "direction": -1.0}
+    both = excitation.drive_excitation(ds, "enc", **kwargs)
+    alone = excitation.drive_excitation(ds, "enc", derivatives=False, **kwargs)
+    assert set(alone.data_vars) == {"theta"}
+    assert _same_bits(alone["theta"].to_numpy(), both["theta"].to_numpy())
+    assert np.isfinite(both["theta_ddot"].to_numpy()).sum() > 50_000
