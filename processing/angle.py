@@ -51,10 +51,12 @@ __all__ = [
     "angle_domain",
     "angle_grid",
     "anti_alias_hz",
+    "cycle_angles",
     "cycle_grid",
     "interpolate_runs",
     "phi_f",
     "resample_to_angle",
+    "whole_cycles",
     "zero_at_reference",
 ]
 
@@ -130,14 +132,32 @@ def cycle_grid(angle_start: float, angle_stop: float, points_per_rev: int,
     grid : numpy.ndarray
         Grid angles in rad, shape (n_cycles, points_per_rev), unwrapped.
     """
+    cycles = whole_cycles(angle_start, angle_stop)
+    return cycles, cycle_angles(cycles, points_per_rev)
+
+
+def whole_cycles(angle_start: float, angle_stop: float) -> IntArray:
+    """Return the numbers k of the whole cycles (2 pi k to 2 pi (k + 1), rad) in an angle span."""
+    first = int(np.ceil(angle_start / (2 * np.pi)))
+    last = int(np.floor(angle_stop / (2 * np.pi)))
+    return np.arange(first, last, dtype=np.int64)
+
+
+def cycle_angles(cycles: IntArray, points_per_rev: int) -> FloatArray:
+    """Return the grid angles of some cycles, (n_cycles, points_per_rev), rad, unwrapped.
+
+    A block of cycles' angles equal those rows of the whole grid's (:func:`cycle_grid`).
+
+    Raises
+    ------
+    ConfigError
+        When ``points_per_rev`` is less than 2.
+    """
     if points_per_rev < 2:
         raise ConfigError(f"points_per_rev must be at least 2, got {points_per_rev}",
                           where={"key": "points_per_rev"})
-    first = int(np.ceil(angle_start / (2 * np.pi)))
-    last = int(np.floor(angle_stop / (2 * np.pi)))
-    cycles = np.arange(first, last, dtype=np.int64)
     fraction = np.arange(points_per_rev) / points_per_rev
-    return cycles, 2 * np.pi * (cycles[:, None] + fraction[None, :])
+    return 2 * np.pi * (cycles[:, None] + fraction[None, :])
 
 
 def interpolate_runs(time: ArrayLike, values: ArrayLike, at: ArrayLike, *, order: int = 3,
