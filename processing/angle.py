@@ -34,10 +34,9 @@ from rigval.processing.arrays import FloatArray, IntArray
 from rigval.processing.block_median import exact_median
 from rigval.processing.clock_fit import channel_time
 from rigval.processing.encoder import (
+    counter_revolution_check,
     increasing_angle,
-    remove_index_resets,
-    revolution_check,
-    unwrap_counts,
+    interp_minus,
 )
 from rigval.processing.excitation import Method, drive_excitation
 from rigval.processing.filters import contiguous_runs, zero_phase
@@ -52,10 +51,12 @@ __all__ = [
     "angle_domain",
     "angle_grid",
     "anti_alias_hz",
+    "cycle_angles",
     "cycle_grid",
     "interpolate_runs",
     "phi_f",
     "resample_to_angle",
+    "whole_cycles",
     "zero_at_reference",
 ]
 
@@ -107,7 +108,7 @@ def zero_at_reference(time: ArrayLike, angle: ArrayLike, event_times: ArrayLike,
         raise DataError("no reference event lies inside the angle record",
                         hint="check that the pulse and encoder channels come from the same run")
     step = 2.0 * np.pi / events_per_rev
-    at_events = np.interp(events, t, phi)
+    at_events = interp_minus(events, t, phi)  # np.interp's values, no copy of a read-only t
     phase = np.angle(np.mean(np.exp(1j * at_events * events_per_rev))) / events_per_rev
     deviation = np.mod(at_events - phase + step / 2, step) - step / 2
     return float(phase + np.mean(deviation)), float(np.std(deviation))
@@ -131,14 +132,32 @@ def cycle_grid(angle_start: float, angle_stop: float, points_per_rev: int,
     grid : numpy.ndarray
         Grid angles in rad, shape (n_cycles, points_per_rev), unwrapped.
     """
+    cycles = whole_cycles(angle_start, angle_stop)
+    return cycles, cycle_angles(cycles, points_per_rev)
+
+
+def whole_cycles(angle_start: float, angle_stop: float) -> IntArray:
+    """Return the numbers k of the whole cycles (2 pi k to 2 pi (k + 1), rad) in an angle span."""
+    first = int(np.ceil(angle_start / (2 * np.pi)))
+    last = int(np.floor(angle_stop / (2 * np.pi)))
+    return np.arange(first, last, dtype=np.int64)
+
+
+def cycle_angles(cycles: IntArray, points_per_rev: int) -> FloatArray:
+    """Return the grid angles of some cycles, (n_cycles, points_per_rev), rad, unwrapped.
+
+    A block of cycles' angles equal those rows of the whole grid's (:func:`cycle_grid`).
+
+    Raises
+    ------
+    ConfigError
+        When ``points_per_rev`` is less than 2.
+    """
     if points_per_rev < 2:
         raise ConfigError(f"points_per_rev must be at least 2, got {points_per_rev}",
                           where={"key": "points_per_rev"})
-    first = int(np.ceil(angle_start / (2 * np.pi)))
-    last = int(np.floor(angle_stop / (2 * np.pi)))
-    cycles = np.arange(first, last, dtype=np.int64)
     fraction = np.arange(points_per_rev) / points_per_rev
-    return cycles, 2 * np.pi * (cycles[:, None] + fraction[None, :])
+    return 2 * np.pi * (cycles[:, None] + fraction[None, :])
 
 
 def interpolate_runs(time: ArrayLike, values: ArrayLike, at: ArrayLike, *, order: int = 3,
@@ -520,21 +539,15 @@ def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
         phi_ok -= offset
     exc["phi_F"].attrs.update({"long_name": "main shaft angle phi_F from the optical reference",
                                "zero_offset_rad": offset})
-    counts = unwrap_counts(stream[encoder_channel].to_numpy())
-    if index_reset:
-        counts, _ = remove_index_resets(counts, counts_per_rev)
-    if direction == -1.0:
-        np.negative(counts, out=counts)
-    elif direction != 1.0:
-        counts = counts * direction
-    check = revolution_check(time, counts, reference.good, counts_per_rev,
-                             tolerance=glitch_tolerance)
-    del counts
+    # the counts at the pulses alone, not the whole record's int64 counts (memory)
+    check = counter_revolution_check(time, stream[encoder_channel].to_numpy(), reference.good,
+                                     counts_per_rev, direction=direction,
+                                     index_reset=index_reset, tolerance=glitch_tolerance)
     # An interval of m whole revolutions is m - 1 missing pulses, not an encoder fault; what is
     # left over beyond one count (quantisation) marks every cycle the interval spans.
     whole = np.maximum(np.round(check.residual / counts_per_rev), 0.0)
     fault = np.abs(check.residual - whole * counts_per_rev) > 1
-    at_pulse = np.interp(check.event_times[:-1], t_ok, phi_ok)
+    at_pulse = interp_minus(check.event_times[:-1], t_ok, phi_ok)  # as np.interp, no copy
     first = np.round(at_pulse / (2 * np.pi)).astype(int)
     suspect = {int(k) for i in np.flatnonzero(fault)
                for k in range(first[i], first[i] + int(whole[i]) + 1)}

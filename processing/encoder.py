@@ -5,7 +5,9 @@ leads B), X2 both edges of A, X4 every edge of A and B; counts per revolution ``
 2, 4}``. Counter channels log 32-bit counts sampled on the AI clock; they wrap, so
 :func:`unwrap_counts` removes the wrap with modular differences. Offline, keep the cumulative count
 (no Z reset) and reference it in software: :func:`revolution_check` compares the counts between
-consecutive reference events with CPR and reports glitches (a few counts off) and gross errors.
+consecutive reference events with CPR and reports glitches (a few counts off) and gross errors;
+:func:`counter_revolution_check` does so from a counter's values, making only the counts at the
+events' samples (:func:`counts_at`), not the whole record's.
 """
 
 from __future__ import annotations
@@ -29,7 +31,9 @@ __all__ = [
     "RevolutionCheck",
     "compact_counts",
     "count_angle",
+    "counter_revolution_check",
     "counter_steps",
+    "counts_at",
     "counts_to_angle",
     "decode_quadrature",
     "increasing_angle",
@@ -194,6 +198,76 @@ def unwrap_counts(raw: ArrayLike, bits: int = 32, *, overwrite: bool = False) ->
     for k, start in enumerate(at):
         stop = at[k + 1] if k + 1 < at.size else counts.size
         counts[start:stop] += total[k]
+    return counts
+
+
+
+def _reloads_of(values: np.ndarray, counts_per_rev: float, bits: int
+                ) -> tuple[IntArray, IntArray]:
+    """Return where a counter reloads at its index and the cumulative correction from each on.
+
+    :func:`remove_index_resets`' reloads and corrections (counts) of ``unwrap_counts(values,
+    bits)``, whose steps are the values' steps wrapped into the counter's range: taken from
+    the values a chunk at a time, without the unwrapped counts.
+    """
+    chunk = 1 << 20
+    found, turns = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    for lo in range(0, values.size - 1, chunk):
+        steps = _wrapped(np.diff(values[lo:lo + chunk + 1].astype(np.int64)), bits)
+        at, whole = _reloads(steps, counts_per_rev)
+        found.append(lo + 1 + at)
+        turns.append(whole)
+    return np.concatenate(found), np.cumsum(-np.concatenate(turns) * round(counts_per_rev))
+
+
+def _correction_at(starts: IntArray, cumulative: IntArray, index: IntArray) -> IntArray:
+    """Return the cumulative correction (counts) in force at each sample of ``index``.
+
+    ``cumulative[k]`` holds from sample ``starts[k]`` to the next start; none before the first.
+    """
+    if not starts.size:
+        return np.zeros(index.shape, dtype=np.int64)
+    applies = np.searchsorted(starts, index, side="right") - 1
+    return np.where(applies >= 0, cumulative[np.maximum(applies, 0)], 0)
+
+
+def counts_at(raw: ArrayLike, index: ArrayLike, *, counts_per_rev: float | None = None,
+              bits: int = 32) -> IntArray:
+    """Return the unwrapped counts of some samples, without the whole record's counts.
+
+    ``unwrap_counts(raw, bits)[index]``, and with ``counts_per_rev``
+    ``remove_index_resets(unwrap_counts(raw, bits), counts_per_rev)[0][index]``, bit for bit:
+    the wraps and reloads are found a chunk at a time and their corrections added to the
+    samples asked for (memory: no int64 copy of the record).
+
+    Parameters
+    ----------
+    raw : array_like of int
+        Counter values as logged (as :func:`unwrap_counts` takes them).
+    index : array_like of int
+        Sample indices (non-negative).
+    counts_per_rev : float, optional
+        Counts per revolution: index reloads removed.
+    bits : int, default 32
+        Counter width in bits.
+
+    Returns
+    -------
+    numpy.ndarray of int64
+        The counts, shaped like ``index``.
+
+    Raises
+    ------
+    DataError
+        When float counter values are not finite whole numbers.
+    """
+    values = np.asarray(raw)
+    _whole_counts(values)
+    index = np.asarray(index, dtype=np.intp)
+    counts = values[index].astype(np.int64)
+    counts += _correction_at(*_wraps(values, bits), index)
+    if counts_per_rev:
+        counts += _correction_at(*_reloads_of(values, counts_per_rev, bits), index)
     return counts
 
 
@@ -429,13 +503,16 @@ def increasing_angle(time: ArrayLike, angle: ArrayLike, *, use: str
 _INTERP_BLOCK = 1 << 16
 
 
-def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float) -> FloatArray:
-    """Return ``np.interp(x, xp, fp - shift)`` without the whole-record copy ``fp - shift``.
+def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float = 0.0
+                 ) -> FloatArray:
+    """Return ``np.interp(x, xp, fp - shift)`` without a whole-record copy.
 
-    The samples are taken a block at a time, shifted there, with the targets that fall in the
-    block: every value is the one ``np.interp`` gives on the shifted copy (it reads the two
-    samples around a target alone), so a record's time axis and a channel's input delay stand
-    for the channel's times (memory).
+    Neither the shifted copy ``fp - shift`` nor the one ``np.interp`` makes of a read-only
+    ``xp`` or ``fp`` (a Dataset's time index is read-only) is made: the samples are taken a
+    block at a time, shifted there, with the targets that fall in the block. Every value is the
+    one ``np.interp`` gives on the whole shifted copy (it reads the two samples around a target
+    alone), so a record's time axis and a channel's input delay stand for the channel's times
+    (memory).
 
     Parameters
     ----------
@@ -445,7 +522,7 @@ def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float) -> 
         Increasing sample points.
     fp : numpy.ndarray
         Sample values, as many as ``xp``.
-    shift : float
+    shift : float, default 0
         Subtracted from ``fp``.
 
     Returns
@@ -454,8 +531,6 @@ def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float) -> 
         The interpolated values, the shape of ``x``.
     """
     targets = np.asarray(x, dtype=np.float64)
-    if shift == 0.0:
-        return np.interp(targets, xp, fp)
     flat = targets.ravel()
     order = None if bool(np.all(flat[1:] >= flat[:-1])) else np.argsort(flat, kind="stable")
     ordered = flat if order is None else flat[order]
@@ -467,7 +542,8 @@ def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float) -> 
         if b > a:
             lo = max(block * _INTERP_BLOCK - 1, 0)
             hi = min((block + 1) * _INTERP_BLOCK + 1, xp.size)
-            values[a:b] = np.interp(ordered[a:b], xp[lo:hi], fp[lo:hi] - shift)
+            samples = fp[lo:hi] - shift if shift else fp[lo:hi]
+            values[a:b] = np.interp(ordered[a:b], xp[lo:hi], samples)
     if order is not None:
         values[order] = values.copy()
     return values.reshape(targets.shape)
@@ -549,6 +625,34 @@ class RevolutionCheck:
     gross: BoolArray
 
 
+def _bracketing_samples(time: FloatArray, event_times: FloatArray
+                        ) -> tuple[IntArray, IntArray, FloatArray]:
+    """Return the samples ``i``, ``j`` around each event and the event's fraction of the way.
+
+    The count at an event is interpolated linearly between its samples ``i`` and ``j``
+    (``numpy.interp`` of the counts at the events, clamped at the record's ends), so only
+    those samples' counts are needed.
+    """
+    i = np.clip(np.searchsorted(time, event_times, side="right") - 1, 0,
+                max(time.size - 2, 0))
+    j = np.minimum(i + 1, time.size - 1)
+    span = np.where(j > i, time[j] - time[i], 1.0)
+    fraction = np.clip((event_times - time[i]) / span, 0.0, 1.0)
+    return i, j, fraction
+
+
+def _checked(event_times: FloatArray, before: np.ndarray, after: np.ndarray,
+             fraction: FloatArray, counts_per_rev: float, events_per_rev: int,
+             tolerance: float) -> RevolutionCheck:
+    """Return the revolution check of the counts at the samples before and after each event."""
+    # integer counts are converted at these samples only
+    at_event = before + fraction * (after.astype(np.float64) - before)
+    residual = np.round(np.diff(at_event) - counts_per_rev / events_per_rev)
+    magnitude = np.abs(residual)
+    return RevolutionCheck(event_times, residual, (magnitude > 1) & (magnitude <= tolerance),
+                           magnitude > tolerance)
+
+
 def revolution_check(time: ArrayLike, counts: ArrayLike, event_times: ArrayLike,
                      counts_per_rev: float, *, events_per_rev: int = 1,
                      tolerance: float = 4.0) -> RevolutionCheck:
@@ -578,16 +682,59 @@ def revolution_check(time: ArrayLike, counts: ArrayLike, event_times: ArrayLike,
     RevolutionCheck
         Residual per interval with glitch and gross flags.
     """
-    t = np.asarray(time, dtype=np.float64)
     c = np.asarray(counts)  # integer or float: only the samples around events are converted
     events = np.asarray(event_times, dtype=np.float64)
-    # np.interp(events, t, c) without a float copy of the whole record
-    i = np.clip(np.searchsorted(t, events, side="right") - 1, 0, max(t.size - 2, 0))
-    j = np.minimum(i + 1, t.size - 1)
-    span = np.where(j > i, t[j] - t[i], 1.0)
-    fraction = np.clip((events - t[i]) / span, 0.0, 1.0)
-    at_event = c[i] + fraction * (c[j].astype(np.float64) - c[i])
-    residual = np.round(np.diff(at_event) - counts_per_rev / events_per_rev)
-    magnitude = np.abs(residual)
-    return RevolutionCheck(events, residual, (magnitude > 1) & (magnitude <= tolerance),
-                           magnitude > tolerance)
+    i, j, fraction = _bracketing_samples(np.asarray(time, dtype=np.float64), events)
+    return _checked(events, c[i], c[j], fraction, counts_per_rev, events_per_rev, tolerance)
+
+
+def counter_revolution_check(time: ArrayLike, raw: ArrayLike, event_times: ArrayLike,
+                             counts_per_rev: float, *, direction: float = 1.0,
+                             index_reset: bool = False, events_per_rev: int = 1,
+                             tolerance: float = 4.0, bits: int = 32) -> RevolutionCheck:
+    """Revolution check of a counter channel, from its counts at the events' samples alone.
+
+    :func:`revolution_check` of ``unwrap_counts(raw, bits)`` (index reloads removed with
+    :func:`remove_index_resets` when ``index_reset``, times ``direction``), bit for bit, but
+    only the counts at the two samples around each event are made (:func:`counts_at`), not
+    the whole record's int64 counts (memory: 8 bytes a sample).
+
+    Parameters
+    ----------
+    time : array_like
+        Sample times in s (same clock as ``event_times``).
+    raw : array_like of int
+        Counter values as logged (as :func:`unwrap_counts` takes them).
+    event_times : array_like
+        Reference event times in s, increasing.
+    counts_per_rev : float
+        Counts per revolution.
+    direction : float, default 1
+        Factor on the counts (-1 for an encoder counting down).
+    index_reset : bool, default False
+        The counter reloads at the Z index.
+    events_per_rev, tolerance
+        As in :func:`revolution_check`.
+    bits : int, default 32
+        Counter width in bits.
+
+    Returns
+    -------
+    RevolutionCheck
+        As :func:`revolution_check` returns it.
+
+    Raises
+    ------
+    DataError
+        When float counter values are not finite whole numbers.
+    """
+    events = np.asarray(event_times, dtype=np.float64)
+    i, j, fraction = _bracketing_samples(np.asarray(time, dtype=np.float64), events)
+    counts = counts_at(raw, np.concatenate((i, j)), bits=bits,
+                       counts_per_rev=counts_per_rev if index_reset else None)
+    if direction == -1.0:
+        np.negative(counts, out=counts)
+    elif direction != 1.0:
+        counts = counts * direction
+    return _checked(events, counts[:i.size], counts[i.size:], fraction, counts_per_rev,
+                    events_per_rev, tolerance)

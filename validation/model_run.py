@@ -3,11 +3,12 @@
 :func:`run_model` solves the mechanism on a phi_F grid :data:`FINE_FACTOR` times finer than the
 comparison grid (the chosen grid is every :data:`FINE_FACTOR`-th point, so its error is measured
 by :func:`grid_error`): with measured drives, each driver's angle, speed and acceleration from
-its encoder averaged over the revolutions at each grid angle (:func:`measured_drives`, which the
-pipeline's align stage calls, so that the encoders are let go before the other streams are
-aligned); with analytic drives, the mechanism file's laws over one revolution. What to compute
-comes from the scene through :func:`rigval.validation.stage_settings.model_settings`. The
-power-balance check of the model's numerics is :func:`rigval.model.balance.energy_residual`.
+its encoder averaged over the revolutions at each grid angle as the encoder is smoothed, never
+held on the whole grid (:func:`measured_drives`, which the pipeline's align stage calls, so
+that the encoders are let go before the other streams are aligned); with analytic drives, the
+mechanism file's laws over one revolution. What to compute comes from the scene through
+:func:`rigval.validation.stage_settings.model_settings`. The power-balance check of the model's
+numerics is :func:`rigval.model.balance.energy_residual`.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from rigval.model.mechanism import Mechanism
 from rigval.model.output_values import coarse_grid_error, with_axial_forces
 from rigval.model.solver import solve, solve_cycle
 from rigval.processing.excitation import mean_drive_cycle
+from rigval.processing.row_mean import RowMean
 from rigval.validation.stage_settings import DriveEncoder, ModelSettings
 
 __all__ = ["FINE_FACTOR", "MeanDrives", "drives_of", "grid_error", "measured_drives", "run_model"]
@@ -40,7 +42,9 @@ def measured_drives(encoders: tuple[DriveEncoder, ...], ref: xr.Dataset,
                     fine_times: np.ndarray) -> MeanDrives:
     """Drive angle, speed and acceleration per driver, averaged over revolutions per angle.
 
-    Each driver's encoder handed to :func:`rigval.processing.excitation.mean_drive_cycle`.
+    Each driver's encoder handed to :func:`rigval.processing.excitation.mean_drive_cycle`,
+    which averages the revolutions as it smooths the encoder: no driver's outputs are held on
+    the whole fine grid.
 
     Parameters
     ----------
@@ -64,8 +68,25 @@ def measured_drives(encoders: tuple[DriveEncoder, ...], ref: xr.Dataset,
             direction=encoder.direction, index_reset=encoder.index_reset,
             angle_at_reference=encoder.angle_at_reference)
         for encoder in encoders}
-    times = (fine_times - fine_times[:, :1]).mean(axis=0)
-    return times, drives
+    return _mean_time_in_revolution(fine_times), drives
+
+
+#: Revolutions of the fine grid's times taken at once by :func:`_mean_time_in_revolution`.
+_BLOCK_REVOLUTIONS = 256
+
+
+def _mean_time_in_revolution(fine_times: np.ndarray) -> np.ndarray:
+    """Return the mean time since the start of the revolution per grid angle, s.
+
+    ``(fine_times - fine_times[:, :1]).mean(axis=0)`` bit for bit
+    (:class:`~rigval.processing.row_mean.RowMean`), a block of revolutions at a time (memory:
+    not a copy of the whole grid's times).
+    """
+    mean = RowMean(fine_times.shape[1])
+    for lo in range(0, fine_times.shape[0], _BLOCK_REVOLUTIONS):
+        rows = fine_times[lo:lo + _BLOCK_REVOLUTIONS]
+        mean.add(rows - rows[:, :1])
+    return mean.mean()
 
 
 def drives_of(fine: xr.Dataset) -> MeanDrives:

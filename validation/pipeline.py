@@ -25,12 +25,16 @@ read
     channel is read here and kept.
 align
     In four steps, each output replacing its input: phi_F(t) from the main encoder (smoothed,
-    never differenced raw), zero at the reference pulse, on the reference stream's time axis
-    and the encoder's input delay (no delayed copy); from phi_F, the whole revolutions, the
-    reference times of the grids and the events each other stream's pulses are fitted on, and
-    phi_F is let go; with measured drives, each driver's angle, speed and acceleration from its
-    encoder averaged over the revolutions at each angle of the fine grid, and the encoders are
-    let go; each other stream's clock fitted on its reference pulses against its events
+    never differenced raw), zero at the reference pulse, on the reference stream's time axis and
+    the encoder's input delay (no delayed copy), its revolution check made on the counts at the
+    samples around the pulses alone (not the whole record's int64 counts); from phi_F, the whole
+    revolutions, the reference times of the grids (the uniform grid's first, then the fine
+    grid's a block of revolutions at a time, never the whole fine grid's angles) and the events
+    each other stream's pulses are fitted on, and phi_F is let go; with measured drives, each
+    driver's angle, speed and acceleration from its encoder averaged over the revolutions at
+    each angle of the fine grid as the encoder is smoothed, a block of revolutions at a time
+    (never held on the whole fine grid), and the encoders are let go; each other stream's clock
+    fitted on its reference pulses against its events
     (:mod:`rigval.processing.stream_alignment`), module input delays removed.
 model
     Only the outputs the comparisons and predictions name, on the phi_F grid, of the
@@ -75,8 +79,9 @@ from rigval.processing.alignment_summary import StreamAlignment
 from rigval.processing.angle import (
     AngleGrid,
     anti_alias_hz,
-    cycle_grid,
+    cycle_angles,
     resample_to_angle,
+    whole_cycles,
 )
 from rigval.processing.filters import zero_phase
 from rigval.processing.pulses import StreamPulses
@@ -228,17 +233,27 @@ def _phi_f(scene: Scene, settings: AlignmentSettings, read: Read) -> _PhiF:
 
 
 def _predict(scene: Scene, settings: AlignmentSettings, phi: _PhiF) -> _Predicted:
-    """Take from phi_F the grids and the events the other streams are aligned on; let it go."""
+    """Take from phi_F the grids and the events the other streams are aligned on; let it go.
+
+    The uniform grid's times (a spline's, with its temporaries) are found before the fine
+    grid's, so that the two are not held beside each other's making (memory).
+    """
     main = phi.reference.main
     events = pulse_events(settings, main)
-    grid, fine_times = _grid(scene, main)
+    turns = _revolutions(scene, main)
+    angle_times = main.grid(scene.angle.points_per_revolution)
+    grid, fine_times = _grid(scene, main, turns)
     return _Predicted(phi.inputs, phi.others, phi.reference.stream, phi.reference.record, events,
-                      grid, fine_times, main.grid(scene.angle.points_per_revolution))
+                      grid, fine_times, angle_times)
 
 
 def _drives(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, predicted: _Predicted
             ) -> _Driven:
     """Average the measured drives on the fine grid; its times and the encoders are let go.
+
+    Each driver's revolutions are averaged as its encoder is smoothed
+    (:func:`rigval.validation.model_run.measured_drives`): its outputs are never held on the
+    whole fine grid.
 
     The reference stream keeps the channels later stages take and its pulse channel, if there,
     for the alignment figure's window.
@@ -298,23 +313,51 @@ class _Grid:
         return self.fine_angle[::FINE_FACTOR]
 
 
-def _grid(scene: Scene, main: MainAngle) -> tuple[_Grid, np.ndarray]:
-    """Whole revolutions of phi_F and the reference times of the chosen and the fine grid.
+def _revolutions(scene: Scene, main: MainAngle) -> np.ndarray:
+    """Return the numbers of phi_F's whole revolutions, as many as the scene asks for at least.
+
+    Raises
+    ------
+    DataError
+        When the record holds fewer than ``angle.min_cycles``.
+    """
+    turns = whole_cycles(main.phi[0], main.phi[-1])
+    if turns.size < scene.angle.min_cycles:
+        raise DataError(f"only {turns.size} whole revolutions in the record, the scene asks "
+                        f"for {scene.angle.min_cycles}", where={"key": "angle.min_cycles"},
+                        hint="record longer, or lower angle.min_cycles")
+    return turns
+
+
+def _grid(scene: Scene, main: MainAngle, turns: np.ndarray) -> tuple[_Grid, np.ndarray]:
+    """Return the phi_F grid of the whole revolutions ``turns``, chosen and fine grid times.
 
     Returns the grid, whose ``times`` are the chosen grid's (n_cycle, n_angle), and the fine
     grid's (n_cycle, n_angle * FINE_FACTOR), s.
     """
     n = scene.angle.points_per_revolution
-    turns, fine_grid = cycle_grid(main.phi[0], main.phi[-1], n * FINE_FACTOR)
-    if turns.size < scene.angle.min_cycles:
-        raise DataError(f"only {turns.size} whole revolutions in the record, the scene asks "
-                        f"for {scene.angle.min_cycles}", where={"key": "angle.min_cycles"},
-                        hint="record longer, or lower angle.min_cycles")
-    fine_times = main.times_at(fine_grid)
+    fine_times = _fine_times(main, turns, n * FINE_FACTOR)
     duration = float(main.times_at(2 * np.pi * (turns[-1] + 1)) - fine_times[0, 0])
     chosen = np.ascontiguousarray(fine_times[:, ::FINE_FACTOR])
-    return _Grid(turns, fine_grid[0] - fine_grid[0, 0], chosen, turns.size / duration), \
-        fine_times
+    first = cycle_angles(turns[:1], n * FINE_FACTOR)[0]
+    return _Grid(turns, first - first[0], chosen, turns.size / duration), fine_times
+
+
+#: Revolutions of the fine grid whose reference times :func:`_fine_times` finds at once.
+_GRID_BLOCK = 256
+
+
+def _fine_times(main: MainAngle, turns: np.ndarray, points: int) -> np.ndarray:
+    """Return the reference times of the fine grid's revolutions, (turns.size, points), s.
+
+    A block of revolutions at a time, each block's angles made and let go (memory: never the
+    whole grid's angles, as many as its times); the times those of the whole grid's angles.
+    """
+    times = np.empty((turns.size, points))
+    for lo in range(0, turns.size, _GRID_BLOCK):
+        block = turns[lo:lo + _GRID_BLOCK]
+        times[lo:lo + block.size] = main.times_at(cycle_angles(block, points))
+    return times
 
 
 # ---------------------------------------------------------------------------------------------
