@@ -439,10 +439,11 @@ def _resample(scene: Scene, comparison: ComparisonSpec, signal: MeasuredSignal, 
     if anti_alias < 0.45 * fs:
         values = zero_phase(values, fs, anti_alias, order=8, segment=segment, valid=valid)
     _, _, cycles = resample_to_angle(
-        signal.time.to_numpy() - signal.delay_s, values, None, None,  # as clock_fit.channel_time
+        signal.time.to_numpy(), values, None, None,
         points_per_rev=scene.angle.points_per_revolution, fs=fs,
         order=INTERPOLATION_ORDER[scene.angle.interpolation], anti_alias="none",
-        segment=segment, valid=valid, grid=grid)
+        segment=segment, valid=valid, grid=grid,
+        delay_s=signal.delay_s)  # as clock_fit.channel_time, without a copy of the times
     return cycles, corner
 
 
