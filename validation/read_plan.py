@@ -232,7 +232,8 @@ def _add_channels(scene: Scene, name: str, aligned: xr.Dataset, channels: Iterab
     reference times; each channel's module delay is scaled by the stream's clock drift as
     :func:`rigval.processing.clock_fit.align_stream` does.
 
-    ``on_read(name, channels as read)`` is called before the conversion (the health checks).
+    ``on_read(name, channels as read)`` is called before the conversion (the health checks);
+    the channels as read are then converted in their own memory, no copy (memory).
 
     Raises
     ------
@@ -243,7 +244,7 @@ def _add_channels(scene: Scene, name: str, aligned: xr.Dataset, channels: Iterab
     read = load_stream(spec, checksum=False)
     if on_read is not None:
         on_read(name, read)
-    part = convert_stream(read, spec)
+    part = convert_stream(read, spec, overwrite=True)  # the read is let go here
     del read
     if part.sizes["time"] != aligned.sizes["time"]:
         raise DataError(f"stream {name}: {spec.file.name} gave {part.sizes['time']} samples for "
