@@ -202,3 +202,27 @@ def test_grid_times_in_order_sampled_without_the_sort_equal_the_sorted_path(monk
     through_sort = excitation.drive_excitation_at(ds, "enc", grid, counts_per_rev=CPR)
     for got, expected in zip(in_order, through_sort, strict=True):
         assert np.array_equal(got, expected) and np.isfinite(got).all()
+
+
+@pytest.mark.parametrize("chunk_samples", [1 << 20, 7000, 500])  # 500: shorter than the overlap
+def test_zero_phase_into_its_input_equals_a_new_output(chunk_samples: int) -> None:
+    # a channel with a segment change, invalid samples, a NaN and a run too short to filter:
+    # written into the input, piece by piece, the output equals the one of a new array to the bit
+    rng = np.random.default_rng(9)
+    x = np.cumsum(rng.standard_normal(60_000))
+    x[20_000] = np.nan
+    segment = (np.arange(x.size) >= 41_000).astype(np.int32)
+    valid = np.ones(x.size, dtype=bool)
+    valid[:30] = False
+    valid[30_000:30_200] = False
+    valid[30_210:30_300] = False                          # leaves a 10-sample run
+    with pytest.warns(DataWarning, match="too short"):
+        expected = filters.zero_phase(x, FS, 20.0, segment=segment, valid=valid,
+                                      chunk_samples=chunk_samples)
+    own = x.copy()
+    with pytest.warns(DataWarning, match="too short"):
+        result = filters.zero_phase(own, FS, 20.0, segment=segment, valid=valid,
+                                    chunk_samples=chunk_samples, overwrite=True)
+    assert result is own
+    assert np.isnan(expected[30_200:30_300]).all() and np.isfinite(expected[30:20_000]).all()
+    assert result.tobytes() == expected.tobytes()
