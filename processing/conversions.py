@@ -49,6 +49,9 @@ logger = logging.getLogger(__name__)
 
 Null = float | tuple[float, float] | None
 
+#: Samples whose strain is computed at a time (its denominator's working array: 8 MiB).
+_BLOCK = 1 << 20
+
 
 def _channel(ds: xr.Dataset, name: str) -> xr.DataArray:
     if name not in ds:
@@ -211,10 +214,15 @@ def strain_channel(ds: xr.Dataset, channel: str, *, bridge_type: BridgeType,
     """
     ratio = bridge_ratio_values(ds, channel, excitation_voltage=excitation_voltage,
                                 unstrained=unstrained, overwrite=overwrite)
-    eps = bridge.strain_from_ratio(ratio, bridge_type, gauge_factor=gauge_factor,
-                                   poisson=poisson, gauge_resistance=gauge_resistance,
-                                   lead_resistance=lead_resistance, gain_adjust=gain_adjust,
-                                   overwrite=True)  # the ratio is this function's own copy
+    # block by block into the ratio's memory, this function's own (or handed over): the
+    # denominator's array is a block's, not the record's (memory); element by element the
+    # same operations (identical values)
+    eps = ratio
+    for lo in range(0, ratio.size, _BLOCK):
+        eps[lo:lo + _BLOCK] = bridge.strain_from_ratio(
+            ratio[lo:lo + _BLOCK], bridge_type, gauge_factor=gauge_factor, poisson=poisson,
+            gauge_resistance=gauge_resistance, lead_resistance=lead_resistance,
+            gain_adjust=gain_adjust, overwrite=True)
     return _with_variable(
         ds, name or f"{channel}_strain", eps, ds[channel], channel, units="1",
         long_name=f"strain from {channel}", conversion=f"NI {bridge_type} bridge equation",

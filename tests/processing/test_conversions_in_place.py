@@ -142,3 +142,18 @@ def test_stream_converted_in_its_own_memory_equals_the_copy(sensor, params, unit
     assert np.array_equal(ds["x"].to_numpy(), values)
     if sensor != "torsion_bridge":  # the torque is a new array from the ratio made in place
         assert np.shares_memory(converted, channel)
+
+
+@pytest.mark.parametrize("bridge_type", ["quarter_i", "half_i", "full_iii"])
+def test_strain_block_by_block_equals_the_whole_ratio(monkeypatch, bridge_type: str) -> None:
+    # the strain is computed a block at a time (its denominators' memory): the values of the
+    # formula on the whole ratio at once, bit for bit, across block edges and NaN samples
+    ds, _, _, _ = _stream("mV/V")
+    kwargs = {"gauge_factor": 2.05, "poisson": 0.29, "gauge_resistance": 350.0,
+              "lead_resistance": 0.5, "gain_adjust": 1.01}
+    whole = bridge.strain_from_ratio(conversions.bridge_ratio_values(ds, "x"), bridge_type,
+                                     **kwargs)
+    monkeypatch.setattr(conversions, "_BLOCK", 1000)
+    blocks = conversions.strain_channel(ds, "x", bridge_type=bridge_type, name="eps",
+                                        **kwargs)["eps"].to_numpy()
+    assert blocks.tobytes() == whole.tobytes()
