@@ -39,6 +39,8 @@ PadType = Literal["odd", "line", "even", "zero"]
 
 #: Default number of samples filtered at once in a long run (bounded memory).
 DEFAULT_CHUNK = 1 << 20
+#: Samples whose neighbours :func:`contiguous_runs` compares at a time (its masks: 1 MiB).
+_RUN_BLOCK = 1 << 20
 #: Share of the padding length over which the "line" extension fits its quadratic.
 _EDGE_FIT_FRACTION = 0.1
 
@@ -110,14 +112,30 @@ def contiguous_runs(n: int, segment: ArrayLike | None = None,
     -------
     list of (int, int)
         Runs in order; a run never spans a gap or an invalid sample.
+
+    Notes
+    -----
+    Neighbours are compared :data:`_RUN_BLOCK` samples at a time, so that the comparisons'
+    masks are a block's, not the record's (memory); the runs are the same.
     """
-    ok = np.ones(n, dtype=bool) if valid is None else np.asarray(valid, dtype=bool)
-    change = ok[1:] != ok[:-1]
+    ok = None if valid is None else np.asarray(valid, dtype=bool)
+    seg = None if segment is None else np.asarray(segment)
+    changes = [np.flatnonzero(_changes(ok, seg, lo, min(lo + _RUN_BLOCK, n - 1))) + lo + 1
+               for lo in range(0, n - 1, _RUN_BLOCK)]
+    bounds = np.concatenate(([0], *changes, [n])).tolist()
+    return [(a, b) for a, b in itertools.pairwise(bounds) if b > a and (ok is None or ok[a])]
+
+
+def _changes(ok: np.ndarray | None, segment: np.ndarray | None, lo: int, hi: int
+             ) -> np.ndarray:
+    """Return where sample ``i + 1`` starts a new run, for ``i`` in ``lo ... hi - 1`` (bool).
+
+    A new run starts where validity or the segment changes from the sample before.
+    """
+    change = np.zeros(hi - lo, dtype=bool) if ok is None else ok[lo + 1:hi + 1] != ok[lo:hi]
     if segment is not None:
-        seg = np.asarray(segment)
-        change |= seg[1:] != seg[:-1]
-    bounds = np.concatenate(([0], np.flatnonzero(change) + 1, [n])).tolist()
-    return [(a, b) for a, b in itertools.pairwise(bounds) if b > a and ok[a]]
+        change |= segment[lo + 1:hi + 1] != segment[lo:hi]
+    return change
 
 
 def _extension(run: FloatArray, n: int, padtype: str, side: str, fit: int) -> FloatArray:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from scipy.signal import sosfiltfilt
@@ -226,3 +228,29 @@ def test_zero_phase_into_its_input_equals_a_new_output(chunk_samples: int) -> No
     assert result is own
     assert np.isnan(expected[30_200:30_300]).all() and np.isfinite(expected[30:20_000]).all()
     assert result.tobytes() == expected.tobytes()
+
+
+@pytest.mark.parametrize("block", [1, 7, 1000, 1 << 20])
+def test_contiguous_runs_by_blocks_equal_the_whole_record_comparison(monkeypatch,
+                                                                     block: int) -> None:
+    # neighbours compared a block at a time: the runs of the whole record's comparison
+    rng = np.random.default_rng(3)
+    n = 5003
+    valid = rng.random(n) > 0.02
+    segment = np.cumsum(rng.random(n) > 0.999).astype(np.int32)
+
+    def whole(valid, segment):
+        ok = np.ones(n, dtype=bool) if valid is None else valid
+        change = ok[1:] != ok[:-1]
+        if segment is not None:
+            change |= segment[1:] != segment[:-1]
+        bounds = np.concatenate(([0], np.flatnonzero(change) + 1, [n])).tolist()
+        return [(a, b) for a, b in itertools.pairwise(bounds) if b > a and ok[a]]
+
+    monkeypatch.setattr(filters, "_RUN_BLOCK", block)
+    for v, s in ((valid, segment), (valid, None), (None, segment), (None, None)):
+        runs = filters.contiguous_runs(n, s, v)
+        assert runs == whole(v, s)
+        assert len(runs) > 1 or (v is None and s is None)
+    assert filters.contiguous_runs(1, None, np.array([True])) == [(0, 1)]
+    assert filters.contiguous_runs(0) == []
