@@ -444,6 +444,32 @@ def _tail(x: FloatArray, ok: BoolArray, count: int, *, largest: bool) -> FloatAr
     return np.sort(kept)
 
 
+def _clipped(size: int, clipping: list[Finding]) -> BoolArray:
+    """Return the mask of the samples the clipping findings span."""
+    clipped = np.zeros(size, dtype=bool)
+    for found in clipping:
+        clipped[found.first_sample:found.last_sample + 1] = True
+    return clipped
+
+
+def _moving(ok: BoolArray, findings: list[Finding], segment: ArrayLike | None) -> BoolArray:
+    """Return the usable samples outside the findings' spans and away from the gaps.
+
+    The spikes and noise are judged there: a clipped or flat stretch is no signal, and the
+    samples on either side of a gap are not neighbours. Made in one mask, the findings' spans
+    cleared in it (memory: no whole-record masks of the spans beside it).
+    """
+    moving = ok.copy()
+    for found in findings:
+        moving[found.first_sample:found.last_sample + 1] = False
+    if segment is not None:
+        seg = np.asarray(segment)
+        for lo, hi in _blocks(0, seg.size - 1):
+            for b in np.flatnonzero(seg[lo + 1:hi + 1] != seg[lo:hi]) + lo + 1:
+                moving[max(b - 3, 0):b + 3] = False
+    return moving
+
+
 def _first_and_last(ok: BoolArray) -> tuple[int, int]:
     """Return the first and the last index where ``ok`` holds (it holds somewhere).
 
@@ -517,23 +543,15 @@ def analog_health(x: ArrayLike, time: ArrayLike, *, channel: str, fs: float, uni
     """
     data = np.asarray(x, dtype=np.float64)
     t = times_of(time)
-    ok = np.isfinite(data) if valid is None else np.asarray(valid, bool) & np.isfinite(data)
+    usable = None if valid is None else np.asarray(valid, bool)
+    ok = _mask(data.size, lambda lo, hi: np.isfinite(data[lo:hi]) if usable is None
+               else usable[lo:hi] & np.isfinite(data[lo:hi]))
     if ok.sum() < 20:
         return []
     q = quantum(_first_usable(data, ok, _QUANTUM_SAMPLES))
     clipping = _clipping(data, ok, t, channel, unit, limits, q)
-    clipped = np.zeros(data.size, dtype=bool)
-    for found in clipping:
-        clipped[found.first_sample:found.last_sample + 1] = True
-    findings = [*clipping, *_flat(data, ok, t, fs, channel, unit, q, clipped)]
-    stuck = clipped.copy()
-    for found in findings:
-        stuck[found.first_sample:found.last_sample + 1] = True
-    moving = ok & ~stuck
-    if segment is not None:  # the samples on either side of a gap are not neighbours
-        seg = np.asarray(segment)
-        for b in np.flatnonzero(seg[1:] != seg[:-1]) + 1:
-            moving[max(b - 3, 0):b + 3] = False
+    findings = [*clipping, *_flat(data, ok, t, fs, channel, unit, q, _clipped(data.size, clipping))]
+    moving = _moving(ok, findings, segment)
     windows = _Windows.of(data, moving, fs)
     findings += _spikes(data, moving, t, windows, channel, unit, q)
     findings += _noise(data, t, windows, channel, unit, q)
