@@ -104,7 +104,7 @@ def apply_highpass(x: ArrayLike, fs: float, corner_hz: float,
 
 
 def invert_highpass(y: ArrayLike, fs: float, corner_hz: float,
-                    initial_state: float = 0.0) -> FloatArray:
+                    initial_state: float = 0.0, *, out: FloatArray | None = None) -> FloatArray:
     """Undo :func:`apply_highpass` exactly (up to the unknown DC carried by the initial state).
 
     Parameters
@@ -118,11 +118,14 @@ def invert_highpass(y: ArrayLike, fs: float, corner_hz: float,
     initial_state : float, default 0
         Low-pass state z at the first sample (``x[0] - y[0]``); unknown for measured data, where it
         only shifts the result by a constant.
+    out : numpy.ndarray, optional
+        A float64 array of ``y``'s size the result is written to; it may be ``y`` itself (memory:
+        no second whole-record array), the values are the same.
 
     Returns
     -------
     numpy.ndarray
-        The input of the high-pass, same unit.
+        The input of the high-pass, same unit (``out`` when given).
     """
     y = np.asarray(y, dtype=np.float64)
     decay, c1 = _coefficients(fs, corner_hz)
@@ -130,10 +133,13 @@ def invert_highpass(y: ArrayLike, fs: float, corner_hz: float,
         return y.copy()
     # z = [z0, z0 + cumsum(((1 - d - c1) y[:-1] + c1 y[1:]) / (1 - c1))], returned as y + z:
     # a chunk at a time into the one output array (no whole-record temporary); the running
-    # sum goes on from the last chunk's, added in the same order (identical values)
-    out = np.empty(y.size)
-    out[0] = initial_state + y[0]
+    # sum goes on from the last chunk's, added in the same order (identical values). A chunk
+    # reads y[lo:hi + 1]: its last output waits until the next chunk has read y[hi], so that
+    # ``out`` may be ``y`` itself.
+    if out is None:
+        out = np.empty(y.size)
     chunk, total = 1 << 20, None
+    pending, pending_value = 0, initial_state + y[0]
     for lo in range(0, y.size - 1, chunk):
         hi = min(lo + chunk, y.size - 1)
         part = (1.0 - decay - c1) * y[lo:hi]
@@ -144,7 +150,10 @@ def invert_highpass(y: ArrayLike, fs: float, corner_hz: float,
         total = running[-1]
         running += initial_state
         running += y[lo + 1:hi + 1]
-        out[lo + 1:hi + 1] = running
+        out[pending] = pending_value
+        out[lo + 1:hi] = running[:-1]
+        pending, pending_value = hi, running[-1]
+    out[pending] = pending_value
     return out
 
 
@@ -186,7 +195,7 @@ def charge_chain_voltage(acceleration: ArrayLike, *, charge_sensitivity: float,
 def acceleration_from_voltage(voltage: ArrayLike, *, charge_sensitivity: float,
                               amplifier_gain: float, fs: float | None = None,
                               highpass_hz: float | None = None,
-                              initial_state: float = 0.0) -> FloatArray:
+                              initial_state: float = 0.0, overwrite: bool = False) -> FloatArray:
     """Convert charge amplifier output (V) to acceleration (m s-2).
 
     ``a = V / (S_q G_amp 1e-3) g0``; with ``highpass_hz`` the amplifier's high-pass is undone
@@ -207,6 +216,9 @@ def acceleration_from_voltage(voltage: ArrayLike, *, charge_sensitivity: float,
         Corner of the amplifier's high-pass in Hz to correct; None leaves it in.
     initial_state : float, default 0
         High-pass state in V at the first sample (sets the unknown DC).
+    overwrite : bool, default False
+        A writeable float64 ``voltage`` array of the caller's own becomes the acceleration
+        (memory: no whole-record array of its own; the same values).
 
     Returns
     -------
@@ -217,12 +229,15 @@ def acceleration_from_voltage(voltage: ArrayLike, *, charge_sensitivity: float,
         raise ConfigError(f"sensitivity and gain must be positive, got {charge_sensitivity} pC/g "
                           f"and {amplifier_gain} mV/pC", where={"key": "charge_sensitivity"})
     volts = np.asarray(voltage, dtype=np.float64)
+    own = overwrite and volts is voltage and volts.flags.writeable
     if highpass_hz is not None:
         if fs is None:
             raise ConfigError("the high-pass correction needs fs", where={"key": "fs"})
-        volts = invert_highpass(volts, fs, highpass_hz, initial_state)
+        volts = invert_highpass(volts, fs, highpass_hz, initial_state,
+                                out=volts if own else None)
         volts /= charge_sensitivity * amplifier_gain * 1e-3  # its own array: in place (memory)
     else:
-        volts = volts / (charge_sensitivity * amplifier_gain * 1e-3)
+        volts = np.divide(volts, charge_sensitivity * amplifier_gain * 1e-3,
+                          out=volts if own else None)
     volts *= STANDARD_GRAVITY
     return volts

@@ -162,7 +162,7 @@ def cycle_angles(cycles: IntArray, points_per_rev: int) -> FloatArray:
 
 def interpolate_runs(time: ArrayLike, values: ArrayLike, at: ArrayLike, *, order: int = 3,
                      segment: ArrayLike | None = None, valid: ArrayLike | None = None,
-                     offset: float = 0.0) -> FloatArray:
+                     offset: float = 0.0, time_offset: float = 0.0) -> FloatArray:
     """Evaluate a sampled signal at arbitrary times without crossing gaps.
 
     Parameters
@@ -180,6 +180,10 @@ def interpolate_runs(time: ArrayLike, values: ArrayLike, at: ArrayLike, *, order
     offset : float, default 0
         Subtracted from ``values``, a chunk at a time (a time axis as values, a channel's input
         delay taken off without a whole-record copy); the same values as subtracted first.
+    time_offset : float, default 0
+        Subtracted from ``time`` (s), a chunk at a time: a channel's module input delay taken
+        off its reference times without a whole-record copy (memory); the same times as
+        subtracted first.
 
     Returns
     -------
@@ -203,20 +207,23 @@ def interpolate_runs(time: ArrayLike, values: ArrayLike, at: ArrayLike, *, order
             continue
         for lo in range(start, stop - 1, _CHUNK):
             hi = min(lo + _CHUNK, stop - 1)
-            a, b = np.searchsorted(sorted_targets, [t[lo], t[hi]], side="left")
+            t_lo, t_hi = t[lo] - time_offset, t[hi] - time_offset
+            a, b = np.searchsorted(sorted_targets, [t_lo, t_hi], side="left")
             if hi == stop - 1:
-                b = np.searchsorted(sorted_targets, t[hi], side="right")
+                b = np.searchsorted(sorted_targets, t_hi, side="right")
             if b <= a:
                 continue
             read_lo, read_hi = max(start, lo - _OVERLAP), min(stop, hi + 1 + _OVERLAP)
             result[order_index[a:b]] = _chunk_spline(
                 t, x, sorted_targets[a:b], read_lo, read_hi, order,
-                at_start=read_lo == start, at_stop=read_hi == stop, offset=offset)
+                at_start=read_lo == start, at_stop=read_hi == stop, offset=offset,
+                time_offset=time_offset)
     return result.reshape(targets.shape)
 
 
 def _chunk_spline(t: FloatArray, x: FloatArray, at: FloatArray, lo: int, hi: int, order: int,
-                  *, at_start: bool, at_stop: bool, offset: float = 0.0) -> FloatArray:
+                  *, at_start: bool, at_stop: bool, offset: float = 0.0,
+                  time_offset: float = 0.0) -> FloatArray:
     """Evaluate the interpolating spline of the samples ``lo:hi`` at sorted times ``at``.
 
     Samples at uniform times (clock-mapped records; :data:`_UNIFORM_TOLERANCE`) take the
@@ -227,9 +234,10 @@ def _chunk_spline(t: FloatArray, x: FloatArray, at: FloatArray, lo: int, hi: int
     within :data:`_OVERLAP` samples of a run's ends the not-a-knot spline of the end's
     ``3 * _OVERLAP`` samples is used, so the result equals the whole run's not-a-knot
     spline to rounding everywhere (``tests/processing/test_angle_cycles.py``). ``offset`` is
-    subtracted from the samples ``x`` first.
+    subtracted from the samples ``x`` first, ``time_offset`` from their times ``t`` (s).
     """
-    tt, xx = t[lo:hi], (x[lo:hi] - offset if offset else x[lo:hi])
+    tt = t[lo:hi] - time_offset if time_offset else t[lo:hi]
+    xx = x[lo:hi] - offset if offset else x[lo:hi]
     n = tt.size
     if n < 4 * _OVERLAP:
         return make_interp_spline(tt, xx, k=order)(at)
@@ -262,13 +270,13 @@ def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike 
                       angle: ArrayLike | None, *, points_per_rev: int, fs: float, order: int = 5,
                       anti_alias: AntiAlias = "butterworth", segment: ArrayLike | None = None,
                       valid: ArrayLike | None = None, grid: AngleGrid | None = None,
-                      ) -> tuple[IntArray, FloatArray, FloatArray]:
+                      delay_s: float = 0.0) -> tuple[IntArray, FloatArray, FloatArray]:
     """Resample one channel onto a uniform phi_F grid, cycle by cycle.
 
     Parameters
     ----------
     time : array_like
-        The channel's sample times in s on the reference clock (delay removed).
+        The channel's sample times in s on the reference clock (``delay_s`` not yet removed).
     values : array_like
         The channel's samples.
     angle_time, angle : array_like or None
@@ -289,6 +297,9 @@ def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike 
     grid : AngleGrid, optional
         :func:`angle_grid` of ``angle_time, angle, points_per_rev``, computed once for many
         channels (it is the same for all); default: computed here.
+    delay_s : float, default 0
+        The channel's module input delay in s: its samples were taken at ``time - delay_s``,
+        taken off a chunk at a time without a copy of the times (memory).
 
     Returns
     -------
@@ -312,7 +323,8 @@ def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike 
     elif anti_alias != "none":
         raise ConfigError(f"anti_alias must be 'butterworth' or 'none', got {anti_alias!r}",
                           where={"key": "anti_alias"})
-    resampled = interpolate_runs(time, x, grid.times, order=order, segment=segment, valid=valid)
+    resampled = interpolate_runs(time, x, grid.times, order=order, segment=segment, valid=valid,
+                                 time_offset=delay_s)
     return grid.cycles, grid.times[:, 0], resampled
 
 

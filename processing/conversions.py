@@ -6,9 +6,11 @@ of :mod:`~rigval.processing.bridge`, :mod:`~rigval.processing.torsion`,
 :mod:`~rigval.processing.encoder`, and returns a copy with one new variable that carries
 ``units``, ``long_name``, ``source_channel`` (of the raw channel), ``conversion`` (formula and
 parameters) and the raw channel's sensor metadata, and a ``history`` line. Nothing is changed in
-place. Bridge channels may hold the ratio (``"V/V"``, ``"mV/V"``) or the output voltage (``"V"``,
-``"mV"``, then the excitation is needed); the offset null is a value in V/V or the mean over a
-time window (a quiet, unloaded period, or whole cycles).
+place, unless the caller hands the raw channel over (``overwrite``: a stream it lets go after,
+whose channel then becomes the converted one, no whole-record copy). Bridge channels may hold
+the ratio (``"V/V"``, ``"mV/V"``) or the output voltage (``"V"``, ``"mV"``, then the excitation
+is needed); the offset null is a value in V/V or the mean over a time window (a quiet,
+unloaded period, or whole cycles).
 """
 
 from __future__ import annotations
@@ -47,6 +49,9 @@ logger = logging.getLogger(__name__)
 
 Null = float | tuple[float, float] | None
 
+#: Samples whose strain is computed at a time (its denominator's working array: 8 MiB).
+_BLOCK = 1 << 20
+
 
 def _channel(ds: xr.Dataset, name: str) -> xr.DataArray:
     if name not in ds:
@@ -57,7 +62,19 @@ def _channel(ds: xr.Dataset, name: str) -> xr.DataArray:
     return ds[name]
 
 
-def _volts(ds: xr.Dataset, channel: str, sensor: str) -> tuple[xr.DataArray, NDArray[np.float64]]:
+def _own_float64(values: np.ndarray, overwrite: bool) -> NDArray[np.float64]:
+    """Return ``values`` when handed over (``overwrite``) as writeable float64, else a float64 copy.
+
+    The caller scales the result in place: a copy first, or the channel's own memory when the
+    caller lets the stream go after (memory); the same operations either way.
+    """
+    if overwrite and values.dtype == np.float64 and values.flags.writeable:
+        return values
+    return values.astype(np.float64)
+
+
+def _volts(ds: xr.Dataset, channel: str, sensor: str, *, overwrite: bool = False
+           ) -> tuple[xr.DataArray, NDArray[np.float64]]:
     """Return a channel in volts: the variable and a float64 copy of its values in V.
 
     Parameters
@@ -68,6 +85,9 @@ def _volts(ds: xr.Dataset, channel: str, sensor: str) -> tuple[xr.DataArray, NDA
         Channel in V or mV (``units`` attribute).
     sensor : str
         The sensor the error names (``"accelerometer"``, ``"IEPE"``).
+    overwrite : bool, default False
+        The values become the channel's own memory, scaled in place, when it is float64
+        (:func:`_own_float64`).
 
     Raises
     ------
@@ -80,13 +100,13 @@ def _volts(ds: xr.Dataset, channel: str, sensor: str) -> tuple[xr.DataArray, NDA
     if per_volt is None:
         raise UnitError(f"{sensor} channel {channel!r} has units {units!r}, expected V or mV",
                         where={"channel": channel})
-    volts = var.to_numpy().astype(np.float64)  # a copy the caller may scale and centre in place
+    volts = _own_float64(var.to_numpy(), overwrite)  # the caller scales and centres in place
     volts *= per_volt
     return var, volts
 
 
 def bridge_ratio_values(ds: xr.Dataset, channel: str, *, excitation_voltage: float | None = None,
-                        unstrained: Null = None) -> NDArray[np.float64]:
+                        unstrained: Null = None, overwrite: bool = False) -> NDArray[np.float64]:
     """Return the offset-nulled bridge ratio Vr (V/V) of a bridge channel.
 
     Parameters
@@ -100,6 +120,9 @@ def bridge_ratio_values(ds: xr.Dataset, channel: str, *, excitation_voltage: flo
     unstrained : float or (float, float), optional
         Offset null: the unloaded ratio in V/V, or a time window ``(start_s, stop_s)`` whose valid
         samples are averaged; None for no offset null.
+    overwrite : bool, default False
+        The channel's float64 values are made the ratio in place (:func:`_own_float64`): the
+        caller lets the stream go after.
 
     Returns
     -------
@@ -108,8 +131,9 @@ def bridge_ratio_values(ds: xr.Dataset, channel: str, *, excitation_voltage: flo
     """
     var = _channel(ds, channel)
     units = str(var.attrs.get("units", ""))
-    # its own copy, scaled in place (memory; the same operations in the same order)
-    ratio = var.to_numpy().astype(np.float64)
+    # its own copy (or the handed-over channel), scaled in place (memory; the same operations
+    # in the same order)
+    ratio = _own_float64(var.to_numpy(), overwrite)
     per_ratio = factor_or_none(units, "V/V")  # V/V, mV/V, 1 (docs/formats.md units)
     per_volt = factor_or_none(units, "V")
     if per_ratio is not None:
@@ -158,7 +182,7 @@ def strain_channel(ds: xr.Dataset, channel: str, *, bridge_type: BridgeType,
                    gauge_factor: float, name: str | None = None, poisson: float = 0.3,
                    gauge_resistance: float = 120.0, lead_resistance: float = 0.0,
                    gain_adjust: float = 1.0, excitation_voltage: float | None = None,
-                   unstrained: Null = None) -> xr.Dataset:
+                   unstrained: Null = None, overwrite: bool = False) -> xr.Dataset:
     """Add the strain (1) of a bridge channel with NI's equation for its bridge type.
 
     Parameters
@@ -179,6 +203,9 @@ def strain_channel(ds: xr.Dataset, channel: str, *, bridge_type: BridgeType,
         Excitation in V for channels in volts.
     unstrained : float or (float, float), optional
         Offset null (see :func:`bridge_ratio_values`).
+    overwrite : bool, default False
+        The bridge channel's float64 values become the strain (the caller lets ``ds`` go after;
+        memory).
 
     Returns
     -------
@@ -186,11 +213,16 @@ def strain_channel(ds: xr.Dataset, channel: str, *, bridge_type: BridgeType,
         Copy of ``ds`` with the strain variable.
     """
     ratio = bridge_ratio_values(ds, channel, excitation_voltage=excitation_voltage,
-                                unstrained=unstrained)
-    eps = bridge.strain_from_ratio(ratio, bridge_type, gauge_factor=gauge_factor,
-                                   poisson=poisson, gauge_resistance=gauge_resistance,
-                                   lead_resistance=lead_resistance, gain_adjust=gain_adjust,
-                                   overwrite=True)  # the ratio is this function's own copy
+                                unstrained=unstrained, overwrite=overwrite)
+    # block by block into the ratio's memory, this function's own (or handed over): the
+    # denominator's array is a block's, not the record's (memory); element by element the
+    # same operations (identical values)
+    eps = ratio
+    for lo in range(0, ratio.size, _BLOCK):
+        eps[lo:lo + _BLOCK] = bridge.strain_from_ratio(
+            ratio[lo:lo + _BLOCK], bridge_type, gauge_factor=gauge_factor, poisson=poisson,
+            gauge_resistance=gauge_resistance, lead_resistance=lead_resistance,
+            gain_adjust=gain_adjust, overwrite=True)
     return _with_variable(
         ds, name or f"{channel}_strain", eps, ds[channel], channel, units="1",
         long_name=f"strain from {channel}", conversion=f"NI {bridge_type} bridge equation",
@@ -204,7 +236,7 @@ def torque_channel(ds: xr.Dataset, channel: str, *, rosette: Rosette, gauge_fact
                    shear_modulus: float, outer_diameter: float, inner_diameter: float = 0.0,
                    name: str | None = None, sign: float = 1.0, gauge_resistance: float = 120.0,
                    lead_resistance: float = 0.0, excitation_voltage: float | None = None,
-                   unstrained: Null = None) -> xr.Dataset:
+                   unstrained: Null = None, overwrite: bool = False) -> xr.Dataset:
     """Return a copy of ``ds`` with the shaft torque (N m) of a torsion rosette bridge channel.
 
     Parameters
@@ -223,9 +255,12 @@ def torque_channel(ds: xr.Dataset, channel: str, *, rosette: Rosette, gauge_fact
         Torque sign convention (calibration constant).
     gauge_resistance, lead_resistance : float
         Ohm (half bridge lead correction).
+    overwrite : bool, default False
+        The bridge channel's float64 values become the ratio in place (the caller lets ``ds``
+        go after; memory).
     """
     ratio = bridge_ratio_values(ds, channel, excitation_voltage=excitation_voltage,
-                                unstrained=unstrained)
+                                unstrained=unstrained, overwrite=overwrite)
     torque = torsion.torque_from_ratio(ratio, rosette, gauge_factor=gauge_factor,
                                        shear_modulus=shear_modulus, outer_diameter=outer_diameter,
                                        inner_diameter=inner_diameter,
@@ -242,14 +277,21 @@ def torque_channel(ds: xr.Dataset, channel: str, *, rosette: Rosette, gauge_fact
 
 
 def axial_stress_channel(ds: xr.Dataset, channel: str, *, youngs_modulus: float,
-                         name: str | None = None) -> xr.Dataset:
-    """Add the axial stress ``sigma = E eps`` (Pa) of a strain channel (units ``"1"``)."""
+                         name: str | None = None, overwrite: bool = False) -> xr.Dataset:
+    """Add the axial stress ``sigma = E eps`` (Pa) of a strain channel (units ``"1"``).
+
+    With ``overwrite`` a float64 strain becomes the stress in place (the caller lets the strain
+    go; memory), the same product.
+    """
     var = _channel(ds, channel)
     if str(var.attrs.get("units")) != "1":
         raise UnitError(f"channel {channel!r} has units {var.attrs.get('units')!r}, expected "
                         "strain ('1')", where={"channel": channel},
                         hint="convert the bridge channel first with strain_channel")
-    sigma = stress.axial_stress(var.to_numpy(), youngs_modulus)
+    strain = var.to_numpy()
+    sigma = (np.multiply(strain, youngs_modulus, out=strain)
+             if overwrite and strain.dtype == np.float64 and strain.flags.writeable
+             else stress.axial_stress(strain, youngs_modulus))
     return _with_variable(ds, name or f"{channel}_stress", sigma, var, channel, units="Pa",
                           long_name=f"axial stress from {channel}", conversion="sigma = E eps",
                           parameters={"youngs_modulus_pa": youngs_modulus})
@@ -312,7 +354,8 @@ def axial_bending_channels(ds: xr.Dataset, top: str, bottom: str, *, name: str,
 
 def acceleration_channel(ds: xr.Dataset, channel: str, *, charge_sensitivity: float,
                          amplifier_gain: float, highpass_hz: float | None = None,
-                         name: str | None = None, remove_offset: bool = True) -> xr.Dataset:
+                         name: str | None = None, remove_offset: bool = True,
+                         overwrite: bool = False) -> xr.Dataset:
     """Add the acceleration (m s-2) of a charge-amplifier channel (V or mV).
 
     Parameters
@@ -332,15 +375,18 @@ def acceleration_channel(ds: xr.Dataset, channel: str, *, charge_sensitivity: fl
     remove_offset : bool, default True
         Subtract each run's mean voltage first (a charge amplifier passes no DC; an offset would
         turn into a ramp under the high-pass correction).
+    overwrite : bool, default False
+        The channel's float64 values become the acceleration (the caller lets ``ds`` go after;
+        memory).
 
     Returns
     -------
     xarray.Dataset
         Copy of ``ds`` with the acceleration variable (NaN at invalid samples).
     """
-    var, volts = _volts(ds, channel, "accelerometer")
+    var, volts = _volts(ds, channel, "accelerometer", overwrite=overwrite)
     fs = float(ds.attrs["fs_nominal"])
-    # each run's acceleration replaces its volts in the one copy; NaN between the runs
+    # each run's acceleration replaces its volts in the one array; NaN between the runs
     converted_to = 0
     for start, stop in contiguous_runs(volts.size, ds["segment"].to_numpy(),
                                        ds["valid"].to_numpy()):
@@ -348,9 +394,9 @@ def acceleration_channel(ds: xr.Dataset, channel: str, *, charge_sensitivity: fl
         piece = volts[start:stop]
         if remove_offset:
             piece -= piece.mean()
-        piece[:] = accelerometer.acceleration_from_voltage(
+        accelerometer.acceleration_from_voltage(
             piece, charge_sensitivity=charge_sensitivity, amplifier_gain=amplifier_gain, fs=fs,
-            highpass_hz=highpass_hz)
+            highpass_hz=highpass_hz, overwrite=True)  # into the piece: no run-long array
         converted_to = stop
     volts[converted_to:] = np.nan
     return _with_variable(

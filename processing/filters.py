@@ -9,7 +9,9 @@ edge error of 6e-9 of its span, against 1e-5 with ``3 fs / f_c`` and 3.6e-2 with
 (measured in the tests). Every gap-free, valid run of samples is filtered on its own; long runs
 are filtered in overlapping chunks whose overlap is long enough for the impulse response to have
 died away, so the memory use is bounded by the chunk size and the result matches a one-shot
-filter to rounding (1e-9 relative in the tests).
+filter to rounding (1e-9 relative in the tests). With ``overwrite`` the output is written into
+the caller's array (a chunk's output once no later chunk reads its samples): the same values
+without a second whole-record array.
 """
 
 from __future__ import annotations
@@ -37,6 +39,8 @@ PadType = Literal["odd", "line", "even", "zero"]
 
 #: Default number of samples filtered at once in a long run (bounded memory).
 DEFAULT_CHUNK = 1 << 20
+#: Samples whose neighbours :func:`contiguous_runs` compares at a time (its masks: 1 MiB).
+_RUN_BLOCK = 1 << 20
 #: Share of the padding length over which the "line" extension fits its quadratic.
 _EDGE_FIT_FRACTION = 0.1
 
@@ -108,14 +112,30 @@ def contiguous_runs(n: int, segment: ArrayLike | None = None,
     -------
     list of (int, int)
         Runs in order; a run never spans a gap or an invalid sample.
+
+    Notes
+    -----
+    Neighbours are compared :data:`_RUN_BLOCK` samples at a time, so that the comparisons'
+    masks are a block's, not the record's (memory); the runs are the same.
     """
-    ok = np.ones(n, dtype=bool) if valid is None else np.asarray(valid, dtype=bool)
-    change = ok[1:] != ok[:-1]
+    ok = None if valid is None else np.asarray(valid, dtype=bool)
+    seg = None if segment is None else np.asarray(segment)
+    changes = [np.flatnonzero(_changes(ok, seg, lo, min(lo + _RUN_BLOCK, n - 1))) + lo + 1
+               for lo in range(0, n - 1, _RUN_BLOCK)]
+    bounds = np.concatenate(([0], *changes, [n])).tolist()
+    return [(a, b) for a, b in itertools.pairwise(bounds) if b > a and (ok is None or ok[a])]
+
+
+def _changes(ok: np.ndarray | None, segment: np.ndarray | None, lo: int, hi: int
+             ) -> np.ndarray:
+    """Return where sample ``i + 1`` starts a new run, for ``i`` in ``lo ... hi - 1`` (bool).
+
+    A new run starts where validity or the segment changes from the sample before.
+    """
+    change = np.zeros(hi - lo, dtype=bool) if ok is None else ok[lo + 1:hi + 1] != ok[lo:hi]
     if segment is not None:
-        seg = np.asarray(segment)
-        change |= seg[1:] != seg[:-1]
-    bounds = np.concatenate(([0], np.flatnonzero(change) + 1, [n])).tolist()
-    return [(a, b) for a, b in itertools.pairwise(bounds) if b > a and ok[a]]
+        change |= segment[lo + 1:hi + 1] != segment[lo:hi]
+    return change
 
 
 def _extension(run: FloatArray, n: int, padtype: str, side: str, fit: int) -> FloatArray:
@@ -190,10 +210,37 @@ def filtfilt_pieces(get: Callable[[int, int], FloatArray], n: int, sos: NDArray[
         yield lo, hi, keep_lo, keep_hi, y[first:first + hi - lo]
 
 
+def _filter_run(data: FloatArray, out: FloatArray, start: int, stop: int,
+                sos: NDArray[np.float64], pad: int, padtype: PadType, chunk_samples: int
+                ) -> None:
+    """Filter the gap-free run ``data[start:stop]`` into ``out[start:stop]``.
+
+    ``out`` may be ``data``: a piece's output is written once the pieces still to come read
+    none of its samples (they read from ever later ``read_lo``), so every piece filters the
+    samples as given.
+    """
+    waiting: list[tuple[int, int, FloatArray]] = []  # (keep_lo, keep_hi, values), in order
+    run = data[start:stop]
+    for lo, _, keep_lo, keep_hi, y in filtfilt_pieces(
+            lambda a, b: run[a:b], stop - start, sos, pad, padtype, chunk_samples):
+        # this piece has read its samples: the outputs before its read_lo are free to go
+        while waiting and waiting[0][1] <= lo:
+            _write(out, start, *waiting.pop(0))
+        waiting.append((keep_lo, keep_hi, y[keep_lo - lo:keep_hi - lo]))
+    for keep_lo, keep_hi, values in waiting:
+        _write(out, start, keep_lo, keep_hi, values)
+
+
+def _write(out: FloatArray, start: int, keep_lo: int, keep_hi: int, values: FloatArray) -> None:
+    """Put a piece's final samples (run indices ``keep_lo:keep_hi``) into ``out``."""
+    out[start + keep_lo:start + keep_hi] = values
+
+
 def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], *,
                order: int = 4, btype: BandType = "lowpass", segment: ArrayLike | None = None,
                valid: ArrayLike | None = None, padlen: int | None = None,
-               padtype: PadType = "odd", chunk_samples: int = DEFAULT_CHUNK) -> FloatArray:
+               padtype: PadType = "odd", chunk_samples: int = DEFAULT_CHUNK,
+               overwrite: bool = False) -> FloatArray:
     """Filter forward and backward with a Butterworth filter, run by gap-free run.
 
     Parameters
@@ -221,12 +268,16 @@ def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], 
         continues); mirror; or zeros (for a zero-mean remainder).
     chunk_samples : int, default 2**20
         Samples kept per chunk of a long run; chunks overlap by ``4 * padlen``.
+    overwrite : bool, default False
+        A writeable float64 ``x`` of the caller's own becomes the output (memory: no second
+        whole-record array; ``x`` must not be used afterwards), with the same values.
 
     Returns
     -------
     numpy.ndarray
         Filtered samples; NaN where a sample is invalid or its run is shorter than
-        ``3 * (2 * n_sections + 1)`` samples (a DataWarning says how many).
+        ``3 * (2 * n_sections + 1)`` samples (a DataWarning says how many); ``x`` itself with
+        ``overwrite``.
 
     Warns
     -----
@@ -240,18 +291,19 @@ def zero_phase(x: ArrayLike, fs: float, cutoff_hz: float | tuple[float, float], 
         raise ConfigError(f"padtype must be 'odd', 'line', 'even' or 'zero', got {padtype!r}",
                           where={"key": "padtype"})
     minimum = 3 * (2 * sos.shape[0] + 1)
-    out = np.full(data.shape, np.nan)
+    in_place = overwrite and data is x and data.flags.writeable
+    out = data if in_place else np.full(data.shape, np.nan)
     short = 0
     usable = np.isfinite(data) if valid is None else np.asarray(valid, bool) & np.isfinite(data)
+    filtered_to = 0  # with overwrite, the samples before it are final (filtered or NaN)
     for start, stop in contiguous_runs(data.size, segment, usable):
         if stop - start <= minimum:
             short += stop - start
             continue
-        run = data[start:stop]
-        for lo, _, keep_lo, keep_hi, y in filtfilt_pieces(
-                lambda a, b, run=run: run[a:b], stop - start, sos, pad, padtype,
-                chunk_samples):
-            out[start + keep_lo:start + keep_hi] = y[keep_lo - lo:keep_hi - lo]
+        out[filtered_to:start] = np.nan
+        _filter_run(data, out, start, stop, sos, pad, padtype, chunk_samples)
+        filtered_to = stop
+    out[filtered_to:] = np.nan
     if short:
         warnings.warn(f"{short} samples in runs too short to filter (<= {minimum} samples) were "
                       "set to NaN", DataWarning, stacklevel=2)

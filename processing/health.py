@@ -59,6 +59,8 @@ _QUANTUM_SAMPLES = 20_000
 _NOISE_WINDOW_S, _NOISE_FACTOR, _NOISE_PERCENTILE, _NOISE_RUN = 0.25, 3.0, 20.0, 2
 #: Zero drift: share of the signal's span and standard errors it must exceed.
 _DRIFT_SHARE, _DRIFT_SIGMAS = 0.02, 6.0
+#: Zero drift: the percentiles (%) of the usable samples the signal's span lies between.
+_SPAN_PERCENTILES = (0.5, 99.5)
 
 
 @dataclass(frozen=True)
@@ -380,7 +382,7 @@ def _zero_drift(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, un
     drift = float(slope) * span_t
     scale = 1.4826 * float(np.median(np.abs(residual)))  # robust: a revolution may be odd
     se = scale / float(np.sqrt(np.sum((t - t.mean()) ** 2))) * span_t
-    low, high = np.percentile(x[ok], [0.5, 99.5], overwrite_input=True)  # on the copy x[ok]
+    low, high = _usable_percentiles(x, ok, _SPAN_PERCENTILES)
     span = float(high - low)
     if abs(drift) <= max(_DRIFT_SHARE * span, _DRIFT_SIGMAS * se):
         return []
@@ -389,6 +391,83 @@ def _zero_drift(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, un
                      f"zero drift {_fmt(drift, unit)} over {span_t:.3g} s "
                      f"({100.0 * abs(drift) / max(span, 1e-300):.2g} % of the signal's span)",
                      time, hit, drift)]
+
+
+def _usable_percentiles(x: FloatArray, ok: BoolArray, percents: tuple[float, ...]
+                        ) -> FloatArray:
+    """Return ``numpy.percentile(x[ok], percents)`` without the copy ``x[ok]`` (memory).
+
+    The same positions, order statistics and linear interpolation as numpy's default method
+    (its ``_get_indexes``, ``_get_gamma`` and ``_lerp``), so the values are bit-identical;
+    each order statistic is found among the few smallest or largest usable samples, gathered
+    a block at a time (:func:`_tail`). ``ok`` holds at least once; values in ``x``'s unit.
+    """
+    n = int(np.count_nonzero(ok))
+    virtual = (n - 1) * (np.asarray(percents, dtype=np.float64) / 100)
+    previous = np.floor(virtual)
+    following = previous + 1
+    last = virtual >= n - 1
+    previous[last], following[last] = n - 1, n - 1  # numpy's index -1
+    previous[virtual < 0], following[virtual < 0] = 0, 0
+    gamma = virtual - np.where(last, -1, previous)  # as numpy, against its index -1
+    a = np.array([_order_statistic(x, ok, n, int(k)) for k in previous])
+    b = np.array([_order_statistic(x, ok, n, int(k)) for k in following])
+    difference = b - a
+    result = a + difference * gamma
+    above = gamma >= 0.5
+    result[above] = (b - difference * (1 - gamma))[above]
+    return result
+
+
+def _order_statistic(x: FloatArray, ok: BoolArray, n: int, rank: int) -> float:
+    """Return the ``rank``-th smallest (from 0) of the ``n`` usable samples, in ``x``'s unit."""
+    if rank < n - rank:
+        return float(_tail(x, ok, rank + 1, largest=False)[rank])
+    return float(_tail(x, ok, n - rank, largest=True)[0])
+
+
+def _tail(x: FloatArray, ok: BoolArray, count: int, *, largest: bool) -> FloatArray:
+    """Return the ``count`` smallest (or largest) usable samples, sorted, a block at a time.
+
+    The record's extreme ``count`` are each among their block's extreme ``count``: each block's
+    usable samples are merged with the extremes so far, and those kept.
+    """
+    kept = np.zeros(0)
+    for lo, hi in _blocks(0, x.size):
+        merged = np.concatenate((kept, x[lo:hi][ok[lo:hi]]))
+        if merged.size <= count:
+            kept = merged
+        elif largest:
+            kept = np.partition(merged, merged.size - count)[merged.size - count:]
+        else:
+            kept = np.partition(merged, count - 1)[:count]
+    return np.sort(kept)
+
+
+def _clipped(size: int, clipping: list[Finding]) -> BoolArray:
+    """Return the mask of the samples the clipping findings span."""
+    clipped = np.zeros(size, dtype=bool)
+    for found in clipping:
+        clipped[found.first_sample:found.last_sample + 1] = True
+    return clipped
+
+
+def _moving(ok: BoolArray, findings: list[Finding], segment: ArrayLike | None) -> BoolArray:
+    """Return the usable samples outside the findings' spans and away from the gaps.
+
+    The spikes and noise are judged there: a clipped or flat stretch is no signal, and the
+    samples on either side of a gap are not neighbours. Made in one mask, the findings' spans
+    cleared in it (memory: no whole-record masks of the spans beside it).
+    """
+    moving = ok.copy()
+    for found in findings:
+        moving[found.first_sample:found.last_sample + 1] = False
+    if segment is not None:
+        seg = np.asarray(segment)
+        for lo, hi in _blocks(0, seg.size - 1):
+            for b in np.flatnonzero(seg[lo + 1:hi + 1] != seg[lo:hi]) + lo + 1:
+                moving[max(b - 3, 0):b + 3] = False
+    return moving
 
 
 def _first_and_last(ok: BoolArray) -> tuple[int, int]:
@@ -464,23 +543,15 @@ def analog_health(x: ArrayLike, time: ArrayLike, *, channel: str, fs: float, uni
     """
     data = np.asarray(x, dtype=np.float64)
     t = times_of(time)
-    ok = np.isfinite(data) if valid is None else np.asarray(valid, bool) & np.isfinite(data)
+    usable = None if valid is None else np.asarray(valid, bool)
+    ok = _mask(data.size, lambda lo, hi: np.isfinite(data[lo:hi]) if usable is None
+               else usable[lo:hi] & np.isfinite(data[lo:hi]))
     if ok.sum() < 20:
         return []
     q = quantum(_first_usable(data, ok, _QUANTUM_SAMPLES))
     clipping = _clipping(data, ok, t, channel, unit, limits, q)
-    clipped = np.zeros(data.size, dtype=bool)
-    for found in clipping:
-        clipped[found.first_sample:found.last_sample + 1] = True
-    findings = [*clipping, *_flat(data, ok, t, fs, channel, unit, q, clipped)]
-    stuck = clipped.copy()
-    for found in findings:
-        stuck[found.first_sample:found.last_sample + 1] = True
-    moving = ok & ~stuck
-    if segment is not None:  # the samples on either side of a gap are not neighbours
-        seg = np.asarray(segment)
-        for b in np.flatnonzero(seg[1:] != seg[:-1]) + 1:
-            moving[max(b - 3, 0):b + 3] = False
+    findings = [*clipping, *_flat(data, ok, t, fs, channel, unit, q, _clipped(data.size, clipping))]
+    moving = _moving(ok, findings, segment)
     windows = _Windows.of(data, moving, fs)
     findings += _spikes(data, moving, t, windows, channel, unit, q)
     findings += _noise(data, t, windows, channel, unit, q)

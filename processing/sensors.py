@@ -53,30 +53,37 @@ def channel_units(channel: ChannelSpec) -> str:
     return SENSOR_UNITS[channel.sensor](channel.params)
 
 
-def _bridge(ds: xr.Dataset, channel: ChannelSpec, null: tuple[float, float] | None
-            ) -> xr.Dataset:
-    """Strain (or stress with E) of a strain bridge, or the torque of a torsion rosette."""
+def _bridge(ds: xr.Dataset, channel: ChannelSpec, null: tuple[float, float] | None,
+            overwrite: bool) -> xr.Dataset:
+    """Strain (or stress with E) of a strain bridge, or the torque of a torsion rosette.
+
+    ``overwrite``: the channel's values may become the result (:func:`convert_stream`).
+    """
     p = channel.params
     if channel.sensor == "torsion_bridge":
         return conversions.torque_channel(
             ds, channel.name, rosette=p["bridge"], gauge_factor=p["gauge_factor"],
             shear_modulus=p["shear_modulus"], outer_diameter=p["outer_diameter"],
             inner_diameter=p["inner_diameter"], excitation_voltage=p.get("excitation"),
-            unstrained=null, name=_CONVERTED)
+            unstrained=null, name=_CONVERTED, overwrite=overwrite)
     out = conversions.strain_channel(
         ds, channel.name, bridge_type=p["bridge"].lower(), gauge_factor=p["gauge_factor"],
         poisson=p["poisson"], gauge_resistance=p["gauge_resistance"],
         lead_resistance=p["lead_resistance"], excitation_voltage=p.get("excitation"),
-        unstrained=null, name=_CONVERTED)
+        unstrained=null, name=_CONVERTED, overwrite=overwrite)
     if p.get("youngs_modulus") is None:
         return out
+    # the strain is this function's own, dropped below: it becomes the stress (memory)
     out = conversions.axial_stress_channel(out, _CONVERTED, youngs_modulus=p["youngs_modulus"],
-                                       name=f"{_CONVERTED}_stress")
+                                           name=f"{_CONVERTED}_stress", overwrite=True)
     return out.drop_vars(_CONVERTED).rename({f"{_CONVERTED}_stress": _CONVERTED})
 
 
-def _convert_channel(ds: xr.Dataset, channel: ChannelSpec) -> xr.Dataset:
-    """Return ``ds`` with the channel's converted values in the variable ``__converted``."""
+def _convert_channel(ds: xr.Dataset, channel: ChannelSpec, overwrite: bool) -> xr.Dataset:
+    """Return ``ds`` with the channel's converted values in the variable ``__converted``.
+
+    ``overwrite``: the channel's values may become the converted ones (:func:`convert_stream`).
+    """
     p = channel.params
     name = channel.name
     null = NULL_WINDOW_S if p.get("null_offset") == "first_second" else None
@@ -85,9 +92,9 @@ def _convert_channel(ds: xr.Dataset, channel: ChannelSpec) -> xr.Dataset:
             ds, name, charge_sensitivity=p["charge_sensitivity"],
             amplifier_gain=p["amplifier_gain"] * 1e3,  # map: V/pC; processing: mV/pC
             highpass_hz=p.get("highpass_hz") if p.get("correct_highpass") else None,
-            name=_CONVERTED)
+            name=_CONVERTED, overwrite=overwrite)
     if channel.sensor in ("strain_bridge", "torsion_bridge"):
-        return _bridge(ds, channel, null)
+        return _bridge(ds, channel, null, overwrite)
     if channel.sensor == "linear":
         try:
             return conversions.linear_channel(ds, name, slope=p["slope"], offset=p["offset"],
@@ -120,7 +127,8 @@ def _convert_channel(ds: xr.Dataset, channel: ChannelSpec) -> xr.Dataset:
     return ds  # encoders and reference pulses: turned into angles and events where used
 
 
-def convert_stream(stream: xr.Dataset, spec: StreamSpec) -> xr.Dataset:
+def convert_stream(stream: xr.Dataset, spec: StreamSpec, *, overwrite: bool = False
+                   ) -> xr.Dataset:
     """Convert a stream's channels to physical units as its channel map says.
 
     Parameters
@@ -130,6 +138,11 @@ def convert_stream(stream: xr.Dataset, spec: StreamSpec) -> xr.Dataset:
         variables named as in the map).
     spec : StreamSpec
         The stream's channel map (a scene's ``[streams.X]`` table).
+    overwrite : bool, default False
+        The caller lets ``stream`` go after: a float64 channel of a charge accelerometer, strain
+        or torsion bridge is converted in its own memory instead of a copy (memory: one
+        whole-record array less per channel; the same values); ``stream`` must not be used
+        afterwards.
 
     Returns
     -------
@@ -148,7 +161,7 @@ def convert_stream(stream: xr.Dataset, spec: StreamSpec) -> xr.Dataset:
     out = stream
     for name, channel in spec.channels.items():
         try:
-            converted = _convert_channel(out, channel)
+            converted = _convert_channel(out, channel, overwrite)
         except (UnitError, ConfigError) as error:
             if isinstance(error, ChannelMapError):
                 raise

@@ -466,26 +466,31 @@ def _resample(scene: Scene, comparison: ComparisonSpec, signal: MeasuredSignal, 
 
     The comparison's ``lowpass_hz`` (zero phase, within gap-free runs) comes first; the
     anti-alias low-pass of :func:`rigval.processing.angle.resample_to_angle` follows, here so
-    that each filter's input is freed as its output is made (memory). Returns the resampled
+    that each filter writes its output into its input when the signal owns it, else into a
+    new array that the next filter then owns (memory: one whole-record array for the values,
+    not two). Returns the resampled
     cycles and the low-pass corner applied in Hz (None: none); puts the signal before any
     low-pass, decimated, into ``diagnosis`` (docs/diagnosis.md).
     """
     fs, valid, segment = signal.fs, signal.valid, signal.segment
-    values = signal.take_values()
+    values, owned = signal.take_values(), signal.owned
     diagnosis[comparison.name] = diagnosis_signal(signal.time.to_numpy(), values, segment, valid,
                                                   fs, delay_s=signal.delay_s)
     corner = comparison.lowpass_hz
     if corner is not None and corner < 0.45 * fs:
-        values = zero_phase(values, fs, corner, segment=segment, valid=valid)
+        values = zero_phase(values, fs, corner, segment=segment, valid=valid, overwrite=owned)
+        owned = True
         valid &= np.isfinite(values)
     anti_alias = anti_alias_hz(grid, scene.angle.points_per_revolution)
     if anti_alias < 0.45 * fs:
-        values = zero_phase(values, fs, anti_alias, order=8, segment=segment, valid=valid)
+        values = zero_phase(values, fs, anti_alias, order=8, segment=segment, valid=valid,
+                            overwrite=owned)
     _, _, cycles = resample_to_angle(
-        signal.time.to_numpy() - signal.delay_s, values, None, None,  # as clock_fit.channel_time
+        signal.time.to_numpy(), values, None, None,
         points_per_rev=scene.angle.points_per_revolution, fs=fs,
         order=INTERPOLATION_ORDER[scene.angle.interpolation], anti_alias="none",
-        segment=segment, valid=valid, grid=grid)
+        segment=segment, valid=valid, grid=grid,
+        delay_s=signal.delay_s)  # as clock_fit.channel_time, without a copy of the times
     return cycles, corner
 
 

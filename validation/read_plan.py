@@ -232,7 +232,8 @@ def _add_channels(scene: Scene, name: str, aligned: xr.Dataset, channels: Iterab
     reference times; each channel's module delay is scaled by the stream's clock drift as
     :func:`rigval.processing.clock_fit.align_stream` does.
 
-    ``on_read(name, channels as read)`` is called before the conversion (the health checks).
+    ``on_read(name, channels as read)`` is called before the conversion (the health checks);
+    the channels as read are then converted in their own memory, no copy (memory).
 
     Raises
     ------
@@ -243,7 +244,7 @@ def _add_channels(scene: Scene, name: str, aligned: xr.Dataset, channels: Iterab
     read = load_stream(spec, checksum=False)
     if on_read is not None:
         on_read(name, read)
-    part = convert_stream(read, spec)
+    part = convert_stream(read, spec, overwrite=True)  # the read is let go here
     del read
     if part.sizes["time"] != aligned.sizes["time"]:
         raise DataError(f"stream {name}: {spec.file.name} gave {part.sizes['time']} samples for "
@@ -281,6 +282,10 @@ class MeasuredSignal:
         Nominal sampling rate, Hz.
     long_name : str
         Label of the measured channel.
+    owned : bool
+        The values are the signal's alone (a sum, or a channel its stream has let go): the
+        caller may filter them in place; else they are a channel the stream keeps for a later
+        comparison or the output.
     """
 
     held: list[np.ndarray] = field(repr=False)
@@ -290,12 +295,14 @@ class MeasuredSignal:
     delay_s: float
     fs: float
     long_name: str
+    owned: bool
 
     def take_values(self) -> np.ndarray:
         """Return the measured values, handing them over: the signal keeps no reference to them.
 
         The values are the measured channel plus or minus the summed ones, float64, in the
-        converted unit; the caller's filters can then free them as they make their output.
+        converted unit; the caller's filters can then free them as they make their output, or
+        write their output into them when :attr:`owned`.
         """
         return self.held.pop()
 
@@ -307,7 +314,8 @@ def measured_signals(scene: Scene, plan: ReadPlan, aligned: dict[str, xr.Dataset
 
     ``aligned`` is updated as the plan says: a comparison's channels not read yet are added to
     its stream, and those no later comparison needs are dropped before its signal is yielded,
-    so that the consumer's filters can free their input as they make their output; after a
+    so that the consumer's filters can free their input as they make their output, or filter
+    it in place (:attr:`MeasuredSignal.owned`); after a
     stream's last comparison the stream itself is dropped. Streams come shortest first, so that
     the longest is worked on when the others are gone. ``on_read`` sees each stream's
     channels as read, before their conversion (:meth:`rigval.validation.health.HealthLog.check`).
@@ -318,7 +326,8 @@ def measured_signals(scene: Scene, plan: ReadPlan, aligned: dict[str, xr.Dataset
         stream = step.comparison.measured.stream
         if step.read:
             aligned[stream] = _add_channels(scene, stream, aligned[stream], step.read, on_read)
-        signal = _signal(step.comparison, aligned[stream])
+        signal = _signal(step.comparison, aligned[stream],
+                         owned=step.comparison.measured.channel in step.release)
         if step.last:
             aligned.pop(stream)
         elif step.release:
@@ -326,8 +335,12 @@ def measured_signals(scene: Scene, plan: ReadPlan, aligned: dict[str, xr.Dataset
         yield step.comparison, signal
 
 
-def _signal(comparison: ComparisonSpec, ds: xr.Dataset) -> MeasuredSignal:
-    """Return a comparison's measured signal from its aligned stream."""
+def _signal(comparison: ComparisonSpec, ds: xr.Dataset, *, owned: bool) -> MeasuredSignal:
+    """Return a comparison's measured signal from its aligned stream.
+
+    ``owned``: the stream lets the measured channel go after (released); a sum is the
+    signal's own in any case.
+    """
     name = comparison.measured.channel
     values = np.asarray(ds[name].to_numpy(), dtype=np.float64)  # no copy (memory)
     for sign, ref in comparison.terms[1:]:  # channels of the same stream and unit, summed
@@ -338,4 +351,5 @@ def _signal(comparison: ComparisonSpec, ds: xr.Dataset) -> MeasuredSignal:
         delay_s=float(ds[name].attrs.get("input_delay_s", 0.0)),
         fs=float(ds.attrs["fs_nominal"]),
         long_name=(comparison.measured_text if comparison.summed
-                   else str(ds[name].attrs.get("long_name", name))))
+                   else str(ds[name].attrs.get("long_name", name))),
+        owned=owned or len(comparison.terms) > 1)

@@ -150,7 +150,8 @@ def check_sample_rates(scene: Scene, streams: Mapping[str, xr.Dataset]) -> None:
                                          "to compare the unfiltered signal")
 
 
-def convert_stream(stream: xr.Dataset, spec: StreamSpec) -> xr.Dataset:
+def convert_stream(stream: xr.Dataset, spec: StreamSpec, *, overwrite: bool = False
+                   ) -> xr.Dataset:
     """Convert a stream's channels to physical units as its scene table says.
 
     Parameters
@@ -159,6 +160,9 @@ def convert_stream(stream: xr.Dataset, spec: StreamSpec) -> xr.Dataset:
         The stream as :func:`rigval.acquisition.channel_map.load_stream` returns it.
     spec : StreamSpec
         The scene's stream table.
+    overwrite : bool, default False
+        The caller lets ``stream`` go after: channels may be converted in their own memory
+        (:func:`rigval.processing.sensors.convert_stream`).
 
     Returns
     -------
@@ -172,7 +176,7 @@ def convert_stream(stream: xr.Dataset, spec: StreamSpec) -> xr.Dataset:
         calibration value is missing (``where["key"]`` is the channel's key path).
     """
     with channel_map_as_scene():
-        return sensors.convert_stream(stream, spec)
+        return sensors.convert_stream(stream, spec, overwrite=overwrite)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -156,3 +156,30 @@ def test_uniform_spline_path_equals_the_not_a_knot_spline(monkeypatch, order: in
     np.testing.assert_array_equal(np.isnan(fast), np.isnan(spline))
     assert np.isfinite(fast).sum() > 60_000
     np.testing.assert_allclose(fast, spline, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("order", [1, 3, 5])
+def test_input_delay_taken_off_chunk_by_chunk_equals_the_shifted_times(monkeypatch,
+                                                                        order: int) -> None:
+    # a channel with a gap, NaN and invalid samples and a module delay of 8 ms: the delay
+    # handed over (no copy of the times) gives the resampling of the shifted times, to the bit
+    rng = np.random.default_rng(11)
+    t = 0.25 + np.arange(0, 12 * 2000) / 2000 * (1 + 2e-6)
+    t[15_000:] += 0.5                                        # a gap of half a second
+    segment = (np.arange(t.size) >= 15_000).astype(np.int32)
+    x = np.sin(2 * np.pi * 3 * t) + 0.01 * rng.standard_normal(t.size)
+    x[4_000:4_003] = np.nan
+    valid = np.ones(t.size, dtype=bool)
+    valid[9_000:9_050] = False
+    delay = 8.0e-3
+    grid = angle.angle_grid(t, 2 * np.pi * (t - 0.25) * 1.1, 90)
+    monkeypatch.setattr(angle, "_CHUNK", 3_000)
+    shifted = angle.resample_to_angle(t - delay, x, None, None, points_per_rev=90, fs=2000.0,
+                                      order=order, anti_alias="none", segment=segment,
+                                      valid=valid, grid=grid)[2]
+    delayed = angle.resample_to_angle(t, x, None, None, points_per_rev=90, fs=2000.0,
+                                      order=order, anti_alias="none", segment=segment,
+                                      valid=valid, grid=grid, delay_s=delay)[2]
+    assert np.isnan(shifted).any() and np.isfinite(shifted).sum() > 500
+    np.testing.assert_array_equal(delayed, shifted)          # NaN where NaN, else bit for bit
+    assert delayed.tobytes() == shifted.tobytes()

@@ -2,7 +2,9 @@
 
 The accelerometer and bridge-ratio conversions scale, correct and NaN-fill their own copy of
 the channel (memory); the values must equal the whole-record formulas they replaced, computed
-here with new arrays, bit for bit, on a stream with a gap and invalid samples.
+here with new arrays, bit for bit, on a stream with a gap and invalid samples. Handed the
+channel (``overwrite``, the angle stage's read), they convert it in its own memory: the same
+values again, bit for bit.
 """
 
 from __future__ import annotations
@@ -10,8 +12,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from rigval.acquisition.channel_map import parse_stream
 from rigval.acquisition.schema import Channel, stream_dataset
-from rigval.processing import accelerometer, bridge, conversions
+from rigval.processing import accelerometer, bridge, conversions, sensors
 from rigval.processing.filters import contiguous_runs
 
 FS = 1000.0
@@ -88,3 +91,69 @@ def test_strain_in_the_ratio_memory_equals_the_formula(bridge_type: str) -> None
     assert np.array_equal(in_place, copied, equal_nan=True)
     expected = formulas[bridge_type](vr) * 1.01
     np.testing.assert_allclose(copied, expected, rtol=1e-15, atol=0)
+
+
+def _handed_over(units: str) -> tuple:
+    """The stream of :func:`_stream` twice: one to convert as before, one whose channel is given."""
+    ds, values, _, _ = _stream(units)
+    given = ds.copy(deep=True)
+    return ds, given, values
+
+
+@pytest.mark.parametrize("highpass_hz", [None, 0.1])
+def test_acceleration_in_the_handed_over_channel_equals_its_copy(highpass_hz) -> None:
+    ds, given, values = _handed_over("mV")
+    kwargs = {"charge_sensitivity": 10.0, "amplifier_gain": 1.0, "highpass_hz": highpass_hz}
+    copied = conversions.acceleration_channel(ds, "x", **kwargs)["x_acceleration"].to_numpy()
+    channel = given["x"].to_numpy()
+    converted = conversions.acceleration_channel(given, "x", overwrite=True,
+                                                 **kwargs)["x_acceleration"].to_numpy()
+    assert np.shares_memory(converted, channel)
+    assert converted.tobytes() == copied.tobytes()
+    assert np.array_equal(ds["x"].to_numpy(), values)  # without overwrite: untouched
+
+
+@pytest.mark.parametrize(("sensor", "params", "units"), [
+    ("charge_accelerometer", {"charge_sensitivity": 9.61, "amplifier_gain": 0.01,
+                              "highpass_hz": 0.1, "correct_highpass": True}, "V"),
+    ("strain_bridge", {"bridge": "half_I", "gauge_factor": 2.02, "excitation": 2.5,
+                       "gauge_resistance": 120.0, "lead_resistance": 0.0, "poisson": 0.3,
+                       "youngs_modulus": 210e9}, "V/V"),
+    ("strain_bridge", {"bridge": "full_III", "gauge_factor": 2.02, "excitation": 2.5,
+                       "gauge_resistance": 120.0, "lead_resistance": 0.0, "poisson": 0.3,
+                       "null_offset": "first_second"}, "mV"),
+    ("torsion_bridge", {"bridge": "full", "gauge_factor": 2.07, "excitation": 2.5,
+                        "outer_diameter": 0.1, "inner_diameter": 0.06,
+                        "shear_modulus": 80e9}, "mV/V"),
+])
+def test_stream_converted_in_its_own_memory_equals_the_copy(sensor, params, units) -> None:
+    # the scene's sensors as the angle stage converts a channel it read: overwrite gives the
+    # values of the conversion on a copy, bit for bit, and the channel's memory is reused
+    # where the sensor converts in place
+    spec = parse_stream({"file": "x.tdms", "device": "cDAQ-9172",
+                         "channels": {"x": {"source": "x", "sensor": sensor, **params}}},
+                        "streams.s")
+    ds, given, values = _handed_over(units)
+    copied = sensors.convert_stream(ds, spec)["x"].to_numpy()
+    channel = given["x"].to_numpy()
+    converted = sensors.convert_stream(given, spec, overwrite=True)["x"].to_numpy()
+    assert converted.tobytes() == copied.tobytes()
+    assert np.isfinite(copied).sum() > N // 2
+    assert np.array_equal(ds["x"].to_numpy(), values)
+    if sensor != "torsion_bridge":  # the torque is a new array from the ratio made in place
+        assert np.shares_memory(converted, channel)
+
+
+@pytest.mark.parametrize("bridge_type", ["quarter_i", "half_i", "full_iii"])
+def test_strain_block_by_block_equals_the_whole_ratio(monkeypatch, bridge_type: str) -> None:
+    # the strain is computed a block at a time (its denominators' memory): the values of the
+    # formula on the whole ratio at once, bit for bit, across block edges and NaN samples
+    ds, _, _, _ = _stream("mV/V")
+    kwargs = {"gauge_factor": 2.05, "poisson": 0.29, "gauge_resistance": 350.0,
+              "lead_resistance": 0.5, "gain_adjust": 1.01}
+    whole = bridge.strain_from_ratio(conversions.bridge_ratio_values(ds, "x"), bridge_type,
+                                     **kwargs)
+    monkeypatch.setattr(conversions, "_BLOCK", 1000)
+    blocks = conversions.strain_channel(ds, "x", bridge_type=bridge_type, name="eps",
+                                        **kwargs)["eps"].to_numpy()
+    assert blocks.tobytes() == whole.tobytes()

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from scipy.signal import sosfiltfilt
@@ -202,3 +204,53 @@ def test_grid_times_in_order_sampled_without_the_sort_equal_the_sorted_path(monk
     through_sort = excitation.drive_excitation_at(ds, "enc", grid, counts_per_rev=CPR)
     for got, expected in zip(in_order, through_sort, strict=True):
         assert np.array_equal(got, expected) and np.isfinite(got).all()
+
+
+@pytest.mark.parametrize("chunk_samples", [1 << 20, 7000, 500])  # 500: shorter than the overlap
+def test_zero_phase_into_its_input_equals_a_new_output(chunk_samples: int) -> None:
+    # a channel with a segment change, invalid samples, a NaN and a run too short to filter:
+    # written into the input, piece by piece, the output equals the one of a new array to the bit
+    rng = np.random.default_rng(9)
+    x = np.cumsum(rng.standard_normal(60_000))
+    x[20_000] = np.nan
+    segment = (np.arange(x.size) >= 41_000).astype(np.int32)
+    valid = np.ones(x.size, dtype=bool)
+    valid[:30] = False
+    valid[30_000:30_200] = False
+    valid[30_210:30_300] = False                          # leaves a 10-sample run
+    with pytest.warns(DataWarning, match="too short"):
+        expected = filters.zero_phase(x, FS, 20.0, segment=segment, valid=valid,
+                                      chunk_samples=chunk_samples)
+    own = x.copy()
+    with pytest.warns(DataWarning, match="too short"):
+        result = filters.zero_phase(own, FS, 20.0, segment=segment, valid=valid,
+                                    chunk_samples=chunk_samples, overwrite=True)
+    assert result is own
+    assert np.isnan(expected[30_200:30_300]).all() and np.isfinite(expected[30:20_000]).all()
+    assert result.tobytes() == expected.tobytes()
+
+
+@pytest.mark.parametrize("block", [1, 7, 1000, 1 << 20])
+def test_contiguous_runs_by_blocks_equal_the_whole_record_comparison(monkeypatch,
+                                                                     block: int) -> None:
+    # neighbours compared a block at a time: the runs of the whole record's comparison
+    rng = np.random.default_rng(3)
+    n = 5003
+    valid = rng.random(n) > 0.02
+    segment = np.cumsum(rng.random(n) > 0.999).astype(np.int32)
+
+    def whole(valid, segment):
+        ok = np.ones(n, dtype=bool) if valid is None else valid
+        change = ok[1:] != ok[:-1]
+        if segment is not None:
+            change |= segment[1:] != segment[:-1]
+        bounds = np.concatenate(([0], np.flatnonzero(change) + 1, [n])).tolist()
+        return [(a, b) for a, b in itertools.pairwise(bounds) if b > a and ok[a]]
+
+    monkeypatch.setattr(filters, "_RUN_BLOCK", block)
+    for v, s in ((valid, segment), (valid, None), (None, segment), (None, None)):
+        runs = filters.contiguous_runs(n, s, v)
+        assert runs == whole(v, s)
+        assert len(runs) > 1 or (v is None and s is None)
+    assert filters.contiguous_runs(1, None, np.array([True])) == [(0, 1)]
+    assert filters.contiguous_runs(0) == []

@@ -111,3 +111,40 @@ def test_first_and_last_usable_sample_equal_the_index_list(usable: list[int]) ->
     ok[usable] = True
     where = np.flatnonzero(ok)
     assert health._first_and_last(ok) == (where[0], where[-1])
+
+
+@pytest.mark.usefixtures("small_blocks")
+@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize("percents", [(0.5, 99.5), (0.0, 100.0), (20.0,), (50.0,)])
+def test_usable_percentiles_equal_numpy_on_the_masked_copy(seed: int, percents) -> None:
+    # the zero drift's span without the copy x[ok]: numpy's percentiles of the copy, to the bit
+    # (zeros compared by value: which of two tied signed zeros numpy's partition puts first
+    # is its own choice, and a span of zero is zero either way)
+    x, ok, _ = _channel(seed)
+    x[:5] = [0.0, -0.0, 0.0, -0.0, 3.0]
+    for n in (x.size, 1, 2, 3, 201):
+        expected = np.percentile(x[:n][ok[:n]], list(percents))
+        found = health._usable_percentiles(x[:n], ok[:n], percents)
+        assert (found + 0.0).tobytes() == (expected + 0.0).tobytes(), n
+
+
+@pytest.mark.usefixtures("small_blocks")
+def test_moving_samples_equal_the_whole_record_masks() -> None:
+    # the usable samples outside the findings' spans and 3 samples from each gap, made in one
+    # mask: the whole-record formula ok & ~(clipped | spans) less the gaps' neighbours
+    x, ok, q = _channel(4)
+    time = np.arange(x.size) / FS
+    segment = (np.arange(x.size) >= 17_944).astype(np.int32) + (np.arange(x.size) >= 25_000)
+    clipping = health._clipping(x, ok, time, "c", "V", None, q)
+    findings = [*clipping, *health._flat(x, ok, time, FS, "c", "V", q,
+                                         health._clipped(x.size, clipping))]
+    assert "clipping" in {f.fault for f in findings}
+    stuck = np.zeros(x.size, dtype=bool)
+    for found in findings:
+        stuck[found.first_sample:found.last_sample + 1] = True
+    expected = ok & ~stuck
+    for b in np.flatnonzero(segment[1:] != segment[:-1]) + 1:
+        expected[max(b - 3, 0):b + 3] = False
+    moving = health._moving(ok, findings, segment)
+    assert np.array_equal(moving, expected)
+    assert not moving[17_941:17_947].any() and moving.sum() < ok.sum()

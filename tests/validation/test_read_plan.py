@@ -86,3 +86,40 @@ def test_first_read_holds_encoders_as_exact_integers_and_their_health_unchanged(
     kept = dataclasses.replace(plan, whole=True)
     assert plan_module.read_first(scene, kept, settings.reference)[encoders[0]].dtype == \
         np.float64
+
+
+def test_filters_write_into_the_values_only_when_no_later_comparison_needs_them(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # wls1.tor1 is compared alone and then in torque_F: filtered in place the first time, the
+    # sum would take its filtered values. The run's revolutions must be those of filters that
+    # never write into their input, to the bit, and the sums and released channels in place.
+    from rigval.validation import pipeline
+
+    def run(force_copy: bool) -> tuple[dict[str, np.ndarray], dict[str, list[bool]]]:
+        cycles: dict[str, np.ndarray] = {}
+        overwrites: dict[str, list[bool]] = {}
+        real_resample, real_filter = pipeline._resample, pipeline.zero_phase
+
+        def resample(scene, comparison, signal, grid, diagnosis):
+            overwrites[comparison.name] = []
+            cycles[comparison.name], corner = real_resample(scene, comparison, signal, grid,
+                                                            diagnosis)
+            return cycles[comparison.name], corner
+
+        def zero_phase(*args, overwrite=False, **kwargs):
+            overwrites[list(overwrites)[-1]].append(overwrite)
+            return real_filter(*args, overwrite=overwrite and not force_copy, **kwargs)
+
+        with monkeypatch.context() as patch:
+            patch.setattr(pipeline, "_resample", resample)
+            patch.setattr(pipeline, "zero_phase", zero_phase)
+            run_scene(SCENE)
+        return cycles, overwrites
+
+    in_place, overwrites = run(force_copy=False)
+    copied, _ = run(force_copy=True)
+    assert sorted(in_place) == sorted(copied)
+    for name in in_place:
+        assert in_place[name].tobytes() == copied[name].tobytes(), name
+    assert overwrites["tor1"] == [False] and overwrites["torque_F"] == [True]
+    assert overwrites["tor2"] == [False] and overwrites["acc1"] == [True, True]
