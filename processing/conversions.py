@@ -266,7 +266,7 @@ def torque_channel(ds: xr.Dataset, channel: str, *, rosette: Rosette, gauge_fact
                                        inner_diameter=inner_diameter,
                                        gauge_resistance=gauge_resistance,
                                        lead_resistance=lead_resistance, sign=sign,
-                                       overwrite=True)  # the ratio is this function's own copy
+                                       overwrite=True)  # the ratio: a copy, or given up
     return _with_variable(
         ds, name or f"{channel}_torque", torque, ds[channel], channel, units="N m",
         long_name=f"shaft torque from {channel}",
