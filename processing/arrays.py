@@ -1,11 +1,18 @@
-"""The numpy array types the processing functions take and return (static typing only)."""
+"""The numpy array types the processing functions take and return, and two checks on arrays.
+
+The checks are those several modules make before working on a whole record in place or in
+order: whether an array may be written in place (:func:`writable_float64`) and whether its
+values never decrease (:func:`never_decreasing`, a chunk at a time).
+"""
 
 from __future__ import annotations
+
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["BoolArray", "FloatArray", "IntArray"]
+__all__ = ["BoolArray", "FloatArray", "IntArray", "never_decreasing", "writable_float64"]
 
 #: Samples, times (s) and physical values.
 FloatArray = NDArray[np.float64]
@@ -13,3 +20,27 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 #: Masks (valid samples, matched events).
 BoolArray = NDArray[np.bool_]
+
+#: Samples :func:`never_decreasing` compares at once.
+_ORDER_CHUNK = 1 << 20
+
+
+def writable_float64(values: Any) -> bool:
+    """Return True when ``values`` is a writeable float64 array of at least one dimension.
+
+    Such an array, handed over by its owner (an ``overwrite`` argument), may take a
+    computation's result in its own memory; a scalar, another dtype or a read-only view may not.
+    """
+    return (isinstance(values, np.ndarray) and values.dtype == np.float64 and values.ndim > 0
+            and values.flags.writeable)
+
+
+def never_decreasing(x: FloatArray, *, strictly: bool = False) -> bool:
+    """Return True when the values of ``x`` never decrease (``strictly``: always increase).
+
+    Compared a chunk at a time (memory: no whole-record differences). True for fewer than two
+    values.
+    """
+    step_ok = np.greater if strictly else np.greater_equal
+    return all(bool(np.all(step_ok(np.diff(x[lo:lo + _ORDER_CHUNK + 1]), 0)))
+               for lo in range(0, max(x.size - 1, 1), _ORDER_CHUNK))

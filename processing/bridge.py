@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from rigval.acquisition.errors import ConfigError
-from rigval.processing.arrays import FloatArray
+from rigval.processing.arrays import FloatArray, writable_float64
 
 __all__ = [
     "BRIDGE_TYPES",
@@ -252,8 +252,7 @@ def strain_from_ratio(ratio: ArrayLike, bridge_type: BridgeType, *, gauge_factor
     # The formulas below, evaluated in place: two whole-record arrays instead of up to five
     # (memory), the same operations in the same order (identical values); with ``overwrite``
     # the strain is made in the ratio's memory, after the denominator has taken the ratio.
-    own = overwrite and isinstance(ratio, np.ndarray) and ratio.dtype == np.float64 and \
-        ratio.ndim > 0 and ratio.flags.writeable
+    own = overwrite and writable_float64(ratio)
 
     def scaled(factor: float) -> FloatArray:  # factor * vr (a product: either order)
         return np.multiply(vr, factor, out=vr) if own else factor * vr

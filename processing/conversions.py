@@ -27,6 +27,7 @@ from rigval.acquisition.errors import ChannelNotFoundError, ConfigError, UnitErr
 from rigval.acquisition.schema import append_history
 from rigval.acquisition.units import factor_or_none
 from rigval.processing import accelerometer, bridge, encoder, stress, torsion, transducers
+from rigval.processing.arrays import writable_float64
 from rigval.processing.bridge import BridgeType
 from rigval.processing.filters import contiguous_runs
 from rigval.processing.torsion import Rosette
@@ -68,7 +69,7 @@ def _own_float64(values: np.ndarray, overwrite: bool) -> NDArray[np.float64]:
     The caller scales the result in place: a copy first, or the channel's own memory when the
     caller lets the stream go after (memory); the same operations either way.
     """
-    if overwrite and values.dtype == np.float64 and values.flags.writeable:
+    if overwrite and writable_float64(values):
         return values
     return values.astype(np.float64)
 
@@ -290,7 +291,7 @@ def axial_stress_channel(ds: xr.Dataset, channel: str, *, youngs_modulus: float,
                         hint="convert the bridge channel first with strain_channel")
     strain = var.to_numpy()
     sigma = (np.multiply(strain, youngs_modulus, out=strain)
-             if overwrite and strain.dtype == np.float64 and strain.flags.writeable
+             if overwrite and writable_float64(strain)
              else stress.axial_stress(strain, youngs_modulus))
     return _with_variable(ds, name or f"{channel}_stress", sigma, var, channel, units="Pa",
                           long_name=f"axial stress from {channel}", conversion="sigma = E eps",

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from rigval.acquisition.errors import ConfigError, DataError
-from rigval.processing.arrays import BoolArray, FloatArray, IntArray
+from rigval.processing.arrays import BoolArray, FloatArray, IntArray, never_decreasing
 
 #: NI's quadrature decoding types (edges of A and B counted per line period: 1, 2 or 4).
 QuadratureDecoding = Literal["x1", "x2", "x4"]
@@ -492,7 +492,7 @@ def increasing_angle(time: ArrayLike, angle: ArrayLike, *, use: str
     finite = np.isfinite(phi)
     if not finite.all():  # no copies of a record that is finite throughout
         t, phi = t[finite], phi[finite]
-    if phi.size < 2 or not _strictly_increasing(phi):
+    if phi.size < 2 or not never_decreasing(phi, strictly=True):
         raise DataError(f"the angle must increase strictly {use}",
                         hint="use the smoothed drive angle (excitation.drive_angle) and split the "
                              "record at standstills or reversals")
@@ -547,12 +547,6 @@ def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float = 0.
     if order is not None:
         values[order] = values.copy()
     return values.reshape(targets.shape)
-
-
-def _strictly_increasing(x: FloatArray, chunk: int = 1 << 20) -> bool:
-    """Return True when every step of ``x`` is positive (checked a chunk at a time)."""
-    return all(bool(np.all(np.diff(x[lo:lo + chunk + 1]) > 0))
-               for lo in range(0, max(x.size - 1, 1), chunk))
 
 
 def _as_float_in_place(counts: np.ndarray) -> FloatArray:

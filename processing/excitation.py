@@ -49,7 +49,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from rigval.acquisition.errors import ConfigError, DataError
 from rigval.acquisition.schema import append_history
-from rigval.processing.arrays import FloatArray, IntArray
+from rigval.processing.arrays import FloatArray, IntArray, never_decreasing
 from rigval.processing.encoder import (
     CountAngle,
     count_angle,
@@ -453,17 +453,6 @@ def drive_excitation(stream: xr.Dataset, channel: str, *, counts_per_rev: float,
     return out
 
 
-def _never_decreasing(x: FloatArray, *, strictly: bool = False) -> bool:
-    """Return True when ``x`` never decreases (``strictly``: always increases).
-
-    Checked a chunk at a time (memory).
-    """
-    chunk = 1 << 20
-    steps_ok = np.greater if strictly else np.greater_equal
-    return all(bool(np.all(steps_ok(np.diff(x[lo:lo + chunk + 1]), 0)))
-               for lo in range(0, max(x.size - 1, 1), chunk))
-
-
 def _in_time_order(flat: FloatArray
                    ) -> tuple[FloatArray, Callable[[int, int], slice | IntArray]]:
     """Return times in increasing order and where the ``a:b``-th of them sit in ``flat``.
@@ -471,7 +460,7 @@ def _in_time_order(flat: FloatArray
     A stable sort; times already in order (a grid's rows one revolution after the other) are
     taken as they are, without the sort's index and copy (memory; the same order).
     """
-    if _never_decreasing(flat):
+    if never_decreasing(flat):
         return flat, slice
     index = np.argsort(flat, kind="stable")
     return flat[index], lambda a, b: index[a:b]
@@ -691,8 +680,8 @@ def _streamable(stream: xr.Dataset, times: FloatArray) -> bool:
     in order, on a stream whose times increase (so later pieces are later in time).
     """
     return (times.ndim == 2 and times.shape[0] > 0 and times.shape[1] >= 2
-            and _never_decreasing(times.ravel())
-            and _never_decreasing(stream["time"].to_numpy(), strictly=True))
+            and never_decreasing(times.ravel())
+            and never_decreasing(stream["time"].to_numpy(), strictly=True))
 
 
 def _drive_rows(stream: xr.Dataset, channel: str, times: FloatArray, *, counts_per_rev: float,

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from rigval.acquisition.errors import ConfigError
-from rigval.processing.arrays import FloatArray
+from rigval.processing.arrays import FloatArray, writable_float64
 from rigval.processing.bridge import balanced_bridge_ratio, strain_from_ratio
 
 #: Torsion rosette bridge forms: two gauges at +-45 degrees (half) or four (full).
@@ -86,17 +86,12 @@ def torque_from_shear_strain(shear_strain: ArrayLike, *, shear_modulus: float,
     """
     j = polar_moment(outer_diameter, inner_diameter)
     gamma = np.asarray(shear_strain, dtype=np.float64)
-    if not (overwrite and _own(gamma)):
+    if not (overwrite and writable_float64(gamma)):
         return gamma * shear_modulus * j / (outer_diameter / 2.0)
     gamma *= shear_modulus
     gamma *= j
     gamma /= outer_diameter / 2.0
     return gamma
-
-
-def _own(values: np.ndarray) -> bool:
-    """Whether an array may be computed on in place (a writable float64 array, not a scalar)."""
-    return values.dtype == np.float64 and values.ndim > 0 and values.flags.writeable
 
 
 def shear_strain_from_torque(torque: ArrayLike, *, shear_modulus: float, outer_diameter: float,
@@ -197,7 +192,7 @@ def shear_strain_from_ratio(ratio: ArrayLike, rosette: Rosette, *, gauge_factor:
     strain = strain_from_ratio(ratio, bridge_type, gauge_factor=gauge_factor,
                                gauge_resistance=gauge_resistance,
                                lead_resistance=lead_resistance, overwrite=overwrite)
-    if not (overwrite and isinstance(strain, np.ndarray) and _own(strain)):
+    if not (overwrite and writable_float64(strain)):
         return sign * 2.0 * strain
     # the strain is a new array or the ratio's own memory: scaled in place (a product)
     return np.multiply(strain, sign * 2.0, out=strain)
