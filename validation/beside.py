@@ -241,6 +241,12 @@ def _serve_group(ends: list[tuple[Connection, Connection]], modules: tuple[str, 
     """
     # Ctrl-C is the parent's to handle (it then ends this child): no traceback from here
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # The parent ends this child with SIGTERM (Standby.close(stop=True)). A signal that
+    # whoever started the parent blocked or ignored (a test runner, a job system) stays so in
+    # its children, and the stop would wait for the child's imports and calls to end: until the
+    # handler below, SIGTERM ends this child as it does by default.
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     for end in _HELD_HERE:  # the parent's ends, of this group's pipes and the earlier ones'
         end.close()
     for name in modules:

@@ -35,12 +35,13 @@ def no_fork_here() -> bool:
     return True
 
 
-def run_in_a_fresh_process(module: str, check: str, timeout_s: float = 300.0) -> None:
-    """Run ``check()`` of ``tests.validation.<module>`` in a new interpreter; skip on no fork.
+def run_in_a_fresh_process(module: str, check: str, timeout_s: float = 300.0,
+                           args: tuple[str, ...] = ()) -> None:
+    """Run ``check(*args)`` of ``tests.validation.<module>`` in a new interpreter; skip on no fork.
 
     A check that hangs (a child that never ends) fails after ``timeout_s`` seconds.
     """
-    code = f"from tests.validation import {module} as t; t.{check}()"
+    code = f"from tests.validation import {module} as t; t.{check}(*{args!r})"
     done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
                           text=True, timeout=timeout_s, check=False)
     assert done.returncode == 0, done.stderr

@@ -123,9 +123,23 @@ def test_a_second_thread_keeps_the_calls_in_this_process():
             assert standby.submit(os.getpid).result() == os.getpid()
 
 
-def _an_error_ends_the_child_at_once() -> None:
+#: How the process that makes the standbys left SIGTERM, the signal that stops a child: as
+#: by default, or blocked or ignored as a test runner or job system may leave it (either stays
+#: so in a forked child).
+SIGTERM_HERE = ["default", "blocked", "ignored"]
+
+
+def _leave_sigterm(how: str) -> None:
+    if how == "blocked":
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    elif how == "ignored":
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
+def _an_error_ends_the_child_at_once(sigterm: str) -> None:
     if no_fork_here():
         return
+    _leave_sigterm(sigterm)
     with pytest.raises(RuntimeError, match="stop"), Standby() as standby:
         pid = standby.submit(os.getpid).result()
         standby.submit(time.sleep, 600)  # never waited for: the error ends the child
@@ -133,8 +147,38 @@ def _an_error_ends_the_child_at_once() -> None:
     _assert_ended([pid])
 
 
-def test_an_error_ends_the_child_without_waiting_for_its_calls():
-    run_in_a_fresh_process("test_beside", "_an_error_ends_the_child_at_once", timeout_s=120)
+@pytest.mark.parametrize("sigterm", SIGTERM_HERE)
+def test_an_error_ends_the_child_without_waiting_for_its_calls(sigterm):
+    run_in_a_fresh_process("test_beside", "_an_error_ends_the_child_at_once", timeout_s=120,
+                           args=(sigterm,))
+
+
+def _an_error_ends_the_child_while_it_imports(sigterm: str) -> None:
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    if no_fork_here():
+        return
+    _leave_sigterm(sigterm)
+    folder = Path(tempfile.mkdtemp())
+    started = folder / "slow_import.py.pid"
+    (folder / "slow_import.py").write_text(
+        "import os, time\nwith open(__file__ + '.pid', 'w') as f:\n    f.write(str(os.getpid()))\n"
+        "time.sleep(600)\n")
+    sys.path.insert(0, str(folder))
+    with pytest.raises(RuntimeError, match="stop"), Standby(["slow_import"]) as standby:
+        standby.submit(os.getpid)  # never answered: the child is still importing
+        while not started.exists() or not started.read_text():
+            time.sleep(0.01)
+        raise RuntimeError("stop")
+    _assert_ended([int(started.read_text())])
+
+
+@pytest.mark.parametrize("sigterm", SIGTERM_HERE)
+def test_an_error_ends_the_child_while_it_imports_its_modules(sigterm):
+    run_in_a_fresh_process("test_beside", "_an_error_ends_the_child_while_it_imports",
+                           timeout_s=120, args=(sigterm,))
 
 
 def _pid_and_imported(name: str) -> tuple[int, bool]:
@@ -171,9 +215,10 @@ def test_a_group_imports_its_modules_once_and_ends_together():
     run_in_a_fresh_process("test_beside", "_group_imports_once", timeout_s=120)
 
 
-def _group_error_ends_all_at_once() -> None:
+def _group_error_ends_all_at_once(sigterm: str) -> None:
     if no_fork_here():
         return
+    _leave_sigterm(sigterm)
     standbys = Standby.group(2)
     with pytest.raises(RuntimeError, match="stop"), standbys[0]:
         pids = [s.submit(os.getpid).result() for s in standbys]
@@ -182,8 +227,10 @@ def _group_error_ends_all_at_once() -> None:
     _assert_ended(pids)
 
 
-def test_an_error_ends_every_child_of_a_group_without_waiting_for_its_calls():
-    run_in_a_fresh_process("test_beside", "_group_error_ends_all_at_once", timeout_s=120)
+@pytest.mark.parametrize("sigterm", SIGTERM_HERE)
+def test_an_error_ends_every_child_of_a_group_without_waiting_for_its_calls(sigterm):
+    run_in_a_fresh_process("test_beside", "_group_error_ends_all_at_once", timeout_s=120,
+                           args=(sigterm,))
 
 
 def test_a_group_without_fork_runs_its_calls_here():
