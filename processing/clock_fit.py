@@ -65,6 +65,7 @@ __all__ = [
     "quantisation_limit",
     "reference_event_times",
     "student_t_975",
+    "time_in_memory",
 ]
 
 logger = logging.getLogger(__name__)
@@ -233,7 +234,7 @@ class ClockModel:
 
 def identity_clock(segments: ArrayLike = (0,)) -> ClockModel:
     """Return the clock model of the reference device itself (offset 0, drift 0)."""
-    segs = tuple(int(s) for s in np.unique(np.asarray(segments)))
+    segs = tuple(int(s) for s in _segment_numbers(np.asarray(segments).ravel()))
     return ClockModel(segs, tuple(0.0 for _ in segs), 0.0, 0.0, 0, 0)
 
 
@@ -564,6 +565,19 @@ def channel_time(aligned: xr.Dataset, name: str) -> FloatArray:
     return aligned["time"].to_numpy() - delay
 
 
+def time_in_memory(stream: xr.Dataset) -> xr.Dataset:
+    """Return ``stream`` with its ``time`` values computed once and indexed on that array.
+
+    A lazy time axis (:class:`rigval.acquisition.time_index.BlockTimeIndex`) computes its
+    values each time they are asked for: a caller that asks several times holds one array
+    instead of several. A stream whose times are in memory already is returned as it is.
+    """
+    if isinstance(stream.xindexes["time"], PandasIndex):
+        return stream
+    time = stream["time"]
+    return stream.assign_coords(_time_coordinate(time.to_numpy(), time.attrs))
+
+
 def _time_coordinate(time: FloatArray, attrs: Mapping[str, Any]) -> xr.Coordinates:
     """Return ``time`` (s) as the indexed ``time`` coordinate, its index on the same array.
 
@@ -573,6 +587,36 @@ def _time_coordinate(time: FloatArray, attrs: Mapping[str, Any]) -> xr.Coordinat
     index = PandasIndex(pd.Index(time, copy=False, name="time"), "time")
     return xr.Coordinates({"time": xr.Variable("time", time, dict(attrs))},
                           indexes={"time": index})
+
+
+def _maps_to_itself(clock: ClockModel, segment: np.ndarray) -> bool:
+    """Return whether ``clock`` gives every sample of these segments its own time (identity).
+
+    Offset 0 and drift 0 on each of the stream's segments: :meth:`ClockModel.to_reference`
+    then returns the times themselves, value for value.
+    """
+    if clock.drift != 0.0 or any(offset != 0.0 for offset in clock.offsets_s):
+        return False
+    return set(_segment_numbers(segment).tolist()) <= set(clock.segments)
+
+
+def _segment_numbers(segment: np.ndarray) -> IntArray:
+    """Return the distinct segment numbers of a stream's ``segment`` channel, sorted.
+
+    ``numpy.unique`` of the values at the starts of the runs of equal values (a stream's
+    segments come in a few runs): no sort of the whole record.
+    """
+    if segment.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    starts = np.concatenate(([0], np.flatnonzero(segment[1:] != segment[:-1]) + 1))
+    return np.unique(segment[starts]).astype(np.int64)
+
+
+def _renamed_time(stream: xr.Dataset, attrs: Mapping[str, Any]) -> xr.Coordinates:
+    """Return the stream's ``time`` coordinate and index as they are, with new attributes."""
+    variable = stream.variables["time"].copy(deep=False)
+    variable.attrs = dict(attrs)
+    return xr.Coordinates({"time": variable}, indexes={"time": stream.xindexes["time"]})
 
 
 def _fill_unaligned(ref_time: FloatArray, own_time: FloatArray, lost: np.ndarray) -> None:
@@ -631,7 +675,8 @@ def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = No
     -------
     xarray.Dataset
         Same variables and samples (nothing interpolated); ``time`` is the reference-clock time of
-        each sample clock tick, ``device_time`` keeps the device's own; each channel gets
+        each sample clock tick (the stream's own coordinate, lazy or not, where the clock is the
+        identity on every segment), ``device_time`` keeps the device's own; each channel gets
         ``input_delay_s`` (its module delay, in reference seconds; subtract it with
         :func:`channel_time`); samples of unaligned segments are marked invalid; the clock model is
         stored in the attributes (``clock_offset_s``, ``clock_drift_ppm``, ``residual_rms_s``,
@@ -643,27 +688,34 @@ def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = No
         When segments could not be aligned and their samples were marked invalid.
     """
     fs = float(stream.attrs["fs_nominal"])
-    own_time = stream["time"].to_numpy()
     segment = stream["segment"].to_numpy()
-    ref_time = clock.to_reference(own_time, segment)
-    lost = ~np.isfinite(ref_time)
-    out = stream.copy()
-    if lost.any():
-        label = name or stream.attrs.get("device", "")
-        warnings.warn(f"stream {label}: {int(lost.sum())} samples in segments "
-                      f"{list(clock.unaligned_segments)} could not be aligned (no matched "
-                      "reference pulses) and were marked invalid; alignment.json lists them",
-                      DataWarning, stacklevel=2)
-        _fill_unaligned(ref_time, own_time, lost)
-        counts = invalid_counts(stream)
-        newly = int(np.count_nonzero(lost & stream["valid"].to_numpy()))
-        counts["unaligned segment"] = counts.get("unaligned segment", 0) + newly
-        out["valid"] = stream["valid"] & ~xr.DataArray(lost, dims="time")
-        out = with_invalid_counts(out, counts)
     origin = reference_start if reference_start is not None else str(stream.attrs["start_time"])
-    own = cf_time_attrs(str(stream.attrs["start_time"]), "time on the device clock")
-    coords = _time_coordinate(ref_time, cf_time_attrs(origin, "time on the reference device clock"))
+    on_reference = cf_time_attrs(origin, "time on the reference device clock")
+    out = stream.copy()
+    if _maps_to_itself(clock, segment):
+        # offset 0 + (1 + 0) t is t: the stream's own time coordinate is its reference time,
+        # kept as it is (lazy for a TDMS stream: no whole-record array)
+        coords = _renamed_time(stream, on_reference)
+        own_time = stream["time"].to_numpy() if device_time else None
+    else:
+        own_time = stream["time"].to_numpy()
+        ref_time = clock.to_reference(own_time, segment)
+        lost = ~np.isfinite(ref_time)
+        if lost.any():
+            label = name or stream.attrs.get("device", "")
+            warnings.warn(f"stream {label}: {int(lost.sum())} samples in segments "
+                          f"{list(clock.unaligned_segments)} could not be aligned (no matched "
+                          "reference pulses) and were marked invalid; alignment.json lists them",
+                          DataWarning, stacklevel=2)
+            _fill_unaligned(ref_time, own_time, lost)
+            counts = invalid_counts(stream)
+            newly = int(np.count_nonzero(lost & stream["valid"].to_numpy()))
+            counts["unaligned segment"] = counts.get("unaligned segment", 0) + newly
+            out["valid"] = stream["valid"] & ~xr.DataArray(lost, dims="time")
+            out = with_invalid_counts(out, counts)
+        coords = _time_coordinate(ref_time, on_reference)
     if device_time:
+        own = cf_time_attrs(str(stream.attrs["start_time"]), "time on the device clock")
         device = {k: own[k] for k in ("units", "calendar", "long_name")}
         coords = coords.assign(device_time=("time", own_time, device))
     del own_time

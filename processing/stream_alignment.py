@@ -446,8 +446,11 @@ def reference_angle(settings: AlignmentSettings, stream: xr.Dataset, *,
     DataError
         When the reference stream has too few pulses or its encoder angle does not increase.
     """
-    ref = clock_fit.align_stream(stream, clock_fit.identity_clock(stream["segment"]),
-                                 name=settings.reference, device_time=device_time)
+    aligned = clock_fit.align_stream(stream, clock_fit.identity_clock(stream["segment"]),
+                                     name=settings.reference, device_time=device_time)
+    # the stream keeps its time axis lazy for the later stages; phi_F's making reads the times
+    # several times, and phi_F is held on them: computed once, here
+    ref = clock_fit.time_in_memory(aligned)
     ref_pulses = found.pulses if found is not None else _pulses(ref, settings.reference_pulse)
     main = _main_angle(settings, ref, ref_pulses)
     first, last = main.span_s
@@ -462,8 +465,8 @@ def reference_angle(settings: AlignmentSettings, stream: xr.Dataset, *,
         residual_time=pulses, residual=residual[matched], matched=int(matched.sum()),
         missing=max(expected.size - int(matched.sum()), 0),
         spurious=int(ref_pulses.spurious.sum()), let_go=kept)
-    return ReferenceAngle(ref, main, ReferenceRecord(summary, pulses, period, main.zero_u95_s,
-                                                     kept))
+    return ReferenceAngle(aligned, main, ReferenceRecord(summary, pulses, period,
+                                                         main.zero_u95_s, kept))
 
 
 def pulse_events(settings: AlignmentSettings, main: MainAngle) -> dict[str, np.ndarray]:

@@ -67,6 +67,17 @@ class HealthLog:
             period=self._period.get(name))
 
 
+    def in_stream_order(self) -> None:
+        """Put the findings in the scene's stream order, each stream's in the order found.
+
+        What checking the streams one after the other in the scene's order gives, when some
+        were checked later than others (:func:`rigval.validation.read_stage.read_later`).
+        """
+        names = list(self.scene.streams)
+        self.findings.sort(key=lambda finding: next(
+            (k for k, name in enumerate(names) if finding.channel.startswith(f"{name}.")),
+            len(names)))
+
     def extend(self, other: HealthLog) -> None:
         """Add the findings (and revolution periods) of a log of other streams' channels.
 

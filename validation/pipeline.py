@@ -18,13 +18,15 @@ read
     encoders of phi_F and of measured drives; a text file's compared channels too), one stream
     after the other, converted to physical units (:mod:`rigval.processing.sensors`) as it is
     read (small files of the other streams in a child beside this process, their clock pulses
-    found there too); the main reference pulse's edges found as its stream is read, and its
+    found there too; large ones in the align stage, once phi_F and the encoders are let go, so
+    that a long record's phi_F is made without them); the main reference pulse's edges found as
+    its stream is read, and its
     channel then held as the samples near them
     (:func:`rigval.processing.stream_alignment.reference_pulses`);
     the files' SHA-256 and the operator's note. With ``[output] raw`` or ``aligned`` every
     channel is read here and kept.
 align
-    In four steps, each output replacing its input: phi_F(t) from the main encoder (smoothed,
+    In steps, each output replacing its input: phi_F(t) from the main encoder (smoothed,
     never differenced raw), zero at the reference pulse, on the reference stream's time axis and
     the encoder's input delay (no delayed copy), its revolution check made on the counts at the
     samples around the pulses alone (not the whole record's int64 counts); from phi_F, the whole
@@ -33,7 +35,8 @@ align
     each other stream's pulses are fitted on, and phi_F is let go; with measured drives, each
     driver's angle, speed and acceleration from its encoder averaged over the revolutions at
     each angle of the fine grid as the encoder is smoothed, a block of revolutions at a time
-    (never held on the whole fine grid), and the encoders are let go; each other stream's clock
+    (never held on the whole fine grid), and the encoders are let go; the other streams not read
+    yet are read (timed as the read stage); each other stream's clock
     fitted on its reference pulses against its events
     (:mod:`rigval.processing.stream_alignment`), module input delays removed.
 model
@@ -105,7 +108,7 @@ from rigval.validation.model_run import (
     run_model,
 )
 from rigval.validation.read_plan import MeasuredSignal, ReadPlan, measured_signals, read_plan
-from rigval.validation.read_stage import Inputs, Read, read_streams
+from rigval.validation.read_stage import Inputs, Read, read_later, read_streams
 from rigval.validation.results import (
     Assembly,
     ComparisonResult,
@@ -169,11 +172,12 @@ class _Others:
     """The streams other than the reference as read, and their clocks' pulses found as read.
 
     ``clock_pulses``: where the read stage found them (beside it); the align stage finds the
-    others'.
+    others'. ``later``: the streams the read stage left to be read when they are aligned.
     """
 
     streams: Mapping[str, xr.Dataset]
     clock_pulses: Mapping[str, StreamPulses]
+    later: tuple[str, ...]
 
 
 @dataclass(frozen=True)
@@ -229,7 +233,7 @@ def _phi_f(scene: Scene, settings: AlignmentSettings, read: Read) -> _PhiF:
     reference = reference_angle(settings, read.converted[settings.reference],
                                 device_time=scene.output.aligned, found=read.reference)
     others = {name: ds for name, ds in read.converted.items() if name != settings.reference}
-    return _PhiF(read.inputs, _Others(others, read.clock_pulses), reference)
+    return _PhiF(read.inputs, _Others(others, read.clock_pulses, read.later), reference)
 
 
 def _predict(scene: Scene, settings: AlignmentSettings, phi: _PhiF) -> _Predicted:
@@ -264,6 +268,19 @@ def _drives(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, predicted
                       settings.reference_pulse.name)
     return _Driven(predicted.inputs, predicted.others, reference, predicted.record,
                    predicted.events, predicted.grid, predicted.angle_times, drives)
+
+
+def _read_others(scene: Scene, plan: ReadPlan, driven: _Driven, watch: Stopwatch) -> _Driven:
+    """Read the streams the read stage left for later, now that phi_F and the encoders are gone.
+
+    Timed as the read stage (:func:`rigval.validation.read_stage.read_later`).
+    """
+    others = driven.others
+    if not others.later:
+        return driven
+    inputs, read = read_later(scene, plan, others.later, driven.inputs, watch)
+    return dataclasses.replace(driven, inputs=inputs, others=_Others(
+        {**others.streams, **read}, others.clock_pulses, ()))
 
 
 def _kept(plan: ReadPlan, name: str, stream: xr.Dataset, *also: str) -> xr.Dataset:
@@ -680,6 +697,7 @@ def _run(scene: Scene | str | Path, *, keep: bool,
             run = _phi_f(scene, settings, run)
             run = _predict(scene, settings, run)
             run = _drives(scene, plan, settings, run)
+            run = _read_others(scene, plan, run, watch)
             run = _align(scene, plan, settings, run)
         with watch.stage("model"):
             run = _model(scene, run, assembly)

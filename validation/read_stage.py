@@ -35,7 +35,7 @@ from rigval.validation.scene_types import Scene
 from rigval.validation.stage_settings import check_sample_rates
 from rigval.validation.stopwatch import Stopwatch
 
-__all__ = ["BESIDE_BYTES", "Inputs", "Read", "read_streams", "reads_beside"]
+__all__ = ["BESIDE_BYTES", "Inputs", "Read", "read_later", "read_streams", "reads_beside"]
 
 logger = logging.getLogger(__name__)
 
@@ -70,13 +70,15 @@ class Read:
     """The read stage's output: the main reference pulses apart when found as read.
 
     ``clock_pulses``: the other streams' pulses their clocks are fitted on, where found as they
-    were read (beside, :func:`read_streams`); the align stage finds the others'.
+    were read (beside, :func:`read_streams`); the align stage finds the others'. ``later``: the
+    other streams left to :func:`read_later`, whose files' digests ``inputs`` lacks till then.
     """
 
     inputs: Inputs
     converted: Mapping[str, xr.Dataset]
     reference: ReferencePulses | None
     clock_pulses: Mapping[str, StreamPulses]
+    later: tuple[str, ...] = ()
 
 
 #: The other streams' files, together, up to which they are read beside the reference stream
@@ -139,7 +141,10 @@ def read_streams(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, watc
     other streams are read, converted and checked, and their clock pulses found, in a child
     forked now (:class:`~rigval.validation.beside.Standby`) while this process reads the
     reference stream; they are taken in the scene's order, so the results, the health findings'
-    order and the first error reported are those of the reading here.
+    order and the first error reported are those of the reading here. Otherwise only the
+    reference stream is read here, and the others when the align stage takes them
+    (:attr:`Read.later`, :func:`read_later`): a long record's phi_F is made without them in
+    memory.
     """
     converted: dict[str, xr.Dataset] = {}
     raw: dict[str, xr.Dataset] = {}
@@ -148,6 +153,7 @@ def read_streams(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, watc
     health = HealthLog(scene)
     reference = None
     beside = reads_beside(scene, settings)
+    later = () if beside else tuple(name for name in scene.streams if name != settings.reference)
     with Standby() if beside else nullcontext() as standby:
         pending = {name: standby.submit(_read_other, scene, plan, settings, name)
                    for name in scene.streams if beside and name != settings.reference}
@@ -155,6 +161,8 @@ def read_streams(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, watc
             logger.info("streams %s read beside the reference stream %s, in a child process",
                         ", ".join(pending), settings.reference)
         for name, spec in scene.streams.items():
+            if name in later:
+                continue
             if name in pending:
                 read = pending[name].result()
                 if read.pulses is not None:
@@ -169,7 +177,30 @@ def read_streams(scene: Scene, plan: ReadPlan, settings: AlignmentSettings, watc
                 converted[name], reference = reference_pulses(settings, converted[name])
             if kept is not None:
                 raw[name] = kept
+    unread = {scene.streams[name].file for name in later}
     inputs = tuple((path, digests.get(path) or source_checksum(path))
-                   for path in scene.input_files)
+                   for path in scene.input_files if path not in unread)
     note = read_note(scene.note) if scene.note is not None else None
-    return Read(Inputs(raw, note, inputs, health), converted, reference, pulses)
+    return Read(Inputs(raw, note, inputs, health), converted, reference, pulses, later)
+
+
+def read_later(scene: Scene, plan: ReadPlan, names: tuple[str, ...], inputs: Inputs,
+               watch: Stopwatch) -> tuple[Inputs, dict[str, xr.Dataset]]:
+    """Read the other streams :func:`read_streams` left for later (:attr:`Read.later`).
+
+    Each as :func:`read_streams` reads it, timed as the read stage. Returns ``inputs`` complete
+    (the streams kept as read, the files' digests and the health findings in the scene's
+    order, as reading every stream in :func:`read_streams` gives them) and the streams.
+    """
+    converted: dict[str, xr.Dataset] = {}
+    raw, digests, health = dict(inputs.raw), dict(inputs.digests), inputs.health
+    with watch.stage("read"):
+        for name in names:
+            file = scene.streams[name].file
+            converted[name], digests[file], kept = _read_stream(scene, plan, name, watch, health)
+            if kept is not None:
+                raw[name] = kept
+    health.in_stream_order()
+    complete = Inputs({name: raw[name] for name in scene.streams if name in raw}, inputs.note,
+                      tuple((path, digests[path]) for path in scene.input_files), health)
+    return complete, converted

@@ -1,0 +1,85 @@
+"""The reference stream on its own clock keeps its time axis as it is (lazy for a TDMS stream).
+
+:func:`rigval.processing.clock_fit.align_stream` with a clock that is the identity on every
+segment gives each sample its own time; the independent expectation is
+:meth:`~rigval.processing.clock_fit.ClockModel.to_reference` of the materialised times (the
+general path), value for value, with the same attributes and ``device_time``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from rigval.acquisition.errors import DataWarning
+from rigval.acquisition.schema import Channel, stream_dataset
+from rigval.acquisition.time_index import BlockTimeIndex
+from rigval.acquisition.timebase import Block, TimeBase
+from rigval.processing import clock_fit
+
+FS = 200.0
+#: Two segments (a restart after 1.5 s), as a stream with a gap is read.
+BLOCKS = [Block(0, 300, 0.0, 1 / FS), Block(300, 500, 2.0, 1 / FS)]
+
+
+def _stream(lazy: bool) -> xr.Dataset:
+    base = TimeBase(BLOCKS)
+    time = base.times()
+    segment = np.repeat([0, 1], [300, 500]).astype(np.int32)
+    return stream_dataset(base if lazy else time,
+                          {"x": Channel(np.cos(time), "V", "x", "x", "none", {})},
+                          device="ref", start_time="2026-11-29T06:00:00Z", source_file="x.tdms",
+                          source_sha256="0" * 64, fs_nominal=FS,
+                          segment=None if lazy else segment)  # a TimeBase gives its own
+
+
+@pytest.mark.parametrize("lazy", [True, False])
+@pytest.mark.parametrize("device_time", [True, False])
+def test_identity_clock_keeps_the_time_axis(lazy: bool, device_time: bool) -> None:
+    stream = _stream(lazy)
+    segment = stream["segment"].to_numpy()
+    clock = clock_fit.identity_clock(segment)
+    assert clock.segments == (0, 1)
+    aligned = clock_fit.align_stream(stream, clock, name="ref", device_time=device_time)
+    expected = clock.to_reference(stream["time"].to_numpy(), segment)  # the general path
+    assert np.array_equal(aligned["time"].to_numpy(), expected)
+    assert isinstance(aligned.xindexes["time"], BlockTimeIndex) is lazy
+    assert aligned["time"].attrs["long_name"] == "time on the reference device clock"
+    assert aligned["time"].attrs["units"].startswith("seconds since 2026-11-29")
+    assert ("device_time" in aligned.coords) is device_time
+    if device_time:
+        assert np.array_equal(aligned["device_time"].to_numpy(), stream["time"].to_numpy())
+    assert aligned.sel(time=slice(1.0, 2.2)).sizes["time"] == 100 + 41  # 1.0-1.495 s, 2.0-2.2 s
+    assert stream["time"].attrs.get("long_name") != aligned["time"].attrs["long_name"]
+
+
+@pytest.mark.parametrize("clock", [
+    clock_fit.ClockModel((0, 1), (0.0, 0.25), 0.0, 0.0, 10, 10),  # one segment moved
+    clock_fit.ClockModel((0, 1), (0.0, 0.0), 3e-6, 0.0, 10, 10),  # a drift
+])
+def test_a_clock_that_moves_any_sample_computes_the_times(clock) -> None:
+    stream = _stream(lazy=True)
+    aligned = clock_fit.align_stream(stream, clock, device_time=False)
+    assert not isinstance(aligned.xindexes["time"], BlockTimeIndex)
+    expected = clock.to_reference(stream["time"].to_numpy(), stream["segment"].to_numpy())
+    assert np.array_equal(aligned["time"].to_numpy(), expected)
+
+
+def test_an_identity_clock_missing_a_segment_marks_it_unaligned() -> None:
+    stream = _stream(lazy=True)
+    with pytest.warns(DataWarning, match="500 samples in segments"):
+        aligned = clock_fit.align_stream(stream, clock_fit.identity_clock([0]), device_time=False)
+    assert not isinstance(aligned.xindexes["time"], BlockTimeIndex)
+    assert int(aligned["valid"].sum()) == 300
+
+
+def test_time_in_memory_computes_the_lazy_times_once() -> None:
+    stream = _stream(lazy=True)
+    held = clock_fit.time_in_memory(stream)
+    values = held["time"].to_numpy()
+    assert np.shares_memory(values, held["time"].to_numpy())  # one array, asked twice
+    assert np.array_equal(values, TimeBase(BLOCKS).times())
+    assert held["time"].attrs == stream["time"].attrs
+    in_memory = _stream(lazy=False)
+    assert clock_fit.time_in_memory(in_memory) is in_memory
