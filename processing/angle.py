@@ -30,6 +30,7 @@ from scipy.ndimage import map_coordinates, spline_filter1d
 
 from rigval.acquisition.errors import ConfigError, DataError
 from rigval.acquisition.schema import append_history
+from rigval.acquisition.time_index import SampleTimes
 from rigval.processing.arrays import FloatArray, IntArray
 from rigval.processing.block_median import exact_median
 from rigval.processing.clock_fit import channel_time
@@ -160,15 +161,16 @@ def cycle_angles(cycles: IntArray, points_per_rev: int) -> FloatArray:
     return 2 * np.pi * (cycles[:, None] + fraction[None, :])
 
 
-def interpolate_runs(time: ArrayLike, values: ArrayLike, at: ArrayLike, *, order: int = 3,
+def interpolate_runs(time: ArrayLike | SampleTimes, values: ArrayLike, at: ArrayLike, *,
+                     order: int = 3,
                      segment: ArrayLike | None = None, valid: ArrayLike | None = None,
                      offset: float = 0.0, time_offset: float = 0.0) -> FloatArray:
     """Evaluate a sampled signal at arbitrary times without crossing gaps.
 
     Parameters
     ----------
-    time : array_like
-        Sample times in s, increasing.
+    time : array_like or SampleTimes
+        Sample times in s, increasing (a lazy axis's are computed a chunk at a time).
     values : array_like
         Samples (NaN counts as invalid).
     at : array_like
@@ -190,7 +192,8 @@ def interpolate_runs(time: ArrayLike, values: ArrayLike, at: ArrayLike, *, order
     numpy.ndarray
         Values at ``at``; NaN outside every run (in gaps, beyond the ends, at invalid samples).
     """
-    t = np.asarray(time, dtype=np.float64)
+    # a lazy axis's times are computed a chunk at a time as read below (memory)
+    t = time if isinstance(time, SampleTimes) else np.asarray(time, dtype=np.float64)
     x = np.asarray(values, dtype=np.float64)
     targets = np.asarray(at, dtype=np.float64)
     if order not in (1, 3, 5):
@@ -221,7 +224,8 @@ def interpolate_runs(time: ArrayLike, values: ArrayLike, at: ArrayLike, *, order
     return result.reshape(targets.shape)
 
 
-def _chunk_spline(t: FloatArray, x: FloatArray, at: FloatArray, lo: int, hi: int, order: int,
+def _chunk_spline(t: FloatArray | SampleTimes, x: FloatArray, at: FloatArray, lo: int, hi: int,
+                  order: int,
                   *, at_start: bool, at_stop: bool, offset: float = 0.0,
                   time_offset: float = 0.0) -> FloatArray:
     """Evaluate the interpolating spline of the samples ``lo:hi`` at sorted times ``at``.
@@ -266,7 +270,8 @@ def _chunk_spline(t: FloatArray, x: FloatArray, at: FloatArray, lo: int, hi: int
     return out
 
 
-def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike | None,
+def resample_to_angle(time: ArrayLike | SampleTimes, values: ArrayLike,
+                      angle_time: ArrayLike | None,
                       angle: ArrayLike | None, *, points_per_rev: int, fs: float, order: int = 5,
                       anti_alias: AntiAlias = "butterworth", segment: ArrayLike | None = None,
                       valid: ArrayLike | None = None, grid: AngleGrid | None = None,
@@ -275,8 +280,9 @@ def resample_to_angle(time: ArrayLike, values: ArrayLike, angle_time: ArrayLike 
 
     Parameters
     ----------
-    time : array_like
-        The channel's sample times in s on the reference clock (``delay_s`` not yet removed).
+    time : array_like or SampleTimes
+        The channel's sample times in s on the reference clock (``delay_s`` not yet removed;
+        a lazy axis's computed a chunk at a time).
     values : array_like
         The channel's samples.
     angle_time, angle : array_like or None

@@ -14,6 +14,7 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.errors import DataError
+from rigval.acquisition.time_index import SampleTimes
 from rigval.processing.arrays import FloatArray, IntArray
 from rigval.processing.blocked_decimation import EDGE, decimate_stretch
 from rigval.processing.filters import contiguous_runs
@@ -81,15 +82,16 @@ def _stretch_numbers(starts: IntArray, usable: np.ndarray, segment: np.ndarray) 
     return numbers
 
 
-def diagnosis_signal(time: FloatArray, values: FloatArray, segment: np.ndarray,
+def diagnosis_signal(time: FloatArray | SampleTimes, values: FloatArray, segment: np.ndarray,
                      valid: np.ndarray, fs: float, upper_hz: float = UPPER_HZ, *,
                      delay_s: float = 0.0) -> xr.Dataset:
     """Return a measured signal decimated for the diagnosis, its gap-free stretches numbered.
 
     Parameters
     ----------
-    time : numpy.ndarray
-        Reference time of each sample, s (the module delay ``delay_s`` not yet removed).
+    time : numpy.ndarray or SampleTimes
+        Reference time of each sample, s (the module delay ``delay_s`` not yet removed); read at
+        the kept samples alone.
     values : numpy.ndarray
         Measured values (before any low-pass), signal units.
     segment : numpy.ndarray

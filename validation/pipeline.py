@@ -72,6 +72,7 @@ import xarray as xr
 
 from rigval.acquisition.errors import DataError
 from rigval.acquisition.tdms_layout import kept_layouts
+from rigval.acquisition.time_index import sample_times
 from rigval.model.balance import energy_residual
 from rigval.model.drives import law_angles_at_reference
 from rigval.model.mechanism import load_mechanism
@@ -491,8 +492,9 @@ def _resample(scene: Scene, comparison: ComparisonSpec, signal: MeasuredSignal, 
     """
     fs, valid, segment = signal.fs, signal.valid, signal.segment
     values, owned = signal.take_values(), signal.owned
-    diagnosis[comparison.name] = diagnosis_signal(signal.time.to_numpy(), values, segment, valid,
-                                                  fs, delay_s=signal.delay_s)
+    time = sample_times(signal.time)  # a lazy axis's times computed where read (memory)
+    diagnosis[comparison.name] = diagnosis_signal(time, values, segment, valid, fs,
+                                                  delay_s=signal.delay_s)
     corner = comparison.lowpass_hz
     if corner is not None and corner < 0.45 * fs:
         values = zero_phase(values, fs, corner, segment=segment, valid=valid, overwrite=owned)
@@ -503,7 +505,7 @@ def _resample(scene: Scene, comparison: ComparisonSpec, signal: MeasuredSignal, 
         values = zero_phase(values, fs, anti_alias, order=8, segment=segment, valid=valid,
                             overwrite=owned)
     _, _, cycles = resample_to_angle(
-        signal.time.to_numpy(), values, None, None,
+        time, values, None, None,
         points_per_rev=scene.angle.points_per_revolution, fs=fs,
         order=INTERPOLATION_ORDER[scene.angle.interpolation], anti_alias="none",
         segment=segment, valid=valid, grid=grid,
