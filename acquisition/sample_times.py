@@ -54,9 +54,18 @@ class SampleTimes:
         return self._transform.forward({self._transform.dim: index})[self._transform.dim]
 
     def __getitem__(self, key: Any) -> Any:
-        """Return the times of an integer, an integer array, a boolean mask or a slice."""
+        """Return the times of an integer, an integer array, a boolean mask or a slice.
+
+        A slice of step 1 is computed block by block as the whole axis is (a chunked reader's
+        slices cost what they hold, not an index of the whole axis).
+        """
         if isinstance(key, slice):
-            return self._at(np.arange(self.size)[key])
+            start, stop, step = key.indices(self.size)
+            if step == 1:
+                offset = self._transform.offset
+                return self._transform.timebase.times(offset + start,
+                                                      offset + max(start, stop))
+            return self._at(np.arange(start, stop, step))
         index = np.asarray(key)
         if index.dtype == bool:
             return self._at(np.flatnonzero(index))
@@ -74,8 +83,11 @@ class SampleTimes:
         return self._transform.searchsorted(values, side)
 
 
-def sample_times(stream: xr.Dataset) -> SampleTimes | np.ndarray:
-    """Return a stream's sample times: lazy where its axis is, else the axis's values (s)."""
+def sample_times(stream: xr.Dataset | xr.DataArray) -> SampleTimes | np.ndarray:
+    """Return a stream's sample times: lazy where its axis is, else the axis's values (s).
+
+    ``stream`` may be a stream or a variable of it (its ``time`` coordinate).
+    """
     index = stream.xindexes.get("time")
     if isinstance(index, BlockTimeIndex):
         return SampleTimes(index.transform)

@@ -26,8 +26,7 @@ from xarray.indexes import CoordinateTransform, CoordinateTransformIndex, Index,
 
 from rigval.acquisition.timebase import TimeBase
 
-__all__ = ["BlockTimeIndex", "BlockTimeTransform", "SampleTimes", "lazy_time_coords",
-           "sample_times"]
+__all__ = ["BlockTimeIndex", "BlockTimeTransform", "lazy_time_coords"]
 
 
 class BlockTimeTransform(CoordinateTransform):
@@ -250,57 +249,3 @@ def lazy_time_coords(timebase: TimeBase, start: int, stop: int,
     coords = xr.Coordinates.from_xindex(index)
     coords["time"].attrs.update(attrs)
     return coords
-
-
-class SampleTimes:
-    """The times in s of a lazy time axis's samples, computed for the samples asked for.
-
-    Stands for the axis's whole-record array where a caller reads it a sample, a slice or a set
-    of samples at a time (``t[k]``, ``t[a:b]``, ``t[indices]``): each value the array would
-    hold, bit for bit, without the array (memory).
-
-    Parameters
-    ----------
-    transform : BlockTimeTransform
-        The axis's blocks and window.
-    """
-
-    def __init__(self, transform: BlockTimeTransform) -> None:
-        self.transform = transform
-
-    @property
-    def size(self) -> int:
-        """Number of samples."""
-        return self.transform.size
-
-    def __len__(self) -> int:
-        return self.size
-
-    def __getitem__(self, key: int | slice | np.ndarray) -> Any:
-        """Return the times of a sample (float), a slice or integer positions (arrays), s."""
-        if isinstance(key, slice):
-            start, stop, step = key.indices(self.size)
-            if step == 1:
-                offset = self.transform.offset
-                return self.transform.timebase.times(offset + start, offset + max(start, stop))
-            key = np.arange(start, stop, step)
-        position = np.asarray(key)
-        if position.dtype.kind not in "iu":
-            raise IndexError(f"sample times are taken at integer positions, not {position.dtype}")
-        position = np.where(position < 0, position + self.size, position)
-        if position.size and (position.min() < 0 or position.max() >= self.size):
-            raise IndexError(f"sample position out of 0 ... {self.size - 1}")
-        values = self.transform.forward({self.transform.dim: position})[self.transform.dim]
-        return float(values) if position.ndim == 0 else values
-
-
-def sample_times(time: xr.DataArray) -> SampleTimes | np.ndarray:
-    """Return a ``time`` coordinate's values: lazily (:class:`SampleTimes`) where it is lazy.
-
-    A coordinate indexed by a :class:`BlockTimeIndex` gives :class:`SampleTimes`; any other its
-    array (no copy where it holds one).
-    """
-    index = time.xindexes.get(time.name) if time.name is not None else None
-    if isinstance(index, BlockTimeIndex):
-        return SampleTimes(index.transform)
-    return time.to_numpy()

@@ -277,7 +277,7 @@ def with_pulse_window(summary: StreamAlignment, aligned: xr.Dataset, channel: st
     """
     # the window's samples found on the increasing time axis, then the exact test on them
     # alone (no whole-record temporaries)
-    time = aligned["time"].to_numpy()
+    time = sample_times(aligned)  # not made whole
     attrs = kept.attrs if kept is not None else aligned[channel].attrs
     delay = float(attrs.get("input_delay_s", 0.0))
     lo, hi = (int(b[0]) for b in _window_bounds(time, np.array([centre]), half_width, delay))

@@ -29,8 +29,8 @@ from scipy.interpolate import make_interp_spline
 from scipy.ndimage import map_coordinates, spline_filter1d
 
 from rigval.acquisition.errors import ConfigError, DataError
+from rigval.acquisition.sample_times import SampleTimes
 from rigval.acquisition.schema import append_history
-from rigval.acquisition.time_index import SampleTimes
 from rigval.processing.arrays import FloatArray, IntArray
 from rigval.processing.block_median import exact_median
 from rigval.processing.clock_fit import channel_time

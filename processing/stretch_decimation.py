@@ -14,7 +14,7 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.errors import DataError
-from rigval.acquisition.time_index import SampleTimes
+from rigval.acquisition.sample_times import SampleTimes
 from rigval.processing.arrays import FloatArray, IntArray
 from rigval.processing.blocked_decimation import EDGE, decimate_stretch
 from rigval.processing.filters import contiguous_runs

@@ -71,8 +71,8 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.errors import DataError
+from rigval.acquisition.sample_times import sample_times
 from rigval.acquisition.tdms_layout import kept_layouts
-from rigval.acquisition.time_index import sample_times
 from rigval.model.balance import energy_residual
 from rigval.model.drives import law_angles_at_reference
 from rigval.model.mechanism import load_mechanism
