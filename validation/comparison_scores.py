@@ -44,7 +44,8 @@ class Pair:
     Attributes
     ----------
     whole : numpy.ndarray
-        The revolutions without gaps, ``(n_cycles, n)``, the signal's unit.
+        The revolutions without gaps, ``(n_cycles, n)``, the signal's unit (read only: the
+        resampled cycles themselves when none has a gap).
     mean : numpy.ndarray
         Their mean over one revolution.
     model : numpy.ndarray
@@ -67,7 +68,11 @@ def pair(comparison: ComparisonSpec, cycles: np.ndarray, model: np.ndarray) -> P
     DataError
         When fewer than 2 revolutions are without gaps.
     """
-    whole = cycles[np.all(np.isfinite(cycles), axis=1)]
+    finite = np.all(np.isfinite(cycles), axis=1)
+    # every revolution whole (no gaps): the cycles themselves, not their copy (memory); read
+    # only either way, as the scores take them
+    whole = cycles.view() if finite.all() else cycles[finite]
+    whole.flags.writeable = False
     if whole.shape[0] < 2:
         raise DataError(f"{comparison.name}: only {whole.shape[0]} whole revolutions without "
                         "gaps", where={"key": comparison.key, "channel": str(comparison.measured)},
