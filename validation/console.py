@@ -5,9 +5,10 @@ Warnings become one line each, ``rigval: warning: [run NAME] DataWarning: what (
 that is on screen is cleared before the line and redrawn after it, so the two never interleave.
 The run a warning belongs to is set with :func:`run_context` around each run's work.
 
-Ctrl-C: inside :func:`interrupt_quietly` the first SIGINT prints one line, ``rigval:
-interrupted``, and sends everything the shutdown still writes to stderr (Dask's cancelled tasks,
-a half-started cluster's exit handlers, warnings of runs cut off) to the null device.
+Ctrl-C: inside :func:`interrupt_quietly` (the whole command: :func:`quiet_interrupts`) the
+first SIGINT prints one line, ``rigval: interrupted``, and sends everything the shutdown still
+writes to stderr (Dask's cancelled tasks, a half-started cluster's exit handlers, warnings of
+runs cut off) to the null device.
 
 Only the command line installs this (:func:`install_warning_display`); library code never does.
 """
@@ -25,7 +26,8 @@ from collections.abc import Callable, Iterator
 from typing import Any, Protocol, TextIO
 
 __all__ = ["INTERRUPTED_LINE", "Progress", "format_warning", "install_warning_display",
-           "interrupt_quietly", "progress_display", "run_context", "silence", "was_interrupted"]
+           "interrupt_quietly", "progress_display", "quiet_interrupts", "run_context", "silence",
+           "was_interrupted"]
 
 #: The one line a Ctrl-C prints.
 INTERRUPTED_LINE = "rigval: interrupted"
@@ -134,7 +136,7 @@ def run_context(name: str) -> Iterator[None]:
 
 
 def was_interrupted() -> bool:
-    """Return whether Ctrl-C hit a block of :func:`interrupt_quietly` in this process.
+    """Return whether Ctrl-C hit the command (:func:`quiet_interrupts`) in this process.
 
     What fails after that (a worker process killed while it started, say Dask's "Nanny failed
     to start") is the interrupt's consequence, not a bug: the command line exits as interrupted.
@@ -153,11 +155,18 @@ def interrupt_quietly(on_interrupt: Callable[[], None] | None = None) -> Iterato
     :class:`KeyboardInterrupt` is raised in the main thread. The caller's handler of
     KeyboardInterrupt may print its own line: it goes to the null device.
 
+    A Ctrl-C that came before the block, inside :func:`quiet_interrupts`, and whose
+    KeyboardInterrupt was lost (raised inside a callback that swallows it, such as one of the
+    import machinery's) stops the block as it starts.
+
     Parameters
     ----------
     on_interrupt : callable, optional
         Called once, without arguments, before KeyboardInterrupt is raised.
     """
+    if _state["interrupted"]:
+        raise KeyboardInterrupt
+
     def interrupted(signum: int, frame: Any) -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C changes nothing
         _state["interrupted"] = True
@@ -175,7 +184,6 @@ def interrupt_quietly(on_interrupt: Callable[[], None] | None = None) -> Iterato
         _stderr_to_null()
         raise KeyboardInterrupt
 
-    _state["interrupted"] = False
     try:
         previous = signal.signal(signal.SIGINT, interrupted)
     except ValueError:  # not the main thread: leave Ctrl-C alone
@@ -186,6 +194,19 @@ def interrupt_quietly(on_interrupt: Callable[[], None] | None = None) -> Iterato
     finally:
         with contextlib.suppress(ValueError):
             signal.signal(signal.SIGINT, previous)
+
+
+@contextlib.contextmanager
+def quiet_interrupts() -> Iterator[None]:
+    """Run a whole command as a block of :func:`interrupt_quietly`, from its first moment.
+
+    A Ctrl-C while the command's modules are still imported then prints the one line too, and
+    what it breaks after is its consequence (:func:`was_interrupted`), whatever swallowed its
+    KeyboardInterrupt. Forgets an interrupt of an earlier command in this process.
+    """
+    _state["interrupted"] = False
+    with interrupt_quietly():
+        yield
 
 
 def _stderr_to_null() -> None:
