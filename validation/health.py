@@ -66,7 +66,6 @@ class HealthLog:
                             for ch, c in spec.channels.items() if "counts_per_rev" in c.params},
             period=self._period.get(name))
 
-
     def in_stream_order(self) -> None:
         """Put the findings in the scene's stream order, each stream's in the order found.
 
