@@ -299,9 +299,15 @@ def _serve(calls: Connection, values: Connection) -> None:
     """
     inbox: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
     outbox: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
+    # SIGTERM (the parent's stop) is left to this thread: the threads inherit it blocked. Taken
+    # by one of them, it would only mark its Python handler as due, and this thread, blocked in
+    # a wait for the group's other children, would never run it (a stop once hung a check for
+    # its 120 s on a loaded machine); blocked here meanwhile, it waits until unblocked.
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
     threading.Thread(target=_read_calls, args=(calls, inbox), daemon=True).start()
     sender = threading.Thread(target=_send_values, args=(values, outbox), daemon=True)
     sender.start()
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
     while (call := inbox.get()) is not None:
         outbox.put(_answer(call))
     outbox.put(None)

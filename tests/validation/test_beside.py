@@ -238,3 +238,36 @@ def test_a_group_without_fork_runs_its_calls_here():
         standbys = Standby.group(2)
         with standbys[0]:
             assert [s.submit(os.getpid).result() for s in standbys] == [os.getpid()] * 2
+
+
+def _sigterm_blocked_by_thread() -> tuple[int, dict[str, bool]]:
+    """In the child: its pid, and whether each of its threads blocks SIGTERM (the kernel's view)."""
+    from pathlib import Path
+
+    main = os.getpid()
+    blocked = {}
+    for task in Path(f"/proc/{main}/task").iterdir():
+        mask = next(line for line in (task / "status").read_text().splitlines()
+                    if line.startswith("SigBlk:"))
+        bit = 1 << (signal.SIGTERM - 1)
+        blocked["main" if int(task.name) == main else task.name] = bool(
+            int(mask.split()[1], 16) & bit)
+    return main, blocked
+
+
+def _stop_goes_to_the_main_thread() -> None:
+    if no_fork_here():
+        return
+    standbys = Standby.group(2)
+    with standbys[0]:
+        seen = [standby.submit(_sigterm_blocked_by_thread).result() for standby in standbys]
+    assert len({pid for pid, _ in seen} - {os.getpid()}) == 2  # both ran in a child
+    for _, blocked in seen:
+        assert blocked.pop("main") is False
+        assert len(blocked) == 2 and all(blocked.values())  # the reader and the sender
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/task"), reason="needs Linux's /proc")
+def test_only_the_childs_main_thread_takes_the_stop():
+    """SIGTERM taken by another thread would leave a main thread waiting for others unstopped."""
+    run_in_a_fresh_process("test_beside", "_stop_goes_to_the_main_thread", timeout_s=120)
