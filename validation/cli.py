@@ -211,9 +211,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     # exit, they are skipped (once per process, however often main runs in it).
     atexit.unregister(gc.freeze)
     atexit.register(gc.freeze)
-    from rigval.validation.console import quiet_interrupts
-
     try:
+        from rigval.validation.console import quiet_interrupts
+
         with quiet_interrupts():  # one line on Ctrl-C from here on (docs/campaign.md)
             return _main(argv)
     except KeyboardInterrupt:  # also while the subcommands' modules are imported
