@@ -11,6 +11,10 @@ SCRIPT = """
 import argparse, os, signal, sys, time
 from rigval.validation import cli, console
 
+# as a terminal's foreground process has it, whatever this test's runner blocked or ignored
+signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+signal.signal(signal.SIGINT, signal.default_int_handler)
+
 def command(args):
     with console.interrupt_quietly():
         try:

@@ -72,9 +72,11 @@ def _default_sigint() -> None:
     """Give the child the SIGINT disposition of a terminal's foreground process.
 
     A shell's background job (``cmd &`` without job control) starts with SIGINT ignored, and
-    children inherit that; Python then installs no KeyboardInterrupt handler, so the test would
+    children inherit that; Python then installs no KeyboardInterrupt handler; a runner may also
+    block it (a blocked signal stays blocked across fork and exec). Either way the test would
     depend on how its own runner was started.
     """
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
