@@ -18,6 +18,7 @@ import xarray as xr
 
 from rigval.acquisition.sample_times import SampleTimes, sample_times
 from rigval.acquisition.schema import invalid_counts, stream_gaps
+from rigval.processing.arrays import distinct_in_runs
 from rigval.processing.clock_fit import ClockModel
 from rigval.processing.event_match import robust_inliers
 from rigval.processing.pulses import StreamPulses
@@ -370,9 +371,7 @@ def segment_table(stream: xr.Dataset, clock: ClockModel, edges: StreamPulses | N
     u95 = dict(zip(clock.segments, clock.offsets_u95_s or (0.0,) * len(clock.segments),
                    strict=True))
     rows = []
-    # a segment's values at the starts of its runs: no sorted copy of the whole record
-    starts = np.concatenate(([0], np.flatnonzero(segment[1:] != segment[:-1]) + 1))
-    for s in np.unique(segment[starts]) if segment.size else ():
+    for s in distinct_in_runs(segment):  # no sorted copy of the whole record
         mine = segment == s
         first, last = int(np.argmax(mine)), segment.size - 1 - int(np.argmax(mine[::-1]))
         samples = int(np.count_nonzero(mine))

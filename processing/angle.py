@@ -29,7 +29,7 @@ from scipy.interpolate import make_interp_spline
 from scipy.ndimage import map_coordinates, spline_filter1d
 
 from rigval.acquisition.errors import ConfigError, DataError
-from rigval.acquisition.sample_times import SampleTimes
+from rigval.acquisition.sample_times import SampleTimes, times_of
 from rigval.acquisition.schema import append_history
 from rigval.processing.arrays import FloatArray, IntArray
 from rigval.processing.block_median import exact_median
@@ -192,8 +192,7 @@ def interpolate_runs(time: ArrayLike | SampleTimes, values: ArrayLike, at: Array
     numpy.ndarray
         Values at ``at``; NaN outside every run (in gaps, beyond the ends, at invalid samples).
     """
-    # a lazy axis's times are computed a chunk at a time as read below (memory)
-    t = time if isinstance(time, SampleTimes) else np.asarray(time, dtype=np.float64)
+    t = times_of(time)  # a lazy axis's times computed a chunk at a time as read below (memory)
     x = np.asarray(values, dtype=np.float64)
     targets = np.asarray(at, dtype=np.float64)
     if order not in (1, 3, 5):

@@ -1,8 +1,9 @@
-"""The numpy array types the processing functions take and return, and two checks on arrays.
+"""The numpy array types the processing functions take and return, and what several take of arrays.
 
-The checks are those several modules make before working on a whole record in place or in
-order: whether an array may be written in place (:func:`writable_float64`) and whether its
-values never decrease (:func:`never_decreasing`, a chunk at a time).
+Two checks several modules make before working on a whole record in place or in order: whether
+an array may be written in place (:func:`writable_float64`) and whether its values never
+decrease (:func:`never_decreasing`, a chunk at a time); and the distinct values of an array that
+comes in runs, such as a stream's segment numbers (:func:`distinct_in_runs`).
 """
 
 from __future__ import annotations
@@ -12,7 +13,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["BoolArray", "FloatArray", "IntArray", "never_decreasing", "writable_float64"]
+__all__ = ["BoolArray", "FloatArray", "IntArray", "distinct_in_runs", "never_decreasing",
+           "writable_float64"]
 
 #: Samples, times (s) and physical values.
 FloatArray = NDArray[np.float64]
@@ -44,3 +46,15 @@ def never_decreasing(x: FloatArray, *, strictly: bool = False) -> bool:
     step_ok = np.greater if strictly else np.greater_equal
     return all(bool(np.all(step_ok(np.diff(x[lo:lo + _ORDER_CHUNK + 1]), 0)))
                for lo in range(0, max(x.size - 1, 1), _ORDER_CHUNK))
+
+
+def distinct_in_runs(values: np.ndarray) -> np.ndarray:
+    """Return the distinct values of a 1-D array that comes in runs of equal values, sorted.
+
+    ``numpy.unique`` of the values at the starts of the runs (a stream's segment numbers come in
+    a few runs): the same values, without a sorted copy of the whole record.
+    """
+    if values.size == 0:
+        return np.unique(values)
+    starts = np.concatenate(([0], np.flatnonzero(values[1:] != values[:-1]) + 1))
+    return np.unique(values[starts])

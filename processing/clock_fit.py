@@ -49,7 +49,7 @@ from rigval.acquisition.schema import (
     invalid_counts,
     with_invalid_counts,
 )
-from rigval.processing.arrays import BoolArray, FloatArray, IntArray
+from rigval.processing.arrays import BoolArray, FloatArray, IntArray, distinct_in_runs
 from rigval.processing.encoder import increasing_angle, interp_minus
 from rigval.processing.errors import AlignmentError
 from rigval.processing.event_match import Match, match_segment, robust_inliers, without_strays
@@ -234,7 +234,7 @@ class ClockModel:
 
 def identity_clock(segments: ArrayLike = (0,)) -> ClockModel:
     """Return the clock model of the reference device itself (offset 0, drift 0)."""
-    segs = tuple(int(s) for s in _segment_numbers(np.asarray(segments).ravel()))
+    segs = tuple(int(s) for s in distinct_in_runs(np.asarray(segments).ravel()))
     return ClockModel(segs, tuple(0.0 for _ in segs), 0.0, 0.0, 0, 0)
 
 
@@ -597,19 +597,7 @@ def _maps_to_itself(clock: ClockModel, segment: np.ndarray) -> bool:
     """
     if clock.drift != 0.0 or any(offset != 0.0 for offset in clock.offsets_s):
         return False
-    return set(_segment_numbers(segment).tolist()) <= set(clock.segments)
-
-
-def _segment_numbers(segment: np.ndarray) -> IntArray:
-    """Return the distinct segment numbers of a stream's ``segment`` channel, sorted.
-
-    ``numpy.unique`` of the values at the starts of the runs of equal values (a stream's
-    segments come in a few runs): no sort of the whole record.
-    """
-    if segment.size == 0:
-        return np.zeros(0, dtype=np.int64)
-    starts = np.concatenate(([0], np.flatnonzero(segment[1:] != segment[:-1]) + 1))
-    return np.unique(segment[starts]).astype(np.int64)
+    return set(distinct_in_runs(segment).tolist()) <= set(clock.segments)
 
 
 def _renamed_time(stream: xr.Dataset, attrs: Mapping[str, Any]) -> xr.Coordinates:

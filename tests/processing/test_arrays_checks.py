@@ -1,4 +1,4 @@
-"""The shared array checks against their whole-array definitions."""
+"""The shared array checks and helpers against their whole-array definitions."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from rigval.processing import arrays
-from rigval.processing.arrays import never_decreasing, writable_float64
+from rigval.processing.arrays import distinct_in_runs, never_decreasing, writable_float64
 
 
 @pytest.mark.parametrize("chunk", [1 << 20, 7])
@@ -32,3 +32,12 @@ def test_writable_float64_only_for_arrays_that_may_take_a_result():
     assert not writable_float64(np.ones(3, np.float32))
     assert not writable_float64(np.float64(1.0)) and not writable_float64(np.array(1.0))
     assert not writable_float64([1.0, 2.0])
+
+
+def test_distinct_in_runs_is_numpys_unique():
+    rng = np.random.default_rng(8)
+    runs = np.repeat(rng.integers(-3, 6, 40), rng.integers(1, 500, 40)).astype(np.int32)
+    for values in (runs, np.array([3, 3, 1, 1, 3, 0], np.int32), np.zeros(0, np.int32),
+                   np.array([7]), np.arange(10)[::-1]):
+        got = distinct_in_runs(values)
+        assert np.array_equal(got, np.unique(values)) and got.dtype == values.dtype
