@@ -169,7 +169,9 @@ def _an_error_ends_the_child_while_it_imports(sigterm: str) -> None:
     sys.path.insert(0, str(folder))
     with pytest.raises(RuntimeError, match="stop"), Standby(["slow_import"]) as standby:
         standby.submit(os.getpid)  # never answered: the child is still importing
+        deadline = time.monotonic() + 60.0
         while not started.exists() or not started.read_text():
+            assert time.monotonic() < deadline, "the child never began its import"
             time.sleep(0.01)
         raise RuntimeError("stop")
     _assert_ended([int(started.read_text())])
