@@ -28,7 +28,7 @@ import numpy as np
 
 from rigval.acquisition.errors import DataError
 
-__all__ = ["BATCH_BYTES", "dtw_path", "dtw_paths", "workspace_size"]
+__all__ = ["BATCH_BYTES", "dtw_path", "dtw_paths", "pairs_per_batch", "workspace_size"]
 
 logger = logging.getLogger(__name__)
 
@@ -132,6 +132,15 @@ def workspace_size(m: int, n: int, radius: int) -> int:
     """
     radius = _within(radius, n)
     return _batch(m, n, radius) * _pair_values(n, radius)
+
+
+def pairs_per_batch(m: int, n: int, radius: int) -> int:
+    """Return the pairs of each batch (the last may hold fewer) of :func:`dtw_paths`' ``m`` pairs.
+
+    A caller that hands :func:`dtw_paths` its pairs this many at a time gets the same batches,
+    so the same paths, without making every pair's input at once.
+    """
+    return _batch(m, n, _within(radius, n))
 
 
 def _within(radius: int, n: int) -> int:

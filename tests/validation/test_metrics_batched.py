@@ -303,3 +303,30 @@ def test_ratings_of_other_cycles_are_refused():
     ratings = iso18571_periodic_many(reference, models)
     with pytest.raises(DataError, match="5 ISO ratings given for 6 cycles"):
         baseline(models, reference, metrics=("iso18571_periodic",), iso=ratings[:5])
+
+
+def test_set_swept_alone_a_batch_of_rows_at_a_time_equals_each_row_rated_alone(monkeypatch):
+    """A long record's set: its DTW rows made a batch at a time, the ratings those of each row."""
+    from rigval.processing.dtw import pairs_per_batch
+    from rigval.validation.metrics import iso18571
+
+    reference, models = _cases("noise", 40)
+    models = np.concatenate([models, _cases("wrap", 40)[1][:, :40]])[:7]
+    radius = iso18571._band_radius(40, iso18571.IsoParameters())
+    pair_bytes = 8 * (2 * 120 * (radius + 3) + 120 + 1)  # three revolutions of 40 samples
+    monkeypatch.setattr("rigval.processing.dtw.BATCH_BYTES", 2 * pair_bytes)
+    assert pairs_per_batch(7, 120, radius) == 2
+    made = []
+    rotated = iso18571._Prepared.rotated
+
+    def spy(self, rows=slice(None)):
+        out = rotated(self, rows)
+        made.append(out.shape[0])
+        return out
+
+    monkeypatch.setattr(iso18571._Prepared, "rotated", spy)
+    rated = iso18571_periodic_sets([(reference, models)])[0]
+    assert made[:4] == [2, 2, 2, 1]  # the DTW's rows, a batch at a time; then the scores' all
+    monkeypatch.setattr(iso18571._Prepared, "rotated", rotated)
+    for row, scores in zip(models, rated, strict=True):
+        assert scores == iso18571_periodic_many(reference, row[np.newaxis])[0]

@@ -349,10 +349,14 @@ def periodic_ratings(comparisons: Sequence[tuple[Any, Any, Any]], *,
     list of (IsoScores, list of IsoScores)
         Per comparison, the model's rating and each cycle's.
     """
-    sets = [(mean, np.vstack([np.asarray(model, dtype=np.float64)[np.newaxis],
-                              as_cycles(cycles)]))
-            for mean, model, cycles in comparisons]
-    return [(rated[0], rated[1:]) for rated in iso18571_periodic_sets(sets, params=iso_params)]
+    # the model and the cycles as two sets, one after the other (their rows are rated one by
+    # one, so as one stack would rate them): the cycles are rated as given, not copied below
+    # the model's row (memory: a long record's revolutions)
+    sets = [one for mean, model, cycles in comparisons
+            for one in ((mean, np.asarray(model, dtype=np.float64)[np.newaxis]),
+                        (mean, as_cycles(cycles)))]
+    rated = iso18571_periodic_sets(sets, params=iso_params)
+    return [(model[0], cycles) for model, cycles in zip(rated[::2], rated[1::2], strict=True)]
 
 
 def baseline(cycles: Any, mean: Any = None, *, angle: Any = None,

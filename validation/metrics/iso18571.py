@@ -38,13 +38,13 @@ import dataclasses
 import itertools
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
 
 from rigval.acquisition.errors import ConfigError, DataError
-from rigval.processing.dtw import dtw_path, dtw_paths, workspace_size
+from rigval.processing.dtw import dtw_path, dtw_paths, pairs_per_batch, workspace_size
 from rigval.processing.scipy_signal import correlate, decimate, resample
 from rigval.validation.metrics.core import Scores, paired, revolution_angle, row_dot
 
@@ -420,15 +420,16 @@ class _Prepared:
     comparisons: np.ndarray
     shifts: np.ndarray
 
-    def rotated(self) -> np.ndarray:
+    def rotated(self, rows: slice = slice(None)) -> np.ndarray:
         """Return the rows rotated back by their shifts: ``comparisons[p, (i + shift_p) % n]``.
 
         Made when asked for, not held: a run's sets each hold as many rows as it has
-        revolutions, and their DTW sweeps take them one after the other (memory).
+        revolutions, and their DTW sweeps take them a batch at a time (memory). ``rows``: those
+        rows alone.
         """
         n = self.reference.size
-        return np.take_along_axis(self.comparisons,
-                                  (np.arange(n) + self.shifts[:, np.newaxis]) % n, axis=1)
+        return np.take_along_axis(self.comparisons[rows],
+                                  (np.arange(n) + self.shifts[rows, np.newaxis]) % n, axis=1)
 
 
 def _prepared(reference: np.ndarray, comparisons: np.ndarray, params: IsoParameters,
@@ -665,28 +666,56 @@ def _sweep_errors(sets: Sequence[_Prepared], params: IsoParameters,
     """:func:`_magnitude_errors_circular` of the sets of one DTW sweep (one sample count).
 
     A function of its own, so that a sweep's rows, three revolutions long, are let go before
-    the next sweep's are made (memory).
+    the next sweep's are made (memory); a set swept alone is swept a DTW batch of rows at a
+    time (:func:`_set_errors`).
     """
     n = sets[0].reference.size
+    radius = _band_radius(n, params)
+    if len(sets) == 1:
+        return [_set_errors(sets[0], radius, workspace)]
     rotated = [prepared.rotated() for prepared in sets]
-    # one set: its rows tiled, no concatenated copy beside them (memory)
-    rows = (np.tile(rotated[0], 3) if len(sets) == 1
-            else np.concatenate([np.tile(one, 3) for one in rotated]))
-    # one set: its reference once (dtw_paths spreads it); several: one per row
-    references = (np.tile(sets[0].reference, 3)[np.newaxis] if len(sets) == 1
-                  else np.concatenate([np.broadcast_to(np.tile(prepared.reference, 3),
-                                                       (one.shape[0], 3 * n))
-                                       for prepared, one in zip(sets, rotated, strict=True)]))
-    paths = dtw_paths(rows, references, _band_radius(n, params), y_from=n, workspace=workspace)
-    errors: list[list[float]] = []
-    for prepared, one in zip(sets, rotated, strict=True):
-        reference = prepared.reference
-        errors.append([])
-        for comparison, (ix, iy) in zip(one, itertools.islice(paths, one.shape[0]),
-                                        strict=True):
-            inside = (iy >= n) & (iy < 2 * n)
-            errors[-1].append(_relative_l1(comparison[ix[inside] % n],
-                                           reference[iy[inside] % n], "magnitude"))
+    rows = np.concatenate([np.tile(one, 3) for one in rotated])
+    # one reference per row
+    references = np.concatenate([np.broadcast_to(np.tile(prepared.reference, 3),
+                                                 (one.shape[0], 3 * n))
+                                 for prepared, one in zip(sets, rotated, strict=True)])
+    paths = dtw_paths(rows, references, radius, y_from=n, workspace=workspace)
+    return [_path_errors(prepared.reference, one, itertools.islice(paths, one.shape[0]))
+            for prepared, one in zip(sets, rotated, strict=True)]
+
+
+def _set_errors(prepared: _Prepared, radius: int, workspace: np.ndarray) -> list[float]:
+    """:func:`_sweep_errors` of a set swept alone, a DTW batch of its rows at a time.
+
+    The rows are handed to :func:`~rigval.processing.dtw.dtw_paths` in its own batches
+    (:func:`~rigval.processing.dtw.pairs_per_batch`), so the paths are those of all rows at
+    once, and only a batch's rows, rotated and tiled to three revolutions, are held (a long
+    record's set holds one row per revolution: memory).
+    """
+    n, count = prepared.reference.size, prepared.comparisons.shape[0]
+    reference = np.tile(prepared.reference, 3)[np.newaxis]  # spread over the rows by dtw_paths
+    step = pairs_per_batch(count, 3 * n, radius)
+    errors: list[float] = []
+    for lo in range(0, count, step):
+        rows = prepared.rotated(slice(lo, lo + step))
+        errors += _path_errors(prepared.reference, rows,
+                               dtw_paths(np.tile(rows, 3), reference, radius, y_from=n,
+                                         workspace=workspace))
+    return errors
+
+
+def _path_errors(reference: np.ndarray, rows: np.ndarray,
+                 paths: Iterable[tuple[np.ndarray, np.ndarray]]) -> list[float]:
+    """Relative L1 error of each rotated row along its DTW path, within the middle revolution.
+
+    ``paths`` are the rows' paths over three revolutions, one per row in order.
+    """
+    n = reference.size
+    errors = []
+    for comparison, (ix, iy) in zip(rows, paths, strict=True):
+        inside = (iy >= n) & (iy < 2 * n)
+        errors.append(_relative_l1(comparison[ix[inside] % n], reference[iy[inside] % n],
+                                   "magnitude"))
     return errors
 
 
