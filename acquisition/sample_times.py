@@ -17,7 +17,7 @@ import xarray as xr
 
 from rigval.acquisition.time_index import BlockTimeIndex, BlockTimeTransform
 
-__all__ = ["SampleTimes", "sample_times", "times_of"]
+__all__ = ["SampleTimes", "sample_times", "times_of", "times_window"]
 
 
 class SampleTimes:
@@ -72,6 +72,13 @@ class SampleTimes:
         values = self._at(index)
         return float(values) if index.ndim == 0 else values
 
+    def window(self, start: int, stop: int) -> SampleTimes:
+        """Return the times of samples ``start ... stop - 1`` (as lazy as these)."""
+        start, stop, _ = slice(start, stop).indices(self.size)
+        transform = self._transform
+        return SampleTimes(BlockTimeTransform(transform.timebase, transform.offset + start,
+                                              max(stop - start, 0), transform.dim))
+
     def searchsorted(self, values: Any, side: str = "left", sorter: Any = None) -> Any:
         """Return where ``values`` would go among the times, as :func:`numpy.searchsorted`.
 
@@ -97,3 +104,9 @@ def sample_times(stream: xr.Dataset | xr.DataArray) -> SampleTimes | np.ndarray:
 def times_of(time: Any) -> SampleTimes | np.ndarray:
     """Return ``time`` as the checks take it: a :class:`SampleTimes` as it is, else float64."""
     return time if isinstance(time, SampleTimes) else np.asarray(time, dtype=np.float64)
+
+
+def times_window(time: SampleTimes | np.ndarray, start: int, stop: int
+                 ) -> SampleTimes | np.ndarray:
+    """Return the times of samples ``start ... stop - 1``: lazy where ``time`` is, else a view."""
+    return time.window(start, stop) if isinstance(time, SampleTimes) else time[start:stop]

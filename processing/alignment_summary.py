@@ -331,7 +331,7 @@ def stream_summary(name: str, aligned: xr.Dataset, clock: ClockModel, *, is_refe
               if v not in ("valid", "segment")]
     if let_go is not None:
         delays.append(float(let_go.attrs.get("input_delay_s", 0.0)))
-    times = aligned["time"].to_numpy()
+    times = sample_times(aligned)  # the first and the last, of a lazy axis too (memory)
     return StreamAlignment(
         stream=name, device=str(aligned.attrs.get("device", "")), is_reference=is_reference,
         offset_s=float(clock.offsets_s[0]), drift_ppm=clock.drift * 1e6,

@@ -29,7 +29,7 @@ from scipy.interpolate import make_interp_spline
 from scipy.ndimage import map_coordinates, spline_filter1d
 
 from rigval.acquisition.errors import ConfigError, DataError
-from rigval.acquisition.sample_times import SampleTimes, times_of
+from rigval.acquisition.sample_times import SampleTimes, sample_times, times_of
 from rigval.acquisition.schema import append_history
 from rigval.processing.arrays import FloatArray, IntArray
 from rigval.processing.block_median import exact_median
@@ -75,14 +75,14 @@ _OVERLAP = 64
 _UNIFORM_TOLERANCE = 1e-6
 
 
-def zero_at_reference(time: ArrayLike, angle: ArrayLike, event_times: ArrayLike,
+def zero_at_reference(time: ArrayLike | SampleTimes, angle: ArrayLike, event_times: ArrayLike,
                       *, events_per_rev: int = 1) -> tuple[float, float]:
     """Return the angle offset that puts the reference events on multiples of 2 pi.
 
     Parameters
     ----------
-    time : array_like
-        Sample times in s.
+    time : array_like or SampleTimes
+        Sample times in s (a lazy axis's computed where read).
     angle : array_like
         Unwrapped drive angle in rad (smoothed); NaN samples are skipped.
     event_times : array_like
@@ -98,7 +98,7 @@ def zero_at_reference(time: ArrayLike, angle: ArrayLike, event_times: ArrayLike,
         Rms scatter of the events about the reference position in rad (pulse jitter, encoder
         errors).
     """
-    t = np.asarray(time, dtype=np.float64)
+    t = times_of(time)
     phi = np.asarray(angle, dtype=np.float64)
     finite = np.isfinite(phi)
     if not finite.all():  # no copies of a record that is finite throughout (memory)
@@ -161,7 +161,8 @@ def cycle_angles(cycles: IntArray, points_per_rev: int) -> FloatArray:
     return 2 * np.pi * (cycles[:, None] + fraction[None, :])
 
 
-def interpolate_runs(time: ArrayLike | SampleTimes, values: ArrayLike, at: ArrayLike, *,
+def interpolate_runs(time: ArrayLike | SampleTimes, values: ArrayLike | SampleTimes,
+                     at: ArrayLike, *,
                      order: int = 3,
                      segment: ArrayLike | None = None, valid: ArrayLike | None = None,
                      offset: float = 0.0, time_offset: float = 0.0) -> FloatArray:
@@ -171,8 +172,9 @@ def interpolate_runs(time: ArrayLike | SampleTimes, values: ArrayLike, at: Array
     ----------
     time : array_like or SampleTimes
         Sample times in s, increasing (a lazy axis's are computed a chunk at a time).
-    values : array_like
-        Samples (NaN counts as invalid).
+    values : array_like or SampleTimes
+        Samples (NaN counts as invalid); a lazy time axis's (phi_F's inverse) computed a chunk
+        at a time, every one finite.
     at : array_like
         Times in s to evaluate at (any order).
     order : int, default 3
@@ -193,12 +195,15 @@ def interpolate_runs(time: ArrayLike | SampleTimes, values: ArrayLike, at: Array
         Values at ``at``; NaN outside every run (in gaps, beyond the ends, at invalid samples).
     """
     t = times_of(time)  # a lazy axis's times computed a chunk at a time as read below (memory)
-    x = np.asarray(values, dtype=np.float64)
+    x = times_of(values)
     targets = np.asarray(at, dtype=np.float64)
     if order not in (1, 3, 5):
         raise ConfigError(f"interpolation order must be 1, 3 or 5, got {order}",
                           where={"key": "order"})
-    ok = np.isfinite(x) if valid is None else np.asarray(valid, dtype=bool) & np.isfinite(x)
+    if isinstance(x, SampleTimes):  # times are finite
+        ok = None if valid is None else np.asarray(valid, dtype=bool)
+    else:
+        ok = np.isfinite(x) if valid is None else np.asarray(valid, dtype=bool) & np.isfinite(x)
     out = np.full(targets.shape, np.nan)
     flat = targets.ravel()
     result = out.ravel()
@@ -223,7 +228,8 @@ def interpolate_runs(time: ArrayLike | SampleTimes, values: ArrayLike, at: Array
     return result.reshape(targets.shape)
 
 
-def _chunk_spline(t: FloatArray | SampleTimes, x: FloatArray, at: FloatArray, lo: int, hi: int,
+def _chunk_spline(t: FloatArray | SampleTimes, x: FloatArray | SampleTimes, at: FloatArray,
+                  lo: int, hi: int,
                   order: int,
                   *, at_start: bool, at_stop: bool, offset: float = 0.0,
                   time_offset: float = 0.0) -> FloatArray:
@@ -362,7 +368,7 @@ class AngleGrid:
     slowest: float
 
 
-def angle_grid(angle_time: ArrayLike, angle: ArrayLike, points_per_rev: int, *,
+def angle_grid(angle_time: ArrayLike | SampleTimes, angle: ArrayLike, points_per_rev: int, *,
                delay_s: float = 0.0) -> AngleGrid:
     """Return the reference times of a uniform phi_F grid over the record's whole cycles.
 
@@ -373,7 +379,8 @@ def angle_grid(angle_time: ArrayLike, angle: ArrayLike, points_per_rev: int, *,
     Parameters
     ----------
     angle_time, angle : array_like
-        phi_F(t): reference-clock times in s and the increasing angle in rad.
+        phi_F(t): reference-clock times in s (a lazy axis's :class:`SampleTimes`, computed a
+        chunk at a time) and the increasing angle in rad.
     points_per_rev : int
         Grid points per revolution.
     delay_s : float, default 0
@@ -542,8 +549,9 @@ def phi_f(stream: xr.Dataset, encoder_channel: str, reference: StreamPulses, *,
                            name="phi_F", direction=direction, method=method,
                            cutoff_hz=cutoff_hz, order=order, harmonics=harmonics,
                            index_reset=index_reset, derivatives=derivatives)
-    # Whole-record arrays are neither copied nor masked when every sample is finite (memory).
-    time = exc["time"].to_numpy()
+    # Whole-record arrays are neither copied nor masked when every sample is finite, and a
+    # lazy time axis stays lazy (memory).
+    time = sample_times(exc)
     angle = exc["phi_F"].to_numpy()
     finite = np.isfinite(angle)
     if finite.all():

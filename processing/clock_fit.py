@@ -65,7 +65,6 @@ __all__ = [
     "quantisation_limit",
     "reference_event_times",
     "student_t_975",
-    "time_in_memory",
 ]
 
 logger = logging.getLogger(__name__)
@@ -563,19 +562,6 @@ def channel_time(aligned: xr.Dataset, name: str) -> FloatArray:
     """
     delay = float(aligned[name].attrs.get("input_delay_s", 0.0))
     return aligned["time"].to_numpy() - delay
-
-
-def time_in_memory(stream: xr.Dataset) -> xr.Dataset:
-    """Return ``stream`` with its ``time`` values computed once and indexed on that array.
-
-    A lazy time axis (:class:`rigval.acquisition.time_index.BlockTimeIndex`) computes its
-    values each time they are asked for: a caller that asks several times holds one array
-    instead of several. A stream whose times are in memory already is returned as it is.
-    """
-    if isinstance(stream.xindexes["time"], PandasIndex):
-        return stream
-    time = stream["time"]
-    return stream.assign_coords(_time_coordinate(time.to_numpy(), time.attrs))
 
 
 def _time_coordinate(time: FloatArray, attrs: Mapping[str, Any]) -> xr.Coordinates:

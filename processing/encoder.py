@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from rigval.acquisition.errors import ConfigError, DataError
+from rigval.acquisition.sample_times import SampleTimes, times_of
 from rigval.processing.arrays import BoolArray, FloatArray, IntArray, never_decreasing
 
 #: NI's quadrature decoding types (edges of A and B counted per line period: 1, 2 or 4).
@@ -463,14 +464,14 @@ def decode_quadrature(a: ArrayLike, b: ArrayLike, decoding: QuadratureDecoding =
     return counts, illegal
 
 
-def increasing_angle(time: ArrayLike, angle: ArrayLike, *, use: str
-                     ) -> tuple[FloatArray, FloatArray]:
+def increasing_angle(time: ArrayLike | SampleTimes, angle: ArrayLike, *, use: str
+                     ) -> tuple[FloatArray | SampleTimes, FloatArray]:
     """Return the finite samples of an angle record, checked to increase strictly.
 
     Parameters
     ----------
-    time : array_like
-        Sample times in s.
+    time : array_like or SampleTimes
+        Sample times in s (a lazy axis's are returned as they are when every angle is finite).
     angle : array_like
         Unwrapped angle in rad (e.g. phi_F); NaN samples (invalid, unfilterable) are dropped.
     use : str
@@ -487,7 +488,7 @@ def increasing_angle(time: ArrayLike, angle: ArrayLike, *, use: str
         When fewer than 2 samples are left or the angle does not increase strictly (a standstill
         or a reversal).
     """
-    t = np.asarray(time, dtype=np.float64)
+    t = times_of(time)
     phi = np.asarray(angle, dtype=np.float64)
     finite = np.isfinite(phi)
     if not finite.all():  # no copies of a record that is finite throughout
@@ -503,8 +504,8 @@ def increasing_angle(time: ArrayLike, angle: ArrayLike, *, use: str
 _INTERP_BLOCK = 1 << 16
 
 
-def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float = 0.0
-                 ) -> FloatArray:
+def interp_minus(x: ArrayLike, xp: FloatArray | SampleTimes, fp: FloatArray | SampleTimes,
+                 shift: float = 0.0) -> FloatArray:
     """Return ``np.interp(x, xp, fp - shift)`` without a whole-record copy.
 
     Neither the shifted copy ``fp - shift`` nor the one ``np.interp`` makes of a read-only
@@ -518,10 +519,10 @@ def interp_minus(x: ArrayLike, xp: FloatArray, fp: FloatArray, shift: float = 0.
     ----------
     x : array_like
         Points to evaluate at, any shape (sorted when not in increasing order).
-    xp : numpy.ndarray
-        Increasing sample points.
-    fp : numpy.ndarray
-        Sample values, as many as ``xp``.
+    xp : numpy.ndarray or SampleTimes
+        Increasing sample points (a lazy time axis's computed a block at a time).
+    fp : numpy.ndarray or SampleTimes
+        Sample values, as many as ``xp`` (a lazy time axis's, as ``xp``).
     shift : float, default 0
         Subtracted from ``fp``.
 
@@ -619,7 +620,7 @@ class RevolutionCheck:
     gross: BoolArray
 
 
-def _bracketing_samples(time: FloatArray, event_times: FloatArray
+def _bracketing_samples(time: FloatArray | SampleTimes, event_times: FloatArray
                         ) -> tuple[IntArray, IntArray, FloatArray]:
     """Return the samples ``i``, ``j`` around each event and the event's fraction of the way.
 
@@ -678,7 +679,7 @@ def revolution_check(time: ArrayLike, counts: ArrayLike, event_times: ArrayLike,
     """
     c = np.asarray(counts)  # integer or float: only the samples around events are converted
     events = np.asarray(event_times, dtype=np.float64)
-    i, j, fraction = _bracketing_samples(np.asarray(time, dtype=np.float64), events)
+    i, j, fraction = _bracketing_samples(times_of(time), events)
     return _checked(events, c[i], c[j], fraction, counts_per_rev, events_per_rev, tolerance)
 
 
@@ -723,7 +724,7 @@ def counter_revolution_check(time: ArrayLike, raw: ArrayLike, event_times: Array
         When float counter values are not finite whole numbers.
     """
     events = np.asarray(event_times, dtype=np.float64)
-    i, j, fraction = _bracketing_samples(np.asarray(time, dtype=np.float64), events)
+    i, j, fraction = _bracketing_samples(times_of(time), events)  # a lazy axis's few times
     counts = counts_at(raw, np.concatenate((i, j)), bits=bits,
                        counts_per_rev=counts_per_rev if index_reset else None)
     if direction == -1.0:

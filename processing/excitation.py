@@ -48,6 +48,7 @@ import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 
 from rigval.acquisition.errors import ConfigError, DataError
+from rigval.acquisition.sample_times import SampleTimes, sample_times, times_of, times_window
 from rigval.acquisition.schema import append_history
 from rigval.processing.arrays import FloatArray, IntArray, never_decreasing
 from rigval.processing.encoder import (
@@ -85,8 +86,8 @@ class DriveAngle:
 
     Attributes
     ----------
-    time : numpy.ndarray
-        Sample times in s.
+    time : numpy.ndarray or SampleTimes
+        Sample times in s (as given to :func:`drive_angle`).
     angle, velocity, acceleration : numpy.ndarray
         Angle (rad, unwrapped), angular velocity (rad/s), angular acceleration (rad/s^2); NaN where
         a run was too short or samples were invalid.
@@ -100,7 +101,7 @@ class DriveAngle:
         Corner, order or harmonics used.
     """
 
-    time: FloatArray
+    time: FloatArray | SampleTimes
     angle: FloatArray
     velocity: FloatArray
     acceleration: FloatArray
@@ -150,7 +151,7 @@ _TREND_SAMPLES = 50_000
 _PIECE = DEFAULT_CHUNK
 
 
-def _fourier_fit(t: FloatArray, theta: FloatArray | CountAngle, harmonics: int,
+def _fourier_fit(t: FloatArray | SampleTimes, theta: FloatArray | CountAngle, harmonics: int,
                  max_samples: int = _FIT_SAMPLES) -> PeriodicFit:
     """Return the mean-speed Fourier series of an angle record (module docstring).
 
@@ -207,7 +208,7 @@ def _keep_fit(key: bytes, fit: PeriodicFit) -> None:
             _RECENT_FITS.popitem(last=False)
 
 
-def _butterworth_pieces(t: FloatArray, theta: FloatArray | CountAngle, fs: float,
+def _butterworth_pieces(t: FloatArray | SampleTimes, theta: FloatArray | CountAngle, fs: float,
                         cutoff_hz: float, order: int, trend_harmonics: int, padtype: PadType,
                         derivatives: bool = True
                         ) -> Iterator[tuple[int | FloatArray, ...]]:
@@ -282,7 +283,7 @@ def _run(theta: FloatArray | CountAngle, start: int, stop: int) -> FloatArray | 
     return theta.window(start, stop) if isinstance(theta, CountAngle) else theta[start:stop]
 
 
-def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float,
+def drive_angle(time: ArrayLike | SampleTimes, angle: ArrayLike, *, fs: float, step_rad: float,
                 method: Method = "butterworth", cutoff_hz: float | None = None, order: int = 8,
                 harmonics: int = 8, trend_harmonics: int = 4, padtype: PadType = "line",
                 segment: ArrayLike | None = None,
@@ -291,8 +292,8 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
 
     Parameters
     ----------
-    time : array_like
-        Sample times in s.
+    time : array_like or SampleTimes
+        Sample times in s (a lazy axis's computed piece by piece).
     angle : array_like or CountAngle
         Unwrapped raw angle in rad (e.g. :func:`~rigval.processing.encoder.counts_to_angle`),
         increasing (turn the sign with ``direction`` there if needed); a
@@ -328,7 +329,7 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
     DriveAngle
         Angle, velocity, acceleration and their error estimate.
     """
-    t = np.asarray(time, dtype=np.float64)
+    t = times_of(time)  # a lazy axis stays lazy: its times are computed piece by piece (memory)
     theta = angle if isinstance(angle, CountAngle) else np.asarray(angle, dtype=np.float64)
     if t.shape != theta.shape:
         raise DataError(f"angle has {theta.size} samples but time has {t.size}")
@@ -374,7 +375,7 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
             continue
         if method == "butterworth":
             for lo, hi, *values in _butterworth_pieces(
-                    t[start:stop], _run(theta, start, stop), fs, cutoff_hz, order,
+                    times_window(t, start, stop), _run(theta, start, stop), fs, cutoff_hz, order,
                     trend_harmonics, padtype, derivatives):
                 for target, value in zip(out, values, strict=False):
                     target[start + lo:start + hi] = value
@@ -382,7 +383,8 @@ def drive_angle(time: ArrayLike, angle: ArrayLike, *, fs: float, step_rad: float
         else:
             views = (out[0][start:stop], *(o[start:stop] if derivatives else np.empty(stop - start)
                                            for o in out[1:]))
-            _fourier_fit(t[start:stop], theta[start:stop], harmonics)(t[start:stop], out=views)
+            times = t[start:stop]
+            _fourier_fit(times, theta[start:stop], harmonics)(times, out=views)
         for lo in range(start, stop, _PIECE):  # a piece at a time (memory)
             residual = theta[lo:min(lo + _PIECE, stop)] - out[0][lo:min(lo + _PIECE, stop)]
             squares += float(np.dot(residual, residual))
@@ -428,7 +430,7 @@ def drive_excitation(stream: xr.Dataset, channel: str, *, counts_per_rev: float,
     fs = float(stream.attrs["fs_nominal"])
     raw = _counter_angle(stream[channel].to_numpy(), counts_per_rev, gear_ratio=gear_ratio,
                          direction=direction, index_reset=index_reset)
-    result = drive_angle(stream["time"].to_numpy(), raw, fs=fs,
+    result = drive_angle(sample_times(stream), raw, fs=fs,
                          step_rad=2 * np.pi / (counts_per_rev * gear_ratio), method=method,
                          cutoff_hz=cutoff_hz, order=order, harmonics=harmonics,
                          segment=stream["segment"].to_numpy(), valid=stream["valid"].to_numpy(),
@@ -447,7 +449,10 @@ def drive_excitation(stream: xr.Dataset, channel: str, *, counts_per_rev: float,
         variables[f"{name}_ddot"] = ("time", result.acceleration, {
             **common, "units": "rad s-2", "long_name": f"angular acceleration of {name}",
             "noise_rms": result.acceleration_noise})
-    out = xr.Dataset(variables, coords={"time": stream["time"]}, attrs=dict(stream.attrs))
+    # the stream's time coordinate with its index as it is (a lazy axis stays lazy: memory)
+    time = xr.Coordinates({"time": stream.variables["time"]},
+                          indexes={"time": stream.xindexes["time"]})
+    out = xr.Dataset(variables, coords=time, attrs=dict(stream.attrs))
     append_history(out, f"processing.drive_excitation {channel} -> {name} ({method}, "
                         f"{result.parameters})")
     return out

@@ -31,6 +31,7 @@ import xarray as xr
 from rigval.acquisition.channel_map import ChannelSpec
 from rigval.acquisition.devices import get_module
 from rigval.acquisition.errors import ChannelNotFoundError, DataError
+from rigval.acquisition.sample_times import SampleTimes, sample_times
 from rigval.processing import alignment_summary as diagnose
 from rigval.processing import clock_fit
 from rigval.processing.alignment_summary import PulseSamples, StreamAlignment, pulse_samples
@@ -149,8 +150,9 @@ class MainAngle:
 
     Parameters
     ----------
-    axis : numpy.ndarray
-        The reference stream's times in s at the encoder's samples, the delay not taken off.
+    axis : numpy.ndarray or SampleTimes
+        The reference stream's times in s at the encoder's samples, the delay not taken off
+        (a lazy axis's, computed where read: memory).
     phi : numpy.ndarray
         phi_F in rad, increasing, multiples of 2 pi at the reference pulse.
     zero_u95_s : float, default 0
@@ -161,15 +163,19 @@ class MainAngle:
         The encoder's input delay in s.
     """
 
-    axis: np.ndarray
+    axis: np.ndarray | SampleTimes
     phi: np.ndarray
     zero_u95_s: float = 0.0
     delay_s: float = 0.0
 
     @property
     def time(self) -> np.ndarray:
-        """Reference-clock times (s) where the encoder angle is defined: a copy when delayed."""
-        return self.axis - self.delay_s if self.delay_s else self.axis
+        """Reference-clock times (s) where the encoder angle is defined.
+
+        Made when the axis is lazy, a copy when delayed (the methods below need neither).
+        """
+        axis = self.axis[:] if isinstance(self.axis, SampleTimes) else self.axis
+        return axis - self.delay_s if self.delay_s else axis
 
     @property
     def span_s(self) -> tuple[float, float]:
@@ -330,11 +336,11 @@ def _main_angle(settings: AlignmentSettings, ref: xr.Dataset, pulses: StreamPuls
     angle = phi_f(ref, encoder.name, pulses, counts_per_rev=encoder.params["counts_per_rev"],
                   direction=float(settings.direction),
                   index_reset=bool(encoder.params.get("index_reset", False)), derivatives=False)
-    # the encoder's times are the time axis and its delay, not their copy (memory)
+    # the encoder's times are the time axis (lazy where read so) and its delay, not their
+    # copy (memory)
     delay = float(ref[encoder.name].attrs.get("input_delay_s", 0.0))
     try:  # the finite samples, copied only when some are not
-        t, phi = increasing_angle(ref["time"].to_numpy(), angle["phi_F"].to_numpy(),
-                                  use="(phi_F)")
+        t, phi = increasing_angle(sample_times(ref), angle["phi_F"].to_numpy(), use="(phi_F)")
     except DataError:
         raise DataError("the main shaft angle does not increase steadily (standstill, reversal "
                         "or the encoder counting down)",
@@ -446,11 +452,9 @@ def reference_angle(settings: AlignmentSettings, stream: xr.Dataset, *,
     DataError
         When the reference stream has too few pulses or its encoder angle does not increase.
     """
-    aligned = clock_fit.align_stream(stream, clock_fit.identity_clock(stream["segment"]),
-                                     name=settings.reference, device_time=device_time)
-    # the stream keeps its time axis lazy for the later stages; phi_F's making reads the times
-    # several times, and phi_F is held on them: computed once, here
-    ref = clock_fit.time_in_memory(aligned)
+    # a lazy time axis stays lazy: phi_F is made and held on it (memory)
+    ref = clock_fit.align_stream(stream, clock_fit.identity_clock(stream["segment"]),
+                                 name=settings.reference, device_time=device_time)
     ref_pulses = found.pulses if found is not None else _pulses(ref, settings.reference_pulse)
     main = _main_angle(settings, ref, ref_pulses)
     first, last = main.span_s
@@ -465,7 +469,7 @@ def reference_angle(settings: AlignmentSettings, stream: xr.Dataset, *,
         residual_time=pulses, residual=residual[matched], matched=int(matched.sum()),
         missing=max(expected.size - int(matched.sum()), 0),
         spurious=int(ref_pulses.spurious.sum()), let_go=kept)
-    return ReferenceAngle(aligned, main, ReferenceRecord(summary, pulses, period,
+    return ReferenceAngle(ref, main, ReferenceRecord(summary, pulses, period,
                                                          main.zero_u95_s, kept))
 
 

@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 import pytest
 
+from rigval.acquisition.sample_times import SampleTimes
 from rigval.acquisition.time_index import BlockTimeIndex
 from rigval.processing.angle import angle_grid
 from rigval.processing.clock_fit import reference_event_times
@@ -56,10 +57,12 @@ def test_main_angle_gives_what_the_delayed_copy_gives(speed: str) -> None:
     reference = reference_angle(settings, ref)
     main = reference.main
     assert main.delay_s > 0.0  # the NI 9411's 500 ns: the case the copy was made for
-    # the stream keeps its lazy time axis; phi_F holds the one array of its values
+    # the stream keeps its lazy time axis, and phi_F is held on it
     assert isinstance(reference.stream.xindexes["time"], BlockTimeIndex)
-    assert np.array_equal(main.axis, reference.stream["time"].to_numpy())
-    copied = main.axis - main.delay_s
+    assert isinstance(main.axis, SampleTimes)
+    assert np.array_equal(main.axis[:], reference.stream["time"].to_numpy())
+    copied = reference.stream["time"].to_numpy() - main.delay_s
+    assert np.array_equal(main.time, copied)
     old = MainAngle(copied, main.phi, main.zero_u95_s)  # no delay: plain np.interp
     fine = 2 * np.pi * np.arange(int(main.phi[0] // (2 * np.pi)) + 1,
                                  int(main.phi[-1] // (2 * np.pi)), 1 / 1440)

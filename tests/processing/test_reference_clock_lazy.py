@@ -8,6 +8,8 @@ general path), value for value, with the same attributes and ``device_time``.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -74,12 +76,50 @@ def test_an_identity_clock_missing_a_segment_marks_it_unaligned() -> None:
     assert int(aligned["valid"].sum()) == 300
 
 
-def test_time_in_memory_computes_the_lazy_times_once() -> None:
-    stream = _stream(lazy=True)
-    held = clock_fit.time_in_memory(stream)
-    values = held["time"].to_numpy()
-    assert np.shares_memory(values, held["time"].to_numpy())  # one array, asked twice
-    assert np.array_equal(values, TimeBase(BLOCKS).times())
-    assert held["time"].attrs == stream["time"].attrs
-    in_memory = _stream(lazy=False)
-    assert clock_fit.time_in_memory(in_memory) is in_memory
+def _in_memory(stream: xr.Dataset) -> xr.Dataset:
+    """The stream with its times computed, indexed on an array (as a text file's stream)."""
+    time = xr.Variable("time", stream["time"].to_numpy(), stream["time"].attrs)
+    return stream.drop_indexes("time").drop_vars("time").assign_coords(time=time)
+
+
+@pytest.mark.parametrize("speed", ["0p8", "1p2"])
+def test_phi_f_on_a_lazy_axis_equals_phi_f_on_its_times(speed: str) -> None:
+    """phi_F made and held on a TDMS stream's lazy axis: every value as on its times in memory."""
+    import warnings
+
+    from rigval.acquisition.sample_times import SampleTimes
+    from rigval.processing.stream_alignment import pulse_events, reference_angle
+    from rigval.sample_data import runs_dir
+    from rigval.validation.read_plan import read_streams
+    from rigval.validation.scene import load_scene
+    from rigval.validation.stage_settings import alignment_settings, convert_stream
+
+    scene = load_scene(runs_dir() / f"run_{speed}_scene.toml")
+    settings = alignment_settings(scene)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        raw = read_streams(scene, only=settings.reference)[settings.reference]
+    lazy = convert_stream(raw, scene.streams[settings.reference])
+    assert isinstance(lazy.xindexes["time"], BlockTimeIndex)  # a TDMS stream's axis
+    made = {kind: reference_angle(settings, stream, device_time=False)
+            for kind, stream in (("lazy", lazy), ("memory", _in_memory(lazy)))}
+    main, expected = made["lazy"].main, made["memory"].main
+    assert isinstance(main.axis, SampleTimes)  # held lazy
+    assert isinstance(made["lazy"].stream.xindexes["time"], BlockTimeIndex)
+    assert np.array_equal(main.phi, expected.phi)
+    assert np.array_equal(main.time, expected.time)
+    assert main.zero_u95_s == expected.zero_u95_s and main.delay_s == expected.delay_s
+    angles = np.linspace(main.phi[0], main.phi[-1], 2001)
+    assert np.array_equal(main.times_at(angles), expected.times_at(angles))
+    for name, events in pulse_events(settings, main).items():
+        assert np.array_equal(events, pulse_events(settings, expected)[name]), name
+    grid, expected_grid = main.grid(360), expected.grid(360)
+    assert np.array_equal(grid.times, expected_grid.times, equal_nan=True)
+    assert grid.slowest == expected_grid.slowest
+    record, expected_record = made["lazy"].record, made["memory"].record
+    for field in dataclasses.fields(record.summary):
+        value, other = (getattr(one, field.name) for one in (record.summary,
+                                                              expected_record.summary))
+        assert np.array_equal(value, other) if isinstance(value, np.ndarray) \
+            else value == other, field.name
+    assert np.array_equal(record.pulses, expected_record.pulses)
