@@ -8,10 +8,13 @@ comes in runs, such as a stream's segment numbers (:func:`distinct_in_runs`).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from rigval.acquisition.sample_times import SampleTimes
 
 __all__ = ["BoolArray", "FloatArray", "IntArray", "distinct_in_runs", "never_decreasing",
            "writable_float64"]
@@ -37,11 +40,11 @@ def writable_float64(values: Any) -> bool:
             and values.flags.writeable)
 
 
-def never_decreasing(x: FloatArray, *, strictly: bool = False) -> bool:
+def never_decreasing(x: FloatArray | SampleTimes, *, strictly: bool = False) -> bool:
     """Return True when the values of ``x`` never decrease (``strictly``: always increase).
 
-    Compared a chunk at a time (memory: no whole-record differences). True for fewer than two
-    values.
+    Compared a chunk at a time (memory: no whole-record differences; a lazy time axis's times
+    computed a chunk at a time). True for fewer than two values.
     """
     step_ok = np.greater if strictly else np.greater_equal
     return all(bool(np.all(step_ok(np.diff(x[lo:lo + _ORDER_CHUNK + 1]), 0)))

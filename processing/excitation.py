@@ -524,7 +524,7 @@ def _sampled_pieces(stream: xr.Dataset, channel: str, ordered: FloatArray, ends:
     delay = float(stream[channel].attrs.get("input_delay_s", 0.0))
     theta = _counter_angle(stream[channel].to_numpy(), counts_per_rev, direction=direction,
                            index_reset=index_reset)
-    t = stream["time"].to_numpy()
+    t = sample_times(stream)  # a lazy axis's times computed piece by piece (memory)
     runs = contiguous_runs(t.size, stream["segment"].to_numpy(), stream["valid"].to_numpy())
     if not runs:
         raise DataError(f"no valid samples of {channel} to compute a drive angle from")
@@ -543,8 +543,9 @@ def _sampled_pieces(stream: xr.Dataset, channel: str, ordered: FloatArray, ends:
         if stop - start <= shortest:
             continue
         previous: tuple[float, FloatArray] | None = None
-        for lo, hi, *piece in _butterworth_pieces(t[start:stop], _run(theta, start, stop), fs,
-                                                  cutoff_hz, order, trend_harmonics, "line"):
+        for lo, hi, *piece in _butterworth_pieces(times_window(t, start, stop),
+                                                  _run(theta, start, stop), fs, cutoff_hz, order,
+                                                  trend_harmonics, "line"):
             times = t[start + lo:start + hi] - delay
             first = np.array([p[0] for p in piece])
             if previous is None:
@@ -686,7 +687,7 @@ def _streamable(stream: xr.Dataset, times: FloatArray) -> bool:
     """
     return (times.ndim == 2 and times.shape[0] > 0 and times.shape[1] >= 2
             and never_decreasing(times.ravel())
-            and never_decreasing(stream["time"].to_numpy(), strictly=True))
+            and never_decreasing(sample_times(stream), strictly=True))  # chunk by chunk
 
 
 def _drive_rows(stream: xr.Dataset, channel: str, times: FloatArray, *, counts_per_rev: float,
