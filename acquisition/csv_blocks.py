@@ -149,7 +149,7 @@ def _count_lines(path: Path, start: int, stop: int) -> int:
     return count
 
 
-@dataclass(frozen=True)
+@dataclass
 class Middle:
     """The middle of a file: clean rows parsed, the other lines left to the per-line rules.
 
@@ -159,7 +159,8 @@ class Middle:
         Per column, the values of the clean rows in file order (a list, so that a reader can
         drop each column once it has taken it over).
     line : numpy.ndarray
-        0-based line number of each of those rows (int64).
+        0-based line number of each of those rows (int64); a reader drops it once it has placed
+        the other rows among them (mutable for that: memory).
     segments : list of tuple of (int, list of str)
         The first line number and the lines of each run of lines not parsed here: every block
         holding a line that is not a clean data row, widened to start and end with a clean row

@@ -502,6 +502,7 @@ def _read_columns(lines: list[str], numbers_of: list[int], real: np.ndarray, lay
     if t_index is not None:
         table, line_of = _drop_bad_times(table, line_of, t_index, lost, n_mid)
     into = np.searchsorted(middle.line, line_of - 1)  # where table rows go among the middle's
+    middle.line = middle.line[:0]  # its line numbers are done with: freed (memory)
     _warn_lost(lost, where)
     values: dict[int, np.ndarray] = {}
     text_cells: dict[int, int] = {}
@@ -509,7 +510,7 @@ def _read_columns(lines: list[str], numbers_of: list[int], real: np.ndarray, lay
     all_cells, all_numbers, all_bad = convert_table(table, columns, layout.decimal)
     for j, k in enumerate(columns):
         cells, bad_mask = all_cells[:, j], all_bad[:, j]
-        numbers = (np.insert(middle.values[k], into, all_numbers[:, j]) if middle.values[k].size
+        numbers = (_merged(middle.values[k], into, all_numbers[:, j]) if middle.values[k].size
                    else all_numbers[:, j].copy())  # no middle: nothing to insert into
         middle.values[k] = numbers[:0]  # taken over: freed
         bad = int(np.count_nonzero(bad_mask))
@@ -535,18 +536,22 @@ def _read_columns(lines: list[str], numbers_of: list[int], real: np.ndarray, lay
         cells = table[t_index].fillna("").str.strip()
         if cells.str.match(_NUMBER.pattern, case=False).all():
             seconds = pd.to_numeric(cells.str.replace(",", ".", regex=False)).to_numpy(float)
-            seconds = np.insert(middle.values[t_index], into, seconds)
+            seconds = _merged(middle.values[t_index], into, seconds)
+            middle.values[t_index] = seconds[:0]  # taken over: freed
             unit = (time_units or layout.units[t_index] or "s").strip()
             scale = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}.get(unit)
             if scale is None:
                 raise ConfigError(f"time column unit {unit!r} is not s, ms or us",
                                   where={**where, "key": "time_units"})
-            seconds = seconds * scale
-            time = seconds - seconds[0]
+            if scale != 1.0:
+                seconds *= scale  # in the column's own memory, as the values are (memory)
+            first = float(seconds[0])
+            time = seconds
+            time -= first
             if start is None:
                 start = header_start(layout.header, time_format, timezone, where, notes)
-                if start is not None and seconds[0] != 0.0:
-                    start = start + np.timedelta64(round(seconds[0] * 1e9), "ns")
+                if start is not None and first != 0.0:
+                    start = start + np.timedelta64(round(first * 1e9), "ns")
         else:
             stamps = parse_datetimes(cells.tolist(), time_format, timezone, where, notes)
             start = stamps[0] if start is None else start
@@ -556,6 +561,14 @@ def _read_columns(lines: list[str], numbers_of: list[int], real: np.ndarray, lay
         time = np.arange(n) / fs
         notes.append(TimeFallback("no time column", f"t = i / {fs} Hz"))
     return values, text_cells, time, start
+
+
+def _merged(middle: np.ndarray, into: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Return a column: the rows parsed line by line inserted among the middle's (``np.insert``).
+
+    With none to insert, the middle's own array (its owner lets it go), not its copy (memory).
+    """
+    return np.insert(middle, into, rows) if into.size else middle
 
 
 def _warn_lost(lost: Mapping[str, list[int]], where: Mapping[str, Any]) -> None:
@@ -644,6 +657,7 @@ def read_csv(path: str | os.PathLike[str], *, delimiter: str | None = None,
         middle = Middle([np.empty(0)] * len(layout.names), np.empty(0, dtype=np.int64), [])
     else:
         lines, layout, real, middle, complete = fast
+        del fast  # the middle's columns are let go as the columns take them over (memory)
     n_mid = middle.line.size  # clean rows parsed in blocks, not in lines
     notes: list[TimeFallback] = []
     t_index = _time_column(layout.names, time_column, where)

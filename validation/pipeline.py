@@ -474,6 +474,9 @@ def _angle(scene: Scene, plan: ReadPlan, modelled: _Modelled) -> _Measured:
             scene, comparison, signal, timeline.angle_times, diagnosis)
         long_names[comparison.name] = signal.long_name
     kept = timeline.streams if scene.output.aligned else {}
+    cycles, corners, long_names, diagnosis = (  # in the scene's order, as the outputs list them
+        {c.name: found[c.name] for c in scene.comparisons}
+        for found in (cycles, corners, long_names, diagnosis))
     return _Measured(modelled.inputs, dataclasses.replace(timeline, streams=kept),
                      modelled.model, cycles, corners, long_names, diagnosis)
 

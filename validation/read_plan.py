@@ -316,12 +316,16 @@ def measured_signals(scene: Scene, plan: ReadPlan, aligned: dict[str, xr.Dataset
     its stream, and those no later comparison needs are dropped before its signal is yielded,
     so that the consumer's filters can free their input as they make their output, or filter
     it in place (:attr:`MeasuredSignal.owned`); after a
-    stream's last comparison the stream itself is dropped. Streams come shortest first, so that
-    the longest is worked on when the others are gone. ``on_read`` sees each stream's
-    channels as read, before their conversion (:meth:`rigval.validation.health.HealthLog.check`).
+    stream's last comparison the stream itself is dropped. Streams whose compared channels are
+    all held already come first (letting them go frees memory before anything is read), then
+    the others shortest first, so that the longest is worked on when the others are gone; a
+    stream's comparisons keep their order. ``on_read`` sees each stream's channels as read,
+    before their conversion (:meth:`rigval.validation.health.HealthLog.check`).
     """
     length = {name: ds.sizes["time"] for name, ds in aligned.items()}
-    steps = sorted(plan.compared, key=lambda s: length[s.comparison.measured.stream])  # stable
+    reads = {step.comparison.measured.stream for step in plan.compared if step.read}
+    steps = sorted(plan.compared, key=lambda s: (s.comparison.measured.stream in reads,
+                                                 length[s.comparison.measured.stream]))
     for step in steps:
         stream = step.comparison.measured.stream
         if step.read:

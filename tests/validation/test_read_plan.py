@@ -123,3 +123,35 @@ def test_filters_write_into_the_values_only_when_no_later_comparison_needs_them(
         assert in_place[name].tobytes() == copied[name].tobytes(), name
     assert overwrites["tor1"] == [False] and overwrites["torque_F"] == [True]
     assert overwrites["tor2"] == [False] and overwrites["acc1"] == [True, True]
+
+
+def test_streams_held_whole_are_compared_first_then_the_shortest(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A text file's stream (its compared channels read with it) is let go before any is read."""
+    import xarray as xr
+
+    scene = load_scene(SCENE)
+    plan = plan_module.read_plan(scene, alignment_settings(scene))
+    reads = {s.comparison.measured.stream for s in plan.compared if s.read}
+    assert reads == {"cdaq", "wls1"}  # wls2 is a CSV file: parsed whole at the first read
+    # stand-ins of the aligned streams, the text file's not the shortest
+    lengths = {"cdaq": 30, "wls1": 10, "wls2": 20}
+    held = {name: xr.Dataset({c: ("time", np.zeros(n)) for c in plan.first[name]}
+                             | {"valid": ("time", np.ones(n, bool)),
+                                "segment": ("time", np.zeros(n, np.int32))},
+                             coords={"time": np.arange(n) / 100.0},
+                             attrs={"fs_nominal": 100.0})
+            for name, n in lengths.items()}
+
+    def read(scene_, stream, ds, names, on_read):  # the channels "read": zeros
+        return ds.assign({c: ("time", np.zeros(ds.sizes["time"])) for c in names})
+
+    monkeypatch.setattr(plan_module, "_add_channels", read)
+    seen = [c for c, _ in plan_module.measured_signals(scene, plan, held)]
+    streams = [c.measured.stream for c in seen]
+    assert list(dict.fromkeys(streams)) == ["wls2", "wls1", "cdaq"]
+    assert sorted(streams, key=streams.index) == streams  # each stream's comparisons together
+    for stream in lengths:  # and in the scene's order
+        assert [c.name for c in seen if c.measured.stream == stream] == [
+            c.name for c in scene.comparisons if c.measured.stream == stream]
+    assert not held  # every stream let go after its last comparison
