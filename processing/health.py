@@ -222,14 +222,21 @@ def _clipping(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, unit
 
 
 def _flat(x: FloatArray, ok: BoolArray, time: FloatArray, fs: float, channel: str, unit: str,
-          q: float, clipped: BoolArray) -> list[Finding]:
-    still = _mask(x.size - 1, lambda lo, hi: ok[lo + 1:hi + 1] & ok[lo:hi] & (
-        np.abs(np.diff(x[lo:hi + 1])) <= q))
-    starts, stops = runs_of(still)
+          q: float, clipping: list[Finding]) -> list[Finding]:
+    """Return the flat stretches: long runs of steps within a quantum, not mostly clipped.
+
+    The long runs are found a block at a time (:func:`_long_runs`; memory: a noisy channel's
+    steps make millions of short runs, and no whole-record mask of them is made), and a run's
+    clipped share from the clipping findings' spans.
+    """
     shortest = max(int(_FLAT_S * fs), _FLAT_MIN)
+    # a run of k steps spans k + 1 samples
+    starts, stops = _long_runs(x.size - 1, lambda lo, hi: ok[lo + 1:hi + 1] & ok[lo:hi] & (
+        np.abs(np.diff(x[lo:hi + 1])) <= q), shortest - 1)
+    spans = _merged_spans([(f.first_sample, f.last_sample + 1) for f in clipping])
     out = []
     for a, b in zip(starts, stops + 1, strict=True):  # b: one past the run's last sample
-        if b - a < shortest or clipped[a:b].mean() > 0.5:
+        if _covered(spans, a, b) / (b - a) > 0.5:
             continue
         hit = np.arange(a, b)
         out.append(_finding(channel, "flat line",
@@ -444,22 +451,63 @@ def _tail(x: FloatArray, ok: BoolArray, count: int, *, largest: bool) -> FloatAr
     return np.sort(kept)
 
 
-def _clipped(size: int, clipping: list[Finding]) -> BoolArray:
-    """Return the mask of the samples the clipping findings span."""
-    clipped = np.zeros(size, dtype=bool)
-    for found in clipping:
-        clipped[found.first_sample:found.last_sample + 1] = True
-    return clipped
+def _long_runs(size: int, block: Callable[[int, int], BoolArray], min_length: int
+               ) -> tuple[IntArray, IntArray]:
+    """Return the runs of :func:`runs_of` of ``_mask(size, block)`` at least ``min_length`` long.
+
+    Each block's runs are found on its own mask and the short ones dropped there; a run that
+    reaches a block's end is joined to the one the next block begins with (memory: a block's
+    mask and its runs at a time, not the whole record's).
+    """
+    starts: list[IntArray] = []
+    stops: list[IntArray] = []
+    open_from: int | None = None  # start of a run that reached the last block's end
+    for lo, hi in _blocks(0, size):
+        a, b = runs_of(block(lo, hi))
+        a, b = a + lo, b + lo
+        if open_from is not None:
+            if a.size and a[0] == lo:
+                a[0] = open_from
+            else:
+                a, b = np.r_[open_from, a], np.r_[lo, b]
+            open_from = None
+        if b.size and b[-1] == hi:
+            open_from, a, b = int(a[-1]), a[:-1], b[:-1]
+        long = b - a >= min_length
+        starts.append(a[long])
+        stops.append(b[long])
+    if open_from is not None and size - open_from >= min_length:
+        starts.append(np.array([open_from]))
+        stops.append(np.array([size]))
+    empty = np.zeros(0, dtype=np.int64)
+    return (np.concatenate([empty, *starts]).astype(np.int64),
+            np.concatenate([empty, *stops]).astype(np.int64))
+
+
+def _merged_spans(spans: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """Return sample spans ``[a, b)`` merged where they overlap or touch, in order."""
+    merged: list[tuple[int, int]] = []
+    for a, b in sorted(spans):
+        if merged and a <= merged[-1][1]:
+            merged[-1] = (merged[-1][0], max(merged[-1][1], b))
+        else:
+            merged.append((a, b))
+    return merged
+
+
+def _covered(spans: list[tuple[int, int]], a: int, b: int) -> int:
+    """Return how many of the samples ``a ... b - 1`` the merged ``spans`` cover."""
+    return sum(max(0, min(b, hi) - max(a, lo)) for lo, hi in spans)
 
 
 def _moving(ok: BoolArray, findings: list[Finding], segment: ArrayLike | None) -> BoolArray:
     """Return the usable samples outside the findings' spans and away from the gaps.
 
     The spikes and noise are judged there: a clipped or flat stretch is no signal, and the
-    samples on either side of a gap are not neighbours. Made in one mask, the findings' spans
-    cleared in it (memory: no whole-record masks of the spans beside it).
+    samples on either side of a gap are not neighbours. Made in ``ok`` itself, which the caller
+    hands over, the findings' spans cleared in it (memory: no second whole-record mask).
     """
-    moving = ok.copy()
+    moving = ok
     for found in findings:
         moving[found.first_sample:found.last_sample + 1] = False
     if segment is not None:
@@ -550,8 +598,8 @@ def analog_health(x: ArrayLike, time: ArrayLike, *, channel: str, fs: float, uni
         return []
     q = quantum(_first_usable(data, ok, _QUANTUM_SAMPLES))
     clipping = _clipping(data, ok, t, channel, unit, limits, q)
-    findings = [*clipping, *_flat(data, ok, t, fs, channel, unit, q, _clipped(data.size, clipping))]
-    moving = _moving(ok, findings, segment)
+    findings = [*clipping, *_flat(data, ok, t, fs, channel, unit, q, clipping)]
+    moving = _moving(ok, findings, segment)  # ok handed over: cleared in place
     windows = _Windows.of(data, moving, fs)
     findings += _spikes(data, moving, t, windows, channel, unit, q)
     findings += _noise(data, t, windows, channel, unit, q)

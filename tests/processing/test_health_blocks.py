@@ -50,7 +50,7 @@ def test_clipping_and_flat_lines_by_blocks_equal_the_whole_record(seed: int) -> 
     still = ok[1:] & ok[:-1] & (np.abs(np.diff(x)) <= q)
     starts, stops = health.runs_of(still)
     longest = int(np.argmax(stops - starts))
-    (flat,) = [f for f in health._flat(x, ok, time, FS, "c", "V", q, np.zeros(x.size, bool))
+    (flat,) = [f for f in health._flat(x, ok, time, FS, "c", "V", q, [])
                if f.first_sample == starts[longest]]
     assert flat.last_sample == stops[longest]  # one past the run of steps: its last sample
     clipped = health._clipping(x, ok, time, "c", "V", None, q)
@@ -136,8 +136,7 @@ def test_moving_samples_equal_the_whole_record_masks() -> None:
     time = np.arange(x.size) / FS
     segment = (np.arange(x.size) >= 17_944).astype(np.int32) + (np.arange(x.size) >= 25_000)
     clipping = health._clipping(x, ok, time, "c", "V", None, q)
-    findings = [*clipping, *health._flat(x, ok, time, FS, "c", "V", q,
-                                         health._clipped(x.size, clipping))]
+    findings = [*clipping, *health._flat(x, ok, time, FS, "c", "V", q, clipping)]
     assert "clipping" in {f.fault for f in findings}
     stuck = np.zeros(x.size, dtype=bool)
     for found in findings:
@@ -145,6 +144,36 @@ def test_moving_samples_equal_the_whole_record_masks() -> None:
     expected = ok & ~stuck
     for b in np.flatnonzero(segment[1:] != segment[:-1]) + 1:
         expected[max(b - 3, 0):b + 3] = False
-    moving = health._moving(ok, findings, segment)
+    usable = int(ok.sum())
+    moving = health._moving(ok, findings, segment)  # ok handed over
     assert np.array_equal(moving, expected)
-    assert not moving[17_941:17_947].any() and moving.sum() < ok.sum()
+    assert not moving[17_941:17_947].any() and moving.sum() < usable
+
+
+@pytest.mark.parametrize("block", [1, 2, 5, 997, 1 << 20])
+def test_long_runs_found_block_by_block_equal_the_whole_masks(block: int, monkeypatch) -> None:
+    """Runs crossing block edges, starting or ending a block, filling one or the whole record."""
+    monkeypatch.setattr(health, "_BLOCK", block)
+    rng = np.random.default_rng(block)
+    for mask in (rng.random(5_000) < 0.9, np.ones(3_000, bool), np.zeros(2_000, bool),
+                 np.repeat([True, False, True], [997, 997, 1994]), np.array([True])):
+        starts, stops = health.runs_of(mask)
+        for min_length in (0, 1, 5, 40, 997, 3_000):
+            long = stops - starts >= min_length
+            found = health._long_runs(mask.size, lambda lo, hi, mask=mask: mask[lo:hi],
+                                      min_length)
+            for got, want in zip(found, (starts[long], stops[long]), strict=True):
+                assert np.array_equal(got, want) and got.dtype == np.int64, min_length
+
+
+def test_clipped_share_from_spans_equals_the_mask_mean() -> None:
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        spans = [(int(a), int(a + w)) for a, w in zip(rng.integers(0, 900, 4),
+                                                    rng.integers(1, 120, 4), strict=True)]
+        mask = np.zeros(1_100, dtype=bool)
+        for a, b in spans:
+            mask[a:b] = True
+        a = int(rng.integers(0, 1_000))
+        b = int(rng.integers(a + 1, 1_100))
+        assert health._covered(health._merged_spans(spans), a, b) / (b - a) == mask[a:b].mean()
