@@ -88,7 +88,11 @@ class _Loader(importlib.abc.Loader):
         return self._loader.create_module(spec)
 
     def exec_module(self, module: types.ModuleType) -> None:
-        module.__loader__ = self._loader  # inspect and tracebacks read the source through it
+        # SciPy's loader from here on: inspect and tracebacks read the source through it, and
+        # a later importlib.reload executes the module as SciPy's import does
+        module.__loader__ = self._loader
+        if module.__spec__ is not None:
+            module.__spec__.loader = self._loader
         self._loader.exec_module(module)
         put_back = _stand_in(module)
         if put_back is not None:

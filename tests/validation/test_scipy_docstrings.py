@@ -49,6 +49,7 @@ def check_imported_inside():
     assert sys.meta_path == hooks  # the hook is gone
     assert _array_api.FunctionDoc is _docscrape.FunctionDoc  # SciPy's parser is back
     assert _array_api.__loader__.get_source(_array_api.__name__)  # the real loader's source
+    assert _array_api.__spec__.loader is _array_api.__loader__  # a reload is SciPy's own
     assert np.isfinite(_filtered_once()).all()
     # a SciPy module imported afterwards (scipy.signal does not import it) gets SciPy's note
     import scipy.cluster.vq
