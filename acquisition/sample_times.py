@@ -10,6 +10,7 @@ positions the materialised axis would, bit for bit, without making it.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -17,7 +18,7 @@ import xarray as xr
 
 from rigval.acquisition.time_index import BlockTimeIndex, BlockTimeTransform
 
-__all__ = ["SampleTimes", "sample_times", "times_of", "times_window"]
+__all__ = ["SampleTimes", "sample_times", "time_coordinate", "times_of", "times_window"]
 
 
 class SampleTimes:
@@ -110,3 +111,17 @@ def times_window(time: SampleTimes | np.ndarray, start: int, stop: int
                  ) -> SampleTimes | np.ndarray:
     """Return the times of samples ``start ... stop - 1``: lazy where ``time`` is, else a view."""
     return time.window(start, stop) if isinstance(time, SampleTimes) else time[start:stop]
+
+
+def time_coordinate(stream: xr.Dataset, attrs: Mapping[str, Any] | None = None
+                    ) -> xr.Coordinates:
+    """Return a stream's ``time`` coordinate with its index as it is (a lazy axis stays lazy).
+
+    Building a Dataset on ``stream["time"]`` instead makes a pandas index of the times (memory:
+    the whole axis, twice). ``attrs``: the coordinate's attributes instead of its own.
+    """
+    variable = stream.variables["time"]
+    if attrs is not None:
+        variable = variable.copy(deep=False)
+        variable.attrs = dict(attrs)
+    return xr.Coordinates({"time": variable}, indexes={"time": stream.xindexes["time"]})

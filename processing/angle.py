@@ -162,8 +162,7 @@ def cycle_angles(cycles: IntArray, points_per_rev: int) -> FloatArray:
 
 
 def interpolate_runs(time: ArrayLike | SampleTimes, values: ArrayLike | SampleTimes,
-                     at: ArrayLike, *,
-                     order: int = 3,
+                     at: ArrayLike, *, order: int = 3,
                      segment: ArrayLike | None = None, valid: ArrayLike | None = None,
                      offset: float = 0.0, time_offset: float = 0.0) -> FloatArray:
     """Evaluate a sampled signal at arbitrary times without crossing gaps.
@@ -229,10 +228,8 @@ def interpolate_runs(time: ArrayLike | SampleTimes, values: ArrayLike | SampleTi
 
 
 def _chunk_spline(t: FloatArray | SampleTimes, x: FloatArray | SampleTimes, at: FloatArray,
-                  lo: int, hi: int,
-                  order: int,
-                  *, at_start: bool, at_stop: bool, offset: float = 0.0,
-                  time_offset: float = 0.0) -> FloatArray:
+                  lo: int, hi: int, order: int, *, at_start: bool, at_stop: bool,
+                  offset: float = 0.0, time_offset: float = 0.0) -> FloatArray:
     """Evaluate the interpolating spline of the samples ``lo:hi`` at sorted times ``at``.
 
     Samples at uniform times (clock-mapped records; :data:`_UNIFORM_TOLERANCE`) take the

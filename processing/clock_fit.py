@@ -43,6 +43,7 @@ from xarray.indexes import PandasIndex
 
 from rigval.acquisition.devices import ni9237_input_delay
 from rigval.acquisition.errors import DataError, DataWarning
+from rigval.acquisition.sample_times import time_coordinate
 from rigval.acquisition.schema import (
     append_history,
     cf_time_attrs,
@@ -586,13 +587,6 @@ def _maps_to_itself(clock: ClockModel, segment: np.ndarray) -> bool:
     return set(distinct_in_runs(segment).tolist()) <= set(clock.segments)
 
 
-def _renamed_time(stream: xr.Dataset, attrs: Mapping[str, Any]) -> xr.Coordinates:
-    """Return the stream's ``time`` coordinate and index as they are, with new attributes."""
-    variable = stream.variables["time"].copy(deep=False)
-    variable.attrs = dict(attrs)
-    return xr.Coordinates({"time": variable}, indexes={"time": stream.xindexes["time"]})
-
-
 def _fill_unaligned(ref_time: FloatArray, own_time: FloatArray, lost: np.ndarray) -> None:
     """Give unaligned samples a placeholder reference time, in place, so the axis stays increasing.
 
@@ -669,7 +663,7 @@ def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = No
     if _maps_to_itself(clock, segment):
         # offset 0 + (1 + 0) t is t: the stream's own time coordinate is its reference time,
         # kept as it is (lazy for a TDMS stream: no whole-record array)
-        coords = _renamed_time(stream, on_reference)
+        coords = time_coordinate(stream, on_reference)
         own_time = stream["time"].to_numpy() if device_time else None
     else:
         own_time = stream["time"].to_numpy()

@@ -48,7 +48,13 @@ import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 
 from rigval.acquisition.errors import ConfigError, DataError
-from rigval.acquisition.sample_times import SampleTimes, sample_times, times_of, times_window
+from rigval.acquisition.sample_times import (
+    SampleTimes,
+    sample_times,
+    time_coordinate,
+    times_of,
+    times_window,
+)
 from rigval.acquisition.schema import append_history
 from rigval.processing.arrays import FloatArray, IntArray, never_decreasing
 from rigval.processing.encoder import (
@@ -449,10 +455,7 @@ def drive_excitation(stream: xr.Dataset, channel: str, *, counts_per_rev: float,
         variables[f"{name}_ddot"] = ("time", result.acceleration, {
             **common, "units": "rad s-2", "long_name": f"angular acceleration of {name}",
             "noise_rms": result.acceleration_noise})
-    # the stream's time coordinate with its index as it is (a lazy axis stays lazy: memory)
-    time = xr.Coordinates({"time": stream.variables["time"]},
-                          indexes={"time": stream.xindexes["time"]})
-    out = xr.Dataset(variables, coords=time, attrs=dict(stream.attrs))
+    out = xr.Dataset(variables, coords=time_coordinate(stream), attrs=dict(stream.attrs))
     append_history(out, f"processing.drive_excitation {channel} -> {name} ({method}, "
                         f"{result.parameters})")
     return out

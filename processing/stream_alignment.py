@@ -469,8 +469,8 @@ def reference_angle(settings: AlignmentSettings, stream: xr.Dataset, *,
         residual_time=pulses, residual=residual[matched], matched=int(matched.sum()),
         missing=max(expected.size - int(matched.sum()), 0),
         spurious=int(ref_pulses.spurious.sum()), let_go=kept)
-    return ReferenceAngle(ref, main, ReferenceRecord(summary, pulses, period,
-                                                         main.zero_u95_s, kept))
+    return ReferenceAngle(ref, main, ReferenceRecord(summary, pulses, period, main.zero_u95_s,
+                                                     kept))
 
 
 def pulse_events(settings: AlignmentSettings, main: MainAngle) -> dict[str, np.ndarray]:
