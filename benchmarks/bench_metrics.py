@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rigval.processing import dtw
 from rigval.validation.metrics.compare import baseline, compare, iso18571, iso18571_periodic
 
 REFERENCE_SCRIPT = """
@@ -77,6 +78,30 @@ def timing_table() -> None:
             best_of(lambda c=cycles: baseline(c), 1))
 
 
+def long_record_table(revolutions: int = 3600, n: int = 360) -> None:
+    """The DTW of a 1 h record's comparison (one row per revolution) by batch bound.
+
+    Three revolutions per row (the periodic magnitude), the ISO band of 10 % of a revolution;
+    time against the work space a batch holds (``processing.dtw.BATCH_BYTES``).
+    """
+    radius = int(np.ceil(0.1 * n)) - 1
+    rows = np.tile(revolution(n), 3) + 0.1 * np.random.default_rng(0).normal(
+        size=(revolutions, 3 * n))
+    reference = np.tile(revolution(n, 4.0, 1.05), 3)[np.newaxis]
+    print(f"\nDTW of {revolutions} rows of 3 x {n} samples, band radius {radius}:")
+    print("| batch bound (MiB) | pairs a batch | work space (MiB) | wall (s) | CPU (s) |")
+    print("|---:|---:|---:|---:|---:|")
+    default = dtw.BATCH_BYTES
+    for mib in (8, 32, 128):
+        dtw.BATCH_BYTES = mib * 2**20
+        space = np.empty(dtw.workspace_size(revolutions, 3 * n, radius), dtype=np.uint8)
+        wall, cpu = best_of(lambda w=space: sum(1 for _ in dtw.dtw_paths(
+            rows, reference, radius, y_from=n, workspace=w)), 1)
+        print(f"| {mib} | {dtw.pairs_per_batch(revolutions, 3 * n, radius)} | "
+              f"{space.nbytes / 2**20:.0f} | {wall:.2f} | {cpu:.2f} |")
+    dtw.BATCH_BYTES = default
+
+
 def reference_pairs() -> list[tuple[str, np.ndarray, np.ndarray]]:
     """Curve pairs at 10 kHz: analytic cases and random walks with shift, scale and noise."""
     t = np.arange(1501) * 1e-4
@@ -131,6 +156,7 @@ def main() -> None:
     parser.add_argument("--reference-python", help="interpreter with objective-rating-metrics")
     args = parser.parse_args()
     timing_table()
+    long_record_table()
     if args.reference_python:
         cross_check(args.reference_python)
 

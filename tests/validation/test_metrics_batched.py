@@ -221,18 +221,18 @@ def test_dtw_paths_batches_equal_full_matrix(seed, monkeypatch):
 def test_dtw_paths_in_a_shared_workspace_equal_the_full_matrix(monkeypatch):
     """Stacks of other lengths and radii swept in turn in one work space, dirty from the last."""
     rng = np.random.default_rng(5)
-    monkeypatch.setattr("rigval.processing.dtw.BATCH_BYTES", 8 * 2 * 40 * 12)  # batches of 2
+    monkeypatch.setattr("rigval.processing.dtw.BATCH_BYTES", 2 * 40 * 12)  # batches of 2
     stacks = [(rng.normal(size=(5, 40)), rng.normal(size=(1, 40)), 6),
               (np.round(rng.normal(size=(3, 25))), np.round(rng.normal(size=(3, 25))), 0),
               (rng.normal(size=(4, 33)), rng.normal(size=(4, 33)), 40)]
     workspace = np.full(max(workspace_size(x.shape[0], x.shape[1], radius)
-                            for x, _, radius in stacks), -1.0)
+                            for x, _, radius in stacks), 255, dtype=np.uint8)
     for x, y, radius in stacks:
         paths = list(dtw_paths(x, y, radius, workspace=workspace))
         for p, (ix, iy) in enumerate(paths):
             ex, ey = _dtw_full(x[p], y[min(p, y.shape[0] - 1)], min(radius, x.shape[1] - 1))
             assert ix.tolist() == ex.tolist() and iy.tolist() == ey.tolist()
-    assert not np.all(workspace == -1.0)  # the paths were swept in it
+    assert not np.all(workspace == 255)  # the paths were swept in it
 
 
 def test_baseline_equals_compare_per_revolution_on_hard_cycles():
@@ -313,7 +313,7 @@ def test_set_swept_alone_a_batch_of_rows_at_a_time_equals_each_row_rated_alone(m
     reference, models = _cases("noise", 40)
     models = np.concatenate([models, _cases("wrap", 40)[1][:, :40]])[:7]
     radius = iso18571._band_radius(40, iso18571.IsoParameters())
-    pair_bytes = 8 * (2 * 120 * (radius + 3) + 120 + 1)  # three revolutions of 40 samples
+    pair_bytes = 2 * 120 * (radius + 3) + 120 + 1  # three revolutions of 40 samples
     monkeypatch.setattr("rigval.processing.dtw.BATCH_BYTES", 2 * pair_bytes)
     assert pairs_per_batch(7, 120, radius) == 2
     made = []

@@ -653,7 +653,7 @@ def _magnitude_errors_circular(sets: Sequence[_Prepared],
     workspace = np.empty(max((workspace_size(sum(sets[i].comparisons.shape[0] for i in sweep),
                                              3 * sets[sweep[0]].reference.size,
                                              _band_radius(sets[sweep[0]].reference.size, params))
-                              for sweep in sweeps), default=0))
+                              for sweep in sweeps), default=0), dtype=np.uint8)
     for sweep in sweeps:
         for i, errors_of_set in zip(sweep, _sweep_errors([sets[i] for i in sweep], params,
                                                          workspace), strict=True):
