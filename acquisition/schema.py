@@ -153,20 +153,13 @@ def _gap_table(before: np.ndarray, after: np.ndarray, fs_nominal: float) -> dict
     return {"gap_start_s": before, "gap_end_s": after, "gap_missing_samples": missing}
 
 
-def _blocks_in(timebase: TimeBase, start: int, stop: int) -> list[tuple[int, int, int, Any]]:
-    """Return ``(k, lo, hi, block)`` of the blocks meeting samples ``start ... stop - 1``."""
-    return [(k, max(start, b.first), min(stop, b.first + b.n), b)
-            for k, b in enumerate(timebase.blocks)
-            if max(start, b.first) < min(stop, b.first + b.n)]
-
-
 def _time_from_blocks(timebase: TimeBase, start: int, stop: int, where: dict[str, Any],
                       attrs: Mapping[str, Any]) -> tuple[xr.Coordinates, np.ndarray,
                                                          dict[str, Any]]:
     """Return the lazy time coordinate, the segment index and the gap table of a window."""
     from rigval.acquisition.time_index import lazy_time_coords
 
-    parts = _blocks_in(timebase, start, stop)
+    parts = [(k, lo, hi, b) for k, b, lo, hi in timebase.overlaps(start, stop)]
     for (_, _, hi, b), (_, lo, _, nxt) in itertools.pairwise(parts):
         if not (b.dt > 0 and nxt.t_start > b.t_start + (hi - 1 - b.first) * b.dt):
             raise DataError(f"time is not strictly increasing: block at sample {lo} starts at "

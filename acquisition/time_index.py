@@ -69,13 +69,21 @@ class BlockTimeTransform(CoordinateTransform):
         k = np.clip(np.searchsorted(self._first, position, side="right") - 1, 0,
                     self._first.size - 1)
         since = (position - self._first[k]).astype(np.float64)
-        return {self.dim: since * self._dt[k] + self._t_start[k]}
+        times = since * self._dt[k] + self._t_start[k]
+        if self.timebase.shifts is not None:  # as TimeBase.times: on the other clock
+            times = times * self.timebase.scale + self.timebase.shifts[k]
+        return {self.dim: times}
 
     def reverse(self, coord_labels: dict[Hashable, Any]) -> dict[str, Any]:
         """Return the (fractional) sample positions of times in s."""
         label = np.asarray(coord_labels[self.dim], dtype=np.float64)
-        k = np.clip(np.searchsorted(self._t_start, label, side="right") - 1, 0,
+        starts = self._t_start
+        if self.timebase.shifts is not None:  # back onto the device's own clock
+            starts = starts * self.timebase.scale + self.timebase.shifts
+        k = np.clip(np.searchsorted(starts, label, side="right") - 1, 0,
                     self._first.size - 1)
+        if self.timebase.shifts is not None:
+            label = (label - self.timebase.shifts[k]) / self.timebase.scale
         position = self._first[k] + (label - self._t_start[k]) / self._dt[k] - self.offset
         return {self.dim: position}
 
@@ -84,9 +92,9 @@ class BlockTimeTransform(CoordinateTransform):
         return {self.dim: self.timebase.times(self.offset, self.offset + self.size)}
 
     def equals(self, other: CoordinateTransform, **kwargs: Any) -> bool:
-        """Return True for the same blocks, window start and size."""
+        """Return True for the same blocks and clock, window start and size."""
         return (isinstance(other, BlockTimeTransform) and other.offset == self.offset
-                and other.size == self.size and other.timebase.blocks == self.timebase.blocks)
+                and other.size == self.size and other.timebase == self.timebase)
 
     def window(self, start: int, stop: int) -> BlockTimeTransform:
         """Return the transform of positions ``start ... stop - 1`` of this window."""
@@ -213,7 +221,7 @@ class BlockTimeIndex(CoordinateTransformIndex):
             first = parts[0].transform
             end = first.offset
             for part in parts:
-                if part.transform.timebase.blocks != first.timebase.blocks or \
+                if part.transform.timebase != first.timebase or \
                         part.transform.offset != end:
                     break
                 end += part.transform.size
@@ -225,8 +233,9 @@ class BlockTimeIndex(CoordinateTransformIndex):
 
     def _repr_inline_(self, max_width: int) -> str:
         blocks = len(self.transform.timebase.blocks)
+        clock = ", on another clock" if self.transform.timebase.clocked else ""
         return (f"BlockTimeIndex ({self.transform.size} samples, {blocks} block"
-                f"{'s' if blocks != 1 else ''}, dt={self.transform.timebase.dt:.6g} s)")
+                f"{'s' if blocks != 1 else ''}, dt={self.transform.timebase.dt:.6g} s{clock})")
 
     def __repr__(self) -> str:
         return self._repr_inline_(80)

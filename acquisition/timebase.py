@@ -10,6 +10,7 @@ than the samples asked for.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,46 +51,100 @@ class TimeBase:
     ----------
     blocks : list of Block
         In sample order; ``blocks[k + 1].first == blocks[k].first + blocks[k].n``.
+    scale : float
+        The times of every block are multiplied by ``scale`` ...
+    shifts : sequence of float, optional
+        ... and block ``k``'s shifted by ``shifts[k]`` (s): a device's samples on another
+        clock, ``scale * t + shifts[k]`` (:meth:`on_clock`). Default: the times as they are.
     """
 
-    def __init__(self, blocks: list[Block]) -> None:
+    def __init__(self, blocks: list[Block], scale: float = 1.0,
+                 shifts: Sequence[float] | None = None) -> None:
         self.blocks = [b for b in blocks if b.n > 0] or blocks[:1]
         self.length = sum(b.n for b in self.blocks)
+        self.scale = float(scale)
+        self.shifts = None if shifts is None else np.array(shifts, dtype=np.float64)
+        if self.shifts is not None and self.shifts.shape != (len(self.blocks),):
+            raise ValueError(f"{self.shifts.size} clock shifts for {len(self.blocks)} blocks")
+
+    def on_clock(self, scale: float, shifts: Sequence[float]) -> TimeBase:
+        """Return these samples' times on another clock: ``scale * t + shifts[k]`` in block k.
+
+        The times are those of ``scale * times() + shifts[segment]`` computed whole, bit for
+        bit (one multiplication and one addition per sample, in that order). A block's shift
+        may be NaN where no clock maps it (its times are then NaN).
+        """
+        return TimeBase(self.blocks, scale, shifts)
+
+    @property
+    def clocked(self) -> bool:
+        """Whether the times are mapped onto another clock (:meth:`on_clock`)."""
+        return self.shifts is not None
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, TimeBase):
+            return NotImplemented
+        if self.blocks != other.blocks or self.scale != other.scale:
+            return False
+        if self.shifts is None or other.shifts is None:
+            return self.shifts is None and other.shifts is None
+        return bool(np.array_equal(self.shifts, other.shifts, equal_nan=True))
+
+    __hash__ = None  # type: ignore[assignment]  # equal by value, not hashable
 
     @property
     def dt(self) -> float:
-        """Sample interval of the first block, s."""
+        """Sample interval of the first block, s (on the device's own clock)."""
         return self.blocks[0].dt
 
-    def _overlaps(self, start: int, stop: int) -> list[tuple[int, Block, int, int]]:
-        """Return ``(k, block, lo, hi)`` for the blocks meeting samples ``start ... stop - 1``."""
+    def overlaps(self, start: int, stop: int) -> list[tuple[int, Block, int, int]]:
+        """Return ``(k, block, lo, hi)`` for the blocks meeting samples ``start ... stop - 1``.
+
+        ``k`` is the block's index (the samples' ``segment``), ``lo ... hi - 1`` its samples
+        in the window.
+        """
         return [(k, b, max(start, b.first), min(stop, b.first + b.n))
                 for k, b in enumerate(self.blocks)
                 if max(start, b.first) < min(stop, b.first + b.n)]
 
     def times(self, start: int = 0, stop: int | None = None) -> np.ndarray:
-        """Return the times in s of samples ``start`` to ``stop - 1`` (float64)."""
+        """Return the times in s of samples ``start`` to ``stop - 1`` (float64).
+
+        Several blocks' times are written into one output, a block at a time (memory: the
+        window's array and one block's, not the blocks' and their concatenation).
+        """
         stop = self.length if stop is None else min(stop, self.length)
-        parts = []
-        for _, block, lo, hi in self._overlaps(start, stop):
-            part = np.arange(lo - block.first, hi - block.first, dtype=np.float64)
-            part *= block.dt  # in place: one allocation per block (page faults dominate)
-            part += block.t_start
-            parts.append(part)
+        parts = self.overlaps(start, stop)
         if len(parts) == 1:
-            return parts[0]
-        return np.concatenate(parts) if parts else np.empty(0, dtype=np.float64)
+            return self._block_times(*parts[0])
+        out = np.empty(max(stop - start, 0), dtype=np.float64)
+        for k, block, lo, hi in parts:
+            out[lo - start:hi - start] = self._block_times(k, block, lo, hi)
+        return out
+
+    def _block_times(self, k: int, block: Block, lo: int, hi: int) -> np.ndarray:
+        """Return the times of samples ``lo ... hi - 1`` of block ``k`` (s)."""
+        part = np.arange(lo - block.first, hi - block.first, dtype=np.float64)
+        part *= block.dt  # in place: one allocation per block (page faults dominate)
+        part += block.t_start
+        if self.shifts is not None:
+            part *= self.scale
+            part += self.shifts[k]
+        return part
 
     def segments(self, start: int = 0, stop: int | None = None) -> np.ndarray:
         """Return the block index (``segment``) of samples ``start`` to ``stop - 1``."""
         stop = self.length if stop is None else min(stop, self.length)
         out = np.empty(max(stop - start, 0), dtype=np.int32)
-        for k, _, lo, hi in self._overlaps(start, stop):
+        for k, _, lo, hi in self.overlaps(start, stop):
             out[lo - start:hi - start] = k
         return out
 
     def index_range(self, t_from: float | None, t_to: float | None) -> tuple[int, int]:
-        """Return ``(start, stop)`` of the samples with ``t_from <= t <= t_to`` (None: open end)."""
+        """Return ``(start, stop)`` of the samples with ``t_from <= t <= t_to`` (None: open end).
+
+        Times on the device's own clock (a file's read window; not :meth:`on_clock`'s).
+        """
         start, stop = self.length, 0
         for block in self.blocks:
             lo, hi = 0, block.n

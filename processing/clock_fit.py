@@ -43,7 +43,7 @@ from xarray.indexes import PandasIndex
 
 from rigval.acquisition.devices import ni9237_input_delay
 from rigval.acquisition.errors import DataError, DataWarning
-from rigval.acquisition.sample_times import time_coordinate
+from rigval.acquisition.sample_times import clocked_time_coordinate, time_coordinate
 from rigval.acquisition.schema import (
     append_history,
     cf_time_attrs,
@@ -664,6 +664,13 @@ def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = No
         # offset 0 + (1 + 0) t is t: the stream's own time coordinate is its reference time,
         # kept as it is (lazy for a TDMS stream: no whole-record array)
         coords = time_coordinate(stream, on_reference)
+        own_time = stream["time"].to_numpy() if device_time else None
+    elif (lazy := clocked_time_coordinate(
+            stream, 1.0 + clock.drift, dict(zip(clock.segments, clock.offsets_s, strict=True)),
+            on_reference)) is not None:
+        # a file's lazy axis, every segment aligned: (1 + drift) t + offset computed where
+        # read, the values ClockModel.to_reference gives the materialised axis below
+        coords = lazy
         own_time = stream["time"].to_numpy() if device_time else None
     else:
         own_time = stream["time"].to_numpy()

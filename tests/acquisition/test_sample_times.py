@@ -149,3 +149,23 @@ def test_the_diagnosis_signal_on_lazy_times_equals_the_array():
     whole = diagnosis_signal(BASE.times(), *args, delay_s=3e-4)
     assert lazy.sizes["time"] > 100
     assert lazy.identical(whole)
+
+
+def test_a_clocked_time_base_gives_each_block_its_own_map_bit_for_bit():
+    """``on_clock``: scale * t + shift of the block, as the whole axis computes it."""
+    blocks = [Block(0, 7, 0.0, 0.1), Block(7, 5, 1.5, 0.1), Block(12, 9, 4.0, 0.1)]
+    base = TimeBase(blocks)
+    shifts = [0.25, -3.125, 7.0]
+    clocked = base.on_clock(1.0 + 31.2e-6, shifts)
+    whole = base.times()
+    expected = (1.0 + 31.2e-6) * whole + np.repeat(shifts, [7, 5, 9])
+    assert np.array_equal(clocked.times(), expected)
+    assert np.array_equal(clocked.times(5, 14), expected[5:14])  # across two block edges
+    assert np.array_equal(base.times(5, 14), whole[5:14])
+    coords = lazy_time_coords(clocked, 3, 20, {})
+    assert np.array_equal(coords["time"].to_numpy(), expected[3:20])
+    assert np.array_equal(sample_times(coords["time"])[[0, 4, 9, 16]], expected[[3, 7, 12, 19]])
+    assert clocked == base.on_clock(1.0 + 31.2e-6, shifts) and clocked != base
+    assert base.on_clock(1.0, [0.0, np.nan, 1.0]) == base.on_clock(1.0, [0.0, np.nan, 1.0])
+    with pytest.raises(ValueError, match="2 clock shifts for 3 blocks"):
+        base.on_clock(1.0, [0.0, 1.0])

@@ -3,7 +3,9 @@
 :func:`rigval.processing.clock_fit.align_stream` with a clock that is the identity on every
 segment gives each sample its own time; the independent expectation is
 :meth:`~rigval.processing.clock_fit.ClockModel.to_reference` of the materialised times (the
-general path), value for value, with the same attributes and ``device_time``.
+general path), value for value, with the same attributes and ``device_time``. A clock that
+moves the samples (a wireless stream's) maps the lazy axis, every time computed where read as
+``to_reference`` computes it.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import pytest
 import xarray as xr
 
 from rigval.acquisition.errors import DataWarning
+from rigval.acquisition.sample_times import sample_times
 from rigval.acquisition.schema import Channel, stream_dataset
 from rigval.acquisition.time_index import BlockTimeIndex
 from rigval.acquisition.timebase import Block, TimeBase
@@ -59,13 +62,56 @@ def test_identity_clock_keeps_the_time_axis(lazy: bool, device_time: bool) -> No
 @pytest.mark.parametrize("clock", [
     clock_fit.ClockModel((0, 1), (0.0, 0.25), 0.0, 0.0, 10, 10),  # one segment moved
     clock_fit.ClockModel((0, 1), (0.0, 0.0), 3e-6, 0.0, 10, 10),  # a drift
+    clock_fit.ClockModel((0, 1), (-0.635271508, -0.6352), -19.55e-6, 0.0, 10, 10),  # both
 ])
-def test_a_clock_that_moves_any_sample_computes_the_times(clock) -> None:
+@pytest.mark.parametrize("device_time", [True, False])
+def test_a_clock_that_moves_samples_keeps_a_lazy_axis_of_the_same_times(clock, device_time
+                                                                         ) -> None:
+    """A wireless stream's aligned axis: ClockModel.to_reference's values, computed where read."""
     stream = _stream(lazy=True)
-    aligned = clock_fit.align_stream(stream, clock, device_time=False)
-    assert not isinstance(aligned.xindexes["time"], BlockTimeIndex)
+    aligned = clock_fit.align_stream(stream, clock, device_time=device_time)
+    assert isinstance(aligned.xindexes["time"], BlockTimeIndex)
     expected = clock.to_reference(stream["time"].to_numpy(), stream["segment"].to_numpy())
     assert np.array_equal(aligned["time"].to_numpy(), expected)
+    assert aligned["time"].attrs["long_name"] == "time on the reference device clock"
+    if device_time:
+        assert np.array_equal(aligned["device_time"].to_numpy(), stream["time"].to_numpy())
+    times = sample_times(aligned)
+    picked = np.array([0, 1, 299, 300, 301, 799, 555])
+    assert np.array_equal(times[picked], expected[picked])  # a position's own time
+    assert np.array_equal(times[290:310], expected[290:310])  # a window across the gap
+    assert np.array_equal(times.window(250, 420)[10:100], expected[260:350])
+    labels = np.concatenate([expected[[0, 299, 300, 799]], [expected[0] - 1.0, 1.7, 99.0]])
+    for side in ("left", "right"):
+        assert np.array_equal(times.searchsorted(labels, side),
+                              np.searchsorted(expected, labels, side))
+    lo, hi = expected[40], expected[420]
+    assert aligned.sel(time=slice(lo, hi)).sizes["time"] == int(
+        np.count_nonzero((expected >= lo) & (expected <= hi)))
+    position = aligned.xindexes["time"].transform.reverse({"time": expected[picked]})["time"]
+    assert np.allclose(position, picked, rtol=0, atol=1e-6)
+    # the device's clock and the reference's are not the same axis
+    assert not aligned.xindexes["time"].equals(stream.xindexes["time"])
+
+
+def test_a_segment_no_clock_maps_computes_the_times() -> None:
+    stream = _stream(lazy=True)
+    clock = clock_fit.ClockModel((0,), (0.25,), 2e-6, 0.0, 10, 10)
+    with pytest.warns(DataWarning, match="500 samples in segments"):
+        aligned = clock_fit.align_stream(stream, clock, device_time=False)
+    assert not isinstance(aligned.xindexes["time"], BlockTimeIndex)
+    assert np.array_equal(aligned["time"].to_numpy()[:300],
+                          clock.to_reference(stream["time"].to_numpy()[:300], 0))
+
+
+def test_a_stream_in_memory_gets_its_times_computed() -> None:
+    stream = _in_memory(_stream(lazy=True))
+    clock = clock_fit.ClockModel((0, 1), (0.0, 0.25), 3e-6, 0.0, 10, 10)
+    aligned = clock_fit.align_stream(stream, clock, device_time=False)
+    assert not isinstance(aligned.xindexes["time"], BlockTimeIndex)
+    assert np.array_equal(aligned["time"].to_numpy(),
+                          clock.to_reference(stream["time"].to_numpy(),
+                                             stream["segment"].to_numpy()))
 
 
 def test_an_identity_clock_missing_a_segment_marks_it_unaligned() -> None:
