@@ -35,15 +35,17 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import pandas as pd
 import scipy.special
 import xarray as xr
 from numpy.typing import ArrayLike
-from xarray.indexes import PandasIndex
 
 from rigval.acquisition.devices import ni9237_input_delay
 from rigval.acquisition.errors import DataError, DataWarning
-from rigval.acquisition.sample_times import clocked_time_coordinate, time_coordinate
+from rigval.acquisition.sample_times import (
+    clocked_time_coordinate,
+    indexed_time_coordinate,
+    time_coordinate,
+)
 from rigval.acquisition.schema import (
     append_history,
     cf_time_attrs,
@@ -565,17 +567,6 @@ def channel_time(aligned: xr.Dataset, name: str) -> FloatArray:
     return aligned["time"].to_numpy() - delay
 
 
-def _time_coordinate(time: FloatArray, attrs: Mapping[str, Any]) -> xr.Coordinates:
-    """Return ``time`` (s) as the indexed ``time`` coordinate, its index on the same array.
-
-    xarray would build the index with :class:`pandas.Index`, which copies the array (pandas 3):
-    137 MiB more for an hour at 5 kS/s.
-    """
-    index = PandasIndex(pd.Index(time, copy=False, name="time"), "time")
-    return xr.Coordinates({"time": xr.Variable("time", time, dict(attrs))},
-                          indexes={"time": index})
-
-
 def _maps_to_itself(clock: ClockModel, segment: np.ndarray) -> bool:
     """Return whether ``clock`` gives every sample of these segments its own time (identity).
 
@@ -688,7 +679,7 @@ def align_stream(stream: xr.Dataset, clock: ClockModel, *, name: str | None = No
             counts["unaligned segment"] = counts.get("unaligned segment", 0) + newly
             out["valid"] = stream["valid"] & ~xr.DataArray(lost, dims="time")
             out = with_invalid_counts(out, counts)
-        coords = _time_coordinate(ref_time, on_reference)
+        coords = indexed_time_coordinate(ref_time, on_reference)
     if device_time:
         own = cf_time_attrs(str(stream.attrs["start_time"]), "time on the device clock")
         device = {k: own[k] for k in ("units", "calendar", "long_name")}

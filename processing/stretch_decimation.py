@@ -14,7 +14,7 @@ import numpy as np
 import xarray as xr
 
 from rigval.acquisition.errors import DataError
-from rigval.acquisition.sample_times import SampleTimes
+from rigval.acquisition.sample_times import SampleTimes, indexed_time_coordinate
 from rigval.processing.arrays import FloatArray, IntArray
 from rigval.processing.blocked_decimation import EDGE, decimate_stretch
 from rigval.processing.filters import contiguous_runs
@@ -130,5 +130,5 @@ def diagnosis_signal(time: FloatArray | SampleTimes, values: FloatArray, segment
     at = np.concatenate(index)
     return xr.Dataset({"measured": ("time", np.concatenate(out)),
                        "stretch": ("time", np.concatenate(runs))},
-                      coords={"time": ("time", time[at] - delay_s, {"units": "s"})},
-                      attrs={"fs": fs / q})
+                      coords=indexed_time_coordinate(time[at] - delay_s, {"units": "s"}),
+                      attrs={"fs": fs / q})  # the times indexed as they are (no copy)
