@@ -207,16 +207,58 @@ def read_first(scene: Scene, plan: ReadPlan, name: str) -> xr.Dataset:
     The values as they are; unless every channel is kept, encoder counters are stored as
     32-bit integers where that is exact (:func:`rigval.processing.encoder.compact_counts`:
     values are never altered), before the health checks and the conversion see them (memory).
-    The file's SHA-256 is computed on this read (``source_sha256``).
+    A TDMS file's counters are then read one at a time, each compacted before the next is
+    read, and its other first channels after them (:func:`_counters_apart`): a long record's
+    float64 counters are never held together (1 h at 5 kS/s: 137 MiB each). The file's
+    SHA-256 is computed on the first read (``source_sha256``), and remembered for the others.
     """
     spec = scene.streams[name]
+    if plan.whole:
+        return load_stream(stream_part(spec, plan.first[name]))
+    counters = [channel for channel in plan.first[name]
+                if spec.channels[channel].sensor == "encoder"]
+    if spec.file.suffix.lower() == ".tdms" and counters:
+        return _counters_apart(spec, plan.first[name], counters)
     stream = load_stream(stream_part(spec, plan.first[name]))
-    if not plan.whole:
-        for channel, table in spec.channels.items():
-            if table.sensor == "encoder" and channel in stream:
-                stream[channel] = stream[channel].copy(
-                    data=compact_counts(stream[channel].to_numpy()))
+    for channel in counters:
+        stream[channel] = _compacted(stream[channel])
     return stream
+
+
+def _compacted(channel: xr.DataArray) -> xr.DataArray:
+    """Return a counter channel as 32-bit integers where that is exact (else as it is)."""
+    return channel.copy(data=compact_counts(channel.to_numpy()))
+
+
+def _counters_apart(spec: StreamSpec, channels: Iterable[str], counters: list[str]
+                    ) -> xr.Dataset:
+    """Read a TDMS stream's counters one at a time, compacted, then its other channels.
+
+    The stream is the one a single read of ``channels`` gives, with the counters compacted:
+    the same samples, ``time``, ``valid``, ``segment`` and attributes (every read of a file
+    gives the stream's own; checked), its channels in the table's order.
+    """
+    kept = set(channels)
+    others = [channel for channel in spec.channels if channel in kept and channel not in counters]
+    read, stream = {}, None
+    for counter in counters:
+        part = load_stream(stream_part(spec, [counter]))
+        read[counter] = _compacted(part[counter])
+        if stream is None and not others:
+            stream = part.drop_vars(counter)  # the stream's samples, as every read gives them
+        del part
+    if stream is None:
+        stream = load_stream(stream_part(spec, others))
+    for counter, values in read.items():
+        if values.sizes["time"] != stream.sizes["time"]:
+            raise DataError(f"channel {counter!r} of {spec.file.name} holds "
+                            f"{values.sizes['time']} samples where the stream's other channels "
+                            f"hold {stream.sizes['time']}",
+                            where={"file": str(spec.file), "channel": counter},
+                            hint="the file is damaged; rigval info FILE lists its channels")
+    stream = stream.assign(read)
+    order = [channel for channel in spec.channels if channel in kept]
+    return stream[[*order, *(v for v in stream.data_vars if v not in kept)]]
 
 
 def convert_first(scene: Scene, name: str, stream: xr.Dataset) -> xr.Dataset:

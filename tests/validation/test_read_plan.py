@@ -13,7 +13,9 @@ from collections import Counter
 
 import numpy as np
 import pytest
+import xarray as xr
 
+from rigval.acquisition.errors import DataError
 from rigval.sample_data import runs_dir
 from rigval.validation import read_plan as plan_module
 from rigval.validation import read_stage
@@ -86,6 +88,42 @@ def test_first_read_holds_encoders_as_exact_integers_and_their_health_unchanged(
     kept = dataclasses.replace(plan, whole=True)
     assert plan_module.read_first(scene, kept, settings.reference)[encoders[0]].dtype == \
         np.float64
+
+
+def test_a_tdms_streams_counters_are_read_one_at_a_time_into_the_stream_one_read_gives(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each counter alone, compacted before the next is read, then the rest: the same stream."""
+    scene = load_scene(SCENE)
+    settings = alignment_settings(scene)
+    plan = plan_module.read_plan(scene, settings)
+    spec = scene.streams[settings.reference]
+    once = plan_module.load_stream(plan_module.stream_part(spec, plan.first[settings.reference]))
+    reads: list[list[str]] = []
+    real = plan_module.load_stream
+
+    def spy(part, **kwargs):
+        reads.append(list(part.channels))
+        return real(part, **kwargs)
+
+    monkeypatch.setattr(plan_module, "load_stream", spy)
+    stream = plan_module.read_first(scene, plan, settings.reference)
+    counters = [c for c in once.data_vars if c in spec.channels
+                and spec.channels[c].sensor == "encoder"]
+    assert len(counters) == 2 and reads[:2] == [[c] for c in counters]
+    assert reads[2:] == [[c for c in plan.first[settings.reference] if c not in counters]]
+    for channel in counters:  # the one read's values, as exact integers
+        once[channel] = once[channel].copy(data=once[channel].to_numpy().astype(np.int32))
+    xr.testing.assert_identical(stream, once)  # samples, axis, masks, attributes, order
+    assert list(stream.data_vars) == list(once.data_vars)
+
+    def short(part, **kwargs):  # a damaged file whose counter holds fewer samples
+        ds = real(part, **kwargs)
+        return ds.isel(time=slice(0, -3)) if list(part.channels) == counters[1:2] else ds
+
+    monkeypatch.setattr(plan_module, "load_stream", short)
+    with pytest.raises(DataError, match=f"channel '{counters[1]}' of .* holds") as caught:
+        plan_module.read_first(scene, plan, settings.reference)
+    assert caught.value.where["channel"] == counters[1]
 
 
 def test_filters_write_into_the_values_only_when_no_later_comparison_needs_them(
