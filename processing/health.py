@@ -197,12 +197,11 @@ def _clipping(x: FloatArray, ok: BoolArray, time: FloatArray, channel: str, unit
     hits, levels = [], []
     for level in (float(np.max(x, where=ok, initial=-np.inf)),
                   float(np.min(x, where=ok, initial=np.inf))):
-        at = _mask(x.size, lambda lo, hi, level=level: ok[lo:hi] & (
-            np.abs(x[lo:hi] - level) <= 0.5 * q))
-        starts, stops = runs_of(at)
-        long = (stops - starts) >= _CLIP_RUN
-        hit = np.concatenate([np.arange(a, b) for a, b in zip(starts[long], stops[long],
-                                                               strict=True)] or [[]])
+        # the runs at the level, found a block at a time (no whole-record mask)
+        starts, stops = _long_runs(x.size, lambda lo, hi, level=level: ok[lo:hi] & (
+            np.abs(x[lo:hi] - level) <= 0.5 * q), _CLIP_RUN)
+        hit = np.concatenate([np.arange(a, b) for a, b in zip(starts, stops, strict=True)]
+                             or [[]])
         if hit.size >= _CLIP_MIN:
             hits.append(hit.astype(np.int64))
             levels.append(level)

@@ -360,14 +360,17 @@ def measured_signals(scene: Scene, plan: ReadPlan, aligned: dict[str, xr.Dataset
     it in place (:attr:`MeasuredSignal.owned`); after a
     stream's last comparison the stream itself is dropped. Streams whose compared channels are
     all held already come first (letting them go frees memory before anything is read), then
-    the others shortest first, so that the longest is worked on when the others are gone; a
-    stream's comparisons keep their order. ``on_read`` sees each stream's channels as read,
-    before their conversion (:meth:`rigval.validation.health.HealthLog.check`).
+    the others longest first, so that the longest channels are worked on while the fewest
+    comparisons' results are held (a stream not compared yet holds its masks only: its time
+    axis is lazy); a stream's comparisons keep their order. ``on_read`` sees each stream's
+    channels as read, before their conversion (:meth:`rigval.validation.health.HealthLog.check`).
     """
     length = {name: ds.sizes["time"] for name, ds in aligned.items()}
     reads = {step.comparison.measured.stream for step in plan.compared if step.read}
-    steps = sorted(plan.compared, key=lambda s: (s.comparison.measured.stream in reads,
-                                                 length[s.comparison.measured.stream]))
+    steps = sorted(plan.compared, key=lambda s: (
+        s.comparison.measured.stream in reads,
+        -length[s.comparison.measured.stream] if s.comparison.measured.stream in reads
+        else length[s.comparison.measured.stream]))
     for step in steps:
         stream = step.comparison.measured.stream
         if step.read:
@@ -391,8 +394,10 @@ def _signal(comparison: ComparisonSpec, ds: xr.Dataset, *, owned: bool) -> Measu
     values = np.asarray(ds[name].to_numpy(), dtype=np.float64)  # no copy (memory)
     for sign, ref in comparison.terms[1:]:  # channels of the same stream and unit, summed
         values = values + sign * ds[ref.channel].to_numpy().astype(np.float64)
+    valid = np.isfinite(values)
+    valid &= ds["valid"].to_numpy()  # in place: one mask of the record made, not two
     return MeasuredSignal(
-        held=[values], valid=ds["valid"].to_numpy() & np.isfinite(values),
+        held=[values], valid=valid,
         segment=ds["segment"].to_numpy(), time=ds["time"],
         delay_s=float(ds[name].attrs.get("input_delay_s", 0.0)),
         fs=float(ds.attrs["fs_nominal"]),

@@ -41,20 +41,26 @@ def _channel(seed: int, n: int = 30_011, clip: bool = True
 def test_clipping_and_flat_lines_by_blocks_equal_the_whole_record(seed: int) -> None:
     x, ok, q = _channel(seed)
     time = np.arange(x.size) / FS
+    clipped_at = []
     for level in (float(np.max(x, where=ok, initial=-np.inf)),
                   float(np.min(x, where=ok, initial=np.inf))):
         whole = ok & (np.abs(x - level) <= 0.5 * q)
         by_blocks = health._mask(x.size, lambda lo, hi, level=level: ok[lo:hi] & (
             np.abs(x[lo:hi] - level) <= 0.5 * q))
         assert np.array_equal(whole, by_blocks) and whole.sum() > 100
+        a, b = health.runs_of(whole)  # the runs at the level of at least _CLIP_RUN samples
+        clipped_at += [np.arange(i, j) for i, j in zip(a, b, strict=True)
+                       if j - i >= health._CLIP_RUN]
+    expected = np.sort(np.concatenate(clipped_at))
     still = ok[1:] & ok[:-1] & (np.abs(np.diff(x)) <= q)
     starts, stops = health.runs_of(still)
     longest = int(np.argmax(stops - starts))
     (flat,) = [f for f in health._flat(x, ok, time, FS, "c", "V", q, [])
                if f.first_sample == starts[longest]]
     assert flat.last_sample == stops[longest]  # one past the run of steps: its last sample
-    clipped = health._clipping(x, ok, time, "c", "V", None, q)
-    assert clipped and clipped[0].samples > 100
+    (clipped,) = health._clipping(x, ok, time, "c", "V", None, q)
+    assert clipped.samples == expected.size > 100
+    assert (clipped.first_sample, clipped.last_sample) == (expected[0], expected[-1])
 
 
 @pytest.mark.parametrize(("seed", "block"), [(1, 1 << 20), (2, 1 << 20), (1, 1700)])

@@ -163,7 +163,7 @@ def test_filters_write_into_the_values_only_when_no_later_comparison_needs_them(
     assert overwrites["tor2"] == [False] and overwrites["acc1"] == [True, True]
 
 
-def test_streams_held_whole_are_compared_first_then_the_shortest(
+def test_streams_held_whole_are_compared_first_then_the_longest(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """A text file's stream (its compared channels read with it) is let go before any is read."""
     import xarray as xr
@@ -187,7 +187,7 @@ def test_streams_held_whole_are_compared_first_then_the_shortest(
     monkeypatch.setattr(plan_module, "_add_channels", read)
     seen = [c for c, _ in plan_module.measured_signals(scene, plan, held)]
     streams = [c.measured.stream for c in seen]
-    assert list(dict.fromkeys(streams)) == ["wls2", "wls1", "cdaq"]
+    assert list(dict.fromkeys(streams)) == ["wls2", "cdaq", "wls1"]
     assert sorted(streams, key=streams.index) == streams  # each stream's comparisons together
     for stream in lengths:  # and in the scene's order
         assert [c.name for c in seen if c.measured.stream == stream] == [
