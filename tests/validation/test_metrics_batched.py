@@ -330,3 +330,20 @@ def test_set_swept_alone_a_batch_of_rows_at_a_time_equals_each_row_rated_alone(m
     monkeypatch.setattr(iso18571._Prepared, "rotated", rotated)
     for row, scores in zip(models, rated, strict=True):
         assert scores == iso18571_periodic_many(reference, row[np.newaxis])[0]
+
+
+def test_baseline_scored_in_blocks_of_rows_equals_all_rows_at_once(monkeypatch):
+    """A long record's revolutions scored a block at a time: the same bits as all at once."""
+    from rigval.validation.metrics import compare as compare_module
+
+    reference, models = _cases("wrap", 45)
+    cycles = np.concatenate((models, _cases("noise", 45)[1], models[::-1] * 1.1))
+    metrics = ("iso18571_periodic", "nrmse", "pearson_r", "peak_error", "circular_lag",
+               "sprague_geers", "russell")
+    whole = baseline(cycles, reference, metrics=metrics)
+    monkeypatch.setattr(compare_module, "SCORE_ROWS", 4)  # 17 rows: blocks of 4, 4, 4, 4, 1
+    blocked = baseline(cycles, reference, metrics=metrics)
+    assert blocked.per_cycle.keys() == whole.per_cycle.keys()
+    for key, values in whole.per_cycle.items():
+        assert np.array_equal(blocked.per_cycle[key], values, equal_nan=True), key
+    assert blocked.median == whole.median and blocked.worst_cycle == whole.worst_cycle

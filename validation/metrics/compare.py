@@ -67,6 +67,7 @@ from rigval.validation.metrics.waveform import (
 __all__ = [
     "DEFAULT_METRICS",
     "METRICS",
+    "SCORE_ROWS",
     "SCORE_TYPES",
     "BaselineScores",
     "IsoParameters",
@@ -430,14 +431,31 @@ def baseline(cycles: Any, mean: Any = None, *, angle: Any = None,
                           worst=worst, worst_cycle=worst_cycle)
 
 
+#: Revolutions :func:`baseline` scores at once.
+SCORE_ROWS = 1024
+
+
 def _score_cycles(m: np.ndarray, cycles: np.ndarray, angle_deg: np.ndarray, *,
                   metrics: Sequence[str], normaliser: str, iso_params: IsoParameters | None,
                   iso: Sequence[IsoScores] | None = None) -> dict[str, np.ndarray]:
     """Every numeric score of :func:`compare` for each row of ``cycles`` against ``m``.
 
-    The metrics run on all rows at once (their ``*_many`` forms), so the scores are those of
-    :func:`compare` on each row, computed by the same functions.
+    The metrics run on :data:`SCORE_ROWS` rows at once (their ``*_many`` forms, each row's
+    score its own, whatever rows beside it), so the scores are those of :func:`compare` on
+    each row, computed by the same functions; a long record's revolutions are scored a block
+    at a time (memory: the metrics' temporaries of a block of rows, not of every revolution).
     """
+    blocks = [_score_block(m, cycles[lo:lo + SCORE_ROWS], angle_deg, metrics=metrics,
+                           normaliser=normaliser, iso_params=iso_params,
+                           iso=None if iso is None else iso[lo:lo + SCORE_ROWS])
+              for lo in range(0, cycles.shape[0], SCORE_ROWS)]
+    return {key: np.concatenate([block[key] for block in blocks]) for key in blocks[0]}
+
+
+def _score_block(m: np.ndarray, cycles: np.ndarray, angle_deg: np.ndarray, *,
+                 metrics: Sequence[str], normaliser: str, iso_params: IsoParameters | None,
+                 iso: Sequence[IsoScores] | None = None) -> dict[str, np.ndarray]:
+    """:func:`_score_cycles` of one block of rows."""
     def records(scores: Sequence[Scores]) -> dict[str, np.ndarray]:
         names = [field.name for field in dataclasses.fields(scores[0])]
         return {name: np.array([getattr(row, name) for row in scores]) for name in names}
