@@ -21,6 +21,7 @@ import logging
 import os
 import re
 import struct
+from array import array
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -106,9 +107,10 @@ class ChannelLayout:
         Properties after the last segment (later segments override earlier ones).
     data_type : int or None
         TDMS type code of the stored values (``0xFFFFFFFF`` for DAQmx raw data).
-    counts : list of int
-        Values per segment holding data of this channel, in file order.
-    expected : list of int
+    counts : array.array of int
+        Values per segment holding data of this channel, in file order (8 bytes a segment,
+        where a list holds an int object: a 1-hour DAQmx file has 35,000 segments).
+    expected : array.array of int
         Values per segment the lead-ins announce (differs from ``counts`` when truncated).
     time_marks : list of tuple
         ``(value_index, {name: value})`` for every segment that sets ``wf_start_time``,
@@ -119,8 +121,8 @@ class ChannelLayout:
     path: str
     properties: dict[str, Any] = field(default_factory=dict)
     data_type: int | None = None
-    counts: list[int] = field(default_factory=list)
-    expected: list[int] = field(default_factory=list)
+    counts: array[int] = field(default_factory=lambda: array("q"))
+    expected: array[int] = field(default_factory=lambda: array("q"))
     time_marks: list[tuple[int, dict[str, Any]]] = field(default_factory=list)
 
     @property
@@ -186,9 +188,9 @@ class TdmsLayout:
     _objects: tuple[tuple[str, _Index | None], ...] | None = field(default=None, repr=False)
 
 
-@dataclass
+@dataclass(frozen=True)
 class _Index:
-    """Raw-data index of one object in one segment."""
+    """Raw-data index of one object in one segment (shared by the segments that repeat it)."""
 
     data_type: int
     n_values: int
@@ -507,7 +509,9 @@ def _read_segment(file: BinaryIO, position: int, layout: TdmsLayout,
         expected = counts
     _note_zero_counts(current, counts, end - data_start, position, layout)
     if layout._objects is None:
-        layout._objects = tuple(current)
+        objects = tuple(current)
+        last = layout.data_segments[-1].objects if layout.data_segments else None
+        layout._objects = last if objects == last else objects  # shared when repeated
     layout.data_segments.append(DataSegment(data_start, end, toc, layout._objects))
     for obj_path, n in counts.items():
         channel = layout.channels[obj_path]
@@ -563,6 +567,10 @@ def _read_metadata(raw: bytes, endian: str, toc: int, layout: TdmsLayout,
                 raise _Damaged(f"{obj_path} reuses a raw data index it never had")
         elif header in (DAQMX_FORMAT_CHANGING, DAQMX_DIGITAL_LINE) or 8 <= header <= 64:
             index = _read_index(buf, header)
+            if index == last_index.get(obj_path):
+                # a writer that repeats each segment's metadata (DAQmx): one index object for
+                # all of them, not one per segment (memory of a long record's layout)
+                index = last_index[obj_path]
         else:
             raise _Damaged(f"{obj_path} has a raw data index header 0x{header:X}")
         n_props = buf.u32()
@@ -582,6 +590,7 @@ def _read_metadata(raw: bytes, endian: str, toc: int, layout: TdmsLayout,
         channel = layout.channels.get(obj_path)
         if channel is None:
             channel = layout.channels[obj_path] = ChannelLayout(obj_path)
+        obj_path = channel.path  # the one string of the path, not one per segment
         channel.properties.update(props)
         marks = {k: v for k, v in props.items() if k in TIME_PROPERTIES}
         if marks:
@@ -590,7 +599,8 @@ def _read_metadata(raw: bytes, endian: str, toc: int, layout: TdmsLayout,
             last_index[obj_path] = index
             channel.data_type = index.data_type
         if obj_path in positions:
-            current[positions[obj_path]] = (obj_path, index)
+            if current[positions[obj_path]] != (obj_path, index):
+                current[positions[obj_path]] = (obj_path, index)
         else:
             positions[obj_path] = len(current)
             current.append((obj_path, index))

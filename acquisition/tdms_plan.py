@@ -418,7 +418,7 @@ def _same_time_base(a: tuple[str, _ChannelTime], b: tuple[str, _ChannelTime],
         return False  # channels of different lengths are different streams, whatever dt says
     if ca.length != cb.length:
         # only a truncated contiguous final chunk may leave channels a few values apart
-        last = max(ca.counts[-1:] + cb.counts[-1:] + [0])
+        last = max([*ca.counts[-1:], *cb.counts[-1:], 0])
         if layout.problem is None or abs(ca.length - cb.length) > last:
             return False
     for (fa, na, ta), (fb, nb, tb) in zip(ia.blocks[:-1], ib.blocks[:-1], strict=True):

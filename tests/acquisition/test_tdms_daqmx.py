@@ -7,6 +7,7 @@ axes, attributes and warnings must agree. The helpers come from ``test_tdms_dire
 
 from __future__ import annotations
 
+import dataclasses
 import gc
 import importlib.util
 import sys
@@ -218,17 +219,18 @@ def test_digital_line_scalers_and_several_raw_buffers_go_to_nptdms(tmp_path: Pat
     layout = scan_tdms(path)
     ranges = {p: (0, c.length) for p, c in layout.channels.items() if c.data_type is not None}
     assert daqmx_selection(layout, ranges) is not None
-    for segment in layout.data_segments:
-        for _, index in segment.objects:
-            if index is not None:
-                index.digital = True  # as a 0x126A index would say
-    assert daqmx_selection(layout, ranges) is None
-    layout = scan_tdms(path)
-    for segment in layout.data_segments:
-        for _, index in segment.objects:
-            if index is not None:
-                index.widths = index.widths * 2  # one raw buffer per card
-    assert daqmx_selection(layout, ranges) is None
+
+    def changed(**fields):  # the layout with every raw-data index changed (they are frozen)
+        def index(i):
+            return None if i is None else dataclasses.replace(
+                i, **{k: f(i) for k, f in fields.items()})
+        segments = [dataclasses.replace(s, objects=tuple((p, index(i)) for p, i in s.objects))
+                    for s in layout.data_segments]
+        return dataclasses.replace(layout, data_segments=segments)
+
+    # as a 0x126A index would say; one raw buffer per card
+    assert daqmx_selection(changed(digital=lambda i: True), ranges) is None
+    assert daqmx_selection(changed(widths=lambda i: i.widths * 2), ranges) is None
     assert path.read_bytes() == data
 
 
