@@ -30,6 +30,7 @@ import xarray as xr
 
 from rigval.acquisition.channel_map import StreamSpec, load_stream
 from rigval.acquisition.errors import DataError
+from rigval.acquisition.heap import release_free_heap
 from rigval.processing.clock_fit import input_delay
 from rigval.processing.encoder import compact_counts
 from rigval.processing.stream_alignment import AlignmentSettings
@@ -374,6 +375,9 @@ def measured_signals(scene: Scene, plan: ReadPlan, aligned: dict[str, xr.Dataset
     for step in steps:
         stream = step.comparison.measured.stream
         if step.read:
+            # the last comparison's freed pages go back before the next channel is read, not
+            # left idle beside it (glibc; docs/performance.md)
+            release_free_heap()
             aligned[stream] = _add_channels(scene, stream, aligned[stream], step.read, on_read)
         signal = _signal(step.comparison, aligned[stream],
                          owned=step.comparison.measured.channel in step.release)
