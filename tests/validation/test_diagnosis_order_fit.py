@@ -42,3 +42,26 @@ def test_blocked_orders_equal_whole_series(record: tuple[np.ndarray, np.ndarray]
     coef = np.array([1.0, 0.5 - 0.2j, 0.0, 0.1j])
     whole = np.real(np.exp(1j * np.outer(phi, np.arange(coef.size))) @ coef)
     np.testing.assert_array_equal(spectra._orders_at([coef], phi)[0], whole)
+
+
+def test_design_rows_made_in_place_equal_the_formula(record: tuple[np.ndarray, np.ndarray]
+                                                     ) -> None:
+    """cos and sin of every order and the trend, the bits of the plain expressions."""
+    phi = record[0][:5000]
+    k = np.arange(41)
+    centre, span = phi.mean(), np.ptp(phi)
+    u = (phi - centre) / span
+    expected = np.concatenate([np.cos(np.outer(phi, k)), np.sin(np.outer(phi, k[1:])),
+                               np.column_stack([u, u**2])], axis=1)
+    assert np.array_equal(spectra._design(phi, k, centre, span), expected)
+
+
+def test_order_series_of_an_in_place_basis_equal_the_formula(record: tuple[np.ndarray, np.ndarray]
+                                                            ) -> None:
+    """Re(sum c_k exp(i k phi)), phi of either sign: the bits of the plain expression."""
+    phi = record[0][:3000] - 20.0  # negative angles too: signed zeros in the k = 0 column
+    coefs = [np.array([1.5, 0.3 - 0.2j, -0.1j, 0.05 + 0.01j]), np.array([0.0, 1j, 0.0, 2.0])]
+    k = np.arange(4)
+    expected = [np.real(np.exp(1j * np.outer(phi, k)) @ c) for c in coefs]
+    for got, want in zip(spectra._orders_at(coefs, phi), expected, strict=True):
+        assert np.array_equal(got.view(np.uint64), want.view(np.uint64))

@@ -183,10 +183,19 @@ def _blocks(n: int, size: int = ORDER_FIT_BLOCK) -> range:
 
 
 def _design(phi: FloatArray, k: np.ndarray, centre: float, span: float) -> FloatArray:
-    """Design rows at ``phi`` (rad): cos and sin of the orders ``k``, and the slow trend."""
-    u = (phi - centre) / span
-    return np.concatenate([np.cos(np.outer(phi, k)), np.sin(np.outer(phi, k[1:])),
-                           np.column_stack([u, u**2])], axis=1)
+    """Design rows at ``phi`` (rad): cos and sin of the orders ``k``, and the slow trend.
+
+    Each column block is made in place in the rows (memory: the rows alone, no product or
+    cos/sin temporaries beside them), the values of ``cos(outer(phi, k))`` and so on.
+    """
+    design = np.empty((phi.size, 2 * k.size + 1))
+    cosine, sine = design[:, :k.size], design[:, k.size:2 * k.size - 1]
+    np.cos(np.multiply.outer(phi, k, out=cosine), out=cosine)
+    np.sin(np.multiply.outer(phi, k[1:], out=sine), out=sine)
+    u = design[:, -2]
+    np.divide(phi - centre, span, out=u)
+    np.square(u, out=design[:, -1])
+    return design
 
 
 def _order_fit(phi: FloatArray, values: Sequence[FloatArray], max_order: int
@@ -221,13 +230,18 @@ def _order_fit(phi: FloatArray, values: Sequence[FloatArray], max_order: int
 def _orders_at(coefs: Sequence[ComplexArray], phi: FloatArray) -> list[FloatArray]:
     """Return each order series ``Re(sum c_k exp(i k phi))`` at ``phi`` (rad), block by block.
 
-    The series share each block's ``exp(i k phi)`` (the coefficient sets have one length).
+    The series share each block's ``exp(i k phi)`` (the coefficient sets have one length),
+    made in place (memory: one complex array of the block, the values of
+    ``np.exp(1j * np.outer(phi, k))``).
     """
     k = np.arange(coefs[0].size)
     out = [np.empty(phi.size) for _ in coefs]
     for start in _blocks(phi.size):
         block = phi[start:start + ORDER_FIT_BLOCK]
-        basis = np.exp(1j * np.outer(block, k))
+        basis = np.zeros((block.size, k.size), dtype=np.complex128)
+        np.multiply.outer(block, k, out=basis.imag)
+        basis.imag += 0.0  # a zero's sign as 1j * x gives it (-0.0 becomes 0.0): the same bits
+        np.exp(basis, out=basis)
         for values, coef in zip(out, coefs, strict=True):
             values[start:start + block.size] = np.real(basis @ coef)
     return out
