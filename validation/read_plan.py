@@ -236,8 +236,9 @@ def _counters_apart(spec: StreamSpec, channels: Iterable[str], counters: list[st
     """Read a TDMS stream's counters one at a time, compacted, then its other channels.
 
     The stream is the one a single read of ``channels`` gives, with the counters compacted:
-    the same samples, ``time``, ``valid``, ``segment`` and attributes (every read of a file
-    gives the stream's own; checked), its channels in the table's order.
+    every read of a file gives the stream's own samples, ``time``, ``valid``, ``segment`` and
+    attributes (a counter of another sample count, a damaged file, is refused), its channels
+    in the table's order.
     """
     kept = set(channels)
     others = [channel for channel in spec.channels if channel in kept and channel not in counters]
@@ -368,10 +369,12 @@ def measured_signals(scene: Scene, plan: ReadPlan, aligned: dict[str, xr.Dataset
     """
     length = {name: ds.sizes["time"] for name, ds in aligned.items()}
     reads = {step.comparison.measured.stream for step in plan.compared if step.read}
-    steps = sorted(plan.compared, key=lambda s: (
-        s.comparison.measured.stream in reads,
-        -length[s.comparison.measured.stream] if s.comparison.measured.stream in reads
-        else length[s.comparison.measured.stream]))
+
+    def order(step: ComparisonRead) -> tuple[bool, int]:
+        stream = step.comparison.measured.stream
+        return (True, -length[stream]) if stream in reads else (False, length[stream])
+
+    steps = sorted(plan.compared, key=order)
     for step in steps:
         stream = step.comparison.measured.stream
         if step.read:
