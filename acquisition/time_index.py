@@ -80,8 +80,11 @@ class BlockTimeTransform(CoordinateTransform):
         starts = self._t_start
         if self.timebase.shifts is not None:  # back onto the device's own clock
             starts = starts * self.timebase.scale + self.timebase.shifts
-        k = np.clip(np.searchsorted(starts, label, side="right") - 1, 0,
-                    self._first.size - 1)
+        # among the blocks whose times are known (a clock maps no block outside its window:
+        # their NaN starts would unsort the search)
+        known = np.flatnonzero(np.isfinite(starts))
+        k = known[np.clip(np.searchsorted(starts[known], label, side="right") - 1, 0,
+                          known.size - 1)]
         if self.timebase.shifts is not None:
             label = (label - self.timebase.shifts[k]) / self.timebase.scale
         position = self._first[k] + (label - self._t_start[k]) / self._dt[k] - self.offset

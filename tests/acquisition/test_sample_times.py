@@ -169,3 +169,16 @@ def test_a_clocked_time_base_gives_each_block_its_own_map_bit_for_bit():
     assert base.on_clock(1.0, [0.0, np.nan, 1.0]) == base.on_clock(1.0, [0.0, np.nan, 1.0])
     with pytest.raises(ValueError, match="2 clock shifts for 3 blocks"):
         base.on_clock(1.0, [0.0, 1.0])
+
+
+@pytest.mark.parametrize("first", [1, 3, 7])
+def test_a_clocked_window_maps_times_back_to_its_positions(first: int):
+    """``reverse`` of a window whose clock maps no block before it (NaN shifts there)."""
+    from rigval.acquisition.time_index import BlockTimeTransform
+
+    blocks = [Block(100 * i, 100, 3.0 * i, 0.01) for i in range(12)]
+    clocked = TimeBase(blocks).on_clock(1.0 + 3e-6, [np.nan] * first + [0.1] * (12 - first))
+    window = BlockTimeTransform(clocked, 100 * first, 100 * (12 - first))
+    positions = np.arange(0, 100 * (12 - first), 37)
+    times = window.forward({"time": positions})["time"]
+    assert np.allclose(window.reverse({"time": times})["time"], positions, rtol=0, atol=1e-6)
