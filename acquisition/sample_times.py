@@ -80,9 +80,7 @@ class SampleTimes:
     def window(self, start: int, stop: int) -> SampleTimes:
         """Return the times of samples ``start ... stop - 1`` (as lazy as these)."""
         start, stop, _ = slice(start, stop).indices(self.size)
-        transform = self._transform
-        return SampleTimes(BlockTimeTransform(transform.timebase, transform.offset + start,
-                                              max(stop - start, 0), transform.dim))
+        return SampleTimes(self._transform.window(start, stop))
 
     def searchsorted(self, values: Any, side: str = "left", sorter: Any = None) -> Any:
         """Return where ``values`` would go among the times, as :func:`numpy.searchsorted`.

@@ -599,8 +599,7 @@ def _read_metadata(raw: bytes, endian: str, toc: int, layout: TdmsLayout,
             last_index[obj_path] = index
             channel.data_type = index.data_type
         if obj_path in positions:
-            if current[positions[obj_path]] != (obj_path, index):
-                current[positions[obj_path]] = (obj_path, index)
+            current[positions[obj_path]] = (obj_path, index)
         else:
             positions[obj_path] = len(current)
             current.append((obj_path, index))
